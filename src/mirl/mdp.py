@@ -1,0 +1,225 @@
+"""Tabular MDP core: sparse transitions, value iteration (hard and soft), backward induction,
+policies and state-visitation by forward propagation of distributions.
+
+Transitions are a CSR matrix of shape (S*A, S) whose row ``s*A + a`` is T(s, a, ·). Every
+solver is vectorised over states: one sparse mat-vec per sweep, no Python loop over states.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.special import logsumexp
+
+__all__ = [
+    "TabularMDP",
+    "SolveResult",
+    "FiniteHorizonResult",
+    "value_iteration",
+    "soft_value_iteration",
+    "backward_induction",
+    "greedy_policy",
+    "optimal_action_mask",
+    "policy_matrix",
+    "state_visitation",
+    "validate_transitions",
+]
+
+
+def validate_transitions(transitions: sp.spmatrix | sp.sparray, n_actions: int) -> sp.csr_array:
+    """Return ``transitions`` as CSR after checking shape, non-negativity and row sums."""
+    P = sp.csr_array(transitions, dtype=float)
+    rows, n_states = P.shape
+    if rows != n_states * n_actions:
+        raise ValueError(
+            f"transitions must have shape (S*A, S) = ({n_states * n_actions}, {n_states}), "
+            f"got {P.shape}"
+        )
+    if P.nnz and P.data.min() < -1e-12:
+        raise ValueError("transitions contain negative probabilities")
+    sums = np.asarray(P.sum(axis=1)).ravel()
+    bad = np.flatnonzero(np.abs(sums - 1.0) > 1e-8)
+    if bad.size:
+        s, a = divmod(int(bad[0]), n_actions)
+        raise ValueError(f"T(s={s}, a={a}, ·) sums to {sums[bad[0]]:.6g}, not 1")
+    return P
+
+
+@dataclass(frozen=True)
+class TabularMDP:
+    """A discounted tabular MDP with sparse transitions of shape (S*A, S) and rewards R(s, a)."""
+
+    transitions: sp.csr_array
+    rewards: np.ndarray
+    discount: float = 0.95
+
+    def __post_init__(self) -> None:
+        rewards = np.asarray(self.rewards, dtype=float)
+        if rewards.ndim != 2:
+            raise ValueError(f"rewards must be (S, A), got shape {rewards.shape}")
+        object.__setattr__(self, "rewards", rewards)
+        object.__setattr__(
+            self, "transitions", validate_transitions(self.transitions, rewards.shape[1])
+        )
+        if self.transitions.shape[1] != rewards.shape[0]:
+            raise ValueError(
+                f"transitions have {self.transitions.shape[1]} states, rewards {rewards.shape[0]}"
+            )
+        if not 0.0 <= self.discount < 1.0:
+            raise ValueError(f"discount must be in [0, 1), got {self.discount}")
+
+    @property
+    def n_states(self) -> int:
+        return self.rewards.shape[0]
+
+    @property
+    def n_actions(self) -> int:
+        return self.rewards.shape[1]
+
+    def expected_next(self, values: np.ndarray) -> np.ndarray:
+        """E[V(s') | s, a] as an (S, A) array."""
+        return (self.transitions @ values).reshape(self.n_states, self.n_actions)
+
+
+@dataclass(frozen=True)
+class SolveResult:
+    """Outcome of an infinite-horizon solve (mirrors ``scipy.optimize.OptimizeResult`` fields)."""
+
+    values: np.ndarray
+    q_values: np.ndarray
+    policy: np.ndarray  # (S,) greedy actions, or (S, A) action probabilities for soft solves
+    iterations: int
+    success: bool
+    message: str
+
+
+def value_iteration(
+    mdp: TabularMDP,
+    *,
+    tol: float = 1e-8,
+    max_iter: int = 10_000,
+    initial_values: np.ndarray | None = None,
+) -> SolveResult:
+    """Discounted value iteration until the sup-norm change is below ``tol``."""
+    V = np.zeros(mdp.n_states) if initial_values is None else np.asarray(initial_values, float)
+    for it in range(1, max_iter + 1):
+        Q = mdp.rewards + mdp.discount * mdp.expected_next(V)
+        V_new = Q.max(axis=1)
+        delta = np.abs(V_new - V).max(initial=0.0)
+        V = V_new
+        if delta < tol:
+            return SolveResult(V, Q, greedy_policy(Q), it, True, f"converged, delta={delta:.2e}")
+    Q = mdp.rewards + mdp.discount * mdp.expected_next(V)
+    return SolveResult(V, Q, greedy_policy(Q), max_iter, False, "max_iter reached")
+
+
+def soft_value_iteration(
+    mdp: TabularMDP,
+    *,
+    temperature: float = 1.0,
+    tol: float = 1e-8,
+    max_iter: int = 10_000,
+    initial_values: np.ndarray | None = None,
+) -> SolveResult:
+    """Maximum-entropy (soft) value iteration: V(s) = τ log Σ_a exp(Q(s,a)/τ).
+
+    ``policy`` is the stochastic policy π(a|s) = exp((Q(s,a) - V(s))/τ) of shape (S, A).
+    """
+    if temperature <= 0:
+        raise ValueError("temperature must be positive")
+    V = np.zeros(mdp.n_states) if initial_values is None else np.asarray(initial_values, float)
+    converged = False
+    it = 0
+    for it in range(1, max_iter + 1):  # noqa: B007 - reported below
+        Q = mdp.rewards + mdp.discount * mdp.expected_next(V)
+        V_new = temperature * logsumexp(Q / temperature, axis=1)
+        delta = np.abs(V_new - V).max(initial=0.0)
+        V = V_new
+        if delta < tol:
+            converged = True
+            break
+    Q = mdp.rewards + mdp.discount * mdp.expected_next(V)
+    V = temperature * logsumexp(Q / temperature, axis=1)
+    pi = np.exp((Q - V[:, None]) / temperature)
+    pi /= pi.sum(axis=1, keepdims=True)
+    msg = "converged" if converged else "max_iter reached"
+    return SolveResult(V, Q, pi, it, converged, msg)
+
+
+@dataclass(frozen=True)
+class FiniteHorizonResult:
+    values: np.ndarray  # (H+1, S); values[H] are the terminal values
+    q_values: np.ndarray  # (H, S, A)
+    policy: np.ndarray  # (H, S) greedy actions
+
+
+def backward_induction(
+    transitions: sp.csr_array,
+    rewards: np.ndarray,
+    horizon: int,
+    *,
+    terminal_values: np.ndarray | None = None,
+    discount: float = 1.0,
+) -> FiniteHorizonResult:
+    """Finite-horizon dynamic programming.
+
+    ``rewards`` is (S, A) for stationary rewards or (H, S, A) for time-indexed ones; ``transitions``
+    is (S*A, S) for stationary dynamics. One sparse mat-vec per time step.
+    """
+    rewards = np.asarray(rewards, dtype=float)
+    n_states, n_actions = rewards.shape[-2:]
+    if rewards.ndim == 3 and rewards.shape[0] != horizon:
+        raise ValueError(f"time-indexed rewards must have {horizon} slices, got {rewards.shape[0]}")
+    V = np.zeros((horizon + 1, n_states))
+    if terminal_values is not None:
+        V[horizon] = terminal_values
+    Q = np.empty((horizon, n_states, n_actions))
+    for t in range(horizon - 1, -1, -1):
+        R_t = rewards[t] if rewards.ndim == 3 else rewards
+        Q[t] = R_t + discount * (transitions @ V[t + 1]).reshape(n_states, n_actions)
+        V[t] = Q[t].max(axis=1)
+    return FiniteHorizonResult(V, Q, Q.argmax(axis=2))
+
+
+def optimal_action_mask(q_values: np.ndarray, *, rtol: float = 1e-9, atol: float = 1e-9):
+    """Boolean (..., A) mask of actions whose Q is within tolerance of the best (ties kept)."""
+    best = q_values.max(axis=-1, keepdims=True)
+    return q_values >= best - (atol + rtol * np.abs(best))
+
+
+def greedy_policy(q_values: np.ndarray) -> np.ndarray:
+    """Deterministic policy: the first action (lowest index) among the optimal ones."""
+    return optimal_action_mask(q_values).argmax(axis=-1)
+
+
+def policy_matrix(transitions: sp.csr_array, policy: np.ndarray) -> sp.csr_array:
+    """State-to-state matrix P_π (S, S) for a deterministic (S,) or stochastic (S, A) policy."""
+    n_states = transitions.shape[1]
+    n_actions = transitions.shape[0] // n_states
+    policy = np.asarray(policy)
+    if policy.ndim == 1:
+        rows = np.arange(n_states) * n_actions + policy.astype(int)
+        return sp.csr_array(transitions[rows])
+    weights = sp.csr_array(
+        (policy.ravel(), (np.repeat(np.arange(n_states), n_actions), np.arange(policy.size))),
+        shape=(n_states, n_states * n_actions),
+    )
+    return sp.csr_array(weights @ transitions)
+
+
+def state_visitation(
+    transitions: sp.csr_array,
+    policy: np.ndarray,
+    initial: np.ndarray,
+    steps: int,
+) -> np.ndarray:
+    """Distributions over states at t = 0..steps, shape (steps+1, S), by forward propagation."""
+    P_pi = policy_matrix(transitions, policy)
+    P_T = sp.csr_array(P_pi.T)
+    out = np.empty((steps + 1, P_pi.shape[0]))
+    out[0] = initial
+    for t in range(steps):
+        out[t + 1] = P_T @ out[t]
+    return out
