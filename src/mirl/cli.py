@@ -1,0 +1,169 @@
+"""The ``mirl`` command line. Every user error ends in one line on stderr and exit code 2."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Callable, Sequence
+
+from mirl import __version__
+
+__all__ = ["main"]
+
+COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {}
+
+
+def command(name: str):
+    def register(fn):
+        COMMANDS[name] = fn
+        return fn
+
+    return register
+
+
+class UsageError(Exception):
+    """A problem with the user's input, reported in one line."""
+
+
+def _load_scenario(args: argparse.Namespace):
+    from mirl.scenario import load_scenario, parse_damage
+
+    scenario = load_scenario(args.scenario)
+    for text in getattr(args, "damage", None) or []:
+        robot, feature, p = parse_damage(text)
+        scenario = scenario.with_damage(robot, feature, p)
+    return scenario
+
+
+@command("show-map")
+def _show_map(args: argparse.Namespace) -> int:
+    from mirl.maps import load_map
+    from mirl.office_maps import office_map_from_name
+    from mirl.render import map_to_text, save_map_png
+
+    gridmap = office_map_from_name(args.map) or load_map(args.map, cell_size=args.cell_size)
+    mask = gridmap.visible_mask(args.observability) if args.observability is not None else None
+    print(map_to_text(gridmap, mask))
+    n = gridmap.n_patroller_cells
+    line = f"{gridmap.name}: {gridmap.shape[0]}x{gridmap.shape[1]}, {n} patroller cells"
+    if mask is not None:
+        line += f", {int(mask.sum())} visible at observability {args.observability:g}"
+    print(line)
+    if args.png:
+        save_map_png(gridmap, args.png, observability=args.observability)
+        print(f"wrote {args.png}")
+    return 0
+
+
+@command("simulate")
+def _simulate(args: argparse.Namespace) -> int:
+    from mirl.simulator import simulate
+
+    scenario = _load_scenario(args)
+    start = time.perf_counter()
+    result = simulate(
+        scenario, args.steps, seed=args.seed, observability=args.observability,
+        heading_noise=args.heading_noise, random_starts=args.random_starts,
+    )
+    elapsed = time.perf_counter() - start
+    share = result.observed_share()
+    degree = scenario.observability if args.observability is None else args.observability
+    print(f"scenario {scenario.name}: {args.steps} steps, seed {args.seed}, "
+          f"observability {degree:g} ({int(scenario.domain.visible_states(degree).sum() // 4)}"
+          f"/{scenario.map.n_patroller_cells} cells)")
+    for name, s in zip(scenario.robot_names, share, strict=True):
+        print(f"  {name}: observed {s:.1%} of steps")
+    print(f"  interactions: {result.interactions} ({result.interactions_seen} seen by L)")
+    print(f"  simulated in {elapsed:.3f} s")
+    if args.observations:
+        result.observations.to_csv(args.observations)
+        print(f"wrote {args.observations} ({len(result.observations)} rows)")
+    if args.truth:
+        result.truth.to_csv(args.truth)
+        print(f"wrote {args.truth} ({len(result.truth)} rows)")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="mirl",
+        description="Learn other robots' rewards, policies and faulty motion under occlusion.",
+    )
+    p.add_argument("--version", action="version", version=f"mirl {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    sm = sub.add_parser("show-map", help="print a map (and draw it with --png)")
+    sm.add_argument("map", metavar="NAME_OR_PATH")
+    sm.add_argument("--observability", type=float, default=None, metavar="D",
+                    help="shade the cells visible to L at degree D")
+    sm.add_argument("--png", metavar="FILE", help="also draw the map to a PNG file")
+    sm.add_argument("--cell-size", type=float, default=None,
+                    help="cell size in metres for ROS map_server maps")
+
+    si = sub.add_parser("simulate", help="simulate the patrollers and record what L sees")
+    _scenario_args(si)
+    si.add_argument("--steps", type=_positive_int, default=300)
+    si.add_argument("--seed", type=int, default=0)
+    si.add_argument("--observability", type=_degree, default=None, metavar="D")
+    si.add_argument("--heading-noise", type=_degree, default=0.0, metavar="EPS",
+                    help="probability that an observed heading is misread")
+    si.add_argument("--random-starts", action="store_true",
+                    help="start each patroller at a random state of its patrol cycle")
+    si.add_argument("--observations", metavar="FILE.csv", help="write L's observations")
+    si.add_argument("--truth", metavar="FILE.csv", help="write the true trajectories")
+    return p
+
+
+def _scenario_args(sp: argparse.ArgumentParser, default: str | None = None) -> None:
+    sp.add_argument("--scenario", default=default, required=default is None,
+                    metavar="NAME_OR_FILE", help="shipped scenario name or TOML file")
+    sp.add_argument("--damage", action="append", metavar="ROBOT:FEATURE=P",
+                    help="override a true feature probability, e.g. J:left_wheel=0.7")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not an integer") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {v}")
+    return v
+
+
+def _degree(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not 0.0 <= v <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {v}")
+    return v
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    try:
+        return COMMANDS[args.command](args)
+    except (ValueError, OSError, UsageError) as exc:
+        # domain errors (MapError, ScenarioError, TrajectoryError, ...) already name the file
+        msg = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
+        print(f"mirl: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("mirl: interrupted", file=sys.stderr)
+        return 130
+
+
+def print_json(obj) -> None:
+    print(json.dumps(obj, indent=2, sort_keys=False))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
