@@ -64,15 +64,21 @@ def _simulate(args: argparse.Namespace) -> int:
     scenario = _load_scenario(args)
     start = time.perf_counter()
     result = simulate(
-        scenario, args.steps, seed=args.seed, observability=args.observability,
-        heading_noise=args.heading_noise, random_starts=args.random_starts,
+        scenario,
+        args.steps,
+        seed=args.seed,
+        observability=args.observability,
+        heading_noise=args.heading_noise,
+        random_starts=args.random_starts,
     )
     elapsed = time.perf_counter() - start
     share = result.observed_share()
     degree = scenario.observability if args.observability is None else args.observability
-    print(f"scenario {scenario.name}: {args.steps} steps, seed {args.seed}, "
-          f"observability {degree:g} ({int(scenario.domain.visible_states(degree).sum() // 4)}"
-          f"/{scenario.map.n_patroller_cells} cells)")
+    print(
+        f"scenario {scenario.name}: {args.steps} steps, seed {args.seed}, "
+        f"observability {degree:g} ({int(scenario.domain.visible_states(degree).sum() // 4)}"
+        f"/{scenario.map.n_patroller_cells} cells)"
+    )
     for name, s in zip(scenario.robot_names, share, strict=True):
         print(f"  {name}: observed {s:.1%} of steps")
     print(f"  interactions: {result.interactions} ({result.interactions_seen} seen by L)")
@@ -96,31 +102,54 @@ def build_parser() -> argparse.ArgumentParser:
 
     sm = sub.add_parser("show-map", help="print a map (and draw it with --png)")
     sm.add_argument("map", metavar="NAME_OR_PATH")
-    sm.add_argument("--observability", type=float, default=None, metavar="D",
-                    help="shade the cells visible to L at degree D")
+    sm.add_argument(
+        "--observability",
+        type=float,
+        default=None,
+        metavar="D",
+        help="shade the cells visible to L at degree D",
+    )
     sm.add_argument("--png", metavar="FILE", help="also draw the map to a PNG file")
-    sm.add_argument("--cell-size", type=float, default=None,
-                    help="cell size in metres for ROS map_server maps")
+    sm.add_argument(
+        "--cell-size", type=float, default=None, help="cell size in metres for ROS map_server maps"
+    )
 
     si = sub.add_parser("simulate", help="simulate the patrollers and record what L sees")
     _scenario_args(si)
     si.add_argument("--steps", type=_positive_int, default=300)
     si.add_argument("--seed", type=int, default=0)
     si.add_argument("--observability", type=_degree, default=None, metavar="D")
-    si.add_argument("--heading-noise", type=_degree, default=0.0, metavar="EPS",
-                    help="probability that an observed heading is misread")
-    si.add_argument("--random-starts", action="store_true",
-                    help="start each patroller at a random state of its patrol cycle")
+    si.add_argument(
+        "--heading-noise",
+        type=_degree,
+        default=0.0,
+        metavar="EPS",
+        help="probability that an observed heading is misread",
+    )
+    si.add_argument(
+        "--random-starts",
+        action="store_true",
+        help="start each patroller at a random state of its patrol cycle",
+    )
     si.add_argument("--observations", metavar="FILE.csv", help="write L's observations")
     si.add_argument("--truth", metavar="FILE.csv", help="write the true trajectories")
     return p
 
 
 def _scenario_args(sp: argparse.ArgumentParser, default: str | None = None) -> None:
-    sp.add_argument("--scenario", default=default, required=default is None,
-                    metavar="NAME_OR_FILE", help="shipped scenario name or TOML file")
-    sp.add_argument("--damage", action="append", metavar="ROBOT:FEATURE=P",
-                    help="override a true feature probability, e.g. J:left_wheel=0.7")
+    sp.add_argument(
+        "--scenario",
+        default=default,
+        required=default is None,
+        metavar="NAME_OR_FILE",
+        help="shipped scenario name or TOML file",
+    )
+    sp.add_argument(
+        "--damage",
+        action="append",
+        metavar="ROBOT:FEATURE=P",
+        help="override a true feature probability, e.g. J:left_wheel=0.7",
+    )
 
 
 def _positive_int(text: str) -> int:

@@ -31,12 +31,16 @@ __all__ = [
 def validate_transitions(transitions: sp.spmatrix | sp.sparray, n_actions: int) -> sp.csr_array:
     """Return ``transitions`` as CSR after checking shape, non-negativity and row sums."""
     P = sp.csr_array(transitions, dtype=float)
+    if P.ndim != 2:
+        raise ValueError(f"transitions must be a 2-D (S*A, S) matrix, got shape {P.shape}")
     rows, n_states = P.shape
     if rows != n_states * n_actions:
         raise ValueError(
             f"transitions must have shape (S*A, S) = ({n_states * n_actions}, {n_states}), "
             f"got {P.shape}"
         )
+    if not np.isfinite(P.data).all():
+        raise ValueError("transitions contain non-finite values (NaN or inf)")
     if P.nnz and P.data.min() < -1e-12:
         raise ValueError("transitions contain negative probabilities")
     sums = np.asarray(P.sum(axis=1)).ravel()

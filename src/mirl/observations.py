@@ -56,18 +56,28 @@ class Trajectories:
 
     def select(self, mask: np.ndarray) -> Trajectories:
         return Trajectories(
-            self.robot_names, self.t[mask], self.robot[mask], self.row[mask], self.col[mask],
-            self.heading[mask], self.horizon,
+            self.robot_names,
+            self.t[mask],
+            self.robot[mask],
+            self.row[mask],
+            self.col[mask],
+            self.heading[mask],
+            self.horizon,
         )
 
     def truncate(self, steps: int) -> Trajectories:
         out = self.select(self.t < steps)
-        return Trajectories(*[getattr(out, f) for f in
-                              ("robot_names", "t", "robot", "row", "col", "heading")], steps)
+        return Trajectories(
+            *[getattr(out, f) for f in ("robot_names", "t", "robot", "row", "col", "heading")],
+            steps,
+        )
 
     @classmethod
     def from_states(
-        cls, domain: PatrolDomain, robot_names: tuple[str, ...], states: np.ndarray,
+        cls,
+        domain: PatrolDomain,
+        robot_names: tuple[str, ...],
+        states: np.ndarray,
         t0: int = 0,
     ) -> Trajectories:
         """From a (T, N) array of state indices, -1 meaning unobserved."""
@@ -81,12 +91,22 @@ class Trajectories:
             w = csv.writer(fh)
             w.writerow(HEADER)
             names = np.asarray(self.robot_names, dtype=object)[self.robot]
-            w.writerows(zip(self.t.tolist(), names, self.row.tolist(), self.col.tolist(),
-                            self.heading.tolist(), strict=True))
+            w.writerows(
+                zip(
+                    self.t.tolist(),
+                    names,
+                    self.row.tolist(),
+                    self.col.tolist(),
+                    self.heading.tolist(),
+                    strict=True,
+                )
+            )
 
 
 def read_csv(
-    path: str | Path, domain: PatrolDomain, robot_names: tuple[str, ...],
+    path: str | Path,
+    domain: PatrolDomain,
+    robot_names: tuple[str, ...],
     horizon: int | None = None,
 ) -> Trajectories:
     """Read and validate a ``t,robot,row,col,heading`` file.
@@ -132,9 +152,13 @@ def read_csv(
             if t < 0:
                 raise TrajectoryError(f"{path}: line {lineno}: negative time {t}")
             if domain.state_index(r, c, h) < 0:
-                what = (f"heading {h} is not 0-3" if 0 <= r < domain.map.shape[0]
-                        and 0 <= c < domain.map.shape[1] and domain.cell_lut[r, c] >= 0
-                        else f"cell ({r},{c}) is not a hallway cell (a wall or off the map)")
+                what = (
+                    f"heading {h} is not 0-3"
+                    if 0 <= r < domain.map.shape[0]
+                    and 0 <= c < domain.map.shape[1]
+                    and domain.cell_lut[r, c] >= 0
+                    else f"cell ({r},{c}) is not a hallway cell (a wall or off the map)"
+                )
                 raise TrajectoryError(f"{path}: line {lineno}: {what}")
             rows.append((t, robot_names.index(name), r, c, h))
             lines.append(lineno)

@@ -146,7 +146,9 @@ def parse_damage(text: str) -> tuple[str, str, float]:
         feature, value = rest.split("=", 1)
         return robot.strip(), feature.strip(), float(value)
     except ValueError:
-        raise ValueError(f"--damage '{text}': expected ROBOT:FEATURE=P, e.g. J:left_wheel=0.7") from None
+        raise ValueError(
+            f"--damage '{text}': expected ROBOT:FEATURE=P, e.g. J:left_wheel=0.7"
+        ) from None
 
 
 # ---- loading ---------------------------------------------------------------------------------
@@ -200,8 +202,9 @@ def _cell(value: Any, where: str, n: int = 2) -> tuple[int, ...]:
 def _region(value: Any, where: str) -> tuple[tuple[int, int], ...]:
     """A region is a list of cells, or {from=[r,c], to=[r,c]} for an inclusive rectangle."""
     if isinstance(value, dict):
-        (r0, c0), (r1, c1) = _cell(value.get("from"), f"{where}.from"), _cell(
-            value.get("to"), f"{where}.to"
+        (r0, c0), (r1, c1) = (
+            _cell(value.get("from"), f"{where}.from"),
+            _cell(value.get("to"), f"{where}.to"),
         )
         return tuple(
             (r, c)
@@ -219,7 +222,9 @@ def _probabilities(value: Any, where: str, features: tuple[str, ...]) -> dict[st
     out = dict(HEALTHY_PROBABILITIES) if set(features) >= set(HEALTHY_PROBABILITIES) else {}
     for k, v in value.items():
         if k not in features:
-            raise ValueError(f"{where}.{k}: unknown transition feature (known: {', '.join(features)})")
+            raise ValueError(
+                f"{where}.{k}: unknown transition feature (known: {', '.join(features)})"
+            )
         if not isinstance(v, int | float) or not 0.0 <= float(v) <= 1.0:
             raise ValueError(f"{where}.{k}: probability must be a number in [0, 1], got {v!r}")
         out[k] = float(v)
@@ -244,8 +249,17 @@ def _weights(value: Any, where: str) -> np.ndarray:
 
 
 _TOP_KEYS = {
-    "name", "map", "discount", "error_model", "observability", "detect_distance", "observer",
-    "reward", "transition_features", "game", "robots",
+    "name",
+    "map",
+    "discount",
+    "error_model",
+    "observability",
+    "detect_distance",
+    "observer",
+    "reward",
+    "transition_features",
+    "game",
+    "robots",
 }
 
 
@@ -272,7 +286,9 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         upper_hallway=_region(reward.get("upper_hallway", []), "reward.upper_hallway"),
         lower_hallway=_region(reward.get("lower_hallway", []), "reward.lower_hallway"),
         turn_around=(
-            _region(reward["turn_around"], "reward.turn_around") if "turn_around" in reward else None
+            _region(reward["turn_around"], "reward.turn_around")
+            if "turn_around" in reward
+            else None
         ),
     )
     default_w = _weights(reward.get("weights", {}), "reward.weights")
@@ -288,7 +304,9 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         if probe.state_index(*start) < 0:
             raise ValueError(f"{where}.start: {start} is not a hallway cell with heading 0-3")
         probs = _probabilities(
-            rd.get("feature_probabilities", {}), f"{where}.feature_probabilities", feature_map.features
+            rd.get("feature_probabilities", {}),
+            f"{where}.feature_probabilities",
+            feature_map.features,
         )
         weights = _weights(rd["weights"], f"{where}.weights") if "weights" in rd else default_w
         robots.append(RobotSpec(name, start, probs, weights))
@@ -296,8 +314,11 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         raise ValueError("robots: duplicate robot name")
     game_data = data.get("game", {})
     game = InteractionGame(
-        **{k: np.array(game_data[k], dtype=float) for k in ("row_payoffs", "col_payoffs")
-           if k in game_data}
+        **{
+            k: np.array(game_data[k], dtype=float)
+            for k in ("row_payoffs", "col_payoffs")
+            if k in game_data
+        }
     )
     played = tuple(game_data.get("played", ("stop", "go")))
     if len(played) != 2 or any(a not in GAME_ACTIONS for a in played):
@@ -327,7 +348,10 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         raise ValueError("observability: must be in [0, 1]")
     if not 0.0 <= scenario.discount < 1.0:
         raise ValueError("discount: must be in [0, 1)")
-    for label, cell in (("observer.start", scenario.observer_start), ("observer.goal", scenario.goal)):
+    for label, cell in (
+        ("observer.start", scenario.observer_start),
+        ("observer.goal", scenario.goal),
+    ):
         if not gridmap.free[cell]:
             raise ValueError(f"{label}: {cell} is not a free cell of the map")
     return scenario

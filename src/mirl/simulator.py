@@ -103,7 +103,9 @@ class PatrolSimulator:
             row = self.states[i] * A + acts[i]
             lo, hi = T.indptr[row], T.indptr[row + 1]
             cdf = np.cumsum(T.data[lo:hi])
-            k = min(int(np.searchsorted(cdf, self.np_random.random() * cdf[-1], "right")), hi - lo - 1)
+            k = min(
+                int(np.searchsorted(cdf, self.np_random.random() * cdf[-1], "right")), hi - lo - 1
+            )
             self.states[i] = T.indices[lo + k]
         self.t += 1
         info = {"t": self.t, "states": self.states.copy(), "interaction": met, "actions": acts}
