@@ -12,7 +12,7 @@ import scipy.sparse as sp
 
 from mirl.domain import PatrolDomain
 
-__all__ = ["ERROR_MODELS", "transition_matrix"]
+__all__ = ["ERROR_MODELS", "transition_matrix", "transition_matrix_from_success"]
 
 ERROR_MODELS = ("uniform", "stop")
 
@@ -22,16 +22,27 @@ def transition_matrix(
     feature_probabilities: Mapping[str, float],
     error_model: str = "uniform",
 ) -> sp.csr_array:
-    """T(s, a, ·) as a CSR matrix of shape (S·A, S) (Eq. 5).
+    """T(s, a, ·) from transition-feature probabilities (Eq. 2 and Eq. 5), shape (S·A, S)."""
+    success = domain.success_probabilities(feature_probabilities)
+    return transition_matrix_from_success(domain, success, error_model)
+
+
+def transition_matrix_from_success(
+    domain: PatrolDomain, success: np.ndarray | float, error_model: str = "uniform"
+) -> sp.csr_array:
+    """T(s, a, ·) as a CSR matrix of shape (S·A, S) from success probabilities T(s, a, ψ(s, a))
+    (an (S, A) array, or one number for the fixed-p baselines).
 
     ``uniform``: the failure mass 1 − Π p_τ is split equally over the intended states of the
-    other |A| − 1 actions. ``stop``: it all goes to the current state (the robot stops and
-    relocalises). Several actions may share an intended state (a forward into a wall stays put,
-    like stop); their masses are summed, so every row sums to 1.
+    other |A| − 1 actions (Eq. 5). ``stop``: it all goes to the current state (the robot stops
+    and relocalises). Several actions may share an intended state (a forward into a wall stays
+    put, like stop); their masses are summed, so every row sums to 1.
     """
     if error_model not in ERROR_MODELS:
         raise ValueError(f"unknown error model '{error_model}' (known: {', '.join(ERROR_MODELS)})")
-    success = domain.success_probabilities(feature_probabilities)  # (S, A)
+    success = np.broadcast_to(np.asarray(success, dtype=float), (domain.n_states, domain.n_actions))
+    if np.any(~np.isfinite(success)) or np.any((success < 0) | (success > 1)):
+        raise ValueError("success probabilities must be in [0, 1]")
     S, A = success.shape
     psi = domain.intended
     rows = np.arange(S * A)
