@@ -92,6 +92,46 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+@command("learn-transitions")
+def _learn_transitions(args: argparse.Namespace) -> int:
+    from mirl.observations import read_csv
+    from mirl.transitions import (
+        TransitionFeatureLearner,
+        observed_steps,
+        perception_labels,
+        policy_labels,
+    )
+
+    scenario = _load_scenario(args)
+    domain = scenario.domain
+    obs = read_csv(args.observations, domain, scenario.robot_names)
+    series = [obs.state_series(domain, i) for i in range(len(scenario.robots))]
+    if args.labels == "true-policy":
+        # Known R/T setting: the scenario's true policies and played equilibrium label the steps
+        policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
+        labels = policy_labels(domain, series, policies, scenario.played_equilibrium)
+    learned = {}
+    for i, name in enumerate(scenario.robot_names):
+        t, s, s_next = observed_steps(series[i])
+        a = labels[i][t] if args.labels == "true-policy" else perception_labels(domain, s, s_next)
+        learned[name] = TransitionFeatureLearner(domain, scenario.error_model).fit(s, a, s_next)
+    if args.json:
+        print_json({n: m.feature_probabilities_ for n, m in learned.items()})
+        return 0
+    features = domain.feature_map.features
+    print(f"learned transition-feature probabilities ({args.labels} labels, {args.observations})")
+    print(f"{'robot':<6}" + "".join(f"{f:>13}" for f in features) + f"{'steps':>8}")
+    for name, m in learned.items():
+        probs = m.feature_probabilities_
+        lowest = min(features, key=probs.__getitem__)
+        cells = "".join(f"{probs[f]:>12.3f}{'*' if f == lowest else ' '}" for f in features)
+        print(f"{name:<6}{cells}{int(m.counts_.trials.sum()):>8}")
+        if not m.result_.success:
+            print(f"  note: {m.result_.message}")
+    print("* lowest feature of the robot; uninformed features get 0.5 (maximum entropy)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="mirl",
@@ -133,6 +173,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     si.add_argument("--observations", metavar="FILE.csv", help="write L's observations")
     si.add_argument("--truth", metavar="FILE.csv", help="write the true trajectories")
+    lt = sub.add_parser(
+        "learn-transitions", help="learn transition-feature probabilities (mIRL*/T) from a CSV"
+    )
+    _scenario_args(lt)
+    lt.add_argument("--observations", required=True, metavar="FILE.csv")
+    lt.add_argument(
+        "--labels",
+        choices=("true-policy", "perception"),
+        default="true-policy",
+        help="label observed steps with the true policy (Known R/T) or by perception",
+    )
+    lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
     return p
 
 
