@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -132,6 +133,34 @@ def _learn_transitions(args: argparse.Namespace) -> int:
     return 0
 
 
+@command("experiment")
+def _experiment(args: argparse.Namespace) -> int:
+    from mirl.experiments import get_experiment, run_experiment
+
+    exp = get_experiment(args.name)  # unknown name: one-line error, exit 2
+    out = args.out or f"results/{exp.name}"
+    summary = run_experiment(
+        exp,
+        out,
+        runs=args.runs,
+        workers=args.workers,
+        resume=args.resume,
+        dask_scheduler=args.dask_scheduler,
+        base_seed=args.seed,
+        progress=not args.quiet,
+    )
+    print(f"wrote {out}/results.sqlite and {out}/results.csv; `mirl report {out}` draws it")
+    return 1 if summary.outcomes.get("error") else 0
+
+
+@command("report")
+def _report(args: argparse.Namespace) -> int:
+    from mirl.figures import write_report
+
+    print(f"wrote {write_report(args.dir)}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="mirl",
@@ -185,7 +214,29 @@ def build_parser() -> argparse.ArgumentParser:
         help="label observed steps with the true policy (Known R/T) or by perception",
     )
     lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
+    _experiment_parsers(sub)
     return p
+
+
+def _experiment_parsers(sub) -> None:
+    ex = sub.add_parser(
+        "experiment",
+        help="run one of the paper's experiments (fig3, fig4a, fig4b, fig4c, table1)",
+        description="Runs a grid of conditions × seeds in parallel, committing every finished "
+        "run to DIR/results.sqlite; --resume continues an interrupted (or extends a) sweep.",
+    )
+    ex.add_argument("name", metavar="NAME", help="fig3, fig4a, fig4b, fig4c or table1")
+    ex.add_argument("--runs", type=_positive_int, default=None, help="runs per condition")
+    ex.add_argument(
+        "--workers", type=_positive_int, default=os.cpu_count() or 1, help="local processes"
+    )
+    ex.add_argument("--out", metavar="DIR", help="results directory (default results/NAME)")
+    ex.add_argument("--resume", action="store_true", help="skip the runs DIR already holds")
+    ex.add_argument("--dask-scheduler", metavar="ADDRESS", help="run on this Dask cluster")
+    ex.add_argument("--seed", type=int, default=0, help="base seed of the run seeds")
+    ex.add_argument("--quiet", action="store_true", help="no progress bar or progress lines")
+    rp = sub.add_parser("report", help="figures and DIR/report.md from an experiment's results")
+    rp.add_argument("dir", metavar="DIR", help="an experiment's results directory (or parent)")
 
 
 def _scenario_args(sp: argparse.ArgumentParser, default: str | None = None) -> None:

@@ -544,7 +544,7 @@ class Summary:
         return (
             f"{self.experiment}: {self.finished} runs in {self.wall_seconds / 60:.1f} min on "
             f"{self.workers} workers ({self.runs_per_minute:.1f} runs/min); "
-            f"{self.already_done + self.finished}/{self.planned} done ({counts})"
+            f"{self.already_done + self.finished}/{self.planned} done; this session: {counts}"
         )
 
 
