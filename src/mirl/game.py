@@ -44,6 +44,12 @@ def _nash_equilibria(row_bytes: bytes, col_bytes: bytes, shape: tuple[int, int])
 
     A = np.frombuffer(row_bytes).reshape(shape)
     B = np.frombuffer(col_bytes).reshape(shape)
+    # Shift both matrices to be strictly positive (equilibria are unchanged). nashpy only shifts
+    # when the minimum is negative, to a minimum of 0, which leaves the best-response polytope
+    # unbounded when a whole column of A (row of B) is that minimum, e.g. an all-zero game, and
+    # its linprog then fails with a TypeError.
+    A = A - A.min() + 1.0
+    B = B - B.min() + 1.0
     with warnings.catch_warnings():
         # nashpy warns on degenerate games; vertex enumeration still lists the extreme equilibria
         warnings.simplefilter("ignore")
