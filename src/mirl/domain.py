@@ -255,7 +255,7 @@ class PatrolDomain:
             arr = np.asarray(cells, dtype=int)
             idx = self.cell_lut[arr[:, 0], arr[:, 1]]
             if np.any(idx < 0):
-                bad = tuple(arr[np.flatnonzero(idx < 0)[0]])
+                bad = tuple(int(x) for x in arr[np.flatnonzero(idx < 0)[0]])
                 raise ValueError(f"reward region cell {bad} is not a hallway cell")
             mask[(idx[:, None] * N_HEADINGS + np.arange(N_HEADINGS)).ravel()] = True
         return mask

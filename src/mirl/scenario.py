@@ -248,6 +248,17 @@ def _weights(value: Any, where: str) -> np.ndarray:
     return np.array([w[k] for k in REWARD_FEATURES])
 
 
+def _table(value: Any, where: str, keys: set[str]) -> dict:
+    """A TOML table with only known keys: a misspelt key must not be silently ignored."""
+    if not isinstance(value, dict):
+        raise ValueError(f"{where}: expected a table, got {value!r}")
+    unknown = set(value) - keys
+    if unknown:
+        known = ", ".join(sorted(keys))
+        raise ValueError(f"{where}.{sorted(unknown)[0]}: unknown field (known: {known})")
+    return value
+
+
 _TOP_KEYS = {
     "name",
     "map",
@@ -281,7 +292,11 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
     feature_map = DEFAULT_FEATURE_MAP
     if "transition_features" in data:
         feature_map = FeatureMap.from_dict(data["transition_features"])
-    reward = data.get("reward", {})
+    reward = _table(
+        data.get("reward", {}),
+        "reward",
+        {"upper_hallway", "lower_hallway", "turn_around", "weights"},
+    )
     reward_spec = RewardSpec(
         upper_hallway=_region(reward.get("upper_hallway", []), "reward.upper_hallway"),
         lower_hallway=_region(reward.get("lower_hallway", []), "reward.lower_hallway"),
@@ -297,8 +312,17 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         raise ValueError("robots: need at least two [[robots]] entries")
     robots = []
     probe = PatrolDomain(gridmap, feature_map, reward_spec)
+    for label, cells in (
+        ("reward.upper_hallway", reward_spec.upper_hallway),
+        ("reward.lower_hallway", reward_spec.lower_hallway),
+        ("reward.turn_around", reward_spec.turn_around or ()),
+    ):
+        for cell in cells:
+            if probe.state_index(*cell, 0) < 0:
+                raise ValueError(f"{label}: {cell} is not a hallway cell")
     for i, rd in enumerate(robots_data):
         where = f"robots[{i}]"
+        rd = _table(rd, where, {"name", "start", "feature_probabilities", "weights"})
         name = str(rd.get("name", "IJKLMNOP"[i] if i < 8 else f"R{i}"))
         start = _cell(rd.get("start"), f"{where}.start", 3)
         if probe.state_index(*start) < 0:
@@ -312,7 +336,7 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         robots.append(RobotSpec(name, start, probs, weights))
     if len({r.name for r in robots}) != len(robots):
         raise ValueError("robots: duplicate robot name")
-    game_data = data.get("game", {})
+    game_data = _table(data.get("game", {}), "game", {"row_payoffs", "col_payoffs", "played"})
     game = InteractionGame(
         **{
             k: np.array(game_data[k], dtype=float)
@@ -323,7 +347,7 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
     played = tuple(game_data.get("played", ("stop", "go")))
     if len(played) != 2 or any(a not in GAME_ACTIONS for a in played):
         raise ValueError(f"game.played: expected two of {GAME_ACTIONS}, got {list(played)}")
-    observer = data.get("observer", {})
+    observer = _table(data.get("observer", {}), "observer", {"start", "goal"})
     scenario = Scenario(
         name=str(data.get("name", Path(source).stem)),
         map=gridmap,

@@ -1,0 +1,262 @@
+"""Scenarios as TOML data: the shipped ones carry SPEC §2's values; every problem in a scenario
+file is a ScenarioError naming the file and the field."""
+
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mirl.domain import DEFAULT_FEATURE_MAP
+from mirl.game import InteractionGame
+from mirl.scenario import (
+    HEALTHY_PROBABILITIES,
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    parse_damage,
+    shipped_scenarios,
+)
+
+HEALTHY = {"left_wheel": 0.95, "right_wheel": 0.95, "navigation": 0.97, "floor": 0.99}
+DAMAGED_J = {**HEALTHY, "left_wheel": 0.70}
+SPEC_A = [[-10, 2, 2], [0, 0, 0], [-1, -1, -1]]
+SPEC_B = [[-10, 0, -1], [2, 0, -1], [2, 0, -1]]
+
+
+def test_shipped_list():
+    assert {"boyd2", "boyd2-healthy", "boydright"} <= set(shipped_scenarios())
+
+
+@pytest.mark.parametrize(
+    "name, j_probs", [("boyd2", DAMAGED_J), ("boyd2-healthy", HEALTHY)], ids=["damaged", "healthy"]
+)
+def test_boyd2_scenarios(name, j_probs):
+    sc = load_scenario(name)
+    assert sc.name == name
+    assert sc.map.shape == (17, 9) and sc.map.n_patroller_cells == 31
+    assert sc.robot_names == ("I", "J")
+    assert dict(sc.robots[0].feature_probabilities) == HEALTHY
+    assert dict(sc.robots[1].feature_probabilities) == j_probs
+    assert sc.observer_start == (0, 0) and sc.goal == (9, 1)
+    assert sc.observability == 0.14 and sc.detect_distance == 6
+    assert sc.discount == 0.95 and sc.error_model == "uniform"
+    assert sc.played == ("stop", "go")
+    np.testing.assert_array_equal(sc.game.row_payoffs, SPEC_A)
+    np.testing.assert_array_equal(sc.game.col_payoffs, SPEC_B)
+    assert sc.played_equilibrium.label() == "stop/go"
+    assert sc.feature_map == DEFAULT_FEATURE_MAP
+    assert set(sc.reward_spec.turn_around) == {(0, 8), (16, 8)}
+    assert set(sc.reward_spec.upper_hallway) == {(0, c) for c in range(2, 9)}
+    assert set(sc.reward_spec.lower_hallway) == {(16, c) for c in range(2, 9)}
+    # I and J start at opposite ends, heading west
+    assert sc.robots[0].start == (0, 8, 2) and sc.robots[1].start == (16, 8, 2)
+    for r in sc.robots:
+        assert r.weights.shape == (4,) and r.weights[0] > 0
+
+
+def test_boydright_scenario():
+    sc = load_scenario("boydright")
+    assert sc.map.shape == (14, 18) and sc.map.n_patroller_cells == 46
+    assert sc.observer_start == (0, 17) and sc.goal == (13, 13)
+    assert set(sc.map.goals) == {(1, 0), (13, 13)}
+    assert dict(sc.robots[1].feature_probabilities) == DAMAGED_J
+    assert sc.played_equilibrium.label() == "stop/go"
+
+
+def test_healthy_defaults_constant():
+    assert HEALTHY_PROBABILITIES == HEALTHY
+
+
+def test_with_damage():
+    sc = load_scenario("boyd2-healthy")
+    hurt = sc.with_damage("I", "right_wheel", 0.7)
+    assert hurt is not sc
+    assert dict(hurt.robots[0].feature_probabilities) == {**HEALTHY, "right_wheel": 0.7}
+    assert dict(hurt.robots[1].feature_probabilities) == HEALTHY
+    assert dict(sc.robots[0].feature_probabilities) == HEALTHY  # original untouched
+    # the new scenario's true model uses the damaged value
+    T0 = sc.true_transitions(0).toarray()
+    T1 = hurt.true_transitions(0).toarray()
+    assert not np.allclose(T0, T1)
+    np.testing.assert_allclose(sc.true_transitions(1).toarray(), hurt.true_transitions(1).toarray())
+    with pytest.raises(ValueError, match="'K'"):
+        sc.with_damage("K", "left_wheel", 0.5)
+    with pytest.raises(ValueError, match="wheel"):
+        sc.with_damage("J", "wheel", 0.5)
+    with pytest.raises(ValueError, match=r"\[0, 1\]"):
+        sc.with_damage("J", "left_wheel", 1.5)
+
+
+def test_parse_damage():
+    assert parse_damage("J:left_wheel=0.7") == ("J", "left_wheel", 0.7)
+    assert parse_damage(" I : right_wheel = 0.5") == ("I", "right_wheel", 0.5)
+    for bad in ("J-left_wheel=0.7", "J:left_wheel", "J:left_wheel=abc", ""):
+        with pytest.raises(ValueError, match="ROBOT:FEATURE=P"):
+            parse_damage(bad)
+
+
+def test_error_model_option():
+    sc = load_scenario("boyd2").with_options(error_model="stop")
+    assert sc.error_model == "stop"
+    with pytest.raises(ScenarioError, match="error_model"):
+        load_scenario("boyd2").with_options(error_model="teleport")
+
+
+# --------------------------------------------------------------------------- TOML errors
+
+GOOD = """\
+name = "tiny"
+map = "boyd2"
+
+[reward]
+upper_hallway = { from = [0, 2], to = [0, 8] }
+turn_around = [[0, 8], [16, 8]]
+weights = { moved = 1.0, turn_around = 0.3 }
+
+[game]
+played = ["stop", "go"]
+
+[[robots]]
+name = "I"
+start = [0, 8, 2]
+feature_probabilities = { left_wheel = 0.95 }
+
+[[robots]]
+name = "J"
+start = [16, 8, 2]
+feature_probabilities = { left_wheel = 0.7 }
+"""
+
+
+def write(tmp_path: Path, text: str, name: str = "scenario.toml") -> Path:
+    p = tmp_path / name
+    p.write_text(textwrap.dedent(text))
+    return p
+
+
+def test_good_toml_loads_with_defaults(tmp_path):
+    sc = load_scenario(write(tmp_path, GOOD))
+    assert isinstance(sc, Scenario)
+    assert sc.name == "tiny"
+    assert dict(sc.robots[0].feature_probabilities) == HEALTHY  # unspecified → healthy
+    assert dict(sc.robots[1].feature_probabilities) == DAMAGED_J
+    assert sc.observer_start == (0, 0) and sc.goal == (9, 1)  # from the map
+    assert sc.played_equilibrium == InteractionGame().pure("stop", "go")
+    np.testing.assert_allclose(sc.robots[0].weights, [1.0, 0.05, 0.05, 0.3])
+
+
+def test_map_path_relative_to_scenario(tmp_path):
+    (tmp_path / "maps").mkdir()
+    text = (Path(__file__).parents[1] / "src/mirl/data/maps/boyd2.txt").read_text()
+    (tmp_path / "maps" / "mine.txt").write_text(text)
+    sc = load_scenario(write(tmp_path, GOOD.replace('map = "boyd2"', 'map = "maps/mine.txt"')))
+    assert sc.map.n_patroller_cells == 31
+
+
+def robots_block(n: int) -> str:
+    return "\n".join(f'[[robots]]\nname = "R{i}"\nstart = [{i + 1}, 1, 3]\n' for i in range(n))
+
+
+CASES = {
+    "invalid_toml": (GOOD.replace('name = "tiny"', 'name = "tiny'), "invalid TOML"),
+    "unknown_top_level": ('colour = "red"\n' + GOOD, "colour"),
+    # typos inside tables must not be silently ignored (a misspelt key would drop the damage)
+    "unknown_robot_field": (
+        GOOD.replace("feature_probabilities = { left_wheel = 0.7 }", "feature_probabilites = {}"),
+        "robots[1].feature_probabilites",
+    ),
+    "unknown_reward_field": (
+        GOOD.replace("turn_around = [[", "turnaround = [["),
+        "reward.turnaround",
+    ),
+    "unknown_game_field": (GOOD.replace("played =", "playd ="), "game.playd"),
+    "unknown_observer_field": (GOOD + "\n[observer]\ngaol = [9, 1]\n", "observer.gaol"),
+    "robot_not_table": ("robots = [1, 2]\n" + GOOD.split("[reward]")[0], "robots[0]"),
+    "reward_not_table": (
+        GOOD.split("[reward]")[0].replace('map = "boyd2"', 'map = "boyd2"\nreward = 3'),
+        "reward",
+    ),
+    "reward_region_on_wall": (
+        GOOD.replace("upper_hallway = { from = [0, 2], to = [0, 8] }", "upper_hallway = [[1, 3]]"),
+        "reward.upper_hallway",
+    ),
+    "missing_map": (GOOD.replace('map = "boyd2"\n', ""), "map"),
+    "start_on_wall": (GOOD.replace("start = [0, 8, 2]", "start = [3, 4, 0]"), "robots[0].start"),
+    "start_bad_heading": (GOOD.replace("start = [0, 8, 2]", "start = [0, 8, 4]"), "start"),
+    "start_not_cell": (GOOD.replace("start = [0, 8, 2]", 'start = "north"'), "robots[0].start"),
+    "probability_1.5": (
+        GOOD.replace("left_wheel = 0.7", "left_wheel = 1.5"),
+        "robots[1].feature_probabilities.left_wheel",
+    ),
+    "unknown_transition_feature": (
+        GOOD.replace("left_wheel = 0.7", "tyre = 0.7"),
+        "robots[1].feature_probabilities.tyre",
+    ),
+    "unknown_reward_feature": (
+        GOOD.replace("moved = 1.0", "speed = 1.0"),
+        "reward.weights.speed",
+    ),
+    "unknown_robot_reward_feature": (
+        GOOD + "weights = { loiter = 2.0 }\n",
+        "robots[1].weights.loiter",
+    ),
+    "played_not_equilibrium": (
+        GOOD.replace('played = ["stop", "go"]', 'played = ["stop", "stop"]'),
+        "game.played",
+    ),
+    "played_unknown_action": (
+        GOOD.replace('played = ["stop", "go"]', 'played = ["stop", "dance"]'),
+        "game.played",
+    ),
+    "single_robot": (GOOD.split('[[robots]]\nname = "J"')[0], "robots"),
+    "no_robots": (GOOD.split("[[robots]]")[0], "robots"),
+    "duplicate_robot": (GOOD.replace('name = "J"', 'name = "I"'), "robots"),
+    "observer_goal_on_wall": (GOOD + "\n[observer]\ngoal = [5, 5]\n", "observer.goal"),
+    "observability": (
+        GOOD.replace('map = "boyd2"', 'map = "boyd2"\nobservability = 2'),
+        "observability",
+    ),
+    "discount": (GOOD.replace('map = "boyd2"', 'map = "boyd2"\ndiscount = 1.0'), "discount"),
+    "error_model": (
+        GOOD.replace('map = "boyd2"', 'map = "boyd2"\nerror_model = "teleport"'),
+        "error_model",
+    ),
+    "missing_map_file": (GOOD.replace('map = "boyd2"', 'map = "nowhere.txt"'), "nowhere.txt"),
+    "region_bad_cell": (GOOD.replace("from = [0, 2]", "from = [0]"), "reward.upper_hallway"),
+    "transition_features_unknown": (
+        GOOD.replace(
+            'map = "boyd2"',
+            'map = "boyd2"\n[transition_features]\nfeatures = ["floor"]\n'
+            'actions = { forward = ["floor", "wheels"], turn_left = [], turn_right = [], '
+            "stop = [] }",
+        ),
+        "wheels",
+    ),
+    "bad_payoffs": (GOOD + "\n[game]\n", "game"),
+}
+CASES["bad_payoffs"] = (
+    GOOD.replace("[game]\n", "[game]\nrow_payoffs = [[1, 2], [3, 4]]\n"),
+    "row_payoffs",
+)
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_toml_errors_name_file_and_field(tmp_path, case):
+    text, field = CASES[case]
+    path = write(tmp_path, text, f"bad-{case}.toml")
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    msg = str(info.value)
+    assert str(path) in msg
+    assert field in msg
+    assert "\n" not in msg.strip()
+
+
+def test_missing_scenario_file(tmp_path):
+    path = tmp_path / "absent.toml"
+    with pytest.raises(ScenarioError, match="absent.toml") as info:
+        load_scenario(path)
+    assert "boyd2" in str(info.value)  # lists the shipped scenarios
