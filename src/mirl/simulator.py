@@ -57,13 +57,18 @@ class PatrolSimulator:
         eq = scenario.played_equilibrium
         self._eq_cdf = (np.cumsum(eq.row), np.cumsum(eq.col))
         self.np_random = np.random.default_rng()
+        self._perception_rng = np.random.default_rng()
         self.states = np.zeros(self.n_robots, dtype=int)
         self.t = 0
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Start a new episode. ``options={"random_starts": True}`` starts each robot at a
         uniformly drawn state of its patrol cycle; ``{"starts": [(r, c, h), ...]}`` sets them."""
-        self.np_random = np.random.default_rng(seed)
+        seq = np.random.SeedSequence(seed)
+        self.np_random = np.random.default_rng(seq)  # the same stream as default_rng(seed)
+        # perception noise has its own stream: misreading a heading never changes the world, so
+        # runs with the same seed and different heading_noise have the same true trajectories
+        self._perception_rng = np.random.default_rng(seq.spawn(1)[0])
         options = options or {}
         if "starts" in options:
             starts = [tuple(s) for s in options["starts"]]
@@ -116,8 +121,8 @@ class PatrolSimulator:
         seen = np.flatnonzero(self.visible[self.states])
         rch = self.domain.states[self.states[seen]].copy()
         if self.heading_noise > 0 and len(seen):
-            flip = self.np_random.random(len(seen)) < self.heading_noise
-            shift = self.np_random.integers(1, 4, size=len(seen))
+            flip = self._perception_rng.random(len(seen)) < self.heading_noise
+            shift = self._perception_rng.integers(1, 4, size=len(seen))
             rch[flip, 2] = (rch[flip, 2] + shift[flip]) % 4
         return np.column_stack([seen, rch]).astype(int)
 
