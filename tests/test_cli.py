@@ -1,0 +1,209 @@
+"""The ``mirl`` command line, in-process through ``main([...])`` and once as a real process:
+simulate's CSV files, --version, show-map, --damage, and one-line errors with exit code 2."""
+
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import mirl
+from mirl.cli import main
+
+SIM = ["simulate", "--scenario", "boyd2", "--steps", "300", "--seed", "1", "--observability"]
+SIM += ["0.14", "--observations", "o.csv", "--truth", "t.csv"]
+VISIBLE_014 = {(0, 1), (0, 2), (0, 3), (0, 4)}
+BOYD2_TEXT = (Path(mirl.__file__).parent / "data" / "maps" / "boyd2.txt").read_text()
+
+
+def read_rows(path: Path) -> tuple[list[str], list[list[str]]]:
+    with open(path, newline="") as fh:
+        rows = list(csv.reader(fh))
+    return rows[0], rows[1:]
+
+
+def check_simulate_outputs(directory: Path) -> None:
+    header, truth = read_rows(directory / "t.csv")
+    assert (directory / "t.csv").read_text().splitlines()[0] == "t,robot,row,col,heading"
+    assert header == ["t", "robot", "row", "col", "heading"]
+    assert len(truth) == 600  # 300 steps × 2 robots
+    assert {(int(r[0]), r[1]) for r in truth} == {(t, n) for t in range(300) for n in "IJ"}
+    obs_header, obs = read_rows(directory / "o.csv")
+    assert obs_header == header
+    expected = [r for r in truth if (int(r[2]), int(r[3])) in VISIBLE_014]
+    assert obs == expected
+    assert len(obs) > 0
+
+
+def one_error_line(err: str, *needles: str) -> None:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    assert lines[0].startswith("mirl: error: ")
+    for n in needles:
+        assert n in lines[0], (n, lines[0])
+
+
+# --------------------------------------------------------------------------- simulate
+
+
+def test_simulate_in_process(tmp_path, monkeypatch, capsys):
+    runs = []
+    for name in ("a", "b"):
+        d = tmp_path / name
+        d.mkdir()
+        monkeypatch.chdir(d)
+        assert main(SIM) == 0
+        out = capsys.readouterr().out
+        assert "wrote o.csv" in out and "wrote t.csv (600 rows)" in out
+        assert "observability 0.14 (4/31 cells)" in out
+        check_simulate_outputs(d)
+        runs.append(((d / "o.csv").read_bytes(), (d / "t.csv").read_bytes()))
+    assert runs[0] == runs[1]  # byte-identical
+
+
+def test_simulate_as_a_process(tmp_path):
+    """The real entry: a fresh interpreter running ``python -m mirl.cli``."""
+    proc = subprocess.run(
+        [sys.executable, "-m", "mirl.cli", *SIM],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr == ""
+    check_simulate_outputs(tmp_path)
+    # the same bytes as the in-process run
+    d = tmp_path / "again"
+    d.mkdir()
+    subprocess.run(
+        [sys.executable, "-m", "mirl.cli", *SIM],
+        cwd=d,
+        check=True,
+        timeout=120,
+        capture_output=True,
+    )
+    for f in ("o.csv", "t.csv"):
+        assert (d / f).read_bytes() == (tmp_path / f).read_bytes()
+
+
+def test_error_as_a_process(tmp_path):
+    bad = tmp_path / "ragged.txt"
+    bad.write_text("L...\n#.#\n#G##\n")
+    proc = subprocess.run(
+        [sys.executable, "-m", "mirl.cli", "show-map", str(bad)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 2
+    one_error_line(proc.stderr, str(bad))
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"mirl {mirl.__version__}"
+
+
+def test_no_command_prints_help(capsys):
+    assert main([]) == 2
+    assert "usage" in capsys.readouterr().out
+
+
+def test_show_map_with_observability(capsys):
+    assert main(["show-map", "boyd2", "--observability", "0.14"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    grid = [ln for ln in out if ln and not ln.startswith(";")][:17]
+    expected = BOYD2_TEXT.splitlines()
+    expected[0] = "Loooo...."
+    assert grid == expected
+    assert out[-1] == "boyd2: 17x9, 31 patroller cells, 4 visible at observability 0.14"
+    assert "; visible: 4 of 31 patroller cells (0.13)" in out
+
+
+def test_show_map_plain(capsys):
+    assert main(["show-map", "boyd2"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[:17] == BOYD2_TEXT.splitlines()
+    assert out[-1] == "boyd2: 17x9, 31 patroller cells"
+
+
+def test_damage_accepted(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    base = ["simulate", "--scenario", "boyd2-healthy", "--steps", "200", "--truth", "t.csv"]
+    assert main(base) == 0
+    healthy = (tmp_path / "t.csv").read_bytes()
+    assert main([*base, "--damage", "J:left_wheel=0.5"]) == 0
+    assert (tmp_path / "t.csv").read_bytes() != healthy  # the damage changes J's motion
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    "damage, needle",
+    [("J:wheel=0.5", "wheel"), ("K:left_wheel=0.5", "K"), ("J-left", "ROBOT:FEATURE=P")],
+)
+def test_bad_damage(capsys, damage, needle):
+    rc = main(["simulate", "--scenario", "boyd2", "--steps", "5", "--damage", damage])
+    assert rc == 2
+    one_error_line(capsys.readouterr().err, needle)
+
+
+# --------------------------------------------------------------------------- one-line errors
+
+
+def test_ragged_map(tmp_path, capsys):
+    bad = tmp_path / "ragged.txt"
+    bad.write_text("L...\n#.#\n#G##\n")
+    assert main(["show-map", str(bad)]) == 2
+    one_error_line(capsys.readouterr().err, str(bad))
+
+
+def test_missing_map(tmp_path, capsys):
+    missing = tmp_path / "nowhere.txt"
+    assert main(["show-map", str(missing)]) == 2
+    one_error_line(capsys.readouterr().err, str(missing))
+
+
+@pytest.mark.parametrize(
+    "text, field",
+    [
+        ('map = "boyd2"\n[[robots]]\nstart = [0, 8', "invalid TOML"),
+        ('map = "boyd2"\n[[robots]]\nstart = [0, 8, 2]\n', "robots"),
+        ('map = "boyd2"\nspeed = 3\n', "speed"),
+    ],
+)
+def test_malformed_scenario(tmp_path, capsys, text, field):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text)
+    assert main(["simulate", "--scenario", str(bad), "--steps", "5"]) == 2
+    one_error_line(capsys.readouterr().err, str(bad), field)
+
+
+def test_missing_scenario(tmp_path, capsys):
+    missing = tmp_path / "absent.toml"
+    assert main(["simulate", "--scenario", str(missing)]) == 2
+    one_error_line(capsys.readouterr().err, str(missing))
+
+
+def test_scenario_with_malformed_map(tmp_path, capsys):
+    (tmp_path / "ragged.txt").write_text("L...\n#.#\n#G##\n")
+    scen = tmp_path / "s.toml"
+    scen.write_text('map = "ragged.txt"\n')
+    assert main(["simulate", "--scenario", str(scen)]) == 2
+    one_error_line(capsys.readouterr().err, str(scen), "ragged.txt")
+
+
+def test_argparse_rejects_bad_numbers(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["simulate", "--scenario", "boyd2", "--steps", "0"])
+    assert info.value.code == 2
+    assert "at least 1" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as info:
+        main(["simulate", "--scenario", "boyd2", "--observability", "1.5"])
+    assert info.value.code == 2
