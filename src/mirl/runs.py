@@ -1,0 +1,450 @@
+"""One penetration run end to end: observe → learn → plan → execute → outcome.
+
+Protocol (:func:`run_episode`):
+
+1. **Observe.** The patrollers start at uniformly drawn states of their patrol cycles and move in
+   a :class:`~mirl.simulator.PatrolSimulator` for ``obs_steps`` steps (t = 0 … obs_steps − 1)
+   while L records what it sees at the observability degree.
+2. **Learn** the patrollers' models with :func:`mirl.learning.learn` (the truth for ``oracle``;
+   nothing for ``random``).
+3. **Plan.** A :class:`~mirl.planner.BeliefFilter` runs over everything L saw; its prediction
+   feeds L's time-indexed MDP (:func:`~mirl.planner.solve_observer_mdp`). If the best go time
+   within ``window`` steps has a positive value L waits for it and goes; otherwise L keeps
+   observing (the same simulator keeps running, new observations enter the filter; the models
+   are not relearned) and re-plans every ``replan_every`` steps. When ``max_wait`` steps have
+   passed since the end of the observation phase without a positive value the outcome is
+   ``timeout``.
+4. **Execute.** L follows its time-indexed policy; each of its actions fails (it stays put) with
+   probability 2.5 %; the true patrollers move on in the simulator; after every step the true
+   detection rule is checked. ``success``: L reaches its goal unseen; ``detected``: some
+   patroller saw it. If L outlives its plan it re-plans from where it stands, with the filter
+   propagated without evidence (L sees nothing once it has left its room).
+
+``random`` waits ``obs_steps``, draws a go time uniformly in [0, window] and follows a shortest
+path. Every random choice comes from ``seed`` through independent ``SeedSequence`` streams
+(simulator, L's action noise, learning, random baseline), so a run is a function of its
+arguments.
+"""
+
+from __future__ import annotations
+
+import inspect
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from mirl.models import LearnResult, behavior_accuracy, oracle_models
+from mirl.observations import Trajectories
+from mirl.planner import (
+    NOT_WATCHING,
+    BeliefFilter,
+    ObserverModel,
+    ObserverPlan,
+    observer_model,
+    shortest_path_policy,
+    solve_observer_mdp,
+)
+from mirl.scenario import Scenario
+from mirl.simulator import PatrolSimulator
+
+__all__ = [
+    "METHODS",
+    "OUTCOMES",
+    "Detection",
+    "PlanAttempt",
+    "RunResult",
+    "run_episode",
+]
+
+METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "random", "oracle")
+LEARNED_METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em")
+OUTCOMES = ("success", "detected", "timeout")
+
+
+@dataclass(frozen=True)
+class Detection:
+    """A patroller seeing L: time, robot, the robot's (row, col, heading) and L's cell."""
+
+    t: int
+    robot: str
+    robot_state: tuple[int, int, int]
+    observer_cell: tuple[int, int]
+
+
+@dataclass(frozen=True)
+class PlanAttempt:
+    """One planning round: when, the best go value in the window and the chosen go time
+    (absolute; None when no go value was positive)."""
+
+    t: int
+    best_value: float
+    go_time: int | None
+
+
+@dataclass(frozen=True, eq=False)
+class RunResult:
+    """Everything about one run; :meth:`to_dict` is its JSON form."""
+
+    scenario: str
+    method: str
+    seed: int
+    observability: float
+    obs_steps: int
+    outcome: str
+    go_time: int | None  # absolute step at which L left its start cell
+    plan_value: float | None  # go value of the executed plan
+    behavior_accuracy: float | None  # mean over robots
+    behavior_accuracy_per_robot: dict[str, float]
+    feature_probabilities: dict[str, dict[str, float]]
+    timings: dict[str, float]  # seconds per phase: observe, learn, plan, execute, total
+    observer_path: np.ndarray  # (n, 4): t, row, col, heading of L from its go time
+    detections: tuple[Detection, ...]
+    true_states: np.ndarray  # (end_time + 1, N) patroller state indices
+    observations: Trajectories  # everything L saw from its room
+    attempts: tuple[PlanAttempt, ...]
+    robot_names: tuple[str, ...]
+    end_time: int
+    learned: LearnResult | None = None
+    plan: ObserverPlan | None = None  # the executed (or last) plan
+    seen_steps: dict[str, int] = field(default_factory=dict)  # observation-phase sightings
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "scenario": self.scenario,
+            "method": self.method,
+            "seed": self.seed,
+            "observability": self.observability,
+            "obs_steps": self.obs_steps,
+            "outcome": self.outcome,
+            "go_time": self.go_time,
+            "plan_value": self.plan_value,
+            "behavior_accuracy": self.behavior_accuracy,
+            "behavior_accuracy_per_robot": self.behavior_accuracy_per_robot,
+            "feature_probabilities": self.feature_probabilities,
+            "timings": self.timings,
+            "seen_steps": self.seen_steps,
+            "plan_attempts": [
+                {"t": a.t, "best_value": a.best_value, "go_time": a.go_time} for a in self.attempts
+            ],
+            "detections": [
+                {
+                    "t": d.t,
+                    "robot": d.robot,
+                    "robot_state": list(d.robot_state),
+                    "observer_cell": list(d.observer_cell),
+                }
+                for d in self.detections
+            ],
+            "observer_path": self.observer_path.tolist(),
+            "end_time": self.end_time,
+        }
+
+
+# ---- learning adapter ------------------------------------------------------------------------
+def _learn(
+    observations: Trajectories,
+    scenario: Scenario,
+    method: str,
+    p: float,
+    seed: np.random.SeedSequence,
+    options: dict[str, Any],
+) -> LearnResult:
+    try:
+        from mirl.learning import learn
+    except ImportError as exc:  # pragma: no cover - only while learning is being written
+        raise RuntimeError(f"method '{method}' needs mirl.learning ({exc})") from None
+    kwargs: dict[str, Any] = {"method": method, "p": p, **options}
+    params = inspect.signature(learn).parameters
+    for name in ("seed", "rng", "random_state"):  # pass the run's learning stream if wanted
+        if name in params and name not in kwargs:
+            kwargs[name] = (
+                np.random.default_rng(seed) if name == "rng" else int(seed.generate_state(1)[0])
+            )
+            break
+    return learn(observations, scenario, **kwargs)
+
+
+# ---- the run ---------------------------------------------------------------------------------
+class _World:
+    """The simulator plus L's record of it; one instance per run."""
+
+    def __init__(self, scenario: Scenario, observability: float, seed: int) -> None:
+        self.sim = PatrolSimulator(scenario, observability=observability)
+        obs, info = self.sim.reset(seed=seed, options={"random_starts": True})
+        self.domain = scenario.domain
+        self.true: list[np.ndarray] = [info["states"].copy()]
+        self.seen: list[np.ndarray] = [self._seen(obs)]
+        self.t = 0
+
+    def _seen(self, obs: np.ndarray) -> np.ndarray:
+        out = np.full(self.sim.n_robots, -1, dtype=int)
+        out[obs[:, 0]] = self.domain.state_index(obs[:, 1], obs[:, 2], obs[:, 3])
+        return out
+
+    def step(self) -> np.ndarray:
+        obs, _, _, _, info = self.sim.step()
+        self.t += 1
+        self.true.append(info["states"].copy())
+        self.seen.append(self._seen(obs))
+        return self.true[-1]
+
+    def observations(self, names: tuple[str, ...], until: int) -> Trajectories:
+        return Trajectories.from_states(self.domain, names, np.asarray(self.seen[: until + 1]))
+
+
+def run_episode(
+    scenario: Scenario,
+    method: str = "mirl-t",
+    *,
+    observability: float | None = None,
+    obs_steps: int = 300,
+    seed: int = 0,
+    p: float = 0.9,
+    max_wait: int = 300,
+    window: int = 60,
+    replan_every: int = 10,
+    travel_steps: int | None = None,
+    joint: bool | None = None,
+    hazard: str = "markov",
+    goal_reward: float = 1.0,
+    detection_penalty: float = 0.5,
+    commit: bool = False,
+    negative_evidence: bool = True,
+    learn_options: dict[str, Any] | None = None,
+    learned: LearnResult | None = None,
+) -> RunResult:
+    """Run one penetration (module doc). ``learned`` overrides learning (for tests and
+    experiments with hand-made models). ``travel_steps`` is the part of the planning horizon
+    after the last go time (default: 3 × L's shortest path, at least 20)."""
+    if method not in METHODS:
+        raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
+    if obs_steps < 1:
+        raise ValueError(f"obs_steps must be at least 1, got {obs_steps}")
+    if max_wait < 0 or window < 0 or replan_every < 1:
+        raise ValueError("max_wait and window must be >= 0 and replan_every >= 1")
+    degree = scenario.observability if observability is None else float(observability)
+    streams = np.random.SeedSequence(int(seed)).spawn(4)
+    sim_seed, noise_seed, learn_seed, random_seed = streams
+    timings = dict.fromkeys(("observe", "learn", "plan", "execute"), 0.0)
+    t_start = time.perf_counter()
+    names = scenario.robot_names
+
+    clock = time.perf_counter()
+    world = _World(scenario, degree, int(sim_seed.generate_state(1)[0]))
+    for _ in range(obs_steps - 1):
+        world.step()
+    t_obs = world.t  # last step of the observation phase
+    observations = world.observations(names, t_obs)
+    timings["observe"] += time.perf_counter() - clock
+
+    clock = time.perf_counter()
+    if learned is None and method == "oracle":
+        learned = oracle_models(scenario)
+    elif learned is None and method in LEARNED_METHODS:
+        learned = _learn(observations, scenario, method, p, learn_seed, learn_options or {})
+    timings["learn"] += time.perf_counter() - clock
+
+    model = observer_model(scenario)
+    rng = np.random.default_rng(noise_seed)
+    attempts: list[PlanAttempt] = []
+    plan: ObserverPlan | None = None
+    belief: BeliefFilter | None = None
+    path_len = int(_shortest_length(model))
+    travel = max(20, 3 * path_len) if travel_steps is None else int(travel_steps)
+
+    detections: list[Detection] = []
+    path: list[tuple[int, int, int, int]] = []
+    plan_value: float | None = None
+    if method == "random":
+        go_time: int | None = t_obs + int(
+            np.random.default_rng(random_seed).integers(0, window + 1)
+        )
+        fixed = shortest_path_policy(model)
+
+        def policy(k: int, s: int) -> int:
+            return int(fixed[s])
+
+    else:
+        assert learned is not None
+        clock = time.perf_counter()
+        visible = world.sim.visible if negative_evidence else None
+        belief = BeliefFilter(scenario.domain, learned, visible=visible, joint=joint)
+        for seen in world.seen:
+            belief.update(seen)
+        timings["plan"] += time.perf_counter() - clock
+
+        def make_plan() -> ObserverPlan:
+            win = min(window, t_obs + max_wait - world.t)
+            pred = belief.predict(win + travel, model)
+            return solve_observer_mdp(
+                model,
+                pred,
+                window=win,
+                goal_reward=goal_reward,
+                detection_penalty=detection_penalty,
+                hazard=hazard,
+            )
+
+        plan, go_time, attempts = _wait_for_go(
+            world, belief, make_plan, t_obs + max_wait, replan_every, commit, timings
+        )
+        if go_time is not None:
+            plan_value = float(plan.go_values[go_time - plan.t0])
+        executed = plan
+
+        def policy(k: int, s: int) -> int:
+            return int(executed.policy[k, s])
+
+    if go_time is None:
+        outcome = "timeout"
+    else:
+        clock = time.perf_counter()
+        while world.t < go_time:  # only the random baseline still has to wait here
+            world.step()
+        timings["observe"] += time.perf_counter() - clock
+        clock = time.perf_counter()
+        outcome, path, detections, plan = _execute(
+            world, model, policy, plan, rng, belief, travel, names
+        )
+        timings["execute"] += time.perf_counter() - clock
+
+    accuracy: dict[str, float] = {}
+    features: dict[str, dict[str, float]] = {}
+    if learned is not None:
+        for i, r in enumerate(learned.robots):
+            acc = r.behavior_accuracy
+            if acc is None:
+                acc = behavior_accuracy(scenario, i, r.policy)
+            accuracy[r.name] = float(acc)
+            features[r.name] = {k: float(v) for k, v in r.feature_probabilities.items()}
+    timings["total"] = time.perf_counter() - t_start
+    seen_arr = np.asarray(world.seen[: t_obs + 1])
+    return RunResult(
+        scenario=scenario.name,
+        method=method,
+        seed=int(seed),
+        observability=degree,
+        obs_steps=obs_steps,
+        outcome=outcome,
+        go_time=go_time,
+        plan_value=plan_value,
+        behavior_accuracy=float(np.mean(list(accuracy.values()))) if accuracy else None,
+        behavior_accuracy_per_robot=accuracy,
+        feature_probabilities=features,
+        timings=timings,
+        observer_path=np.asarray(path, dtype=int).reshape(-1, 4),
+        detections=tuple(detections),
+        true_states=np.asarray(world.true),
+        observations=world.observations(names, world.t),
+        attempts=tuple(attempts),
+        robot_names=names,
+        end_time=world.t,
+        learned=learned,
+        plan=plan,
+        seen_steps={n: int((seen_arr[:, i] >= 0).sum()) for i, n in enumerate(names)},
+    )
+
+
+def _wait_for_go(
+    world: _World,
+    belief: BeliefFilter,
+    make_plan: Callable[[], ObserverPlan],
+    deadline: int,
+    replan_every: int,
+    commit: bool,
+    timings: dict[str, float],
+) -> tuple[ObserverPlan, int | None, list[PlanAttempt]]:
+    """L in its room: plan, then keep watching until the go time or the deadline.
+
+    L re-plans every ``replan_every`` steps while it has no go time and — unless ``commit`` —
+    also whenever a patroller leaves its view (the moment its belief about that robot is
+    sharpest), so a newer plan can move or cancel the go time. Returns the plan to execute, the
+    absolute go time (None: timed out) and every planning round.
+    """
+    attempts: list[PlanAttempt] = []
+    plan: ObserverPlan | None = None
+    go_time: int | None = None
+    next_plan = world.t
+    while True:
+        left_view = world.t > 0 and np.any((world.seen[-2] >= 0) & (world.seen[-1] < 0))
+        if world.t >= next_plan or (left_view and not (commit and go_time is not None)):
+            clock = time.perf_counter()
+            plan = make_plan()
+            timings["plan"] += time.perf_counter() - clock
+            go_time = None if plan.go_time is None else world.t + plan.go_time
+            attempts.append(PlanAttempt(world.t, float(plan.go_values.max()), go_time))
+            next_plan = world.t + replan_every if go_time is None else deadline + 1
+        assert plan is not None
+        if go_time is not None and world.t >= go_time:
+            return plan, go_time, attempts
+        if world.t >= deadline:
+            return plan, None, attempts
+        clock = time.perf_counter()
+        world.step()
+        timings["observe"] += time.perf_counter() - clock
+        clock = time.perf_counter()
+        belief.update(world.seen[-1])
+        timings["plan"] += time.perf_counter() - clock
+
+
+def _shortest_length(model: ObserverModel) -> float:
+    from mirl.planner import _distance_to_goal
+
+    return float(_distance_to_goal(model.domain, model.goal)[model.start_state])
+
+
+def _execute(
+    world: _World,
+    model: ObserverModel,
+    policy: Callable[[int, int], int],
+    plan: ObserverPlan | None,
+    rng: np.random.Generator,
+    belief: BeliefFilter | None,
+    travel: int,
+    names: tuple[str, ...],
+):
+    """L leaves its start cell now and follows ``policy(k, state)``; returns the outcome, L's
+    path (t, row, col, heading), the detections and the plan finally followed."""
+    dom = model.domain
+    s = model.start_state
+    k = 0 if plan is None else world.t - plan.t0
+    path = [(world.t, *map(int, dom.states[s]))]
+    if belief is not None:  # L stopped watching when it left: propagate the belief blind
+        while belief.t < world.t:
+            belief.update(np.full(belief.n_robots, NOT_WATCHING))
+    for _ in range(10 * (travel + 1)):
+        if plan is not None and k >= plan.horizon:  # outlived the plan: re-plan from here
+            assert belief is not None
+            pred = belief.predict(travel, model)
+            plan = _replan_from(model, pred, s)
+            k = 0
+
+            def policy(kk: int, ss: int, _p=plan) -> int:
+                return int(_p.policy[kk, ss])
+
+        a = policy(k, s)
+        nxt = s if rng.random() < model.failure else int(dom.intended[s, a])
+        truth = world.step()
+        if belief is not None:
+            belief.update(np.full(belief.n_robots, NOT_WATCHING))
+        s, k = nxt, k + 1
+        path.append((world.t, *map(int, dom.states[s])))
+        seen = model.seen_by(truth, s)
+        if seen.any():
+            cell = tuple(map(int, dom.states[s][:2]))
+            dets = [
+                Detection(world.t, names[i], tuple(map(int, world.domain.states[truth[i]])), cell)
+                for i in np.flatnonzero(seen)
+            ]
+            return "detected", path, dets, plan
+        if model.goal[s]:
+            return "success", path, [], plan
+    return "timeout", path, [], plan
+
+
+def _replan_from(model: ObserverModel, pred, state: int) -> ObserverPlan:
+    """A plan for L already out of its room: the same MDP, no start-cell restriction matters."""
+    return solve_observer_mdp(model, pred, window=0)
