@@ -60,6 +60,8 @@ from mirl.transitions import transition_matrix_from_success
 
 __all__ = [
     "OBSERVER_FAILURE",
+    "UNSEEN",
+    "NOT_WATCHING",
     "ObserverModel",
     "observer_model",
     "observer_domain",
@@ -72,6 +74,8 @@ __all__ = [
 ]
 
 OBSERVER_FAILURE = 0.025  # L's own action failure (the paper's 2.5 %): the robot stays put
+UNSEEN = -1  # BeliefFilter.update: L watched and did not see the robot
+NOT_WATCHING = -2  # BeliefFilter.update: L did not watch (it has left its room): no evidence
 
 
 def observer_domain(gridmap: GridMap) -> PatrolDomain:
@@ -134,7 +138,8 @@ class ObserverModel:
     def seen_by(self, patroller_states: np.ndarray, observer_state: int) -> np.ndarray:
         """(N,) bool: which patrollers (true states) see L in ``observer_state`` — the true rule."""
         cell = int(self.cell_of(observer_state))
-        return self.detection[np.asarray(patroller_states), [cell]].toarray().ravel() > 0
+        column = self.detection[:, [cell]].toarray().ravel()
+        return column[np.asarray(patroller_states)] > 0
 
     @cached_property
     def cell_pairs(self) -> np.ndarray:
@@ -222,7 +227,8 @@ class BeliefFilter:
     """Bayesian filter over the patrollers' states under a :class:`LearnResult` (module doc).
 
     Call :meth:`update` once per time step, from t = 0, with the state each robot was observed
-    in (-1 if unseen); :meth:`predict` then looks ahead from the current step.
+    in (:data:`UNSEEN` = -1 if L watched and did not see it, :data:`NOT_WATCHING` = -2 if L did
+    not watch); :meth:`predict` then looks ahead from the current step.
     """
 
     def __init__(
@@ -257,6 +263,8 @@ class BeliefFilter:
     # evidence of one robot: likelihood of each state given what L saw
     def _evidence(self, observed: int) -> np.ndarray:
         S = self.n_states
+        if observed == NOT_WATCHING:
+            return np.ones(S)
         if observed < 0:
             return (~self.visible).astype(float)  # not seen ⇒ not on a visible cell
         e = np.zeros(S)
