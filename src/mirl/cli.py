@@ -161,6 +161,55 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
+@command("run")
+def _run(args: argparse.Namespace) -> int:
+    from mirl.runs import format_report, run_episode
+
+    scenario = _load_scenario(args)
+    result = run_episode(
+        scenario,
+        args.method,
+        observability=args.observability,
+        obs_steps=args.obs_steps,
+        seed=args.seed,
+        p=args.p,
+        max_wait=args.max_wait,
+    )
+    if args.plot:
+        from mirl.run_plot import save_run_png
+
+        save_run_png(scenario, result, args.plot)
+    if args.json:
+        print_json(result.to_dict())
+    else:
+        print(format_report(scenario, result))
+        if args.plot:
+            print(f"wrote {args.plot}")
+    return 0
+
+
+def _run_parser(sub) -> None:
+    from mirl.runs import METHODS
+
+    ru = sub.add_parser(
+        "run",
+        help="one penetration run: observe, learn, plan, go (default: boyd2, mirl-t, 0.14)",
+        description="L observes the patrollers, learns their models, predicts them and goes "
+        "for its goal; prints what it saw, learned and did, and the outcome.",
+    )
+    _scenario_args(ru, default="boyd2")
+    ru.add_argument("--method", choices=METHODS, default="mirl-t")
+    ru.add_argument("--observability", type=_degree, default=None, metavar="D")
+    ru.add_argument("--obs-steps", type=_positive_int, default=300, metavar="N")
+    ru.add_argument("--seed", type=int, default=0)
+    ru.add_argument("--p", type=float, default=0.9, help="fixed success p of mirl / known-r")
+    ru.add_argument(
+        "--max-wait", type=int, default=300, metavar="N", help="steps L may wait after observing"
+    )
+    ru.add_argument("--json", action="store_true", help="print the run as one JSON object")
+    ru.add_argument("--plot", metavar="FILE.png", help="draw the run")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="mirl",
@@ -215,6 +264,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
     _experiment_parsers(sub)
+    _run_parser(sub)
     return p
 
 
