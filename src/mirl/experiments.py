@@ -145,6 +145,11 @@ def _flatten_run_result(result: Any) -> dict[str, Any]:
     }
     for robot, acc in (getattr(result, "behavior_accuracy_per_robot", None) or {}).items():
         out[f"behavior_accuracy_{robot}"] = _maybe_float(acc)
+    # why a run went as it did: how much L saw and how confident its plan was
+    for robot, n in (getattr(result, "seen_steps", None) or {}).items():
+        out[f"seen_steps_{robot}"] = int(n)
+    out["plan_value"] = _maybe_float(getattr(result, "plan_value", None))
+    out["plan_attempts"] = len(getattr(result, "attempts", ()) or ())
     return out
 
 
