@@ -188,6 +188,118 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
+@command("learn")
+def _learn(args: argparse.Namespace) -> int:
+    from mirl.learning import learn
+    from mirl.observations import read_csv
+
+    scenario = _load_scenario(args)
+    obs = read_csv(args.observations, scenario.domain, scenario.robot_names)
+    degree = scenario.observability if args.observability is None else args.observability
+    result = learn(
+        obs,
+        scenario,
+        args.method,
+        p=args.p,
+        observability=degree,
+        max_iterations=args.max_iterations,
+        objective=args.objective,
+        optimizer=args.optimizer,
+        random_state=args.seed,
+    )
+    names = scenario.domain.reward_feature_names
+    robots = {
+        r.name: {
+            "weights": dict(zip(names, map(float, r.weights), strict=True)),
+            "feature_probabilities": {k: float(v) for k, v in r.feature_probabilities.items()},
+            "behavior_accuracy": r.behavior_accuracy,
+        }
+        for r in result.robots
+    }
+    candidates = scenario.game.equilibria()
+    eq_weights = result.equilibrium_weights or (None,) * len(candidates)
+    out = {
+        "method": result.method,
+        "scenario": scenario.name,
+        "observations": str(args.observations),
+        "steps": obs.horizon,
+        "observability": degree,
+        "robots": robots,
+        "equilibrium": {
+            "label": result.equilibrium.label(),
+            "row": list(map(float, result.equilibrium.row)),
+            "col": list(map(float, result.equilibrium.col)),
+            "candidates": [
+                {"label": e.label(), "weight": w}
+                for e, w in zip(candidates, eq_weights, strict=True)
+            ],
+        },
+        "iterations": result.iterations,
+        "label_changes": list(result.label_changes),
+        "message": result.message,
+        "timings": {k: round(v, 4) for k, v in result.timings.items()},
+    }
+    if args.json:
+        print_json(out)
+        return 0
+    print(
+        f"{result.method} on {scenario.name}: {args.observations} ({obs.horizon} steps, "
+        f"observability {degree:g})"
+    )
+    for name, r in robots.items():
+        print(f"robot {name}")
+        print("  weights       " + "  ".join(f"{k}={v:.3f}" for k, v in r["weights"].items()))
+        probs = r["feature_probabilities"]
+        line = "  ".join(f"{k}={v:.3f}" for k, v in probs.items()) if probs else result.message
+        print(f"  features      {line}")
+        if r["behavior_accuracy"] is not None:
+            print(f"  behaviour accuracy {r['behavior_accuracy']:.3f} (vs the scenario's truth)")
+    weights = ", ".join(
+        f"{c['label']} {c['weight']:.2f}"
+        for c in out["equilibrium"]["candidates"]
+        if c["weight"] is not None
+    )
+    print(
+        f"equilibrium   {out['equilibrium']['label']}"
+        + (f" (weights: {weights})" if weights else "")
+    )
+    changes = ", ".join(map(str, result.label_changes))
+    print(
+        f"iterations    {result.iterations}"
+        + (f" (labels changed: {changes}; {result.message})" if changes else "")
+    )
+    print("timings       " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
+    return 0
+
+
+def _learn_parser(sub) -> None:
+    from mirl.irl import OBJECTIVES, OPTIMIZERS
+    from mirl.learning import METHODS
+
+    le = sub.add_parser(
+        "learn",
+        help="learn the patrollers' rewards, policies and transitions from a CSV (mIRL*/T+Int)",
+        description="Learn per robot reward weights, policy and transition-feature "
+        "probabilities, and the interaction equilibrium, from L's observations.",
+    )
+    _scenario_args(le)
+    le.add_argument("--observations", required=True, metavar="FILE.csv")
+    le.add_argument("--method", choices=[m for m in METHODS if m != "oracle"], default="mirl-t")
+    le.add_argument("--p", type=_degree, default=0.9, help="fixed success p of mirl / known-r")
+    le.add_argument(
+        "--observability",
+        type=_degree,
+        default=None,
+        metavar="D",
+        help="degree the observations were taken at (default: the scenario's)",
+    )
+    le.add_argument("--max-iterations", type=_positive_int, default=5, metavar="N")
+    le.add_argument("--objective", choices=OBJECTIVES, default="sequence")
+    le.add_argument("--optimizer", choices=OPTIMIZERS, default="lbfgs")
+    le.add_argument("--seed", type=int, default=0)
+    le.add_argument("--json", action="store_true", help="print the result as one JSON object")
+
+
 def _run_parser(sub) -> None:
     from mirl.runs import METHODS
 
@@ -265,6 +377,7 @@ def build_parser() -> argparse.ArgumentParser:
     lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
     _experiment_parsers(sub)
     _run_parser(sub)
+    _learn_parser(sub)
     return p
 
 
