@@ -149,6 +149,7 @@ def _learn(
     scenario: Scenario,
     method: str,
     p: float,
+    visible: np.ndarray,
     seed: np.random.SeedSequence,
     options: dict[str, Any],
 ) -> LearnResult:
@@ -158,11 +159,11 @@ def _learn(
         raise RuntimeError(f"method '{method}' needs mirl.learning ({exc})") from None
     kwargs: dict[str, Any] = {"method": method, "p": p, **options}
     params = inspect.signature(learn).parameters
-    for name in ("seed", "rng", "random_state"):  # pass the run's learning stream if wanted
-        if name in params and name not in kwargs:
-            kwargs[name] = (
-                np.random.default_rng(seed) if name == "rng" else int(seed.generate_state(1)[0])
-            )
+    if "visible" in params:  # the run's observability, not necessarily the scenario's
+        kwargs.setdefault("visible", visible)
+    for name in ("random_state", "seed"):  # the run's learning stream (IRL restarts)
+        if name in params:
+            kwargs.setdefault(name, int(seed.generate_state(1)[0]))
             break
     return learn(observations, scenario, **kwargs)
 
@@ -244,7 +245,9 @@ def run_episode(
     if learned is None and method == "oracle":
         learned = oracle_models(scenario)
     elif learned is None and method in LEARNED_METHODS:
-        learned = _learn(observations, scenario, method, p, learn_seed, learn_options or {})
+        learned = _learn(
+            observations, scenario, method, p, world.sim.visible, learn_seed, learn_options or {}
+        )
     timings["learn"] += time.perf_counter() - clock
 
     model = observer_model(scenario)
@@ -495,7 +498,10 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         + "".join(f" saw {n} on {k} steps;" for n, k in result.seen_steps.items()).rstrip(";"),
     ]
     learned = result.learned
-    if learned is not None and result.feature_probabilities:
+    has_features = any(result.feature_probabilities.values())
+    if learned is not None and not has_features:
+        lines.append(f"learned   no feature probabilities: {learned.message or learned.method}")
+    if learned is not None and has_features:
         feats = list(scenario.feature_map.features)
         lines.append(f"learned   transition-feature probabilities ({learned.method}):")
         lines.append("            robot" + "".join(f"{f:>13}" for f in feats))
@@ -509,6 +515,7 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
             )
             lines.append(f"            {name:<5}{cells}")
         lines.append(f"            * lowest: {low[0]}'s {low[1]} — L's guess of the damaged part")
+    if learned is not None:
         acc = ", ".join(f"{n} {a:.2f}" for n, a in result.behavior_accuracy_per_robot.items())
         lines.append(f"          behaviour accuracy: {acc} (mean {result.behavior_accuracy:.2f})")
         for i, r in enumerate(learned.robots):
