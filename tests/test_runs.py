@@ -1,0 +1,146 @@
+"""One penetration run end to end, and the ``mirl run`` command."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from mirl.cli import main
+from mirl.domain import detection_cells
+from mirl.models import oracle_models
+from mirl.planner import observer_model
+from mirl.runs import OUTCOMES, format_report, run_episode
+from mirl.scenario import load_scenario
+
+FAST = {"obs_steps": 80, "max_wait": 60}
+
+
+@pytest.fixture(scope="module")
+def boyd2():
+    return load_scenario("boyd2")
+
+
+@pytest.fixture(scope="module")
+def oracle_runs(boyd2):
+    return [run_episode(boyd2, "oracle", seed=s, **FAST) for s in range(6)]
+
+
+def _strip(d: dict) -> dict:
+    return {k: v for k, v in d.items() if k != "timings"}
+
+
+def test_runs_are_deterministic_by_seed(boyd2, oracle_runs):
+    again = run_episode(boyd2, "oracle", seed=0, **FAST)
+    assert _strip(again.to_dict()) == _strip(oracle_runs[0].to_dict())
+    np.testing.assert_array_equal(again.true_states, oracle_runs[0].true_states)
+    assert len({r.true_states[:80].tobytes() for r in oracle_runs}) == len(oracle_runs)
+
+
+def test_outcomes_and_records_are_consistent(boyd2, oracle_runs):
+    model = observer_model(boyd2)
+    dom = boyd2.domain
+    T = [boyd2.true_transitions(i).toarray().reshape(dom.n_states, 4, -1) for i in range(2)]
+    for r in oracle_runs:
+        assert r.outcome in OUTCOMES
+        json.dumps(r.to_dict())  # JSON-serialisable
+        assert r.timings["total"] >= r.timings["plan"]
+        # the patrollers never teleport: the simulator ran on from the observation phase
+        s = r.true_states
+        for i in range(2):
+            assert np.all(T[i][s[:-1, i], :, s[1:, i]].max(axis=1) > 0)
+        if r.outcome == "timeout":
+            assert r.go_time is None and r.end_time == FAST["obs_steps"] - 1 + FAST["max_wait"]
+            assert len(r.observer_path) == 0
+            continue
+        path = r.observer_path
+        assert path[0, 0] == r.go_time
+        assert tuple(path[0, 1:]) == tuple(dom_state(model, model.start_state))
+        assert np.all(np.diff(path[:, 0]) == 1)
+        assert np.abs(np.diff(path[:, 1:3], axis=0)).sum(axis=1).max() <= 1
+        # the outcome follows from the true detection rule along L's path
+        seen_at = [
+            t
+            for t, row, col, _ in path
+            for i in range(2)
+            if (row, col) in detection_cells(boyd2.map, *dom.states[s[t, i]], 6)
+        ]
+        if r.outcome == "success":
+            assert not seen_at
+            assert tuple(path[-1, 1:3]) == boyd2.goal
+        else:
+            assert seen_at == [r.detections[0].t] * len(r.detections)
+            assert r.end_time == r.detections[0].t
+
+
+def dom_state(model, s):
+    return model.domain.states[s]
+
+
+def test_timeout_when_no_plan_is_ever_good_enough(boyd2):
+    r = run_episode(boyd2, "oracle", seed=1, detection_penalty=1e6, replan_every=7, **FAST)
+    assert r.outcome == "timeout" and r.go_time is None and r.plan_value is None
+    times = [a.t for a in r.attempts]
+    assert times[0] == FAST["obs_steps"] - 1
+    assert np.diff(times).max() <= 7
+    assert all(a.go_time is None for a in r.attempts)
+
+
+def test_random_baseline_goes_in_the_window_without_learning(boyd2):
+    for seed in range(4):
+        r = run_episode(boyd2, "random", seed=seed, window=30, **FAST)
+        assert r.outcome in ("success", "detected")
+        assert 79 <= r.go_time <= 79 + 30
+        assert r.learned is None and r.behavior_accuracy is None and not r.attempts
+
+
+def test_given_models_replace_learning(boyd2):
+    r = run_episode(boyd2, "mirl-t", seed=2, learned=oracle_models(boyd2), **FAST)
+    assert r.timings["learn"] < 0.05
+    assert r.behavior_accuracy == 1.0
+    assert r.feature_probabilities["J"]["left_wheel"] == pytest.approx(0.7)
+    assert "J's left_wheel" in format_report(boyd2, r)
+
+
+def test_learned_method_runs(boyd2):
+    r = run_episode(boyd2, "mirl", seed=0, obs_steps=120, max_wait=40)
+    assert r.outcome in OUTCOMES
+    assert 0.0 <= r.behavior_accuracy <= 1.0
+    assert set(r.behavior_accuracy_per_robot) == {"I", "J"}
+
+
+def test_bad_arguments(boyd2):
+    with pytest.raises(ValueError, match="unknown method"):
+        run_episode(boyd2, "telepathy")
+    with pytest.raises(ValueError, match="obs_steps"):
+        run_episode(boyd2, "oracle", obs_steps=0)
+
+
+def test_cli_run_json_and_plot(tmp_path, capsys):
+    png = tmp_path / "run.png"
+    argv = ["run", "--method", "oracle", "--obs-steps", "80", "--seed", "2", "--plot", str(png)]
+    assert main([*argv, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for key in ("outcome", "go_time", "behavior_accuracy", "feature_probabilities", "timings"):
+        assert key in out
+    assert out["outcome"] in OUTCOMES
+    assert set(out["timings"]) >= {"observe", "learn", "plan", "execute", "total"}
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert main(argv[:-2]) == 0
+    text = capsys.readouterr().out
+    assert "outcome" in text and "behaviour accuracy" in text and "time " in text
+
+
+def test_cli_run_errors(capsys):
+    assert main(["run", "--scenario", "nope"]) == 2
+    assert "nope" in capsys.readouterr().err
+    assert main(["run", "--method", "oracle", "--damage", "J:wheel=0.5"]) == 2
+    assert "unknown transition feature" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_default_run_is_the_main_job(capsys):
+    assert main(["run"]) == 0
+    text = capsys.readouterr().out
+    assert "method mirl-t" in text and "observability 0.14" in text and "J:left_wheel=0.7" in text
