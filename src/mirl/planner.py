@@ -256,6 +256,8 @@ class BeliefFilter:
         self._step_T = [sp.csr_array(P.T) for P in steps]
         if self.joint:
             self._forward = _joint_step_matrix(domain, learned, steps).T.tocsr()
+        unseen = (~self.visible).astype(float)
+        self._both_unseen = np.outer(unseen, unseen).ravel() if self.joint else None
         self.t = -1
         self.belief: np.ndarray | None = None  # joint: (S·S,), else (N, S)
         self.fallbacks = 0  # steps whose evidence had probability ~0 under the learned model
@@ -299,7 +301,11 @@ class BeliefFilter:
             prior = self._propagate(self.belief)
         ev = [self._evidence(int(o)) for o in observed]
         if self.joint:
-            post = prior * np.outer(ev[0], ev[1]).ravel()
+            if observed[0] < 0 and observed[1] < 0 and observed[0] == observed[1]:
+                pair = self._both_unseen if observed[0] == UNSEEN else 1.0  # the common case
+            else:
+                pair = np.outer(ev[0], ev[1]).ravel()
+            post = prior * pair
             z = post.sum()
             if z > 1e-300:
                 self.belief = post / z
@@ -322,41 +328,43 @@ class BeliefFilter:
         return post / z
 
     def predict(self, steps: int, model: ObserverModel) -> Prediction:
-        """Occupancies, detection probabilities and hazards for t = now … now + ``steps``."""
+        """Occupancies, detection probabilities and hazards for t = now … now + ``steps``.
+
+        The only sequential part is the propagation (one sparse product per step); detection
+        and hazards are then computed for all steps at once.
+        """
         if self.belief is None:
             raise ValueError("predict() before any update(): the filter has no belief yet")
-        D = sp.csr_array(model.detection)
-        Dd = D.toarray()
-        G = 1.0 - Dd  # (S, C): robot in state s does not see cell c
+        S, K1 = self.n_states, steps + 1
+        Dd = sp.csr_array(model.detection).toarray()
+        G = 1.0 - Dd  # (S, C): a robot in state s does not see cell c
         prev, nxt = model.cell_pairs.T
-        occ = np.empty((steps + 1, self.n_robots, self.n_states))
-        det = np.empty((steps + 1, D.shape[1]))
-        haz = np.empty((steps + 1, len(prev)))
+        beliefs = np.empty((K1, *self.belief.shape))
         b = self.belief
-        for k in range(steps + 1):
-            if k:
+        for k in range(K1):
+            beliefs[k] = b
+            if k < steps:
                 b = self._propagate(b)
-            occ[k] = self.marginals(b)
-            seen = occ[k] @ Dd  # (N, C): P(robot i sees cell c)
-            if self.joint:
-                # inclusion–exclusion with the joint: P(I or J) = P(I) + P(J) − P(I and J),
-                # P(I and J)[c] = Σ p[sI, sJ]·D[sI, c]·D[sJ, c]
-                X = b.reshape(self.n_states, self.n_states) @ Dd
-                det[k] = seen[0] + seen[1] - (Dd * X).sum(axis=0)
-            else:
-                det[k] = 1.0 - np.prod(1.0 - seen, axis=0)
-            if k == 0:
-                haz[0] = det[0, nxt]
-                continue
-            # per robot: P(not seen on c' at k−1 and not seen on c at k) / P(not seen on c')
-            surv = np.ones(len(prev))
-            for i, step_T in enumerate(self._step_T):
-                W = G[:, prev] * occ[k - 1, i][:, None]  # (S, pairs)
-                both = (step_T @ W * G[:, nxt]).sum(axis=0)
-                before = W.sum(axis=0)
-                ok = before > 1e-12
-                surv *= np.where(ok, both / np.where(ok, before, 1.0), 1.0 - seen[i, nxt])
-            haz[k] = 1.0 - surv
+        occ = np.stack([self.marginals(x) for x in beliefs]) if self.joint else beliefs
+        seen = occ @ Dd  # (K+1, N, C): P(robot i sees cell c)
+        if self.joint:
+            # inclusion–exclusion with the joint: P(I or J) = P(I) + P(J) − P(I and J),
+            # P(I and J)[c] = Σ p[sI, sJ]·D[sI, c]·D[sJ, c]
+            both = (beliefs.reshape(K1, S, S) @ Dd * Dd).sum(axis=1)
+            det = seen[:, 0] + seen[:, 1] - both
+        else:
+            det = 1.0 - np.prod(1.0 - seen, axis=1)
+        # per robot: P(not seen on c' at k−1 and not seen on c at k) / P(not seen on c' at k−1)
+        # = occ_{k−1} · (G[:, c'] ∘ (P G)[:, c]) / occ_{k−1} · G[:, c'], one (S, pairs) matrix
+        surv = np.ones((steps, len(prev)))
+        for i, step_T in enumerate(self._step_T):
+            PG = step_T.T @ G  # (S, C): P(not seeing c one step later | s)
+            joint_ok = occ[:-1, i] @ (G[:, prev] * PG[:, nxt])
+            before = occ[:-1, i] @ G[:, prev]
+            ok = before > 1e-12
+            ratio = joint_ok / np.where(ok, before, 1.0)
+            surv *= np.where(ok, ratio, 1.0 - seen[1:, i, nxt])
+        haz = np.concatenate([det[:1, nxt], 1.0 - surv])
         return Prediction(self.t, occ, np.clip(det, 0, 1), np.clip(haz, 0, 1), model.cell_pairs)
 
 
