@@ -99,7 +99,7 @@ class RunResult:
     behavior_accuracy: float | None  # mean over robots
     behavior_accuracy_per_robot: dict[str, float]
     feature_probabilities: dict[str, dict[str, float]]
-    timings: dict[str, float]  # seconds per phase: observe, learn, plan, execute, total
+    timings: dict[str, float]  # wall s per phase (observe, learn, plan, execute), total, cpu
     observer_path: np.ndarray  # (n, 4): t, row, col, heading of L from its go time
     detections: tuple[Detection, ...]
     true_states: np.ndarray  # (end_time + 1, N) patroller state indices
@@ -230,7 +230,7 @@ def run_episode(
     streams = np.random.SeedSequence(int(seed)).spawn(4)
     sim_seed, noise_seed, learn_seed, random_seed = streams
     timings = dict.fromkeys(("observe", "learn", "plan", "execute"), 0.0)
-    t_start = time.perf_counter()
+    t_start, cpu_start = time.perf_counter(), time.process_time()
     names = scenario.robot_names
 
     clock = time.perf_counter()
@@ -324,6 +324,7 @@ def run_episode(
             accuracy[r.name] = float(acc)
             features[r.name] = {k: float(v) for k, v in r.feature_probabilities.items()}
     timings["total"] = time.perf_counter() - t_start
+    timings["cpu"] = time.process_time() - cpu_start  # this process's CPU time (busy machines)
     seen_arr = np.asarray(world.seen[: t_obs + 1])
     return RunResult(
         scenario=scenario.name,
