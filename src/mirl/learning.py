@@ -94,6 +94,7 @@ class LoopTrace:
     policies: list[np.ndarray] = field(default_factory=list)
     converged: bool = False
     message: str = ""
+    notes: set[str] = field(default_factory=set)
 
 
 @dataclass
@@ -223,6 +224,7 @@ def learn(
         with clock("equilibria"):
             trace.equilibria = _weigh(setup, policies, transitions)
         eq = trace.equilibria.equilibrium
+    message = "; ".join([message, *sorted(trace.notes)]) if trace.notes else message
     robots = []
     for i, r in enumerate(scenario.robots):
         acc = behavior_accuracy(scenario, i, policies[i]) if score else None
@@ -351,8 +353,8 @@ def _irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.n
     weights, estimators = [], []
     with setup.clock("irl"):
         for i, (x, T) in enumerate(zip(setup.series, transitions, strict=True)):
-            if not (x >= 0).any():  # never seen: nothing to learn, reward stays 0
-                weights.append(np.zeros(len(d.reward_feature_names)))
+            if not (x >= 0).any():  # never seen: filled in below
+                weights.append(None)
                 estimators.append(None)
                 continue
             init = None if previous is None else previous[i]
@@ -369,8 +371,15 @@ def _irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.n
             ).fit(x, labels[i], exclude=setup.exclude, initial_weights=init)
             weights.append(irl.weights_)
             estimators.append(irl)
+    # A robot L never saw gets the mean reward of those it saw — the patrollers are robots of
+    # one kind on one route (SPEC §2); its T stays at the uninformed maximum-entropy solution.
+    seen = [w for w in weights if w is not None]
+    fill = np.mean(seen, axis=0) if seen else np.zeros(len(d.reward_feature_names))
+    unseen = [setup.scenario.robot_names[i] for i, w in enumerate(weights) if w is None]
+    if unseen:
+        trace.notes.add(f"never observed: {', '.join(unseen)} (reward of the others)")
     trace.irl = estimators
-    return weights
+    return [fill.copy() if w is None else w for w in weights]
 
 
 def _greedy(setup: _Setup, T: sp.csr_array, weights: np.ndarray) -> np.ndarray:
