@@ -8,12 +8,15 @@ Protocol (:func:`run_episode`):
 2. **Learn** the patrollers' models with :func:`mirl.learning.learn` (the truth for ``oracle``;
    nothing for ``random``).
 3. **Plan.** A :class:`~mirl.planner.BeliefFilter` runs over everything L saw; its prediction
-   feeds L's time-indexed MDP (:func:`~mirl.planner.solve_observer_mdp`). If the best go time
-   within ``window`` steps has a positive value L waits for it and goes; otherwise L keeps
-   observing (the same simulator keeps running, new observations enter the filter; the models
-   are not relearned) and re-plans every ``replan_every`` steps. When ``max_wait`` steps have
-   passed since the end of the observation phase without a positive value the outcome is
-   ``timeout``.
+   feeds L's time-indexed MDP (:func:`~mirl.planner.solve_observer_mdp`), which scores every go
+   time in the next ``window`` steps. L keeps watching from its room (the same simulator keeps
+   running and new observations enter the filter; the models are not relearned) and re-plans
+   every ``replan_every`` steps while it has no go time with a positive value, and also whenever
+   a patroller leaves its view — the moment its belief about that robot is sharpest. A newer
+   plan may move or cancel a go time (``commit=True`` keeps the first one; on boyd2 the two
+   gave identical outcomes over 50 seeds, because the best go time is almost always "now").
+   When ``max_wait`` steps have passed since the end of the observation phase without a go
+   time the outcome is ``timeout``.
 4. **Execute.** L follows its time-indexed policy; each of its actions fails (it stays put) with
    probability 2.5 %; the true patrollers move on in the simulator; after every step the true
    detection rule is checked. ``success``: L reaches its goal unseen; ``detected``: some
@@ -24,6 +27,13 @@ Protocol (:func:`run_episode`):
 path. Every random choice comes from ``seed`` through independent ``SeedSequence`` streams
 (simulator, L's action noise, learning, random baseline), so a run is a function of its
 arguments.
+
+Defaults, measured with the true models (``oracle``) on boyd2 at 0.14, 50 seeds
+(success / detected / timeout): ``detection_penalty=0.5`` — go only when the predicted
+success beats half the predicted detection — 0.44 / 0.38 / 0.18, against 0.32 / 0.08 / 0.60
+at 1.0 (too cautious: mostly timeouts) and 0.36 / 0.64 / 0.00 at 0.25; the joint filter 0.44
+vs 0.38 with independent marginals; negative evidence 0.44 vs 0.32 without; the first-order
+hazard 0.44 vs 0.28 with independent per-step detection.
 """
 
 from __future__ import annotations
