@@ -58,7 +58,7 @@ def one_run(scenario_name: str, method: str, degree: float, steps: int, seed: in
             res.robots[1].feature_probabilities.get(f, np.nan)
             for f in ("left_wheel", "right_wheel")
         ],
-        **{k: v for k, v in options.items()},
+        "variant": json.dumps(options, sort_keys=True),
     }
 
 
@@ -98,8 +98,10 @@ VARIANTS = (
     {"objective": "sequence", "optimizer": "lbfgs"},
     {"objective": "sequence", "optimizer": "nelder-mead"},
     {"objective": "counts", "optimizer": "nelder-mead"},
+    {"objective": "counts", "optimizer": "nelder-mead", "irl_options": {"anchor": "first"}},
     {"objective": "counts", "optimizer": "lbfgs"},
     {"objective": "likelihood", "optimizer": "lbfgs"},
+    {"objective": "both", "optimizer": "lbfgs"},
 )
 
 
@@ -113,16 +115,18 @@ def variants(args) -> list[dict]:
     ]
     rows = Parallel(n_jobs=args.workers)(jobs)
     print(f"\nmirl-t at 450 steps by IRL objective / optimiser ({args.seeds} seeds)")
-    print(f"{'objective':>11}{'optimizer':>13}" + "".join(f"{d:>16g}" for d in (0.14, 0.5, 1.0)))
+    print(f"{'objective':>11}{'optimizer':>19}" + "".join(f"{d:>16g}" for d in (0.14, 0.5, 1.0)))
     for v in VARIANTS:
         cells, cpu = [], []
         for d in (0.14, 0.5, 1.0):
-            sel = [r for r in rows if r["degree"] == d and all(r[k] == x for k, x in v.items())]
+            key = json.dumps(v, sort_keys=True)
+            sel = [r for r in rows if r["degree"] == d and r["variant"] == key]
             acc = [np.mean(r["accuracy"]) for r in sel]
             cpu += [r["cpu"] for r in sel]
             cells.append(f"{np.mean(acc):.3f} ± {np.std(acc, ddof=1):.3f}")
+        name = v["optimizer"] + ("/first" if "irl_options" in v else "")
         print(
-            f"{v['objective']:>11}{v['optimizer']:>13}"
+            f"{v['objective']:>11}{name:>19}"
             + "".join(f"{c:>16}" for c in cells)
             + f"   median cpu {np.median(cpu):.2f} s"
         )

@@ -105,7 +105,7 @@ def test_occluded_steps_contribute_nothing_to_the_expert_counts(expert):
     x_obs = np.where(visible[x], x, -1)
     seen = x_obs >= 0
     labels = np.where(seen, a, -1)
-    fit = OccludedMaxEntIRL(phi, T, discount=0.9, visible=visible, objective="counts").fit
+    fit = OccludedMaxEntIRL(phi, T, discount=0.9, visible=visible, objective="sequence").fit
     counts = fit(x_obs, labels).expert_counts_
     # by hand: φ(s_t, a_t) summed over the observed, labelled steps only
     np.testing.assert_allclose(counts, phi[x[seen], a[seen]].sum(axis=0))

@@ -1,34 +1,49 @@
 """Occluded maximum-entropy IRL with sparse interactions (mIRL*+Int, Bogert & Doshi 2014).
 
 Per patroller the reward is R(s, a) = θ·φ(s, a). :class:`OccludedMaxEntIRL` learns θ from one
-robot's occluded trajectory; :func:`weigh_equilibria` then scores the interaction game's
-candidate equilibria against both robots' observations.
+robot's occluded trajectory, with that robot's T (learned by mIRL*/T, or fixed);
+:func:`weigh_equilibria` then scores the interaction game's candidate equilibria against both
+robots' observations. All expectations are exact — distributions are propagated through T, never
+sampled. π is the soft (maximum-entropy) policy of θ, π(a|s) ∝ exp(Q_soft(s, a)/τ); θ's scale is
+learned (it is π's inverse temperature; τ only fixes units), kept finite by a small L2 term. The
+policy handed on is the greedy policy of *hard* value iteration with θ and T.
 
-**Objective** (``objective="counts"``, the paper's). The expert's feature counts are taken on
-observed time steps only: Σ_t φ(s_t, a_t) over observed, labelled steps; an observed step whose
-action is unknown (the last one before the robot leaves view) contributes the model's own
-expectation Σ_a π(a|s_t) φ(s_t, a). Occluded time steps contribute nothing. The learner's counts
-are the *expected* counts on the same observable states over the same time steps,
-Σ_t Σ_{s visible} μ_t(s) Σ_a π(a|s) φ(s, a), where π is the soft (maximum-entropy) policy of
-θ and μ_t is propagated exactly from the robot's observed state (no sampling). The loss is the
-squared difference of the two count vectors divided by the number of counted observed steps,
-plus a small L2 term on θ that keeps the scale (the soft policy's inverse temperature) finite.
-``objective="likelihood"`` is the log-likelihood of the observed labelled actions under π (the
-dual of maximum-causal-entropy IRL, which ignores occluded time), ``"both"`` adds the two.
+**Objectives.**
 
-**Anchoring** of μ: ``"first"`` propagates from the first observed state over the whole window;
-``"reentry"`` (default) restarts μ at the observed state every time the robot re-enters view, so
-the counts compare what the policy predicts for each visit to the visible region with what was
-seen — the time spent out of view still matters, because predicted visits during an occluded gap
-count against the policy.
+* ``"counts"`` — the paper's. The expert's feature counts are taken on observed time steps only:
+  Σ_t φ(s_t, a_t) over observed, labelled steps (an observed step whose action is unknown — the
+  last one before the robot leaves view — contributes the model's expectation Σ_a π φ(s_t, a));
+  occluded steps contribute nothing. The learner's counts are the expected counts on the same
+  observable states and time steps, Σ_t Σ_{s visible} μ_t(s) Σ_a π(a|s) φ(s, a), μ_t propagated
+  from the observed state: from the first observation (``anchor="first"``) or restarted at every
+  re-entry into view (``"reentry"``; predicted visits during an occluded gap still count against
+  the policy). Loss: squared difference per counted observed step.
+* ``"likelihood"`` — log-likelihood of the observed labelled actions under π (the dual of
+  maximum-causal-entropy IRL); it ignores occluded time. ``"both"`` adds it to ``"counts"``.
+* ``"sequence"`` — log-likelihood of everything L saw of the robot, occlusion included:
+  P(s_{t+1} | s_t) = Σ_a π(a|s_t) T(s_t, a, s_{t+1}) between observations, and across every
+  occluded gap the exact probability of staying out of view and re-entering where it was seen
+  (a forward filter, one column per gap). Time spent out of view is evidence about the hidden
+  part of the route, which feature counts on visible cells cannot see: on boyd2 it is what
+  identifies the lower-hallway and turn-around weights when only the upper hallway is visible.
+  Actions are not needed (labels matter through T only).
 
-**Optimiser**: Nelder–Mead (derivative-free, as in the paper) from seeded restarts, or
-``"lbfgs"``: L-BFGS-B with the exact gradient (soft-policy derivatives through the successor
-features and forward-mode propagation of μ).
+**Optimisers.** Nelder–Mead (derivative-free, as in the paper) from seeded restarts, or
+``"lbfgs"``: L-BFGS-B with the exact gradient — dπ/dθ through the soft successor features
+(I − γP_π)⁻¹ φ_π, and forward-mode propagation of the distributions and their K derivatives in
+one block-sparse step.
 
-Soft values are found by soft policy iteration (Newton's method on the soft Bellman equation),
-warm-started from the previous evaluation, so each evaluation costs a few linear solves plus one
-forward propagation.
+Soft values come from soft policy iteration (Newton's method on the soft Bellman equation,
+quadratic convergence) warm-started from the previous evaluation.
+
+**Interactions.** Observed steps at which both robots are in view and *could* meet are left out of
+the per-robot fit (their actions may be the game's). The candidate equilibria (all Nash equilibria
+of the bimatrix) are weighed by the exact likelihood of both robots' observations under the joint
+dynamics — a forward filter over the S² joint states where the equilibrium's moves replace the
+policies' at meeting states (:func:`joint_log_likelihood`) — which contains the likelihood of the
+evident meetings (:func:`meeting_log_likelihood`). The joint filter costs ~0.1 s per equilibrium
+on boyd2 (450 steps), 10–25 times a marginal objective evaluation, so it weighs equilibria once
+per learned model rather than inside the optimiser.
 """
 
 from __future__ import annotations
@@ -195,8 +210,9 @@ class OccludedMaxEntIRL:
 
     Attributes after ``fit``: ``weights_`` (K,), ``policy_`` (S,) greedy policy of hard value
     iteration with ``weights_`` and the transition model, ``soft_policy_`` (S, A),
-    ``expert_counts_`` and ``expected_counts_`` (K,), ``result_`` (a ``scipy.optimize``
-    ``OptimizeResult`` with ``x``, ``fun``, ``success``, ``message``, ``nfev``, ``starts``).
+    ``expert_counts_`` and ``expected_counts_`` (K,) on the observable states (whatever the
+    objective), ``result_`` (a ``scipy.optimize.OptimizeResult`` with ``x``, ``fun``,
+    ``success``, ``message``, ``nfev`` and ``starts``, the (x, fun) of every start).
     """
 
     def __init__(
@@ -318,60 +334,61 @@ class OccludedMaxEntIRL:
         self._gap_U0 = np.array(starts).T if starts else np.zeros((S, 0))
         self._gap_steps = np.array(steps, dtype=int)
         self._gap_ends = np.array(ends, dtype=int)
+        # per step n: (gaps re-entering view, their states, gaps still unseen at the end)
+        self._gap_events = {}
+        for n in np.unique(self._gap_steps):
+            g = np.flatnonzero(self._gap_steps == n)
+            e = self._gap_ends[g]
+            self._gap_events[int(n)] = (g[e >= 0], e[e >= 0], g[e < 0])
+        self._gap_max = int(self._gap_steps.max(initial=0))
         self._n_steps = max(H - 1, 1)
 
-    def _sequence_loglik(self, pi, PT, dpi=None, dPT=None):
+    def _sequence_loglik(self, pi, B, dpi=None):
         """log P(observed series | first observation, π, T), occlusion included; with ``dpi``
-        (S, A, K) = dπ/dθ and ``dPT`` (stacked dP_πᵀ/dθ_k) also its gradient (forward mode)."""
+        (S, A, K) = dπ/dθ also its gradient. ``B`` is :meth:`_forward_operator`'s matrix."""
         K = 0 if dpi is None else dpi.shape[2]
         a, b = self._pair
         p_ab = np.maximum((pi[a] * self._Tab).sum(axis=1), 1e-300)
         total = float(np.log(p_ab).sum())
-        grad = None
+        grad = np.zeros(K)
         if K:
-            grad = ((dpi[a] * self._Tab[:, :, None]).sum(axis=1) / p_ab[:, None]).sum(axis=0)
-        if self._gap_U0.shape[1] == 0:
+            grad += ((dpi[a] * self._Tab[:, :, None]).sum(axis=1) / p_ab[:, None]).sum(axis=0)
+        G = self._gap_U0.shape[1]
+        if G == 0:
             return total, grad
-        S = PT.shape[0]
-        h = (~self._vis).astype(float)[:, None, None]
-        # Z[:, 0] propagates the gaps' state distributions (one column per gap), Z[:, k] their
-        # derivatives wrt θ_k; columns are rescaled together, so the ratios stay exact
-        Z = np.zeros((S, K + 1, self._gap_U0.shape[1]))
-        Z[:, 0] = self._gap_U0
-        steps, ends = self._gap_steps, self._gap_ends
-        log_scale = np.zeros(len(steps))
-        active = np.arange(len(steps))
-        for n in range(1, int(steps.max()) + 1):
-            Zn = self._step(PT, dPT, Z)
-            done = steps[active] == n
-            if done.any():
-                cols = np.flatnonzero(done)
-                gi = active[cols]
-                e = ends[gi]
-                hit, tail = cols[e >= 0], cols[e < 0]
-                if hit.size:  # re-entry into view at the observed state
-                    v = np.maximum(Zn[e[e >= 0], 0, hit], 1e-300)
-                    total += float((np.log(v) + log_scale[gi[e >= 0]]).sum())
-                    if K:
-                        grad += (Zn[e[e >= 0], 1:, hit] / v[:, None]).sum(axis=0)
-                Zn *= h
-                if tail.size:  # still unseen at the end of the record
-                    m = np.maximum(Zn[:, 0, tail].sum(axis=0), 1e-300)
-                    total += float((np.log(m) + log_scale[gi[e < 0]]).sum())
-                    if K:
-                        grad += (Zn[:, 1:, tail].sum(axis=0) / m).sum(axis=1)
-                keep = np.flatnonzero(~done)
-                if keep.size == 0:
-                    break
-                Zn = Zn[:, :, keep]
-                active = active[keep]
+        S = self._gap_U0.shape[0]
+        hidden = np.tile(~self._vis, K + 1).astype(float)[:, None]
+        # rows [k·S, (k+1)·S) of Z: the gaps' state distributions (k = 0, one column per gap)
+        # and their derivatives wrt θ_k; columns are rescaled as a whole, so ratios stay exact
+        Z = np.zeros(((K + 1) * S, G))
+        Z[:S] = self._gap_U0
+        log_scale = np.zeros(G)
+        alive = np.ones(G)
+        for n in range(1, self._gap_max + 1):
+            Z = B @ Z
+            event = self._gap_events.get(n)
+            if event is None:
+                Z *= hidden
             else:
-                Zn *= h
-            mass = Zn[:, 0].sum(axis=0)
-            mass = np.where(mass > 0, mass, 1.0)
-            Zn /= mass
-            log_scale[active] += np.log(mass)
-            Z = Zn
+                hit, ends, tail = event
+                if hit.size:  # re-entry into view at the observed state
+                    v = np.maximum(Z[ends, hit], 1e-300)
+                    total += float((np.log(v) + log_scale[hit]).sum())
+                    if K:
+                        grad += (Z.reshape(K + 1, S, G)[1:, ends, hit] / v).sum(axis=1)
+                Z *= hidden
+                if tail.size:  # still unseen at the end of the record
+                    m = np.maximum(Z[:S, tail].sum(axis=0), 1e-300)
+                    total += float((np.log(m) + log_scale[tail]).sum())
+                    if K:
+                        grad += (Z.reshape(K + 1, S, G)[1:, :, tail].sum(axis=1) / m).sum(axis=1)
+                alive[hit] = 0.0
+                alive[tail] = 0.0
+            if n % 8 == 0:  # rescale against underflow
+                mass = Z[:S].sum(axis=0)
+                mass = np.where(mass > 0, mass, 1.0)
+                Z /= mass
+                log_scale += alive * np.log(mass)
         return total, grad
 
     # -- objective --
@@ -390,25 +407,38 @@ class OccludedMaxEntIRL:
         return V, Q, pi
 
     @staticmethod
-    def _step(PT, dPT, Z: np.ndarray) -> np.ndarray:
-        """One forward step of distributions Z[:, 0] (S, G) and their derivatives Z[:, 1:]."""
-        S, K1, G = Z.shape
-        Zn = (PT @ Z.reshape(S, -1)).reshape(S, K1, G)
-        if K1 > 1:
-            Zn[:, 1:] += (dPT @ Z[:, 0]).reshape(K1 - 1, S, G).transpose(1, 0, 2)
-        return Zn
+    def _forward_operator(PT: sp.csr_array, dPT: sp.csr_array | None) -> sp.csr_array:
+        """P_πᵀ, or with derivatives the block matrix [[Pᵀ, 0, …], [dPᵀ_1, Pᵀ, 0, …], …] that
+        moves a distribution and its K derivatives one step on together (forward mode)."""
+        if dPT is None:
+            return PT
+        S = PT.shape[0]
+        K = dPT.shape[0] // S
+        pt, d = PT.tocoo(), dPT.tocoo()
+        off = np.repeat(np.arange(K + 1) * S, pt.nnz)
+        rows = np.concatenate([np.tile(pt.row, K + 1) + off, d.row + S])
+        cols = np.concatenate([np.tile(pt.col, K + 1) + off, d.col])
+        data = np.concatenate([np.tile(pt.data, K + 1), d.data])
+        n = (K + 1) * S
+        return sp.csr_array(sp.coo_array((data, (rows, cols)), shape=(n, n)).tocsr())
 
-    def _occupancy(self, PT, dPT=None) -> tuple[np.ndarray, np.ndarray | None]:
-        """Σ_t w_t μ_t over all segments, (S,), and with ``dPT`` its derivative (S, K)."""
+    def _occupancy(self, B: sp.csr_array, K: int) -> tuple[np.ndarray, np.ndarray]:
+        """Σ_t w_t μ_t over all segments, (S,), and its derivative (S, K) (empty if K = 0)."""
         S, n_seg = self._U0.shape
-        K = 0 if dPT is None else dPT.shape[0] // S
-        Z = np.zeros((S, K + 1, n_seg))
-        Z[:, 0] = self._U0
+        Z = np.zeros(((K + 1) * S, n_seg))
+        Z[:S] = self._U0
         out = Z @ self._W[0]
         for n in range(1, len(self._W)):
-            Z = self._step(PT, dPT, Z)
+            Z = B @ Z
             out += Z @ self._W[n]
-        return out[:, 0], (out[:, 1:] if K else None)
+        out = out.reshape(K + 1, S)
+        return out[0], out[1:].T
+
+    def _counts(self, phi_pi: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(expected, expert) feature counts on the observable states (module docstring)."""
+        expected = (D * self._vis) @ phi_pi
+        expert = self._expert_fixed + phi_pi[self._unl_s].sum(axis=0)
+        return expected, expert
 
     def _loss(self, theta: np.ndarray, grad: bool = False):
         S, A, K = self.features.shape
@@ -429,14 +459,13 @@ class OccludedMaxEntIRL:
             dpi = pi[:, :, None] * dQ_c / self.temperature  # (S, A, K)
             if counts or self.objective == "sequence":
                 dPT = self._dyn.transposed_policy(dpi)
+        B = self._forward_operator(PT, dPT)
         if counts:
             phi_pi = np.einsum("sa,sak->sk", pi, self.features)
-            D, dD = self._occupancy(PT, dPT)
-            expected = (D * self._vis) @ phi_pi
-            expert = self._expert_fixed + phi_pi[self._unl_s].sum(axis=0)
+            D, dD = self._occupancy(B, K if grad else 0)
+            expected, expert = self._counts(phi_pi, D)
             diff = (expected - expert) / self._n_obs
             loss += float(diff @ diff)
-            self._last_counts = (expected, expert)
             if grad:
                 dphi_pi = np.einsum("saj,sak->skj", dpi, self.features)  # dφ_π[:, k]/dθ_j
                 expected_g = np.einsum("s,sk,sj->kj", self._vis, phi_pi, dD) + np.einsum(
@@ -445,7 +474,7 @@ class OccludedMaxEntIRL:
                 expert_g = dphi_pi[self._unl_s].sum(axis=0)
                 g = g + 2 * (diff @ (expected_g - expert_g)) / self._n_obs
         if self.objective == "sequence":
-            ll, g_ll = self._sequence_loglik(pi, PT, dpi, dPT)
+            ll, g_ll = self._sequence_loglik(pi, B, dpi)
             loss -= ll / self._n_steps
             if grad:
                 g = g - g_ll / self._n_steps
@@ -510,14 +539,14 @@ class OccludedMaxEntIRL:
         theta = np.asarray(best.x, dtype=float)
         self._V_warm = None
         V, Q, pi = self._soft(theta)
-        self._loss(theta)
+        D, _ = self._occupancy(self._dyn.transposed_policy(pi), 0)
+        phi_pi = np.einsum("sa,sak->sk", pi, self.features)
+        self.expected_counts_, self.expert_counts_ = self._counts(phi_pi, D)
         hard = value_iteration(TabularMDP(self.transitions, self.features @ theta, self.discount))
         self.weights_ = theta
         self.soft_policy_ = pi
         self.q_values_ = hard.q_values
         self.policy_ = hard.policy
-        if self.objective in ("counts", "both"):
-            self.expected_counts_, self.expert_counts_ = self._last_counts
         self.result_ = OptimizeResult(
             x=theta,
             fun=float(best.fun),

@@ -34,9 +34,10 @@ that robot's T. ``behavior_accuracy`` (SPEC §6) is filled in from the scenario'
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -128,6 +129,7 @@ def learn(
     objective: str = "sequence",
     optimizer: str = "lbfgs",
     n_restarts: int | None = None,
+    irl_options: Mapping[str, Any] | None = None,
     random_state: int | None = 0,
     score: bool = True,
     trace: LoopTrace | None = None,
@@ -140,7 +142,8 @@ def learn(
     (the paper's choice is ``objective="counts", optimizer="nelder-mead"``; the defaults were
     picked by measured behaviour accuracy and speed, see ``benchmarks/bench_learning.py``).
     ``n_restarts`` defaults to 1 for L-BFGS (its restarts were measured to land on the same
-    optimum) and 3 for Nelder–Mead.
+    optimum) and 3 for Nelder–Mead. ``irl_options``: further keyword arguments of the
+    estimator (e.g. ``anchor``, ``l2``, ``max_evaluations``).
     ``trace``: an empty :class:`LoopTrace` to receive the labels of every round.
     """
     if method not in METHODS:
@@ -181,6 +184,7 @@ def learn(
             "objective": objective,
             "optimizer": optimizer,
             "n_restarts": n_restarts or (1 if optimizer == "lbfgs" else 3),
+            **(irl_options or {}),
         },
         random_state,
     )
