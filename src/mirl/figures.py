@@ -451,7 +451,9 @@ def report_markdown(
         "",
         f"{len(rows)} runs over {len(gs)} conditions, {_span(ns)} finished runs per "
         f"condition ({errors} failed runs excluded); base seed {meta.get('base_seed')}; mirl "
-        f"{', '.join(versions)}. Throughput: {_throughput(sessions)}.",
+        f"{', '.join(versions)}"
+        + (" (**rows from different code versions**)" if len(versions) > 1 else "")
+        + f". Throughput: {_throughput(sessions)}.",
         "",
     ]
     if name in PAPER:
