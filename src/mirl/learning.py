@@ -145,6 +145,8 @@ def learn(
     optimum) and 3 for Nelder–Mead. ``irl_options``: further keyword arguments of the
     estimator (e.g. ``anchor``, ``l2``, ``max_evaluations``).
     ``trace``: an empty :class:`LoopTrace` to receive the labels of every round.
+    ``random_state`` seeds every random choice (IRL restarts); ``None`` counts as 0, so learning
+    is deterministic.
     """
     if method not in METHODS:
         raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
@@ -228,7 +230,7 @@ def learn(
         with clock("equilibria"):
             trace.equilibria = _weigh(setup, policies, transitions)
         eq = trace.equilibria.equilibrium
-    message = "; ".join([message, *sorted(trace.notes)]) if trace.notes else message
+    message = "; ".join(m for m in (message, *sorted(trace.notes)) if m)
     robots = []
     for i, r in enumerate(scenario.robots):
         acc = behavior_accuracy(scenario, i, policies[i]) if score else None
