@@ -10,6 +10,7 @@ import scipy.sparse as sp
 
 from mirl.domain import FORWARD, STOP
 from mirl.irl import (
+    ANCHORS,
     OBJECTIVES,
     OccludedMaxEntIRL,
     joint_log_likelihood,
@@ -123,10 +124,13 @@ def test_occluded_steps_contribute_nothing_to_the_expert_counts(expert):
 
 
 @pytest.mark.parametrize("objective", OBJECTIVES)
-def test_gradients_match_finite_differences(expert, objective):
+@pytest.mark.parametrize("anchor", ANCHORS)
+def test_gradients_match_finite_differences(expert, objective, anchor):
     T, _, phi, _, x, a = expert
     visible = np.array([True, True, False, False, True])
-    irl = OccludedMaxEntIRL(phi, T, discount=0.9, visible=visible, objective=objective)
+    irl = OccludedMaxEntIRL(
+        phi, T, discount=0.9, visible=visible, objective=objective, anchor=anchor
+    )
     irl._prepare(np.where(visible[x], x, -1), a, None)
     irl._V_warm = None
     theta = np.array([0.8, -0.4])

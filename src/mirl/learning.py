@@ -140,7 +140,7 @@ def learn(
     scenario's degree). ``p``: success probability of every action for the fixed-T methods.
     ``objective``, ``optimizer``, ``n_restarts``: passed to :class:`mirl.irl.OccludedMaxEntIRL`
     (the paper's choice is ``objective="counts", optimizer="nelder-mead"``; the defaults were
-    picked by measured behaviour accuracy and speed, see ``benchmarks/bench_learning.py``).
+    picked by measured behaviour accuracy and speed, see the :mod:`mirl.irl` docstring).
     ``n_restarts`` defaults to 1 for L-BFGS (its restarts were measured to land on the same
     optimum) and 3 for Nelder–Mead. ``irl_options``: further keyword arguments of the
     estimator (e.g. ``anchor``, ``l2``, ``max_evaluations``).
