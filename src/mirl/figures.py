@@ -270,17 +270,38 @@ def fig4a_markdown(gs: list[Group], figdir: Path) -> str:
     lines = [
         f"![Fig. 4a]({png})",
         "",
-        "| method | d | n | success | detected | timed out | paper |",
-        "| --- | --- | --- | --- | --- | --- | --- |",
+        "| method | d | n | success | detected | timed out | vs mIRL*/T+Int | paper |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for g in sorted(gs, key=lambda g: g.condition.observability):
         c = g.condition
+        ref = next((h for h in gs if h.condition == Condition("mirl-t", c.scenario,
+                    c.observability, c.obs_steps)), None)  # fmt: skip
         lines.append(
             f"| {method_name(c)} | {c.observability:g} | {g.n} | "
             f"{_fmt(g.rate('success'), g.rate_se('success'))} | {_fmt(g.rate('detected'))} | "
-            f"{_fmt(g.rate('timeout'))} | {FIG4A_PAPER.get(c.method, '')} |"
+            f"{_fmt(g.rate('timeout'))} | {_paired(ref, g)} | {FIG4A_PAPER.get(c.method, '')} |"
         )
-    return "\n".join(lines)
+    return "\n".join(lines + ["", PAIRED_NOTE])
+
+
+PAIRED_NOTE = (
+    "*vs mIRL\\*/T+Int*: runs with the same seed see the same patrol (common random numbers), "
+    "so methods are compared run by run: W–L counts the seeds where mIRL\\*/T+Int succeeded and "
+    "this method did not (W) and the reverse (L); p is the exact two-sided sign test."
+)
+
+
+def _paired(ref: Group | None, g: Group) -> str:
+    """Paired wins–losses of ``ref`` over ``g`` on shared seeds, with a sign test."""
+    if ref is None or ref is g:
+        return ""
+    other = {r["run"]: r["outcome"] == "success" for r in g.rows}
+    pairs = [(r["outcome"] == "success", other[r["run"]]) for r in ref.rows if r["run"] in other]
+    w = sum(a and not b for a, b in pairs)
+    lost = sum(b and not a for a, b in pairs)
+    p = stats.binomtest(w, w + lost, 0.5).pvalue if w + lost else 1.0
+    return f"{w}–{lost} (p = {p:.2g})"
 
 
 # ---------------------------------------------------------------------------------------------
