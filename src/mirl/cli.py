@@ -163,11 +163,6 @@ def _report(args: argparse.Namespace) -> int:
 
 @command("run")
 def _run(args: argparse.Namespace) -> int:
-    # one run is one core's work: its matrices are small, and multi-threaded BLAS on a busy
-    # machine made them ~20x slower (measured). Only before numpy loads; the user's setting wins.
-    if "numpy" not in sys.modules:
-        for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-            os.environ.setdefault(var, "1")
     from mirl.runs import format_report, run_episode
 
     scenario = _load_scenario(args)
