@@ -14,15 +14,17 @@ Three parts, each usable on its own:
   visible cell (negative evidence — L sees its whole field of view). The belief at t = 0 is
   uniform, so a robot never seen is spread over the occluded states. With two robots the filter
   tracks their **joint** state (S² states, 15 376 on boyd2): meetings, where the equilibrium
-  replaces the policies' actions, are then modelled exactly. With more robots (or S² above
-  ``max_joint_states``) it tracks independent marginals and ignores meetings.
+  replaces the policies' actions, are then modelled exactly (propagated as the S × S matrix
+  P_Iᵀ B P_J, never as an S² × S² matrix). With more robots (or S² above ``max_joint_states``)
+  it tracks independent marginals and ignores meetings.
   :meth:`BeliefFilter.predict` propagates the belief without evidence into the future and turns
   it into per-cell detection probabilities d_t(c) = P(some patroller sees cell c at t).
 * :func:`solve_observer_mdp` — vectorised backward induction over (L state, t). Reaching the goal
   earns ``goal_reward`` (once: the goal is absorbing); being seen costs ``detection_penalty`` and
   ends the run, so the value of a state is ``goal_reward·P(goal reached unseen) −
   detection_penalty·P(seen first)`` within the horizon; with both at 1 a positive value means L
-  predicts success to be more likely than detection. In L's start cell only *leaving* is
+  predicts success to be more likely than detection, with the run's default penalty 0.5 (see
+  :mod:`mirl.runs`) that success beats half the detection risk. In L's start cell only *leaving* is
   allowed: the go time is chosen outside the MDP (waiting in the room is safe), so V_t(start) is
   the value of going at t and one backward pass scores every go time. L goes at the argmax over
   the window if it is positive.
