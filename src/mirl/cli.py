@@ -135,7 +135,8 @@ def _learn_transitions(args: argparse.Namespace) -> int:
 
 @command("experiment")
 def _experiment(args: argparse.Namespace) -> int:
-    from mirl.experiments import get_experiment, run_experiment
+    from mirl.experiments import get_experiment
+    from mirl.sweep import run_experiment
 
     exp = get_experiment(args.name)  # unknown name: one-line error, exit 2
     out = args.out or f"results/{exp.name}"

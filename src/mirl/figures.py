@@ -18,12 +18,12 @@ import numpy as np
 from matplotlib.figure import Figure
 from scipy import stats
 
-from mirl.experiments import EXPERIMENTS, Condition, StoreError, experiment_names, load_results
+from mirl.experiments import EXPERIMENTS, Condition, StoreError, experiment_names
+from mirl.sweep import load_results
 
 __all__ = ["write_report", "report_markdown", "PAPER", "method_name"]
 
 Row = dict[str, Any]
-OUTCOMES = ("success", "detected", "timeout")
 
 PAPER_NAMES = {
     "mirl-t": "mIRL*/T+Int",
