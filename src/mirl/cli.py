@@ -302,7 +302,7 @@ def _learn_parser(sub) -> None:
 
 
 def _run_parser(sub) -> None:
-    from mirl.runs import METHODS
+    from mirl.runs import MAX_WAIT, METHODS
 
     ru = sub.add_parser(
         "run",
@@ -317,7 +317,12 @@ def _run_parser(sub) -> None:
     ru.add_argument("--seed", type=int, default=0)
     ru.add_argument("--p", type=float, default=0.9, help="fixed success p of mirl / known-r")
     ru.add_argument(
-        "--max-wait", type=int, default=300, metavar="N", help="steps L may wait after observing"
+        "--max-wait",
+        type=int,
+        default=MAX_WAIT,
+        metavar="N",
+        help=f"steps L may wait after observing (default {MAX_WAIT}: 25 min in all with 300 "
+        "observed)",
     )
     ru.add_argument("--json", action="store_true", help="print the run as one JSON object")
     ru.add_argument("--plot", metavar="FILE.png", help="draw the run")
