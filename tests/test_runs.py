@@ -144,3 +144,33 @@ def test_default_run_is_the_main_job(capsys):
     assert main(["run"]) == 0
     text = capsys.readouterr().out
     assert "method mirl-t" in text and "observability 0.14" in text and "J:left_wheel=0.7" in text
+
+
+def test_l_replans_when_it_outlives_its_plan(boyd2):
+    from mirl.planner import BeliefFilter, solve_observer_mdp
+    from mirl.runs import _execute, _World
+
+    world = _World(boyd2, 0.14, seed=2)  # both patrollers start in the lower hallway
+    model = observer_model(boyd2)
+    belief = BeliefFilter(boyd2.domain, oracle_models(boyd2), visible=world.sim.visible)
+    belief.update(world.seen[0])
+    calls = []
+
+    def replan():
+        calls.append(world.t)
+        return solve_observer_mdp(model, belief.predict(40, model), window=0)
+
+    short = solve_observer_mdp(model, belief.predict(2, model), window=0)  # two steps only
+    outcome, path, _, plan = _execute(
+        world,
+        model,
+        lambda k, s: int(short.policy[k, s]),
+        short,
+        np.random.default_rng(0),
+        belief,
+        replan,
+        200,
+        boyd2.robot_names,
+    )
+    assert calls[0] == 2 and plan is not short
+    assert outcome in OUTCOMES and len(path) > 3

@@ -144,6 +144,11 @@ class ObserverModel:
         return column[np.asarray(patroller_states)] > 0
 
     @cached_property
+    def distance_to_goal(self) -> np.ndarray:
+        """(S_L,) steps to the goal under intended outcomes (inf where unreachable)."""
+        return _distance_to_goal(self.domain, self.goal)
+
+    @cached_property
     def cell_pairs(self) -> np.ndarray:
         """(n_pairs, 2) distinct (cell before, cell after) of L's possible one-step moves."""
         T = self.transitions.tocoo()
@@ -199,8 +204,7 @@ def _distance_to_goal(dom: PatrolDomain, goal: np.ndarray) -> np.ndarray:
 def shortest_path_policy(model: ObserverModel) -> np.ndarray:
     """(S_L,) stationary action taking L along a shortest path to its goal (ignores patrollers).
     A failed step leaves L where it was, so following it again retries."""
-    dist = _distance_to_goal(model.domain, model.goal)
-    return np.argmin(dist[model.domain.intended], axis=1)
+    return np.argmin(model.distance_to_goal[model.domain.intended], axis=1)
 
 
 # ---- prediction ------------------------------------------------------------------------------

@@ -48,6 +48,7 @@ from typing import Any
 
 import numpy as np
 
+from mirl.baselines import random_go
 from mirl.models import LearnResult, behavior_accuracy, oracle_models
 from mirl.observations import Trajectories
 from mirl.planner import (
@@ -270,17 +271,16 @@ def run_episode(
     attempts: list[PlanAttempt] = []
     plan: ObserverPlan | None = None
     belief: BeliefFilter | None = None
-    path_len = int(_shortest_length(model))
+    path_len = int(model.distance_to_goal[model.start_state])
     travel = max(20, 3 * path_len) if travel_steps is None else int(travel_steps)
 
     detections: list[Detection] = []
     path: list[tuple[int, int, int, int]] = []
     plan_value: float | None = None
     if method == "random":
-        go_time: int | None = t_obs + int(
-            np.random.default_rng(random_seed).integers(0, window + 1)
-        )
+        go_time: int | None = t_obs + random_go(np.random.default_rng(random_seed), window)
         fixed = shortest_path_policy(model)
+        replan = None
 
         def policy(k: int, s: int) -> int:
             return int(fixed[s])
@@ -306,6 +306,17 @@ def run_episode(
                 hazard=hazard,
             )
 
+        def replan() -> ObserverPlan:
+            # L out in the hallway: the same MDP (its start-cell rule does not matter there)
+            return solve_observer_mdp(
+                model,
+                belief.predict(travel, model),
+                window=0,
+                goal_reward=goal_reward,
+                detection_penalty=detection_penalty,
+                hazard=hazard,
+            )
+
         plan, go_time, attempts = _wait_for_go(
             world, belief, make_plan, t_obs + max_wait, replan_every, commit, timings
         )
@@ -325,7 +336,7 @@ def run_episode(
         timings["observe"] += time.perf_counter() - clock
         clock = time.perf_counter()
         outcome, path, detections, plan = _execute(
-            world, model, policy, plan, rng, belief, travel, names
+            world, model, policy, plan, rng, belief, replan, 10 * (travel + 1), names
         )
         timings["execute"] += time.perf_counter() - clock
 
@@ -409,12 +420,6 @@ def _wait_for_go(
         timings["plan"] += time.perf_counter() - clock
 
 
-def _shortest_length(model: ObserverModel) -> float:
-    from mirl.planner import _distance_to_goal
-
-    return float(_distance_to_goal(model.domain, model.goal)[model.start_state])
-
-
 def _execute(
     world: _World,
     model: ObserverModel,
@@ -422,11 +427,13 @@ def _execute(
     plan: ObserverPlan | None,
     rng: np.random.Generator,
     belief: BeliefFilter | None,
-    travel: int,
+    replan: Callable[[], ObserverPlan] | None,
+    max_steps: int,
     names: tuple[str, ...],
 ):
-    """L leaves its start cell now and follows ``policy(k, state)``; returns the outcome, L's
-    path (t, row, col, heading), the detections and the plan finally followed."""
+    """L leaves its start cell now and follows ``policy(k, state)`` (re-planning with
+    ``replan`` if it outlives ``plan``); returns the outcome, L's path (t, row, col, heading),
+    the detections and the plan finally followed. More than ``max_steps`` steps: timeout."""
     dom = model.domain
     s = model.start_state
     k = 0 if plan is None else world.t - plan.t0
@@ -434,11 +441,10 @@ def _execute(
     if belief is not None:  # L stopped watching when it left: propagate the belief blind
         while belief.t < world.t:
             belief.update(np.full(belief.n_robots, NOT_WATCHING))
-    for _ in range(10 * (travel + 1)):
+    for _ in range(max_steps):
         if plan is not None and k >= plan.horizon:  # outlived the plan: re-plan from here
-            assert belief is not None
-            pred = belief.predict(travel, model)
-            plan = _replan_from(model, pred, s)
+            assert replan is not None
+            plan = replan()
             k = 0
 
             def policy(kk: int, ss: int, _p=plan) -> int:
@@ -462,11 +468,6 @@ def _execute(
         if model.goal[s]:
             return "success", path, [], plan
     return "timeout", path, [], plan
-
-
-def _replan_from(model: ObserverModel, pred, state: int) -> ObserverPlan:
-    """A plan for L already out of its room: the same MDP, no start-cell restriction matters."""
-    return solve_observer_mdp(model, pred, window=0)
 
 
 # ---- the readable report of `mirl run` -------------------------------------------------------
