@@ -69,8 +69,8 @@ def draw_run(ax, scenario: Scenario, result: RunResult, *, context: int = 0):
         handles.append(mark)
     ax.legend(
         handles=handles,
-        loc="upper left",
-        bbox_to_anchor=(1.01, 1.0),
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.1),
         fontsize="small",
         frameon=False,
     )
@@ -103,8 +103,8 @@ def run_figure(scenario: Scenario, result: RunResult, *, context: int = 0):
 
     rows, cols = scenario.map.shape
     scale = 0.32 if max(rows, cols) <= 30 else 9.0 / max(rows, cols)
-    fig = Figure(figsize=(cols * scale + 7.5, max(rows * scale + 1.0, 4.0)))
-    grid = fig.add_gridspec(1, 2, width_ratios=[cols * scale + 3.0, 4.0])
+    fig = Figure(figsize=(cols * scale + 6.0, max(rows * scale + 2.0, 4.5)))
+    grid = fig.add_gridspec(1, 2, width_ratios=[cols * scale + 1.0, 4.5])
     ax_map = fig.add_subplot(grid[0, 0])
     ax_val = fig.add_subplot(grid[0, 1])
     draw_run(ax_map, scenario, result, context=context)

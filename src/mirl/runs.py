@@ -522,16 +522,21 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         feats = list(scenario.feature_map.features)
         lines.append(f"learned   transition-feature probabilities ({learned.method}):")
         lines.append("            robot" + "".join(f"{f:>13}" for f in feats))
-        low = min(
-            ((n, f) for n, fp in result.feature_probabilities.items() for f in feats),
-            key=lambda nf: result.feature_probabilities[nf[0]][nf[1]],
-        )
-        for name, fp in result.feature_probabilities.items():
+        probs = result.feature_probabilities
+        ranked = sorted((probs[n][f], n, f) for n in probs for f in feats if f in probs[n])
+        low = ranked[0][1:] if ranked[1][0] - ranked[0][0] > 1e-6 else None  # a unique lowest
+        for name, fp in probs.items():
             cells = "".join(
                 f"{fp[f]:>12.3f}{'*' if (name, f) == low else ' '}" for f in feats if f in fp
             )
-            lines.append(f"            {name:<5}{cells}")
-        lines.append(f"            * lowest: {low[0]}'s {low[1]} — L's guess of the damaged part")
+            unseen = " (never seen: maximum entropy)" if result.seen_steps.get(name) == 0 else ""
+            lines.append(f"            {name:<5}{cells}{unseen}")
+        if low is not None:
+            lines.append(
+                f"            * lowest: {low[0]}'s {low[1]} — L's guess of the damaged part"
+            )
+        else:
+            lines.append(f"            no single lowest feature ({ranked[0][0]:.3f} is shared)")
     if learned is not None:
         acc = ", ".join(f"{n} {a:.2f}" for n, a in result.behavior_accuracy_per_robot.items())
         lines.append(f"          behaviour accuracy: {acc} (mean {result.behavior_accuracy:.2f})")
