@@ -8,10 +8,11 @@ Legend (one character per cell, row 0 at the top): ``.`` hallway (patrollers and
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
+
+from mirl._resources import read_shipped_or_file, shipped_names
 
 __all__ = ["GridMap", "MapError", "load_map", "parse_map", "shipped_maps", "HEADING_DELTAS"]
 
@@ -159,26 +160,15 @@ def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> Grid
 
 
 def shipped_maps() -> list[str]:
-    root = resources.files("mirl") / "data" / "maps"
-    return sorted(p.name.removesuffix(".txt") for p in root.iterdir() if p.name.endswith(".txt"))
+    return shipped_names("maps", ".txt")
 
 
 def load_map(name_or_path: str | Path, *, cell_size: float | None = None) -> GridMap:
     """Load a shipped map by name, a plain-text map file, or a ROS map_server YAML file."""
-    text_name = str(name_or_path)
-    if text_name in shipped_maps():
-        res = resources.files("mirl") / "data" / "maps" / f"{text_name}.txt"
-        return parse_map(res.read_text(), name=text_name, source=f"{text_name} (shipped)")
     path = Path(name_or_path)
-    if path.suffix.lower() in {".yaml", ".yml"}:
+    if str(name_or_path) not in shipped_maps() and path.suffix.lower() in {".yaml", ".yml"}:
         from mirl.ros_maps import load_ros_map  # optional format, kept out of the common path
 
         return load_ros_map(path, cell_size=cell_size)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        known = ", ".join(shipped_maps())
-        raise MapError(f"{path}: no such file (shipped maps: {known})") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MapError(f"{path}: cannot read map ({exc.__class__.__name__}: {exc})") from None
-    return parse_map(text, name=path.stem, source=str(path))
+    text, source, file = read_shipped_or_file(name_or_path, "maps", ".txt", MapError, "map")
+    return parse_map(text, name=path.stem if file else str(name_or_path), source=source)

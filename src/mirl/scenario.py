@@ -11,13 +11,13 @@ import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
+from mirl._resources import read_shipped_or_file, shipped_names
 from mirl.domain import (
     DEFAULT_FEATURE_MAP,
     REWARD_FEATURES,
@@ -153,24 +153,14 @@ def parse_damage(text: str) -> tuple[str, str, float]:
 
 # ---- loading ---------------------------------------------------------------------------------
 def shipped_scenarios() -> list[str]:
-    root = resources.files("mirl") / "data" / "scenarios"
-    return sorted(p.name.removesuffix(".toml") for p in root.iterdir() if p.name.endswith(".toml"))
+    return shipped_names("scenarios", ".toml")
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
-    name = str(name_or_path)
-    if name in shipped_scenarios():
-        res = resources.files("mirl") / "data" / "scenarios" / f"{name}.toml"
-        return _from_text(res.read_text(), f"{name} (shipped)", base=None)
-    path = Path(name_or_path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        known = ", ".join(shipped_scenarios())
-        raise ScenarioError(f"{path}: no such file (shipped scenarios: {known})") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"{path}: cannot read scenario ({exc})") from None
-    return _from_text(text, str(path), base=path.parent)
+    text, source, path = read_shipped_or_file(
+        name_or_path, "scenarios", ".toml", ScenarioError, "scenario"
+    )
+    return _from_text(text, source, base=None if path is None else path.parent)
 
 
 def _from_text(text: str, source: str, base: Path | None) -> Scenario:

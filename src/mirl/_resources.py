@@ -1,0 +1,30 @@
+"""Reading a shipped data file by name, or a user's file by path, with one-line errors."""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+
+def shipped_names(folder: str, suffix: str) -> list[str]:
+    root = resources.files("mirl") / "data" / folder
+    return sorted(p.name.removesuffix(suffix) for p in root.iterdir() if p.name.endswith(suffix))
+
+
+def read_shipped_or_file(
+    name_or_path: str | Path, folder: str, suffix: str, error: type[Exception], kind: str
+) -> tuple[str, str, Path | None]:
+    """(text, source label, path or None if shipped). Errors name the file and say what
+    shipped names exist, so a typo in a name is as clear as a missing file."""
+    name = str(name_or_path)
+    shipped = shipped_names(folder, suffix)
+    if name in shipped:
+        res = resources.files("mirl") / "data" / folder / f"{name}{suffix}"
+        return res.read_text(), f"{name} (shipped)", None
+    path = Path(name_or_path)
+    try:
+        return path.read_text(), str(path), path
+    except FileNotFoundError:
+        raise error(f"{path}: no such file (shipped {kind}s: {', '.join(shipped)})") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise error(f"{path}: cannot read {kind} ({exc.__class__.__name__}: {exc})") from None
