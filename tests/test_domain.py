@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from spec_reference import DELTA, FEATURES, SPEC_XI
 
 from mirl.domain import (
     ACTIONS,
@@ -28,15 +29,6 @@ from mirl.domain import (
 )
 from mirl.maps import load_map, parse_map
 
-# heading 0 = east (col+1), 1 = north (row-1), 2 = west, 3 = south
-DELTA = {0: (0, 1), 1: (-1, 0), 2: (0, -1), 3: (1, 0)}
-FEATURES = ("left_wheel", "right_wheel", "navigation", "floor")
-SPEC_XI = {
-    "forward": {"left_wheel", "right_wheel", "navigation", "floor"},
-    "turn_left": {"right_wheel", "navigation", "floor"},
-    "turn_right": {"left_wheel", "navigation", "floor"},
-    "stop": {"floor"},
-}
 BOYD2_ENDS = {(0, 8), (16, 8)}
 
 

@@ -14,19 +14,12 @@ import pytest
 import scipy.sparse as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from spec_reference import DELTA, FEATURES, SPEC_XI
 
 from mirl.domain import ACTIONS, FeatureMap, FeatureOverride, PatrolDomain
 from mirl.maps import load_map
 from mirl.transitions import transition_matrix
 
-DELTA = {0: (0, 1), 1: (-1, 0), 2: (0, -1), 3: (1, 0)}
-FEATURES = ("left_wheel", "right_wheel", "navigation", "floor")
-SPEC_XI = {
-    "forward": {"left_wheel", "right_wheel", "navigation", "floor"},
-    "turn_left": {"right_wheel", "navigation", "floor"},
-    "turn_right": {"left_wheel", "navigation", "floor"},
-    "stop": {"floor"},
-}
 CARPET_CELLS = {(3, 1), (4, 1), (0, 5), (16, 8)}
 
 
