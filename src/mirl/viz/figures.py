@@ -81,9 +81,9 @@ def fig3(gs: list[Group], figdir: Path) -> str:
     top.set_title("Behavior accuracy vs observability and observing time (bars: 1 std)")
     acc, succ, r_text = _accuracy_success(gs)
     for m, marker in (("mirl-t", "o"), ("known-r-t", "s")):
-        sel = [i for i, g in enumerate(gs) if g.condition.method == m]
-        if sel:
-            bottom.scatter(acc[sel], succ[sel], marker=marker, label=PAPER_NAMES[m])
+        idx = [i for i, g in enumerate(gs) if g.condition.method == m]
+        if idx:
+            bottom.scatter(acc[idx], succ[idx], marker=marker, label=PAPER_NAMES[m])
     if len(acc) >= 2 and np.ptp(acc) > 0:
         slope, icept = np.polyfit(acc, succ, 1)
         xs = np.linspace(acc.min(), acc.max(), 2)
@@ -289,7 +289,7 @@ def fig4bc_markdown(gs: list[Group], figdir: Path, stem: str) -> str:
             ax.scatter(
                 xs, true, marker="D", s=22, color="red", zorder=5, label="true" if k == 0 else None
             )
-            cells = " | ".join(_fmt(*ms[i], digits=3) for i in range(len(feats)))
+            cells = " | ".join(_fmt(mean, sd, digits=3) for mean, sd in ms[: len(feats)])
             lines.append(f"| {method_name(c)} | {c.observability:g} | {g.n} | {robot} | {cells} |")
         t, p, n = ttest(g, "J", "left_wheel", "right_wheel")
         tests.append(
