@@ -6,6 +6,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
+from mirl._blas import one_blas_thread
 from mirl.cli.commands import COMMANDS, UsageError
 from mirl.cli.parser import build_parser
 
@@ -13,6 +14,7 @@ __all__ = ["main"]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    one_blas_thread()  # before any sub-command loads numpy (docs/design.md, "BLAS threads")
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:

@@ -1,19 +1,38 @@
-"""The argument parser of ``mirl``: every sub-command, flag, default and help text."""
+"""The argument parser of ``mirl``: every sub-command, flag, default and help text.
+
+Building it imports nothing but argparse: the choice lists below are literal copies of the
+learning and run modules' tuples (``tests/test_startup.py`` checks that they match), so
+``mirl --version`` or ``mirl show-map`` never pay for scipy, the learner or the planner.
+"""
 
 from __future__ import annotations
 
 import argparse
 import os
 
-from mirl import __version__
-
 __all__ = ["build_parser"]
+
+# literal copies (tests/test_startup.py checks them against their sources)
+LEARN_METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "oracle")  # learning.learn
+IRL_OBJECTIVES = ("counts", "likelihood", "both", "sequence")  # learning.irl.OBJECTIVES
+IRL_OPTIMIZERS = ("nelder-mead", "lbfgs")  # learning.irl.OPTIMIZERS
+RUN_METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "random", "oracle")  # records
+RUN_MAX_WAIT = 450  # experiments.records.MAX_WAIT
+
+
+class _VersionAction(argparse.Action):
+    """``--version``, with the installed version looked up only when asked for."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, **kwargs) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        from mirl import __version__
+
+        parser.exit(message=f"mirl {__version__}\n")
 
 
 def _learn_parser(sub) -> None:
-    from mirl.learning.irl import OBJECTIVES, OPTIMIZERS
-    from mirl.learning.learn import METHODS
-
     le = sub.add_parser(
         "learn",
         help="learn the patrollers' rewards, policies and transitions from a CSV (mIRL*/T+Int)",
@@ -22,7 +41,7 @@ def _learn_parser(sub) -> None:
     )
     _scenario_args(le)
     le.add_argument("--observations", required=True, metavar="FILE.csv")
-    le.add_argument("--method", choices=[m for m in METHODS if m != "oracle"], default="mirl-t")
+    le.add_argument("--method", choices=[m for m in LEARN_METHODS if m != "oracle"], default="mirl-t")
     le.add_argument("--p", type=_degree, default=0.9, help="fixed success p of mirl / known-r")
     le.add_argument(
         "--observability",
@@ -32,15 +51,13 @@ def _learn_parser(sub) -> None:
         help="degree the observations were taken at (default: the scenario's)",
     )
     le.add_argument("--max-iterations", type=_positive_int, default=5, metavar="N")
-    le.add_argument("--objective", choices=OBJECTIVES, default="sequence")
-    le.add_argument("--optimizer", choices=OPTIMIZERS, default="lbfgs")
+    le.add_argument("--objective", choices=IRL_OBJECTIVES, default="sequence")
+    le.add_argument("--optimizer", choices=IRL_OPTIMIZERS, default="lbfgs")
     le.add_argument("--seed", type=int, default=0)
     le.add_argument("--json", action="store_true", help="print the result as one JSON object")
 
 
 def _run_parser(sub) -> None:
-    from mirl.experiments.records import MAX_WAIT, METHODS
-
     ru = sub.add_parser(
         "run",
         help="one penetration run: observe, learn, plan, go (default: boyd2, mirl-t, 0.14)",
@@ -48,7 +65,7 @@ def _run_parser(sub) -> None:
         "for its goal; prints what it saw, learned and did, and the outcome.",
     )
     _scenario_args(ru, default="boyd2")
-    ru.add_argument("--method", choices=METHODS, default="mirl-t")
+    ru.add_argument("--method", choices=RUN_METHODS, default="mirl-t")
     ru.add_argument("--observability", type=_degree, default=None, metavar="D")
     ru.add_argument("--obs-steps", type=_positive_int, default=300, metavar="N")
     ru.add_argument("--seed", type=int, default=0)
@@ -56,9 +73,9 @@ def _run_parser(sub) -> None:
     ru.add_argument(
         "--max-wait",
         type=int,
-        default=MAX_WAIT,
+        default=RUN_MAX_WAIT,
         metavar="N",
-        help=f"steps L may wait after observing (default {MAX_WAIT}: 25 min in all with 300 "
+        help=f"steps L may wait after observing (default {RUN_MAX_WAIT}: 25 min in all with 300 "
         "observed)",
     )
     ru.add_argument("--json", action="store_true", help="print the run as one JSON object")
@@ -70,7 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="mirl",
         description="Learn other robots' rewards, policies and faulty motion under occlusion.",
     )
-    p.add_argument("--version", action="version", version=f"mirl {__version__}")
+    p.add_argument("--version", action=_VersionAction, help="show the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
     sm = sub.add_parser("show-map", help="print a map (and draw it with --png)")
