@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from mirl.learning.soft_policy import _Dynamics
+from mirl.mdp import csr_matmul
 from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
 from mirl.world.game import Equilibrium, meeting
 
@@ -84,7 +85,10 @@ class _JointModel:
         the meeting part factorises like the rest."""
         at = np.where(self.meet, M, 0.0)
         off = M - at
-        return self.PT[0] @ (self.PT[1] @ off.T).T + self.GT[0] @ (self.GT[1] @ at.T).T
+        P, G = self.PT, self.GT
+        return csr_matmul(P[0], csr_matmul(P[1], off.T).T) + csr_matmul(
+            G[0], csr_matmul(G[1], at.T).T
+        )
 
 
 def _joint_model(domain, policies, transitions, equilibrium, epsilon) -> _JointModel:

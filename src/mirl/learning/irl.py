@@ -55,7 +55,7 @@ import scipy.sparse as sp
 from scipy.optimize import OptimizeResult, minimize
 
 from mirl.learning.soft_policy import _Dynamics, soft_policy_iteration
-from mirl.mdp import TabularMDP, value_iteration
+from mirl.mdp import TabularMDP, csr_matmul, value_iteration
 
 __all__ = ["OBJECTIVES", "ANCHORS", "OPTIMIZERS", "OccludedMaxEntIRL"]
 
@@ -117,6 +117,7 @@ class OccludedMaxEntIRL:
         self._V_warm: np.ndarray | None = None  # soft values of the last evaluation (warm start)
         if self.features.ndim != 3:
             raise ValueError(f"features must be (S, A, K), got shape {self.features.shape}")
+        self.transitions_source = transitions  # as given (learn() reuses policy_ for it)
         self.transitions = sp.csr_array(transitions)
         S, A, _ = self.features.shape
         if self.transitions.shape != (S * A, S):
@@ -210,6 +211,27 @@ class OccludedMaxEntIRL:
         self._gap_U0 = np.array(starts).T if starts else np.zeros((S, 0))
         self._gap_steps = np.array(steps, dtype=int)
         self._gap_ends = np.array(ends, dtype=int)
+        self._prepare_gap_columns()
+        self._n_steps = max(H - 1, 1)
+
+    def _prepare_gap_columns(self) -> None:
+        """Gaps entered from the same state share one propagated column (they are the same
+        distribution until each re-enters view); columns are ordered by how long they are
+        needed, so the ones still needed are always a leading block."""
+        G = self._gap_U0.shape[1]
+        start = self._gap_U0.argmax(axis=0) if G else np.zeros(0, dtype=int)
+        uniq, col = np.unique(start, return_inverse=True)
+        need = np.zeros(len(uniq), dtype=int)
+        np.maximum.at(need, col, self._gap_steps)
+        order = np.argsort(-need, kind="stable")
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        self._gap_col = rank[col]  # gap -> its column
+        self._col_start = uniq[order]
+        self._col_need = need[order]
+        # columns kept: at least two when there are several gaps, so that column sums reduce
+        # exactly as they did with one column per gap (numpy sums one column pairwise)
+        self._min_cols = min(2, G)
         # per step n: (gaps re-entering view, their states, gaps still unseen at the end)
         self._gap_events = {}
         for n in np.unique(self._gap_steps):
@@ -217,11 +239,14 @@ class OccludedMaxEntIRL:
             e = self._gap_ends[g]
             self._gap_events[int(n)] = (g[e >= 0], e[e >= 0], g[e < 0])
         self._gap_max = int(self._gap_steps.max(initial=0))
-        self._n_steps = max(H - 1, 1)
 
     def _sequence_loglik(self, pi, B, dpi=None):
         """log P(observed series | first observation, π, T), occlusion included; with ``dpi``
-        (S, A, K) = dπ/dθ also its gradient. ``B`` is :meth:`_forward_operator`'s matrix."""
+        (S, A, K) = dπ/dθ also its gradient. ``B`` is :meth:`_forward_operator`'s matrix.
+
+        Long because the occluded gaps are one filter loop with its events inline: each gap is a
+        column of state distributions (and their K derivatives) propagated until it re-enters
+        view (or the record ends), rescaled every 8 steps against underflow."""
         K = 0 if dpi is None else dpi.shape[2]
         a, b = self._pair
         p_ab = np.maximum((pi[a] * self._Tab).sum(axis=1), 1e-300)
@@ -234,37 +259,47 @@ class OccludedMaxEntIRL:
             return total, grad
         S = self._gap_U0.shape[0]
         hidden = np.tile(~self._vis, K + 1).astype(float)[:, None]
-        # rows [k·S, (k+1)·S) of Z: the gaps' state distributions (k = 0, one column per gap)
-        # and their derivatives wrt θ_k; columns are rescaled as a whole, so ratios stay exact
-        Z = np.zeros(((K + 1) * S, G))
-        Z[:S] = self._gap_U0
+        col, need = self._gap_col, self._col_need
+        n_cols = max(len(need), self._min_cols)
+        # rows [k·S, (k+1)·S) of Z: the columns' state distributions (k = 0) and their
+        # derivatives wrt θ_k; columns are rescaled as a whole, so ratios stay exact
+        Z = np.zeros(((K + 1) * S, n_cols))
+        Z[self._col_start, np.arange(len(need))] = 1.0
+        if n_cols > len(need):  # a copy of column 0, only so that sums reduce as before
+            Z[:, len(need)] = Z[:, 0]
         log_scale = np.zeros(G)
         alive = np.ones(G)
         for n in range(1, self._gap_max + 1):
-            Z = B @ Z
+            live = max(int((need >= n).sum()), self._min_cols)
+            if live < Z.shape[1]:
+                Z = np.ascontiguousarray(Z[:, :live])
+            Z = csr_matmul(B, Z)
             event = self._gap_events.get(n)
             if event is None:
                 Z *= hidden
             else:
                 hit, ends, tail = event
                 if hit.size:  # re-entry into view at the observed state
-                    v = np.maximum(Z[ends, hit], 1e-300)
+                    v = np.maximum(Z[ends, col[hit]], 1e-300)
                     total += float((np.log(v) + log_scale[hit]).sum())
                     if K:
-                        grad += (Z.reshape(K + 1, S, G)[1:, ends, hit] / v).sum(axis=1)
+                        Zk = Z.reshape(K + 1, S, Z.shape[1])
+                        grad += (Zk[1:, ends, col[hit]] / v).sum(axis=1)
                 Z *= hidden
                 if tail.size:  # still unseen at the end of the record
-                    m = np.maximum(Z[:S, tail].sum(axis=0), 1e-300)
+                    m = np.maximum(Z[:S, col[tail]].sum(axis=0), 1e-300)
                     total += float((np.log(m) + log_scale[tail]).sum())
                     if K:
-                        grad += (Z.reshape(K + 1, S, G)[1:, :, tail].sum(axis=1) / m).sum(axis=1)
+                        Zk = Z.reshape(K + 1, S, Z.shape[1])
+                        grad += (Zk[1:, :, col[tail]].sum(axis=1) / m).sum(axis=1)
                 alive[hit] = 0.0
                 alive[tail] = 0.0
             if n % 8 == 0:  # rescale against underflow
                 mass = Z[:S].sum(axis=0)
                 mass = np.where(mass > 0, mass, 1.0)
                 Z /= mass
-                log_scale += alive * np.log(mass)
+                on = alive > 0
+                log_scale[on] += np.log(mass[col[on]])
         return total, grad
 
     # -- objective --

@@ -203,7 +203,7 @@ def learn(
         policies = trace.policies
     else:
         with clock("policies"):
-            policies = [_greedy(setup, transitions[i], weights[i]) for i in range(n)]
+            policies = _policies(setup, transitions, weights, trace)
     if eq is None:
         with clock("equilibria"):
             trace.equilibria = _weigh(setup, policies, transitions)
@@ -283,7 +283,7 @@ def relabel_loop(
         transitions, probs = _learn_transitions(setup, labels)
         weights = _irl_round(setup, transitions, labels, weights, round_, trace)
         with clock("policies"):
-            policies = [_greedy(setup, transitions[i], weights[i]) for i in range(n)]
+            policies = _policies(setup, transitions, weights, trace)
         trace.policies = policies
         with clock("equilibria"):
             eq = _equilibrium_for_labels(setup, policies, transitions)
@@ -398,6 +398,19 @@ def _irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.n
         trace.notes.add(f"never observed: {', '.join(unseen)} (reward of the others)")
     trace.irl = estimators
     return [fill.copy() if w is None else w for w in weights]
+
+
+def _policies(setup: _Setup, transitions, weights, trace: LoopTrace) -> list[np.ndarray]:
+    """Each robot's greedy policy under its weights and T: the IRL's own (it ends with this
+    very value iteration) when the weights are its, else solved here."""
+    out = []
+    for i, (T, w) in enumerate(zip(transitions, weights, strict=True)):
+        irl = trace.irl[i] if i < len(trace.irl) else None
+        if irl is not None and irl.weights_ is w and irl.transitions_source is T:
+            out.append(irl.policy_)
+        else:
+            out.append(_greedy(setup, T, w))
+    return out
 
 
 def _greedy(setup: _Setup, T: sp.csr_array, weights: np.ndarray) -> np.ndarray:
