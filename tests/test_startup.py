@@ -38,7 +38,8 @@ def test_light_commands_import_nothing_heavy(argv):
     loaded = _modules_after(argv)
     heavy = sorted(m for m in loaded if any(m == h or m.startswith(h + ".") for h in HEAVY))
     assert heavy == [], heavy
-    assert not any(m.startswith(("mirl.learning", "mirl.planning", "mirl.experiments")) for m in loaded)
+    stages = ("mirl.learning", "mirl.planning", "mirl.experiments")
+    assert not any(m.startswith(stages) for m in loaded)
 
 
 def test_loading_a_scenario_does_not_enumerate_equilibria():

@@ -41,7 +41,8 @@ def _learn_parser(sub) -> None:
     )
     _scenario_args(le)
     le.add_argument("--observations", required=True, metavar="FILE.csv")
-    le.add_argument("--method", choices=[m for m in LEARN_METHODS if m != "oracle"], default="mirl-t")
+    learned = [m for m in LEARN_METHODS if m != "oracle"]
+    le.add_argument("--method", choices=learned, default="mirl-t")
     le.add_argument("--p", type=_degree, default=0.9, help="fixed success p of mirl / known-r")
     le.add_argument(
         "--observability",

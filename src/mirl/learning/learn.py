@@ -273,7 +273,7 @@ def relabel_loop(
 
     The loop ends when a relabelling changes nothing (converged), when it reproduces the labels
     of an earlier round (a cycle: the labels will never fixate), or after ``max_iterations``."""
-    clock, n = setup.clock, len(setup.series)
+    clock = setup.clock
     with clock("labels"):
         labels = _perception(setup)
     weights: list[np.ndarray] | None = None  # previous round's, for warm starts

@@ -72,12 +72,7 @@ class _Dynamics:
     def solve(self, P, discount: float, b: np.ndarray) -> np.ndarray:
         """Solve (I − γ P) x = b for one or several right-hand sides."""
         if self.dense is not None:
-            # LAPACK gesv, as scipy.linalg.solve calls it, without its condition estimate
-            # (which cost as much as the solve): I − γP with γ < 1 is never near-singular
-            _, _, x, info = sla.lapack.dgesv(np.eye(self.S) - discount * P, b)
-            if info != 0:
-                raise np.linalg.LinAlgError(f"singular policy-evaluation system (info={info})")
-            return x
+            return sla.solve(np.eye(self.S) - discount * P, b, check_finite=False)
         A = sp.csc_array(sp.eye_array(self.S) - discount * P)
         return spla.splu(A).solve(np.asarray(b, dtype=float))
 

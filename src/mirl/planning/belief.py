@@ -21,7 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from mirl.learning.models import LearnResult
-from mirl.mdp import policy_matrix
+from mirl.mdp import csr_matmul, policy_matrix
 from mirl.planning.observer import ObserverModel
 from mirl.world.domain import N_HEADINGS, STOP, TURN_LEFT, PatrolDomain
 from mirl.world.game import Equilibrium, meeting
@@ -95,6 +95,7 @@ class BeliefFilter:
         self.t = -1
         self.belief: np.ndarray | None = None  # joint: (S·S,), else (N, S)
         self.fallbacks = 0  # steps whose evidence had probability ~0 under the learned model
+        self._static: dict[int, tuple] = {}  # per L model: predict()'s fixed matrices
 
     # evidence of one robot: likelihood of each state given what L saw
     def _evidence(self, observed: int) -> np.ndarray:
@@ -115,12 +116,12 @@ class BeliefFilter:
             S = self.n_states
             B = belief.reshape(S, S)
             met = B * self._meet
-            out = self._step_T[0] @ (B - met)  # P_Iᵀ X
-            out = (self._step_T[1] @ out.T).T  # … P_J
+            out = csr_matmul(self._step_T[0], B - met)  # P_Iᵀ X
+            out = csr_matmul(self._step_T[1], out.T).T  # … P_J
             if met.any():
-                out += (self._mixed_T[1] @ (self._mixed_T[0] @ met).T).T
+                out += csr_matmul(self._mixed_T[1], csr_matmul(self._mixed_T[0], met).T).T
             return out.ravel()
-        return np.stack([F @ b for F, b in zip(self._step_T, belief, strict=True)])
+        return np.stack([csr_matmul(F, b) for F, b in zip(self._step_T, belief, strict=True)])
 
     def marginals(self, belief: np.ndarray | None = None) -> np.ndarray:
         """(N, S) per-robot marginals of ``belief`` (default: the current one)."""
@@ -169,6 +170,17 @@ class BeliefFilter:
                 post, z = np.ones_like(prior), float(len(prior))
         return post / z
 
+    def _detection_parts(self, model: ObserverModel):
+        """Dense D (S, C), G = 1 − D and per robot P G (P(not seeing c one step later | s)):
+        fixed for a filter and L's model, so computed once, not at every re-plan."""
+        cached = self._static.get(id(model))
+        if cached is None or cached[0] is not model:
+            Dd = sp.csr_array(model.detection).toarray()
+            G = 1.0 - Dd  # (S, C): a robot in state s does not see cell c
+            PGs = [step_T.T @ G for step_T in self._step_T]
+            cached = self._static[id(model)] = (model, Dd, G, PGs)
+        return cached[1:]
+
     def predict(self, steps: int, model: ObserverModel) -> Prediction:
         """Occupancies, detection probabilities and hazards for t = now … now + ``steps``.
 
@@ -178,8 +190,7 @@ class BeliefFilter:
         if self.belief is None:
             raise ValueError("predict() before any update(): the filter has no belief yet")
         S, K1 = self.n_states, steps + 1
-        Dd = sp.csr_array(model.detection).toarray()
-        G = 1.0 - Dd  # (S, C): a robot in state s does not see cell c
+        Dd, G, PGs = self._detection_parts(model)
         prev, nxt = model.cell_pairs.T
         beliefs = np.empty((K1, *self.belief.shape))
         b = self.belief
@@ -199,8 +210,7 @@ class BeliefFilter:
         # per robot: P(not seen on c' at k−1 and not seen on c at k) / P(not seen on c' at k−1)
         # = occ_{k−1} · (G[:, c'] ∘ (P G)[:, c]) / occ_{k−1} · G[:, c'], one (S, pairs) matrix
         surv = np.ones((steps, len(prev)))
-        for i, step_T in enumerate(self._step_T):
-            PG = step_T.T @ G  # (S, C): P(not seeing c one step later | s)
+        for i, PG in enumerate(PGs):
             joint_ok = occ[:-1, i] @ (G[:, prev] * PG[:, nxt])
             before = occ[:-1, i] @ G[:, prev]
             ok = before > 1e-12
