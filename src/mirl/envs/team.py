@@ -64,7 +64,7 @@ class TeamEnv(ParallelEnv):
             n: spaces.Discrete(len(ACTIONS)) for n in sc.robot_names
         }
         self._act_spaces[OBSERVER] = spaces.Discrete(len(OBSERVER_ACTIONS))
-        self._rewards = [sc.domain.rewards(r.weights) for r in sc.robots]
+        self._rewards = [sc.domain.rewards(list(r.weights)) for r in sc.robots]
         self._t = 0
 
     def observation_space(self, agent: str) -> spaces.Space:

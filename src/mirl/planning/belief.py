@@ -155,12 +155,13 @@ class BeliefFilter:
         """Advance one step and condition on ``observed`` ((N,) state indices, -1 = unseen)."""
         observed = np.asarray(observed, dtype=int)
         S = self.n_states
-        if self.belief is None:
+        prior: np.ndarray
+        if self.belief is None and self.mode == "team":
+            prior = np.full((S,) * self.n_robots, float(S) ** -self.n_robots)
+        elif self.belief is None:
             prior = (
                 np.full(S * S, 1.0 / (S * S)) if self.joint else np.full((self.n_robots, S), 1 / S)
             )
-            if self.mode == "team":
-                prior = np.full((S,) * self.n_robots, float(S) ** -self.n_robots)
         else:
             prior = self._propagate(self.belief)
         ev = [self._evidence(int(o)) for o in observed]

@@ -136,7 +136,7 @@ def _feature(value: Any, path: str, shape: tuple[int, int]) -> RewardFeature:
     if kind in ("region", "heading_in_region") and "cells" not in value:
         raise schema.FieldError(path, f"a '{kind}' feature needs cells")
     cells = read_region(value["cells"], f"{path}.cells", shape) if "cells" in value else None
-    headings = ()
+    headings: tuple[int, ...] = ()
     if kind == "heading_in_region":
         if "headings" not in value:
             raise schema.FieldError(path, "a 'heading_in_region' feature needs headings")

@@ -134,7 +134,7 @@ def read_robots(
     if len(items) > MAX_ROBOTS:
         raise FieldError("robots", f"at most {MAX_ROBOTS} patrollers, got {len(items)}")
     names = reward.names
-    robots = []
+    robots: list[RobotSpec] = []
     for i, rd in enumerate(items):
         where = f"robots[{i}]"
         rd = schema.table(rd, where, ("name", "start", "feature_probabilities", "weights"))
