@@ -29,7 +29,8 @@ class _VersionAction(argparse.Action):
     def __call__(self, parser, namespace, values, option_string=None) -> None:
         from mirl import __version__
 
-        parser.exit(message=f"mirl {__version__}\n")
+        print(f"mirl {__version__}")
+        parser.exit()
 
 
 def _learn_parser(sub) -> None:
