@@ -78,10 +78,8 @@ class _Clock:
     @contextmanager
     def __call__(self, phase: str) -> Iterator[None]:
         start = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.timings[phase] = self.timings.get(phase, 0.0) + time.perf_counter() - start
+        yield  # a phase that raises ends learning: its time is not needed
+        self.timings[phase] = self.timings.get(phase, 0.0) + time.perf_counter() - start
 
 
 @dataclass
@@ -368,8 +366,7 @@ def _learn_transitions(setup: _Setup, labels: list[np.ndarray]):
 def _fixed_transitions(setup: _Setup, p: float):
     with setup.clock("transitions"):
         T = transition_matrix_from_success(setup.domain, p, setup.scenario.error_model)
-    n = len(setup.series)
-    return [T] * n, [{} for _ in range(n)]
+    return [T] * len(setup.series), [{} for _ in setup.series]
 
 
 def _em_transitions(setup: _Setup):
@@ -415,21 +412,17 @@ def _irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.n
 
 
 def _policies(setup: _Setup, transitions, weights, trace: LoopTrace) -> list[np.ndarray]:
-    """Each robot's greedy policy under its weights and T: the IRL's own (it ends with this
-    very value iteration) when the weights are its, else solved here."""
+    """Greedy policies of hard value iteration with each robot's weights and T: the IRL's own
+    where it fits (its last step is this very value iteration), else solved here."""
     out = []
     for i, (T, w) in enumerate(zip(transitions, weights, strict=True)):
-        irl = trace.irl[i] if i < len(trace.irl) else None
-        if irl is not None and irl.weights_ is w and irl.transitions_source is T:
-            out.append(irl.policy_)
+        e = trace.irl[i] if i < len(trace.irl) else None
+        if e is not None and e.weights_ is w and e.transitions_source is T:
+            out.append(e.policy_)
         else:
-            out.append(_greedy(setup, T, w))
+            mdp = TabularMDP(T, setup.domain.rewards(w), setup.scenario.discount)
+            out.append(value_iteration(mdp).policy)
     return out
-
-
-def _greedy(setup: _Setup, T: sp.csr_array, weights: np.ndarray) -> np.ndarray:
-    mdp = TabularMDP(T, setup.domain.rewards(weights), setup.scenario.discount)
-    return value_iteration(mdp).policy
 
 
 def _weigh(setup: _Setup, policies, transitions, trace: LoopTrace) -> EquilibriumWeights:
