@@ -211,15 +211,18 @@ def backward_induction(
     n_states, n_actions = rewards.shape[-2:]
     if rewards.ndim == 3 and rewards.shape[0] != horizon:
         raise ValueError(f"time-indexed rewards must have {horizon} slices, got {rewards.shape[0]}")
+    # actions first, as in value_iteration: Q[t] is (A, S), its max runs along the long axis
+    T_as = actions_first(sp.csr_array(transitions), n_actions)
+    R_as = np.swapaxes(rewards, -1, -2)
     V = np.zeros((horizon + 1, n_states))
     if terminal_values is not None:
         V[horizon] = terminal_values
-    Q = np.empty((horizon, n_states, n_actions))
+    Q = np.empty((horizon, n_actions, n_states))
     for t in range(horizon - 1, -1, -1):
-        R_t = rewards[t] if rewards.ndim == 3 else rewards
-        Q[t] = R_t + discount * (transitions @ V[t + 1]).reshape(n_states, n_actions)
-        V[t] = Q[t].max(axis=1)
-    return FiniteHorizonResult(V, Q, Q.argmax(axis=2))
+        R_t = R_as[t] if rewards.ndim == 3 else R_as
+        Q[t] = R_t + discount * csr_matmul(T_as, V[t + 1]).reshape(n_actions, n_states)
+        V[t] = Q[t].max(axis=0)
+    return FiniteHorizonResult(V, Q.transpose(0, 2, 1), Q.argmax(axis=1))
 
 
 def optimal_action_mask(q_values: np.ndarray, *, rtol: float = 1e-9, atol: float = 1e-9):
