@@ -90,12 +90,75 @@ def _simulate(args: argparse.Namespace) -> int:
     if args.truth:
         result.truth.to_csv(args.truth)
         print(f"wrote {args.truth} ({len(result.truth)} rows)")
+    if args.poses:
+        _write_poses(args, scenario, result.observations)
+    return 0
+
+
+def _write_poses(args: argparse.Namespace, scenario, observations) -> None:
+    from pathlib import Path
+
+    from mirl.bags import is_bag, write_mcap
+    from mirl.discretise import poses_from_trajectories
+    from mirl.poses import write_pose_csv
+
+    sigma_m, sigma_deg = args.pose_noise or (0.0, 0.0)
+    tracks = poses_from_trajectories(
+        observations,
+        scenario,
+        step_seconds=args.step_seconds,
+        rate_hz=args.pose_rate,
+        sigma_xy=sigma_m,
+        sigma_yaw_degrees=sigma_deg,
+        seed=args.seed,
+    )
+    out = Path(args.poses)
+    if out.suffix == ".csv":
+        write_pose_csv(tracks, out)
+        what = "pose CSV"
+    elif out.suffix == ".mcap" or not out.suffix or is_bag(out):
+        write_mcap(tracks, out)
+        what = "MCAP, topics /ROBOT/pose"
+    else:
+        raise UsageError(f"--poses {out}: expected a .csv or .mcap file or a bag directory")
+    print(
+        f"wrote {out} ({len(tracks)} poses, {what}, {args.pose_rate:g} Hz, steps of "
+        f"{args.step_seconds:g} s from t = 0; noise {sigma_m:g} m / {sigma_deg:g} deg)"
+    )
+
+
+def _read_observations(args: argparse.Namespace, scenario, observability=None):
+    from mirl.observation_sources import load_observations, parse_topic
+
+    return load_observations(
+        args.observations,
+        scenario,
+        topics=[parse_topic(t) for t in args.topic or []],
+        step_seconds=args.step_seconds,
+        start_time=args.start_time,
+        tolerance=args.tolerance,
+        drop_off_map=args.drop_off_map,
+        visible=args.visible,
+        observability=observability,
+    )
+
+
+@command("convert")
+def _convert(args: argparse.Namespace) -> int:
+    scenario = _load_scenario(args)
+    args.observations = args.input
+    loaded = _read_observations(args, scenario)
+    loaded.trajectories.to_csv(args.output)
+    if loaded.discretised is not None:
+        print(f"{args.input}: " + loaded.discretised.summary())
+    else:
+        print(f"{args.input}: grid observations, {loaded.trajectories.horizon} steps")
+    print(f"wrote {args.output} ({len(loaded.trajectories)} rows)")
     return 0
 
 
 @command("learn-transitions")
 def _learn_transitions(args: argparse.Namespace) -> int:
-    from mirl.observations import read_csv
     from mirl.transitions import (
         TransitionFeatureLearner,
         observed_steps,
@@ -105,7 +168,7 @@ def _learn_transitions(args: argparse.Namespace) -> int:
 
     scenario = _load_scenario(args)
     domain = scenario.domain
-    obs = read_csv(args.observations, domain, scenario.robot_names)
+    obs = _read_observations(args, scenario).trajectories
     series = [obs.state_series(domain, i) for i in range(len(scenario.robots))]
     if args.labels == "true-policy":
         # Known R/T setting: the scenario's true policies and played equilibrium label the steps
@@ -192,16 +255,17 @@ def _run(args: argparse.Namespace) -> int:
 @command("learn")
 def _learn(args: argparse.Namespace) -> int:
     from mirl.learning import learn
-    from mirl.observations import read_csv
 
     scenario = _load_scenario(args)
-    obs = read_csv(args.observations, scenario.domain, scenario.robot_names)
     degree = scenario.observability if args.observability is None else args.observability
+    loaded = _read_observations(args, scenario, observability=degree)
+    obs = loaded.trajectories
     result = learn(
         obs,
         scenario,
         args.method,
         p=args.p,
+        visible=loaded.visible_states(scenario),
         observability=degree,
         max_iterations=args.max_iterations,
         objective=args.objective,
@@ -247,6 +311,8 @@ def _learn(args: argparse.Namespace) -> int:
         f"{result.method} on {scenario.name}: {args.observations} ({obs.horizon} steps, "
         f"observability {degree:g})"
     )
+    if loaded.discretised is not None:
+        print("poses discretised: " + loaded.discretised.summary())
     for name, r in robots.items():
         print(f"robot {name}")
         print("  weights       " + "  ".join(f"{k}={v:.3f}" for k, v in r["weights"].items()))
@@ -284,7 +350,7 @@ def _learn_parser(sub) -> None:
         "probabilities, and the interaction equilibrium, from L's observations.",
     )
     _scenario_args(le)
-    le.add_argument("--observations", required=True, metavar="FILE.csv")
+    _observation_args(le)
     le.add_argument("--method", choices=[m for m in METHODS if m != "oracle"], default="mirl-t")
     le.add_argument("--p", type=_degree, default=0.9, help="fixed success p of mirl / known-r")
     le.add_argument(
@@ -369,11 +435,32 @@ def build_parser() -> argparse.ArgumentParser:
     )
     si.add_argument("--observations", metavar="FILE.csv", help="write L's observations")
     si.add_argument("--truth", metavar="FILE.csv", help="write the true trajectories")
+    si.add_argument(
+        "--poses",
+        metavar="OUT",
+        help="also write L's observations as continuous poses: a pose CSV (.csv), or an MCAP "
+        "file (.mcap) / ROS 2 bag directory with a PoseStamped topic /ROBOT/pose per robot",
+    )
+    si.add_argument("--pose-rate", type=_positive_float, default=10.0, metavar="HZ")
+    si.add_argument(
+        "--pose-noise",
+        type=_non_negative_float,
+        nargs=2,
+        metavar=("SIGMA_M", "SIGMA_DEG"),
+        help="Gaussian noise on the poses: metres per axis and degrees of yaw",
+    )
+    si.add_argument(
+        "--step-seconds",
+        type=_positive_float,
+        default=2.0,
+        metavar="S",
+        help="seconds per time step of the written poses (default 2)",
+    )
     lt = sub.add_parser(
         "learn-transitions", help="learn transition-feature probabilities (mIRL*/T) from a CSV"
     )
     _scenario_args(lt)
-    lt.add_argument("--observations", required=True, metavar="FILE.csv")
+    _observation_args(lt)
     lt.add_argument(
         "--labels",
         choices=("true-policy", "perception"),
@@ -381,6 +468,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="label observed steps with the true policy (Known R/T) or by perception",
     )
     lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
+    cv = sub.add_parser(
+        "convert",
+        help="pose data (bag, MCAP, pose CSV) -> grid observations CSV, with per-robot counts",
+        description="Discretise robot poses onto the scenario's map and steps and write them as "
+        "t,robot,row,col,heading; prints per robot how many poses were read, binned, snapped "
+        "and dropped, and how many steps are observed.",
+    )
+    cv.add_argument("input", metavar="IN", help="a .bag, ROS 2 bag directory, .mcap or CSV")
+    cv.add_argument("output", metavar="OUT.csv")
+    _scenario_args(cv)
+    _observation_args(cv, with_file=False)
     _experiment_parsers(sub)
     _run_parser(sub)
     _learn_parser(sub)
@@ -422,6 +520,74 @@ def _scenario_args(sp: argparse.ArgumentParser, default: str | None = None) -> N
         metavar="ROBOT:FEATURE=P",
         help="override a true feature probability, e.g. J:left_wheel=0.7",
     )
+
+
+def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> None:
+    if with_file:
+        sp.add_argument(
+            "--observations",
+            required=True,
+            metavar="FILE",
+            help="grid CSV (t,robot,row,col,heading), pose CSV (t,robot,x,y,yaw), ROS 1 .bag, "
+            "ROS 2 bag directory or .mcap",
+        )
+    g = sp.add_argument_group("pose data (bags, MCAP, pose CSV)")
+    g.add_argument(
+        "--topic",
+        action="append",
+        metavar="TOPIC=ROBOT",
+        help="a pose topic and the scenario robot it is (repeatable), e.g. /tb_i/amcl_pose=I; "
+        "for a pose CSV, renames a robot of the file",
+    )
+    g.add_argument(
+        "--step-seconds", type=_positive_float, default=None, metavar="S", help="default 2"
+    )
+    g.add_argument(
+        "--start-time",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="time of step 0 (default: the earliest pose read)",
+    )
+    g.add_argument(
+        "--tolerance",
+        type=_non_negative_float,
+        default=None,
+        metavar="SECONDS",
+        help="a step takes the nearest pose within this (default: half a step)",
+    )
+    g.add_argument(
+        "--drop-off-map",
+        action="store_true",
+        help="drop (and count) poses more than half a cell from the hallway instead of failing",
+    )
+    g.add_argument(
+        "--visible",
+        choices=("observed",),
+        default=None,
+        help="cells L could see: default the observability degree's; 'observed': every cell "
+        "a robot was observed on",
+    )
+
+
+def _positive_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not (v > 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return v
+
+
+def _non_negative_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not (v >= 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a non-negative number, got {text}")
+    return v
 
 
 def _positive_int(text: str) -> int:
