@@ -18,12 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from mirl.bags import read_bag, write_mcap
-from mirl.discretise import discretise
-from mirl.mapframe import map_frame
-from mirl.observations import Trajectories, _read_csv_python, read_csv
-from mirl.poses import PoseTracks, read_pose_csv, write_pose_csv
-from mirl.scenario import load_scenario
+from mirl.observations.bags import read_bag, write_mcap
+from mirl.observations.discretise import discretise
+from mirl.observations.poses import PoseTracks, read_pose_csv, write_pose_csv
+from mirl.observations.trajectories import Trajectories, _read_csv_python, read_csv
+from mirl.world.maps import HEADING_YAWS
+from mirl.world.scenario import load_scenario
 
 RATE_HZ = 30.0
 STEP_S = 2.0
@@ -53,8 +53,8 @@ def hour_of_poses(scenario, hours: float, seed: int = 0) -> PoseTracks:
     n_robots = len(scenario.robots)
     states = rng.integers(0, d.n_states, size=(n_robots, n_steps))
     rch = d.states[states]  # (robots, steps, 3)
-    x, y = map_frame(scenario.map).cell_centre(rch[..., 0], rch[..., 1])
-    yaw = np.array([0.0, np.pi / 2, np.pi, -np.pi / 2])[rch[..., 2]]
+    x, y = scenario.map.frame.cell_centre(rch[..., 0], rch[..., 1])
+    yaw = HEADING_YAWS[rch[..., 2]]
     m = n_steps * per_step
     # the step's pose for the half-step either side of the step time
     j = np.arange(m)

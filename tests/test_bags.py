@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from bag_helpers import pose_message, string_message, typestore, write_bag
 
-from mirl.bags import BagError, bag_topics, read_bag, write_mcap
-from mirl.discretise import discretise
-from mirl.poses import PoseTracks
-from mirl.scenario import load_scenario
+from mirl.observations.bags import BagError, bag_topics, read_bag, write_mcap
+from mirl.observations.discretise import discretise
+from mirl.observations.poses import PoseTracks
+from mirl.world.scenario import load_scenario
 
 TOPICS = {"/tb_i/amcl_pose": "I", "/tb_j/odom": "J"}
 PI = math.pi

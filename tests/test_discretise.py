@@ -2,21 +2,24 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from mirl.discretise import (
+import mirl
+from mirl.observations.discretise import (
     DiscretisationError,
     discretise,
     heading_of_yaw,
     poses_from_trajectories,
 )
-from mirl.mapframe import MapFrame
-from mirl.poses import PoseTracks
-from mirl.scenario import load_scenario
-from mirl.simulator import simulate
+from mirl.observations.poses import PoseTracks
+from mirl.simulation.grid import simulate
+from mirl.world.maps import MapFrame
+from mirl.world.scenario import load_scenario
 
 FIELDS = ("t", "robot", "row", "col", "heading")
 
@@ -113,22 +116,29 @@ def test_unknown_robot_nan_and_bad_arguments(scenario):
         discretise(poses([(0, 0, 1, 0, 0)]), scenario, step_seconds=0)
 
 
-def test_map_frame_origin_and_cell_size(scenario):
+def test_map_frame_origin_and_cell_size(scenario, tmp_path):
     frame = MapFrame(cell_size=0.5, origin_x=-3.0, origin_y=2.0)
-    gridmap = scenario.map
-    saved = getattr(gridmap, "frame", None)
-    object.__setattr__(gridmap, "frame", frame)
-    try:
-        # centre of (16, 4): x = -3 + 4 * 0.5 = -1, y = 2 - 16 * 0.5 = -6
-        x, y = frame.cell_centre(16, 4)
-        assert (float(x), float(y)) == (-1.0, -6.0)
-        d = discretise(poses([(0, 1, -1.1, -5.9, math.pi / 2)]), scenario)
-        tr = d.trajectories
-        assert (tr.row[0], tr.col[0], tr.heading[0]) == (16, 4, 1)
-        r, c = frame.cell_coordinates(x, y)
-        assert (float(r), float(c)) == (16.0, 4.0)
-    finally:
-        object.__setattr__(gridmap, "frame", saved)
+    moved = dataclasses.replace(scenario, map=dataclasses.replace(scenario.map, frame=frame))
+    # centre of (16, 4): x = -3 + 4 * 0.5 = -1, y = 2 - 16 * 0.5 = -6
+    x, y = frame.cell_centre(16, 4)
+    assert (float(x), float(y)) == (-1.0, -6.0)
+    d = discretise(poses([(0, 1, -1.1, -5.9, math.pi / 2)]), moved)
+    tr = d.trajectories
+    assert (tr.row[0], tr.col[0], tr.heading[0]) == (16, 4, 1)
+    # the same frame from a scenario file's [frame] table
+    text = (Path(mirl.__file__).parent / "data" / "scenarios" / "boyd2.toml").read_text()
+    path = tmp_path / "framed.toml"
+    path.write_text(
+        text.replace(
+            'map = "boyd2"', 'map = "boyd2"\nframe = { cell_size = 0.5, origin = [-3.0, 2.0] }'
+        )
+    )
+    framed = load_scenario(path)
+    assert framed.map.frame == frame
+    assert same(discretise(poses([(0, 1, -1.1, -5.9, math.pi / 2)]), framed).trajectories, tr)
+    # ... and the default frame puts that pose far off the hallway
+    with pytest.raises(DiscretisationError, match="more than 0.5 cell"):
+        discretise(poses([(0, 1, -1.1, -5.9, math.pi / 2)]), scenario)
 
 
 def test_visible_cells(scenario):
@@ -140,3 +150,39 @@ def test_visible_cells(scenario):
     np.testing.assert_array_equal(states, scenario.domain.visible_states(scenario.observability))
     d = discretise(p, scenario, visible="observed")
     assert d.visible.sum() == 2 and [c.outside_visible for c in d.report] == [0, 0]
+
+
+def test_ros_map_frame_from_yaml(tmp_path):
+    """A map_server map: origin = lower-left corner of the image; row 0 is the image top."""
+    import yaml
+    from PIL import Image
+
+    from mirl.world.ros_maps import load_ros_map
+
+    base = load_scenario("boyd2").map
+    # boyd2 at 0.1 m per pixel, 1 m cells: 170 x 90 pixels
+    px = np.kron(base.free.astype(np.uint8), np.ones((10, 10), dtype=np.uint8)).astype(bool)
+    Image.fromarray(np.where(px, 254, 0).astype(np.uint8), mode="L").save(tmp_path / "m.pgm")
+    yml = tmp_path / "m.yaml"
+    yml.write_text(
+        yaml.safe_dump(
+            {
+                "image": "m.pgm",
+                "resolution": 0.1,
+                "origin": [-2.0, -3.0, 0.0],
+                "negate": 0,
+                "occupied_thresh": 0.65,
+                "free_thresh": 0.196,
+                "mirl_observer_start": [0, 0],
+                "mirl_goals": [[9, 1]],
+            }
+        )
+    )
+    gridmap = load_ros_map(yml, cell_size=1.0)
+    # top of the image: y = -3 + 17 m; centre of cell (0, 0): 0.5 m in from the corner
+    assert gridmap.frame == MapFrame(cell_size=1.0, origin_x=-1.5, origin_y=13.5)
+    scenario = dataclasses.replace(load_scenario("boyd2"), map=gridmap)
+    # the lower hallway's east end, cell (16, 8), spans x in [6, 7], y in [-3, -2]
+    d = discretise(poses([(0.0, 1, 6.9, -2.1, 0.0)]), scenario)
+    tr = d.trajectories
+    assert (tr.row[0], tr.col[0]) == (16, 8)

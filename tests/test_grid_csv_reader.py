@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import mirl.observations as observations
-from mirl.observations import TrajectoryError, read_csv
-from mirl.scenario import load_scenario
-from mirl.simulator import simulate
+import mirl.observations.trajectories as observations
+from mirl.observations.trajectories import TrajectoryError, read_csv
+from mirl.simulation.grid import simulate
+from mirl.world.scenario import load_scenario
 
 NAMES = ("I", "J")
 GOOD = "t,robot,row,col,heading\n0,I,0,8,2\n0,J,16,8,2\n"

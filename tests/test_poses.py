@@ -7,7 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from mirl.poses import PoseError, PoseTracks, read_pose_csv, write_pose_csv, yaw_from_quaternion
+from mirl.observations.poses import (
+    PoseError,
+    PoseTracks,
+    read_pose_csv,
+    write_pose_csv,
+    yaw_from_quaternion,
+)
 
 
 def tracks(n=200, seed=0):
