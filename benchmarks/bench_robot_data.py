@@ -3,6 +3,12 @@
 side. Targets: ≤ 5 s each on one core.
 
     python benchmarks/bench_robot_data.py [--hours 1] [--csv-mb 50] [--repeats 3]
+    python benchmarks/bench_robot_data.py --round-trip [--seeds 5]
+
+``--round-trip``: for each seed and observability, ``mirl simulate`` writes the grid CSV and
+MCAP poses (10 Hz; no noise, and Gaussian noise σ = 5 cm / 3°, 15 cm / 10°, 30 cm / 20°);
+``mirl learn --json`` runs on each, and the JSON of the noiseless MCAP is compared with the grid
+CSV's (minus the file name and timings), the noisy ones by their feature probabilities.
 
 Everything runs in one process on one thread (pyarrow's CSV reader is asked for one thread;
 numpy does no BLAS work here). Setup (writing the files) is timed and reported apart.
@@ -108,7 +114,12 @@ def main() -> None:
     ap.add_argument("--hours", type=float, default=1.0)
     ap.add_argument("--csv-mb", type=float, default=50.0)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--round-trip", action="store_true", help="the learn round trip instead")
+    ap.add_argument("--seeds", type=int, default=5)
     args = ap.parse_args()
+    if args.round_trip:
+        round_trip(args.seeds)
+        return
     sc3 = three_robot_scenario()
     topics = {f"/{n}/pose": n for n in sc3.robot_names}
     with tempfile.TemporaryDirectory() as tmp:
@@ -217,6 +228,69 @@ def _parse_only(path: Path, repeats: int) -> None:
     n = sum(1 for _ in open(head)) - 1
     size = path.stat().st_size / head.stat().st_size
     print(f"  parse only: numpy.loadtxt           {t * size:6.2f} s  (extrapolated from {n} rows)")
+
+
+NOISE = [(0.05, 3.0), (0.15, 10.0), (0.30, 20.0)]
+
+
+def _cli_json(argv: list[str]) -> dict:
+    import contextlib
+    import io
+    import json
+
+    from mirl.cli import main
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = main(argv)
+    if code != 0:
+        raise SystemExit(f"mirl {' '.join(argv)} exited {code}")
+    text = buf.getvalue()
+    return json.loads(text[text.index("{") :]) if "--json" in argv else {}
+
+
+def round_trip(n_seeds: int, steps: int = 300) -> None:
+    import contextlib
+    import io
+
+    from mirl.cli import main
+
+    topics = ["--topic", "/I/pose=I", "--topic", "/J/pose=J", "--start-time", "0"]
+    print(f"round trip on boyd2, {steps} steps, seeds 0-{n_seeds - 1}, poses at 10 Hz")
+    print("obs.  seed  MCAP==CSV  " + "  ".join(f"max|dp| {m:g} m/{d:g} deg" for m, d in NOISE))
+    worst = {n: 0.0 for n in NOISE}
+    with tempfile.TemporaryDirectory() as tmp:
+        for degree in ("0.14", "1.0"):
+            for seed in range(n_seeds):
+                d = Path(tmp) / f"{degree}-{seed}"
+                d.mkdir()
+                sim = ["simulate", "--scenario", "boyd2", "--steps", str(steps)]
+                sim += ["--seed", str(seed), "--observability", degree]
+                with contextlib.redirect_stdout(io.StringIO()):
+                    main([*sim, "--observations", str(d / "o.csv"), "--poses", str(d / "p.mcap")])
+                    for k, (m, deg) in enumerate(NOISE):
+                        noisy = ["--pose-noise", str(m), str(deg)]
+                        main([*sim, "--poses", str(d / f"n{k}.mcap"), *noisy])
+                learn = ["learn", "--scenario", "boyd2", "--observability", degree, "--json"]
+                ref = _cli_json([*learn, "--observations", str(d / "o.csv")])
+                clean = _cli_json([*learn, "--observations", str(d / "p.mcap"), *topics])
+                for res in (ref, clean):
+                    res.pop("observations"), res.pop("timings")
+                deltas = []
+                for k, n in enumerate(NOISE):
+                    noisy = [*learn, "--observations", str(d / f"n{k}.mcap"), *topics]
+                    res = _cli_json([*noisy, "--drop-off-map"])  # 30 cm: a few poses > 0.5 cell off
+                    delta = max(
+                        abs(res["robots"][r]["feature_probabilities"][f] - p)
+                        for r, v in ref["robots"].items()
+                        for f, p in v["feature_probabilities"].items()
+                    )
+                    worst[n] = max(worst[n], delta)
+                    deltas.append(delta)
+                same = "yes" if clean == ref else "NO"
+                cells = "  ".join(f"{x:>22.4f}" for x in deltas)
+                print(f"{degree:>5}  {seed:>4}  {same:>9}  {cells}")
+    print("worst  " + "  ".join(f"{m:g} m/{d:g} deg: {worst[(m, d)]:.4f}" for m, d in NOISE))
 
 
 if __name__ == "__main__":
