@@ -24,10 +24,11 @@ from pathlib import Path
 
 import numpy as np
 
+from mirl.observations._csv import arrow_write
 from mirl.observations.bags import read_bag, write_mcap
 from mirl.observations.discretise import discretise
 from mirl.observations.poses import PoseTracks, read_pose_csv, write_pose_csv
-from mirl.observations.trajectories import Trajectories, _read_csv_python, read_csv
+from mirl.observations.trajectories import HEADER, Trajectories, _read_csv_python, read_csv
 from mirl.world.maps import HEADING_YAWS
 from mirl.world.scenario import load_scenario
 
@@ -84,7 +85,6 @@ def hour_of_poses(scenario, hours: float, seed: int = 0) -> PoseTracks:
 def grid_csv(path: Path, scenario, megabytes: float, seed: int = 0) -> int:
     """A grid observations CSV of about ``megabytes`` MB; returns the number of rows."""
     import pyarrow as pa
-    import pyarrow.csv as pv
 
     rng = np.random.default_rng(seed)
     d = scenario.domain
@@ -103,9 +103,7 @@ def grid_csv(path: Path, scenario, megabytes: float, seed: int = 0) -> int:
             "heading": tr.heading,
         }
     )
-    with open(path, "wb") as fh:
-        fh.write(b"t,robot,row,col,heading\n")
-        pv.write_csv(table, fh, pv.WriteOptions(include_header=False, quoting_style="none"))
+    arrow_write(table, path, HEADER)
     return len(tr)
 
 

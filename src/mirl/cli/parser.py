@@ -241,24 +241,24 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
     )
 
 
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
-    if not (v > 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
-    return v
+def _float_at_least(low: float, *, strict: bool):
+    """An argparse type: a finite number > ``low`` (``strict``) or >= ``low``."""
+
+    def parse(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+        if not (v < float("inf") and (v > low if strict else v >= low)):
+            what = "positive" if strict else "non-negative"
+            raise argparse.ArgumentTypeError(f"must be a {what} number, got {text}")
+        return v
+
+    return parse
 
 
-def _non_negative_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
-    if not (v >= 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a non-negative number, got {text}")
-    return v
+_positive_float = _float_at_least(0.0, strict=True)
+_non_negative_float = _float_at_least(0.0, strict=False)
 
 
 def _positive_int(text: str) -> int:
