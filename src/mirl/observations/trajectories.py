@@ -5,7 +5,7 @@ output. Reading validates every row against the scenario and reports the file, l
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -67,10 +67,7 @@ class Trajectories:
 
     def truncate(self, steps: int) -> Trajectories:
         out = self.select(self.t < steps)
-        return Trajectories(
-            *[getattr(out, f) for f in ("robot_names", "t", "robot", "row", "col", "heading")],
-            steps,
-        )
+        return replace(out, horizon=steps)
 
     @classmethod
     def from_states(
@@ -197,7 +194,7 @@ def _sorted_checked(path, arr: np.ndarray, line_of, robot_names, horizon) -> Tra
         horizon = last
     elif horizon < last:
         raise TrajectoryError(f"{path}: time {last - 1} is beyond the horizon {horizon}")
-    return Trajectories(robot_names, *arr.T, horizon=horizon)
+    return Trajectories(robot_names, arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3], arr[:, 4], horizon)
 
 
 def _read_csv_python(
