@@ -240,3 +240,13 @@ def test_bare_mcap_file_is_read(tmp_path):
     bare = tmp_path / "copy.mcap"
     shutil.copy(inner, bare)
     assert read_bag(bare, TOPICS).counts().tolist() == [6, 4]
+
+
+def test_zero_quaternion_is_an_error(tmp_path):
+    ts = typestore(True)
+    recs = [("/p", t, pose_message(ts, "stamped", t, 1.0, 0.0, 0.0)) for t in (1.0, 2.0)]
+    recs[1][2][1].pose.orientation.w = 0.0  # an orientation never filled in
+    path = write_bag(tmp_path / "z", recs, fmt="mcap")
+    with pytest.raises(BagError) as e:
+        read_bag(path, {"/p": "I"})
+    _one_line(e, path, "topic /p", "message 1", "zero quaternion")

@@ -123,6 +123,8 @@ def test_bad_robot_data_one_line_exit_2(tmp_path, capsys):
     assert "I: 2 poses read, 2 binned, 0 snapped, 1 dropped, 1 steps observed" in (
         capsys.readouterr().out
     )
+    sim = ["simulate", "--scenario", "boyd2", "--steps", "5", "--poses", str(tmp_path / "s.bag")]
+    one_error_line(capsys, main(sim), "s.bag", "ROS 1 bags are read, not written")
     # pose options on a grid CSV are an error, not ignored
     grid = tmp_path / "g.csv"
     grid.write_text("t,robot,row,col,heading\n0,I,0,8,2\n")
