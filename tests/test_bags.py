@@ -250,3 +250,24 @@ def test_zero_quaternion_is_an_error(tmp_path):
     with pytest.raises(BagError) as e:
         read_bag(path, {"/p": "I"})
     _one_line(e, path, "topic /p", "message 1", "zero quaternion")
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_fast_path_is_taken(tmp_path, fmt, monkeypatch):
+    """Only the first and last message of a topic go through rosbags' deserialiser."""
+    import mirl.observations.bags as bags
+
+    path = write_bag(bag_path(tmp_path, fmt), records(fmt != "ros1"), fmt=fmt)
+    calls = []
+    original = bags._decode_one
+
+    def counting(reader, raw, msgtype):
+        calls.append(msgtype)
+        return original(reader, raw, msgtype)
+
+    monkeypatch.setattr(bags, "_decode_one", counting)
+    read_bag(path, TOPICS)
+    assert len(calls) == 4  # 2 topics x (first, last)
+    calls.clear()
+    read_bag(path, TOPICS, decode="rosbags")
+    assert len(calls) == 10

@@ -32,7 +32,7 @@ def test_convert_hand_built_bag(tmp_path, capsys, fmt):
     code = main(["convert", str(bag), str(out), "--scenario", "boyd2", *TOPIC_ARGS])
     text = capsys.readouterr().out
     assert code == 0
-    assert "7 steps of 2 s from t = 100.000 s (tolerance 1 s)" in text
+    assert "7 steps of 2 s from t = 100.000 s (tolerance 1 s); 4 cells visible to L" in text
     assert "I: 6 poses read, 6 binned, 1 snapped, 0 dropped, 5 steps observed" in text
     assert "J: 4 poses read, 4 binned, 0 snapped, 0 dropped, 4 steps observed" in text
     rows = [line.split(",") for line in out.read_text().splitlines()[1:]]

@@ -78,7 +78,7 @@ class Discretised:
         tr = self.trajectories
         head = (
             f"{tr.horizon} steps of {self.step_seconds:g} s from t = {self.start_time:.3f} s "
-            f"(tolerance {self.tolerance:g} s)"
+            f"(tolerance {self.tolerance:g} s); {int(self.visible.sum())} cells visible to L"
         )
         return "\n".join([head, *("  " + c.line() for c in self.report)])
 
