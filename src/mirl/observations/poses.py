@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mirl.observations._csv import arrow_read, arrow_write, csv_header, data_line_numbers
+from mirl.observations._csv import arrow_read, csv_header, data_line_numbers, write_columns
 
 __all__ = [
     "PoseTracks",
@@ -235,20 +235,9 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
 
 def write_pose_csv(tracks: PoseTracks, path: str | Path) -> None:
     """Write ``t,robot,x,y,yaw`` rows (floats at full precision: reading back is exact)."""
-    import pyarrow as pa
-
-    names = pa.array(list(tracks.robot_names) or [""], type=pa.string())
-    robot = pa.DictionaryArray.from_arrays(pa.array(tracks.robot, type=pa.int32()), names)
-    table = pa.table(
-        {
-            "t": tracks.t,
-            "robot": robot.cast(pa.string()),
-            "x": tracks.x,
-            "y": tracks.y,
-            "yaw": tracks.yaw,
-        }
-    )
+    tr = tracks
+    columns = {"t": tr.t, "robot": tr.robot, "x": tr.x, "y": tr.y, "yaw": tr.yaw}
     try:
-        arrow_write(table, path, POSE_HEADER)
+        write_columns(path, columns, tr.robot, tr.robot_names)
     except OSError as exc:
         raise PoseError(f"{path}: cannot write ({exc})") from None

@@ -84,20 +84,11 @@ class Trajectories:
         return cls(robot_names, tt + t0, rr, rch[:, 0], rch[:, 1], rch[:, 2], states.shape[0] + t0)
 
     def to_csv(self, path: str | Path) -> None:
-        with open(path, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(HEADER)
-            names = np.asarray(self.robot_names, dtype=object)[self.robot]
-            w.writerows(
-                zip(
-                    self.t.tolist(),
-                    names,
-                    self.row.tolist(),
-                    self.col.tolist(),
-                    self.heading.tolist(),
-                    strict=True,
-                )
-            )
+        """Write ``t,robot,row,col,heading`` rows (pyarrow, vectorised)."""
+        from mirl.observations._csv import write_columns
+
+        columns = {h: getattr(self, h) for h in HEADER}
+        write_columns(path, columns, self.robot, self.robot_names)
 
 
 def read_csv(
