@@ -271,3 +271,12 @@ def test_fast_path_is_taken(tmp_path, fmt, monkeypatch):
     calls.clear()
     read_bag(path, TOPICS, decode="rosbags")
     assert len(calls) == 10
+
+
+def test_unfilled_stamps_are_an_error(tmp_path):
+    ts = typestore(False)
+    recs = [("/p", 1.0 + k, pose_message(ts, "stamped", 0.0, 1.0, 0.0, 0.0)) for k in range(3)]
+    path = write_bag(tmp_path / "z.bag", recs, fmt="ros1")
+    with pytest.raises(BagError) as e:
+        read_bag(path, {"/p": "I"})
+    _one_line(e, path, "topic /p", "3 messages have header stamp 0")

@@ -162,6 +162,11 @@ def _check(path: Path, topic: str, robot: str, cols: np.ndarray) -> PoseTracks:
             f"{path}: topic {topic}: message {i} (stamp {t[i]:.9f} s): orientation is the zero "
             "quaternion (not filled in?)"
         )
+    if np.count_nonzero(t == 0.0) > 1:
+        raise BagError(
+            f"{path}: topic {topic}: {np.count_nonzero(t == 0.0)} messages have header stamp 0 "
+            "(stamps not filled in?)"
+        )
     back = np.flatnonzero(np.diff(t) < 0)
     if back.size:
         i = int(back[0]) + 1
