@@ -9,9 +9,9 @@ re-enters view), so a record of G gaps from U exit states costs U columns, not G
 from __future__ import annotations
 
 import numpy as np
+from scipy.sparse import _sparsetools
 
 from mirl.learning.soft_policy import _Dynamics
-from mirl.mdp import csr_matmul
 
 __all__ = ["ObservedSequence"]
 
@@ -74,6 +74,8 @@ class ObservedSequence:
             e = self._gap_ends[g]
             self._gap_events[int(n)] = (g[e >= 0], e[e >= 0], g[e < 0])
         self._gap_max = int(self._gap_steps.max(initial=0))
+        # columns still needed at step n (a leading block), never fewer than _min_cols
+        self._live = [max(int((need >= n).sum()), self._min_cols) for n in range(self._gap_max + 1)]
 
     def loglik(self, pi, B, visible, dpi=None):
         """log P(observed series | first observation, π, T), occlusion included; with ``dpi``
@@ -105,11 +107,16 @@ class ObservedSequence:
             Z[:, len(need)] = Z[:, 0]
         log_scale = np.zeros(G)
         alive = np.ones(G)
+        R, kernel = Z.shape[0], _sparsetools.csr_matvecs
+        out = np.empty_like(Z)  # two buffers in turn: the step writes one from the other
         for n in range(1, self._gap_max + 1):
-            live = max(int((need >= n).sum()), self._min_cols)
+            live = self._live[n]
             if live < Z.shape[1]:
                 Z = np.ascontiguousarray(Z[:, :live])
-            Z = csr_matmul(B, Z)
+                out = np.empty_like(Z)
+            out.fill(0.0)  # Z ← B Z by the kernel behind `B @ Z` (mirl.mdp.csr_matmul)
+            kernel(R, R, live, B.indptr, B.indices, B.data, Z.ravel(), out.ravel())
+            Z, out = out, Z
             event = self._gap_events.get(n)
             if event is None:
                 Z *= hidden
