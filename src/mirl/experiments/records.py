@@ -17,6 +17,8 @@ __all__ = [
     "LEARNED_METHODS",
     "OUTCOMES",
     "MAX_WAIT",
+    "WATCH_UNTIL_SEEN",
+    "WATCH_LIMIT",
     "Detection",
     "PlanAttempt",
     "RunResult",
@@ -28,6 +30,11 @@ OUTCOMES = ("success", "detected", "timeout")
 # L may wait 450 steps (15 min) after observing: with the default 300 observation steps a run
 # lasts at most 25 min of robot time, the paper's limit for its physical runs
 MAX_WAIT = 450
+# `mirl run`'s default observation rule (issue 13): after the 300 steps, L keeps watching until
+# it has seen every patroller on WATCH_UNTIL_SEEN steps, for at most WATCH_LIMIT steps in all
+# (60 min of robot time: on boyd2 at 0.14, seed 19's J first enters L's view at t=1555)
+WATCH_UNTIL_SEEN = 40
+WATCH_LIMIT = 1800
 
 
 @dataclass(frozen=True)
