@@ -236,7 +236,7 @@ def _read_csv_python(
             f"{path}: not UTF-8 text (byte 0x{exc.object[exc.start]:02x} cannot be decoded)"
         ) from None
     except csv.Error as exc:
-        raise TrajectoryError(f"{path}: line {reader.line_num + 1}: {exc}") from None
+        raise TrajectoryError(f"{path}: line {reader.line_num}: {exc}") from None
 
 
 def _parse_rows(path: Path, reader, domain, robot_names, horizon) -> Trajectories:
