@@ -6,7 +6,8 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from mirl.cli.commands import COMMANDS, UsageError
+from mirl.cli.checks import UsageError
+from mirl.cli.commands import COMMANDS
 from mirl.cli.parser import build_parser
 
 __all__ = ["main"]

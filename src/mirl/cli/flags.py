@@ -24,7 +24,8 @@ __all__ = [
 
 # sizes that cannot work are refused at the flag, with the limit in the message:
 MAX_STEPS = 1_000_000  # `simulate --steps`: the record is 2 x 3 int64 per step (48 MB at the cap)
-MAX_OBS_STEPS = 10_000  # `run --obs-steps`: L's filter and learning are O(steps) (~5.5 h of robot time)
+# `run --obs-steps`: L's filter and learning are O(steps); 10 000 steps = 5.5 h of robot time
+MAX_OBS_STEPS = 10_000
 MAX_WAIT_STEPS = 10_000  # `run --max-wait`: L re-plans every 10 steps while waiting
 MAX_SEED = 2**63 - 1
 

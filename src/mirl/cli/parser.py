@@ -59,7 +59,10 @@ def _learn_parser(sub) -> None:
         "--objective", choices=OBJECTIVES, default="sequence", help="IRL objective (paper: counts)"
     )
     le.add_argument(
-        "--optimizer", choices=OPTIMIZERS, default="lbfgs", help="IRL optimiser (paper: nelder-mead)"
+        "--optimizer",
+        choices=OPTIMIZERS,
+        default="lbfgs",
+        help="IRL optimiser (paper: nelder-mead)",
     )
     _em_init_arg(le)
     le.add_argument("--seed", type=seed, default=0, help="seed of the learner's random choices")

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -52,8 +52,8 @@ from mirl.experiments.execution import RunWorld, execute, wait_for_go
 from mirl.experiments.records import (
     LEARNED_METHODS,
     MAX_WAIT,
-    WATCH_LIMIT,
     METHODS,
+    WATCH_LIMIT,
     Detection,
     PlanAttempt,
     RunResult,
@@ -203,10 +203,11 @@ def run_episode(
         timings["execute"] += time.perf_counter() - clock
     timings["total"] = time.perf_counter() - t_start
     timings["cpu"] = time.process_time() - cpu_start  # this process's CPU time (busy machines)
-    return _run_result(
+    result = _run_result(
         scenario, method, int(seed), degree, t_obs + 1, world, t_obs, learned, going,
         (outcome, path, detections, plan), timings,
     )  # fmt: skip
+    return replace(result, watch_until_seen=watch_until_seen)
 
 
 def _observe(world: RunWorld, obs_steps: int, until_seen: int | None, limit: int) -> None:

@@ -366,7 +366,10 @@ def _fixed_transitions(setup: _Setup, p: float):
 
 def _em_transitions(setup: _Setup):
     with setup.clock("transitions"):
-        T = [sp.csr_array(em_transition_model(setup.domain, [x], init=setup.em_init)) for x in setup.series]
+        T = [
+            sp.csr_array(em_transition_model(setup.domain, [x], init=setup.em_init))
+            for x in setup.series
+        ]
     return T, [{} for _ in setup.series]
 
 

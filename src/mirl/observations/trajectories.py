@@ -89,7 +89,7 @@ class Trajectories:
 
     def to_csv(self, path: str | Path) -> None:
         with open(path, "w", newline="") as fh:
-            w = csv.writer(fh)
+            w = csv.writer(fh, lineterminator="\n")
             w.writerow(HEADER)
             names = np.asarray(self.robot_names, dtype=object)[self.robot]
             w.writerows(
