@@ -130,98 +130,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"mirl {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
-    sm = sub.add_parser("show-map", help="print a map (and draw it with --png)")
-    sm.add_argument(
-        "map", metavar="NAME_OR_PATH", help="shipped name, office-RxC[-sK], text map or ROS YAML"
-    )
-    sm.add_argument(
-        "--observability",
-        type=fraction,
-        default=None,
-        metavar="D",
-        help="shade the cells visible to L at degree D",
-    )
-    sm.add_argument("--png", metavar="FILE", help="also draw the map to a PNG file")
-    sm.add_argument(
-        "--cell-size",
-        type=positive_float,
-        default=None,
-        help="cell size in metres for ROS map_server maps (None: the YAML's resolution)",
-    )
-
-    si = sub.add_parser("simulate", help="simulate the patrollers and record what L sees")
-    _scenario_args(si)
-    si.add_argument(
-        "--steps", type=bounded_int(1, MAX_STEPS), default=300, help="time steps (2 s each)"
-    )
-    si.add_argument("--seed", type=seed, default=0, help="seed of the simulation")
-    si.add_argument(
-        "--observability",
-        type=fraction,
-        default=None,
-        metavar="D",
-        help="share of the patrollers' cells L sees (None: the scenario's)",
-    )
-    si.add_argument(
-        "--heading-noise",
-        type=fraction,
-        default=0.0,
-        metavar="EPS",
-        help="probability that an observed heading is misread",
-    )
-    si.add_argument(
-        "--random-starts",
-        action="store_true",
-        help="start each patroller at a random state of its patrol cycle",
-    )
-    si.add_argument("--observations", metavar="FILE.csv", help="write L's observations")
-    si.add_argument("--truth", metavar="FILE.csv", help="write the true trajectories")
-    si.add_argument(
-        "--poses",
-        metavar="OUT",
-        help="also write L's observations as continuous poses: a pose CSV (.csv), or an MCAP "
-        "file (.mcap) / ROS 2 bag directory with a PoseStamped topic /ROBOT/pose per robot",
-    )
-    si.add_argument(
-        "--pose-rate", type=positive_float, default=10.0, metavar="HZ", help="poses per second"
-    )
-    si.add_argument(
-        "--pose-noise",
-        type=non_negative_float,
-        nargs=2,
-        metavar=("SIGMA_M", "SIGMA_DEG"),
-        help="Gaussian noise on the poses: metres per axis and degrees of yaw",
-    )
-    si.add_argument(
-        "--step-seconds",
-        type=positive_float,
-        default=2.0,
-        metavar="S",
-        help="seconds per time step of the written poses",
-    )
-    lt = sub.add_parser(
-        "learn-transitions", help="learn transition-feature probabilities (mIRL*/T) from a CSV"
-    )
-    _scenario_args(lt)
-    _observation_args(lt)
-    lt.add_argument(
-        "--labels",
-        choices=("true-policy", "perception"),
-        default="true-policy",
-        help="label observed steps with the true policy (Known R/T) or by perception",
-    )
-    lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
-    cv = sub.add_parser(
-        "convert",
-        help="pose data (bag, MCAP, pose CSV) -> grid observations CSV, with per-robot counts",
-        description="Discretise robot poses onto the scenario's map and steps and write them as "
-        "t,robot,row,col,heading; prints per robot how many poses were read, binned, snapped "
-        "and dropped, and how many steps are observed.",
-    )
-    cv.add_argument("input", metavar="IN", help="a .bag, ROS 2 bag directory, .mcap or CSV")
-    cv.add_argument("output", metavar="OUT.csv", help="grid observations CSV to write")
-    _scenario_args(cv)
-    _observation_args(cv, with_file=False)
+    _show_map_parser(sub)
+    _simulate_parser(sub)
+    _data_parsers(sub)
     _experiment_parsers(sub)
     _run_parser(sub)
     _learn_parser(sub)
@@ -340,3 +251,106 @@ def _em_init_arg(sp: argparse.ArgumentParser) -> None:
         help="DBN-EM's initial transitions: uniform over the intended states of all actions, or "
         "over all states (None: intended)",
     )
+
+
+def _show_map_parser(sub) -> None:
+    """``mirl show-map``."""
+    sm = sub.add_parser("show-map", help="print a map (and draw it with --png)")
+    sm.add_argument(
+        "map", metavar="NAME_OR_PATH", help="shipped name, office-RxC[-sK], text map or ROS YAML"
+    )
+    sm.add_argument(
+        "--observability",
+        type=fraction,
+        default=None,
+        metavar="D",
+        help="shade the cells visible to L at degree D",
+    )
+    sm.add_argument("--png", metavar="FILE", help="also draw the map to a PNG file")
+    sm.add_argument(
+        "--cell-size",
+        type=positive_float,
+        default=None,
+        help="cell size in metres for ROS map_server maps (None: the YAML's resolution)",
+    )
+
+
+def _simulate_parser(sub) -> None:
+    """``mirl simulate``."""
+    si = sub.add_parser("simulate", help="simulate the patrollers and record what L sees")
+    _scenario_args(si)
+    si.add_argument(
+        "--steps", type=bounded_int(1, MAX_STEPS), default=300, help="time steps (2 s each)"
+    )
+    si.add_argument("--seed", type=seed, default=0, help="seed of the simulation")
+    si.add_argument(
+        "--observability",
+        type=fraction,
+        default=None,
+        metavar="D",
+        help="share of the patrollers' cells L sees (None: the scenario's)",
+    )
+    si.add_argument(
+        "--heading-noise",
+        type=fraction,
+        default=0.0,
+        metavar="EPS",
+        help="probability that an observed heading is misread",
+    )
+    si.add_argument(
+        "--random-starts",
+        action="store_true",
+        help="start each patroller at a random state of its patrol cycle",
+    )
+    si.add_argument("--observations", metavar="FILE.csv", help="write L's observations")
+    si.add_argument("--truth", metavar="FILE.csv", help="write the true trajectories")
+    si.add_argument(
+        "--poses",
+        metavar="OUT",
+        help="also write L's observations as continuous poses: a pose CSV (.csv), or an MCAP "
+        "file (.mcap) / ROS 2 bag directory with a PoseStamped topic /ROBOT/pose per robot",
+    )
+    si.add_argument(
+        "--pose-rate", type=positive_float, default=10.0, metavar="HZ", help="poses per second"
+    )
+    si.add_argument(
+        "--pose-noise",
+        type=non_negative_float,
+        nargs=2,
+        metavar=("SIGMA_M", "SIGMA_DEG"),
+        help="Gaussian noise on the poses: metres per axis and degrees of yaw",
+    )
+    si.add_argument(
+        "--step-seconds",
+        type=positive_float,
+        default=2.0,
+        metavar="S",
+        help="seconds per time step of the written poses",
+    )
+
+
+def _data_parsers(sub) -> None:
+    """``mirl learn-transitions`` and ``mirl convert``."""
+    lt = sub.add_parser(
+        "learn-transitions", help="learn transition-feature probabilities (mIRL*/T) from a CSV"
+    )
+    _scenario_args(lt)
+    _observation_args(lt)
+    lt.add_argument(
+        "--labels",
+        choices=("true-policy", "perception"),
+        default="true-policy",
+        help="label observed steps with the true policy (Known R/T) or by perception",
+    )
+    lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
+    cv = sub.add_parser(
+        "convert",
+        help="pose data (bag, MCAP, pose CSV) -> grid observations CSV, with per-robot counts",
+        description="Discretise robot poses onto the scenario's map and steps and write them as "
+        "t,robot,row,col,heading; prints per robot how many poses were read, binned, snapped "
+        "and dropped, and how many steps are observed.",
+    )
+    cv.add_argument("input", metavar="IN", help="a .bag, ROS 2 bag directory, .mcap or CSV")
+    cv.add_argument("output", metavar="OUT.csv", help="grid observations CSV to write")
+    _scenario_args(cv)
+    _observation_args(cv, with_file=False)
