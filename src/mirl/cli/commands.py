@@ -67,6 +67,9 @@ def _show_map(args: argparse.Namespace) -> int:
 def _simulate(args: argparse.Namespace) -> int:
     from mirl.simulation.grid import simulate
 
+    for flag, path in (("--observations", args.observations), ("--truth", args.truth)):
+        if path:
+            check_output(path, flag)
     scenario = _load_scenario(args)
     start = time.perf_counter()
     result = simulate(
