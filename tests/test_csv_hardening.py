@@ -55,7 +55,7 @@ def test_hostile_values_are_one_line_errors(tmp_path, domain, tail, expected):
 def test_giant_field_in_the_row_by_row_reader(tmp_path, domain):
     from mirl.observations.trajectories import _read_csv_python
 
-    path = _write(tmp_path, (GOOD + "1,\"" + "I" * 200_000 + "\",0,7,2\n").encode())
+    path = _write(tmp_path, (GOOD + '1,"' + "I" * 200_000 + '",0,7,2\n').encode())
     with pytest.raises(TrajectoryError, match=r"obs\.csv: line 4: field larger than field limit"):
         _read_csv_python(path, domain, NAMES)
     with pytest.raises(TrajectoryError, match=r"obs\.csv: line 4: robot 'IIII"):
@@ -82,9 +82,24 @@ def test_undecodable_bytes_name_the_file(tmp_path, domain):
         st.binary(max_size=300),
         st.lists(
             st.sampled_from(
-                ["t,robot,row,col,heading\n", "0,I,0,8,2\n", "1,J,16,7,2\n", ",", "\"", "\r\n",
-                 "\xef\xbb\xbf", "-1", "99999999999999999999", "I", " ", "\x00", "\xff", "1e3",
-                 "0,I,0,7,5\n", "3,I,0,7,2\n"]
+                [
+                    "t,robot,row,col,heading\n",
+                    "0,I,0,8,2\n",
+                    "1,J,16,7,2\n",
+                    ",",
+                    '"',
+                    "\r\n",
+                    "\xef\xbb\xbf",
+                    "-1",
+                    "99999999999999999999",
+                    "I",
+                    " ",
+                    "\x00",
+                    "\xff",
+                    "1e3",
+                    "0,I,0,7,5\n",
+                    "3,I,0,7,2\n",
+                ]
             ),
             max_size=30,
         ).map(lambda parts: "".join(parts).encode("utf-8", "surrogateescape")),
