@@ -24,11 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
-from mirl.observations._csv import arrow_write
 from mirl.observations.bags import read_bag, write_mcap
 from mirl.observations.discretise import discretise
 from mirl.observations.poses import PoseTracks, read_pose_csv, write_pose_csv
-from mirl.observations.trajectories import HEADER, Trajectories, _read_csv_python, read_csv
+from mirl.observations.trajectories import Trajectories, _read_csv_python, read_csv
 from mirl.world.maps import HEADING_YAWS
 from mirl.world.scenario import load_scenario
 
@@ -84,8 +83,6 @@ def hour_of_poses(scenario, hours: float, seed: int = 0) -> PoseTracks:
 
 def grid_csv(path: Path, scenario, megabytes: float, seed: int = 0) -> int:
     """A grid observations CSV of about ``megabytes`` MB; returns the number of rows."""
-    import pyarrow as pa
-
     rng = np.random.default_rng(seed)
     d = scenario.domain
     rows = int(megabytes * 1e6 / 15.5)  # ~15.5 bytes a row at these magnitudes
@@ -93,17 +90,7 @@ def grid_csv(path: Path, scenario, megabytes: float, seed: int = 0) -> int:
     tr = Trajectories.from_states(
         d, scenario.robot_names[:2], rng.integers(0, d.n_states, size=(steps, 2))
     )
-    names = pa.DictionaryArray.from_arrays(pa.array(tr.robot, pa.int32()), pa.array(["I", "J"]))
-    table = pa.table(
-        {
-            "t": tr.t,
-            "robot": names.cast(pa.string()),
-            "row": tr.row,
-            "col": tr.col,
-            "heading": tr.heading,
-        }
-    )
-    arrow_write(table, path, HEADER)
+    tr.to_csv(path)
     return len(tr)
 
 

@@ -141,9 +141,7 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
             same = "the true patrol" if set(cyc.tolist()) == true else "differs from the truth"
             ends = " and ".join(str(c) for c in _turn_cells(dom, cyc))
             where = f"turning around at {ends}" if ends else "without turning around"
-            lines.append(
-                f"          patrol of {r.name}: a {len(cyc)}-step loop {where} ({same})"
-            )
+            lines.append(f"          patrol of {r.name}: a {len(cyc)}-step loop {where} ({same})")
         label = learned.equilibrium.label()
         lines.append(
             f"          interaction equilibrium (I/J): {label} — {_equilibrium_text(label)}"

@@ -40,12 +40,20 @@ def arrow_read(path: Path, header: list[str], columns: dict):
     )
 
 
-def arrow_write(table, path: str | Path, header: tuple[str, ...]) -> None:
-    """Write an arrow table as CSV with a plain (unquoted) header and no quoting."""
+def write_columns(
+    path: str | Path, columns: dict[str, np.ndarray], robot: np.ndarray, names: tuple[str, ...]
+) -> None:
+    """Write a CSV (plain header, no quoting) with pyarrow: ``columns`` in order, the column
+    named ``robot`` (its value in ``columns`` is ignored) filled with ``names[robot]``."""
+    import pyarrow as pa
     import pyarrow.csv as pv
 
+    labels = pa.DictionaryArray.from_arrays(
+        pa.array(np.asarray(robot, dtype=np.int32)), pa.array(list(names) or [""], pa.string())
+    ).cast(pa.string())
+    table = pa.table({k: (labels if k == "robot" else v) for k, v in columns.items()})
     with open(path, "wb") as fh:
-        fh.write((",".join(header) + "\n").encode())
+        fh.write((",".join(columns) + "\n").encode())
         pv.write_csv(table, fh, pv.WriteOptions(include_header=False, quoting_style="none"))
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mirl.observations._csv import arrow_read, arrow_write, csv_header, data_line_numbers
+from mirl.observations._csv import arrow_read, csv_header, data_line_numbers, write_columns
 
 __all__ = [
     "PoseTracks",
@@ -128,9 +128,10 @@ class PoseTracks:
 
 
 def yaw_from_quaternion(qx, qy, qz, qw) -> np.ndarray:
-    """Yaw (rotation about z) of quaternions, radians in (−π, π] (arrays ok)."""
+    """Yaw (rotation about z) of quaternions, radians in (−π, π] (arrays ok); the same for any
+    non-zero scale of the quaternion."""
     qx, qy, qz, qw = (np.asarray(v, dtype=np.float64) for v in (qx, qy, qz, qw))
-    return np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    return np.arctan2(2.0 * (qw * qz + qx * qy), qw * qw + qx * qx - qy * qy - qz * qz)
 
 
 # ---- CSV -----------------------------------------------------------------------------------
@@ -213,7 +214,14 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
     if "" in names:
         row = int(np.argmax(np.asarray(robot.indices) == names.index("")))
         raise PoseError(f"{path}: line {_line_of(path, row)}: empty robot name")
-    yaw = cols["yaw"] if "yaw" in cols else 2.0 * np.arctan2(cols["qz"], cols["qw"])
+    if "yaw" in cols:
+        yaw = cols["yaw"]
+    else:
+        zero = cols["qz"] ** 2 + cols["qw"] ** 2 < 1e-12
+        if zero.any():
+            row = int(np.argmax(zero))
+            raise PoseError(f"{path}: line {_line_of(path, row)}: qz = qw = 0 is no orientation")
+        yaw = 2.0 * np.arctan2(cols["qz"], cols["qw"])
     return PoseTracks(
         tuple(names),
         cols["t"],
@@ -227,20 +235,9 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
 
 def write_pose_csv(tracks: PoseTracks, path: str | Path) -> None:
     """Write ``t,robot,x,y,yaw`` rows (floats at full precision: reading back is exact)."""
-    import pyarrow as pa
-
-    names = pa.array(list(tracks.robot_names) or [""], type=pa.string())
-    robot = pa.DictionaryArray.from_arrays(pa.array(tracks.robot, type=pa.int32()), names)
-    table = pa.table(
-        {
-            "t": tracks.t,
-            "robot": robot.cast(pa.string()),
-            "x": tracks.x,
-            "y": tracks.y,
-            "yaw": tracks.yaw,
-        }
-    )
+    tr = tracks
+    columns = {"t": tr.t, "robot": tr.robot, "x": tr.x, "y": tr.y, "yaw": tr.yaw}
     try:
-        arrow_write(table, path, POSE_HEADER)
+        write_columns(path, columns, tr.robot, tr.robot_names)
     except OSError as exc:
         raise PoseError(f"{path}: cannot write ({exc})") from None

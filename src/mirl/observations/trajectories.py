@@ -88,20 +88,11 @@ class Trajectories:
         return cls(robot_names, tt + t0, rr, rch[:, 0], rch[:, 1], rch[:, 2], states.shape[0] + t0)
 
     def to_csv(self, path: str | Path) -> None:
-        with open(path, "w", newline="") as fh:
-            w = csv.writer(fh, lineterminator="\n")
-            w.writerow(HEADER)
-            names = np.asarray(self.robot_names, dtype=object)[self.robot]
-            w.writerows(
-                zip(
-                    self.t.tolist(),
-                    names,
-                    self.row.tolist(),
-                    self.col.tolist(),
-                    self.heading.tolist(),
-                    strict=True,
-                )
-            )
+        """Write ``t,robot,row,col,heading`` rows (pyarrow, vectorised)."""
+        from mirl.observations._csv import write_columns
+
+        columns = {h: getattr(self, h) for h in HEADER}
+        write_columns(path, columns, self.robot, self.robot_names)
 
 
 def read_csv(
@@ -211,7 +202,7 @@ def _sorted_checked(path, arr: np.ndarray, line_of, robot_names, horizon) -> Tra
         horizon = last
     elif horizon < last:
         raise TrajectoryError(f"{path}: time {last - 1} is beyond the horizon {horizon}")
-    return Trajectories(robot_names, *arr.T, horizon=horizon)
+    return Trajectories(robot_names, arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3], arr[:, 4], horizon)
 
 
 def _read_csv_python(
@@ -261,8 +252,7 @@ def _parse_rows(path: Path, reader, domain, robot_names, horizon) -> Trajectorie
         if name not in robot_names:
             known = ", ".join(robot_names)
             raise TrajectoryError(
-                f"{path}: line {lineno}: robot '{_shown(name)}' is not in the scenario "
-                f"({known})"
+                f"{path}: line {lineno}: robot '{_shown(name)}' is not in the scenario ({known})"
             )
         try:
             t, r, c, h = (int(vals[i]) for i in (0, 2, 3, 4))
