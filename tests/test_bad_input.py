@@ -81,6 +81,7 @@ BAD = [
     (["run", "--max-wait", "-5"], "--max-wait"),
     (["run", "--seed", "-1"], "--seed"),
     (["run", "--watch-until-seen", "0"], "--watch-until-seen"),
+    (["run", "--obs-steps", "300", "--watch-until-seen", "5"], "exclude each other"),
     (["run", "--plot", "{d}/no/dir/run.png"], "--plot"),
     (["run", "--plot", "{d}/run.txt"], "--plot"),
     (["run", "--method", "nope"], "--method"),

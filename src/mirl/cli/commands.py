@@ -259,18 +259,21 @@ def _report(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     from mirl.experiments.conditions import DEFAULT_OBS_STEPS
     from mirl.experiments.episode import run_episode
+    from mirl.experiments.records import WATCH_UNTIL_SEEN
     from mirl.experiments.run_report import format_report
 
     if args.plot:  # before the run: a bad path must not cost a run
         check_output(args.plot, "--plot", FIGURE_SUFFIXES)
-    scenario = _load_scenario(args)
     fixed = args.obs_steps is not None
+    if fixed and args.watch_until_seen is not None:
+        raise UsageError("--obs-steps (a fixed time) and --watch-until-seen exclude each other")
+    scenario = _load_scenario(args)
     result = run_episode(
         scenario,
         args.method,
         observability=args.observability,
         obs_steps=args.obs_steps if fixed else DEFAULT_OBS_STEPS,
-        watch_until_seen=None if fixed else args.watch_until_seen,
+        watch_until_seen=None if fixed else args.watch_until_seen or WATCH_UNTIL_SEEN,
         seed=args.seed,
         p=args.p,
         max_wait=args.max_wait,

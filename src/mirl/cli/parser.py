@@ -103,10 +103,11 @@ def _run_parser(sub) -> None:
     ru.add_argument(
         "--watch-until-seen",
         type=bounded_int(1, WATCH_LIMIT),
-        default=WATCH_UNTIL_SEEN,
+        default=None,
         metavar="K",
         help=f"without --obs-steps: after 300 steps L keeps watching until it has seen every "
-        f"patroller on K steps, for at most {WATCH_LIMIT} steps ({WATCH_LIMIT * 2 // 60} min)",
+        f"patroller on K steps, for at most {WATCH_LIMIT} steps ({WATCH_LIMIT * 2 // 60} min) "
+        f"(None: {WATCH_UNTIL_SEEN})",
     )
     ru.add_argument("--seed", type=seed, default=0, help="seed of the whole run")
     ru.add_argument("--p", type=fraction, default=0.9, help="fixed success p of mirl / known-r")
