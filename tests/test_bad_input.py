@@ -152,3 +152,21 @@ def test_unexplained_steps_warn_loudly(files, capsys):
     )
     assert code == 0
     assert "warning" in err and "explained by no action" in err and "t=2" in err
+
+
+def test_every_flag_has_help_and_shows_its_default():
+    import argparse
+
+    from mirl.cli.parser import build_parser
+
+    parser = build_parser()
+    subs = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, sp in subs.choices.items():
+        text = sp.format_help()
+        for action in sp._actions:
+            if isinstance(action, argparse._HelpAction):
+                continue
+            assert action.help, f"mirl {name} {action.dest}: no help text"
+            if action.option_strings and action.default is not argparse.SUPPRESS:
+                assert "(default:" in text, name
+        assert text.count("(default:") >= sum(1 for a in sp._actions if a.option_strings) - 1

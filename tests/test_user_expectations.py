@@ -165,3 +165,15 @@ def test_store_read_only_open_leaves_file(tmp_path):
     assert store.count() == 4
     store.close()
     assert db.read_bytes() == before and np.isfinite(len(before))
+
+
+def test_report_with_one_run_per_condition_has_no_nan(tmp_path):
+    from dataclasses import replace
+
+    from mirl.experiments.conditions import selftest_run
+
+    fake = replace(EXPERIMENTS["fig4b"], run_function=selftest_run)
+    run_experiment(fake, tmp_path, runs=1, progress=False, log=lambda m: None)
+    assert main(["report", str(tmp_path)]) == 0
+    text = (tmp_path / "report.md").read_text()
+    assert "nan" not in text and "no test (fewer than 2 runs)" in text
