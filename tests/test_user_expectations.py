@@ -127,7 +127,7 @@ def test_run_report_explains_its_terms(boyd2):
         boyd2, "oracle", seed=0, learned=oracle_models(boyd2), obs_steps=60, max_wait=30
     )
     text = format_report(boyd2, result)
-    assert "is the paper's" in text and "(row, col)" in text
+    assert "(Oracle in the paper's figures): the true models" in text and "(row, col)" in text
     assert "interaction equilibrium (I/J): stop/go — when I and J meet, I yields" in text
     assert state_text((16, 8, 2)) == "(16, 8) facing west"
     if result.plan_value is not None:

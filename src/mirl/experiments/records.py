@@ -32,7 +32,7 @@ OUTCOMES = ("success", "detected", "timeout")
 METHOD_NAMES = {
     "mirl-t": (
         "mIRL*/T+Int",
-        "it learns each patroller's transition-feature probabilities "
+        "learns each patroller's transition-feature probabilities "
         "(mIRL*/T), its reward by IRL under occlusion and their interaction, relabelling "
         "observed steps until they settle",
     ),
