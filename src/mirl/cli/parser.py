@@ -41,13 +41,7 @@ def _learn_parser(sub) -> None:
         help="learning method (mirl-t is the paper's mIRL*/T+Int; see README 'Methods')",
     )
     le.add_argument("--p", type=fraction, default=0.9, help="fixed success p of mirl / known-r")
-    le.add_argument(
-        "--observability",
-        type=fraction,
-        default=None,
-        metavar="D",
-        help="degree the observations were taken at (default: the scenario's)",
-    )
+    _observability_arg(le, "degree the observations were taken at (default: the scenario's)")
     le.add_argument(
         "--max-iterations",
         type=bounded_int(1, 100),
@@ -85,12 +79,8 @@ def _run_parser(sub) -> None:
         default="mirl-t",
         help="how L models the patrollers (mirl-t is the paper's mIRL*/T+Int; see README)",
     )
-    ru.add_argument(
-        "--observability",
-        type=fraction,
-        default=None,
-        metavar="D",
-        help="share of the patrollers' cells L sees (None: the scenario's, 0.14 on boyd2)",
+    _observability_arg(
+        ru, "share of the patrollers' cells L sees (None: the scenario's, 0.14 on boyd2)"
     )
     ru.add_argument(
         "--obs-steps",
@@ -260,13 +250,7 @@ def _show_map_parser(sub) -> None:
     sm.add_argument(
         "map", metavar="NAME_OR_PATH", help="shipped name, office-RxC[-sK], text map or ROS YAML"
     )
-    sm.add_argument(
-        "--observability",
-        type=fraction,
-        default=None,
-        metavar="D",
-        help="shade the cells visible to L at degree D",
-    )
+    _observability_arg(sm, "shade the cells visible to L at degree D")
     sm.add_argument("--png", metavar="FILE", help="also draw the map to a PNG file")
     sm.add_argument(
         "--cell-size",
@@ -284,13 +268,7 @@ def _simulate_parser(sub) -> None:
         "--steps", type=bounded_int(1, MAX_STEPS), default=300, help="time steps (2 s each)"
     )
     si.add_argument("--seed", type=seed, default=0, help="seed of the simulation")
-    si.add_argument(
-        "--observability",
-        type=fraction,
-        default=None,
-        metavar="D",
-        help="share of the patrollers' cells L sees (None: the scenario's)",
-    )
+    _observability_arg(si, "share of the patrollers' cells L sees (None: the scenario's)")
     si.add_argument(
         "--heading-noise",
         type=fraction,
@@ -355,3 +333,7 @@ def _data_parsers(sub) -> None:
     cv.add_argument("output", metavar="OUT.csv", help="grid observations CSV to write")
     _scenario_args(cv)
     _observation_args(cv, with_file=False)
+
+
+def _observability_arg(sp: argparse.ArgumentParser, help: str) -> None:
+    sp.add_argument("--observability", type=fraction, default=None, metavar="D", help=help)
