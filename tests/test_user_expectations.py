@@ -177,3 +177,15 @@ def test_report_with_one_run_per_condition_has_no_nan(tmp_path):
     assert main(["report", str(tmp_path)]) == 0
     text = (tmp_path / "report.md").read_text()
     assert "nan" not in text and "no test (fewer than 2 runs)" in text
+
+
+def test_em_init_changes_dbn_em_transitions(boyd2):
+    from mirl.learning.learn import learn
+    from mirl.observations.trajectories import Trajectories
+
+    states = np.full((4, 2), -1)
+    states[:3, 0] = boyd2.domain.state_index([0, 0, 0], [4, 3, 2], [2, 2, 2])
+    obs = Trajectories.from_states(boyd2.domain, boyd2.robot_names, states)
+    a = learn(obs, boyd2, "dbn-em", em_init="uniform", score=False).robots[0].transitions
+    b = learn(obs, boyd2, "dbn-em", score=False).robots[0].transitions
+    assert a.nnz > b.nnz  # uniform: every state reachable; intended: only ψ(s, a') targets

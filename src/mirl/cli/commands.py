@@ -264,6 +264,7 @@ def _run(args: argparse.Namespace) -> int:
 
     if args.plot:  # before the run: a bad path must not cost a run
         check_output(args.plot, "--plot", FIGURE_SUFFIXES)
+    _check_em_init(args)
     fixed = args.obs_steps is not None
     if fixed and args.watch_until_seen is not None:
         raise UsageError("--obs-steps (a fixed time) and --watch-until-seen exclude each other")
@@ -303,6 +304,7 @@ def _learn(args: argparse.Namespace) -> int:
     degree = scenario.observability if args.observability is None else args.observability
     loaded = _read_observations(args, scenario, observability=degree)
     obs = loaded.trajectories
+    _check_em_init(args)
     check_observations(args.observations, obs, scenario.domain)
     result = learn(
         obs,
@@ -388,6 +390,11 @@ def _print_learn(out: dict, result, scenario_name: str) -> None:
         + (f" (labels changed: {changes}; {result.message})" if changes else "")
     )
     print("timings       " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
+
+
+def _check_em_init(args: argparse.Namespace) -> None:
+    if args.em_init is not None and args.method != "dbn-em":
+        raise UsageError(f"--em-init applies to --method dbn-em only, not {args.method}")
 
 
 def print_json(obj) -> None:

@@ -292,6 +292,8 @@ def with_em_init(exp: Experiment, init: str | None) -> Experiment:
     """``exp`` with DBN-EM's initialisation set on its dbn-em conditions (None: unchanged)."""
     if init is None:
         return exp
+    if not any(c.method == "dbn-em" for c in exp.conditions):
+        raise StoreError(f"--em-init: experiment {exp.name} has no dbn-em runs to initialise")
     conditions = tuple(
         replace(c, em_init=init) if c.method == "dbn-em" else c for c in exp.conditions
     )
