@@ -54,13 +54,16 @@ def test_loading_a_scenario_does_not_enumerate_equilibria():
 def test_parser_choices_match_their_sources():
     from mirl.cli import parser
     from mirl.experiments import records
-    from mirl.learning import irl, learn
+    from mirl.learning import dbn_em, irl, learn
 
     assert parser.LEARN_METHODS == learn.METHODS
     assert parser.IRL_OBJECTIVES == irl.OBJECTIVES
     assert parser.IRL_OPTIMIZERS == irl.OPTIMIZERS
     assert parser.RUN_METHODS == records.METHODS
     assert parser.RUN_MAX_WAIT == records.MAX_WAIT
+    assert parser.RUN_WATCH_UNTIL_SEEN == records.WATCH_UNTIL_SEEN
+    assert parser.RUN_WATCH_LIMIT == records.WATCH_LIMIT
+    assert parser.EM_INITS == dbn_em.EM_INITS
 
 
 def test_pure_equilibrium_by_best_response_is_the_enumerated_one():
