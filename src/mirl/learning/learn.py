@@ -37,6 +37,7 @@ import time
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from itertools import combinations
 from typing import Any
 
 import numpy as np
@@ -317,21 +318,13 @@ def _equilibrium_for_labels(setup: _Setup, policies, transitions) -> Equilibrium
     evident meetings (both robots seen at t and t+1) are most likely. Only those steps' labels
     depend on it; the full joint-filter weighing is done once, for the final models."""
     candidates = setup.scenario.game.equilibria()
-    n = len(setup.series)
     ll = np.zeros(len(candidates))
-    for i in range(n):
-        for j in range(i + 1, n):
-            pick = [i, j]
-            ll += [
-                meeting_log_likelihood(
-                    setup.domain,
-                    [setup.series[k] for k in pick],
-                    [policies[k] for k in pick],
-                    [transitions[k] for k in pick],
-                    e,
-                )[0]
-                for e in candidates
-            ]
+    for i, j in combinations(range(len(setup.series)), 2):
+        pair = ([setup.series[i], setup.series[j]], [policies[i], policies[j]])
+        ll += [
+            meeting_log_likelihood(setup.domain, *pair, [transitions[i], transitions[j]], e)[0]
+            for e in candidates
+        ]
     return candidates[int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])]
 
 
@@ -423,15 +416,13 @@ def _irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.n
 def _policies(setup: _Setup, transitions, weights, trace: LoopTrace) -> list[np.ndarray]:
     """Greedy policies of hard value iteration with each robot's weights and T: the IRL's own
     where it fits (its last step is this very value iteration), else solved here."""
-    out = []
-    for i, (T, w) in enumerate(zip(transitions, weights, strict=True)):
-        e = trace.irl[i] if i < len(trace.irl) else None
-        if e is not None and e.weights_ is w and e.transitions_source is T:
-            out.append(e.policy_)
-        else:
-            mdp = TabularMDP(T, setup.domain.rewards(w), setup.scenario.discount)
-            out.append(value_iteration(mdp).policy)
-    return out
+    irl = trace.irl + [None] * (len(weights) - len(trace.irl))  # none before the first IRL
+    return [
+        e.policy_
+        if e is not None and e.weights_ is w and e.transitions_source is T
+        else value_iteration(TabularMDP(T, setup.domain.rewards(w), setup.scenario.discount)).policy
+        for e, T, w in zip(irl, transitions, weights, strict=True)
+    ]
 
 
 def _weigh(setup: _Setup, policies, transitions, trace: LoopTrace) -> EquilibriumWeights:
