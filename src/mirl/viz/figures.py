@@ -1,7 +1,7 @@
-"""Figures and the markdown report of stored experiment results, in the paper's form.
+"""The paper's figures (Fig. 3, 4a–c, Table 1) and their markdown sections, drawn from stored
+experiment results; :func:`mirl.viz.report.write_report` assembles them into ``report.md``.
 
-``write_report(DIR)`` reads ``DIR/results.sqlite`` (or every ``*/results.sqlite`` under DIR),
-draws each experiment's figures to ``DIR/figures/*.png|svg`` and writes ``DIR/report.md`` with
+Each section function draws its figure to ``figures/*.png|svg`` and returns its markdown with
 each result beside the paper's numbers. Figures use matplotlib's object API (no pyplot state),
 so they can be drawn from worker threads and tests.
 """

@@ -1,4 +1,5 @@
-"""Grid maps: the plain-text format of the reference maps, shipped maps, and visibility order.
+"""Grid maps: the plain-text format of the reference maps, visibility order, and the metric frame
+(:class:`MapFrame`) that places a grid in a ROS-style map frame.
 
 Legend (one character per cell, row 0 at the top): ``.`` hallway (patrollers and L), ``#`` wall,
 ``L`` L's start (a room cell, L only), ``G`` L's goal on a hallway cell, ``g`` L's goal in a room
