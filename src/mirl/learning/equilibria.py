@@ -205,6 +205,15 @@ class EquilibriumWeights:
     def equilibrium(self) -> Equilibrium:
         return self.candidates[self.best]
 
+    @classmethod
+    def from_log_likelihoods(
+        cls, candidates, ll: np.ndarray, meeting_ll: np.ndarray, n_meetings: int
+    ) -> EquilibriumWeights:
+        """Posterior weights (uniform prior) and the best candidate (ties: the earlier)."""
+        w = np.exp(ll - ll.max())
+        best = int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])
+        return cls(tuple(candidates), ll, w / w.sum(), meeting_ll, n_meetings, best)
+
 
 def weigh_equilibria(
     domain: PatrolDomain,
@@ -305,16 +314,11 @@ def weigh_team_equilibria(
     }
     if len(per_pair) == 1:
         return TeamEquilibria(next(iter(per_pair.values())), per_pair)
-    ll = np.sum([w.log_likelihoods for w in per_pair.values()], axis=0)
-    w = np.exp(ll - ll.max())
-    w /= w.sum()
-    shared = EquilibriumWeights(
-        tuple(candidates),
-        ll,
-        w,
+    shared = EquilibriumWeights.from_log_likelihoods(
+        candidates,
+        np.sum([w.log_likelihoods for w in per_pair.values()], axis=0),
         np.sum([p.meeting_log_likelihoods for p in per_pair.values()], axis=0),
         sum(p.n_meetings for p in per_pair.values()),
-        int(np.flatnonzero(ll >= ll.max() - 1e-9)[0]),
     )
     return TeamEquilibria(shared, per_pair)
 
@@ -335,12 +339,6 @@ def _weigh_by_evident_meetings(
         for e in candidates
     ]
     ll = np.array([m[0] for m in meet])
-    w = np.exp(ll - ll.max())
-    return EquilibriumWeights(
-        tuple(candidates),
-        ll,
-        w / w.sum(),
-        ll.copy(),
-        meet[0][1] if meet else 0,
-        int(np.flatnonzero(ll >= ll.max() - 1e-9)[0]),
+    return EquilibriumWeights.from_log_likelihoods(
+        candidates, ll, ll.copy(), meet[0][1] if meet else 0
     )
