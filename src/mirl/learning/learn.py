@@ -319,21 +319,11 @@ def _equilibrium_for_labels(setup: _Setup, policies, transitions) -> Equilibrium
     evident meetings (both robots seen at t and t+1) are most likely. Only those steps' labels
     depend on it; the full joint-filter weighing is done once, for the final models."""
     candidates = setup.scenario.game.equilibria()
-    n = len(setup.series)
     ll = np.zeros(len(candidates))
-    for i in range(n):
-        for j in range(i + 1, n):
-            pick = [i, j]
-            ll += [
-                meeting_log_likelihood(
-                    setup.domain,
-                    [setup.series[k] for k in pick],
-                    [policies[k] for k in pick],
-                    [transitions[k] for k in pick],
-                    e,
-                )[0]
-                for e in candidates
-            ]
+    for pair in setup.scenario.pairs:  # summed over every pair (one game for the team)
+        sub = [(setup.series[k], policies[k], transitions[k]) for k in pair]
+        x, pol, T = (list(v) for v in zip(*sub, strict=True))
+        ll += [meeting_log_likelihood(setup.domain, x, pol, T, e)[0] for e in candidates]
     return candidates[int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])]
 
 
