@@ -29,6 +29,7 @@ from mirl.world.domain import (
     detection_cells,
 )
 from mirl.world.maps import parse_map
+from mirl.world.rewards import hallway_features
 
 BOYD2_ENDS = {(0, 8), (16, 8)}
 
@@ -327,9 +328,11 @@ def test_success_probabilities_errors(boyd2):
 @pytest.fixture(scope="module")
 def boyd2_rewarded():
     spec = RewardSpec(
-        upper_hallway=tuple((0, c) for c in range(2, 9)),
-        lower_hallway=tuple((16, c) for c in range(2, 9)),
-        turn_around=((0, 8), (16, 8)),
+        hallway_features(
+            upper=tuple((0, c) for c in range(2, 9)),
+            lower=tuple((16, c) for c in range(2, 9)),
+            turn_around=((0, 8), (16, 8)),
+        )
     )
     return PatrolDomain(load_map("boyd2"), reward_spec=spec)
 
@@ -374,7 +377,7 @@ def test_turn_around_defaults_to_dead_ends():
 
 
 def test_reward_region_must_be_hallway():
-    d = PatrolDomain(load_map("boyd2"), reward_spec=RewardSpec(upper_hallway=((1, 3),)))
+    d = PatrolDomain(load_map("boyd2"), reward_spec=RewardSpec(hallway_features(upper=((1, 3),))))
     with pytest.raises(ValueError, match=r"\(1, 3\)"):
         d.reward_features  # noqa: B018
 

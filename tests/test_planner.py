@@ -18,6 +18,7 @@ from mirl.planning.observer import (
     observer_model,
     shortest_path_policy,
 )
+from mirl.planning.team_filter import game_step_matrix
 from mirl.world.domain import FORWARD, STOP, detection_cells
 from mirl.world.game import Equilibrium, game_action_to_action, meeting
 from mirl.world.maps import parse_map
@@ -179,11 +180,21 @@ def test_prediction_matches_dense_propagation(joint):
             )
             b = M.T @ b
     else:
+        # factored: each marginal moves by its policy, or by its side of the game with the
+        # probability q(s) = Σ_s' meet(s, s') b_other(s') that it meets the other robot
         Ps = [policy_matrix(r.transitions, r.policy).toarray() for r in lr.robots]
+        eq, pol = lr.equilibrium, [r.policy for r in lr.robots]
+        Gs = [
+            game_step_matrix(dom, r.transitions, r.policy, side).toarray()
+            for r, side in zip(lr.robots, (eq.row, eq.col), strict=True)
+        ]
+        si, sj = np.divmod(np.arange(S * S), S)
+        meet = meeting(dom, si, sj, pol[0][si], pol[1][sj]).reshape(S, S).astype(float)
         b = f.belief.copy()
         for k in range(7):
             np.testing.assert_allclose(pred.occupancy[k], b, atol=1e-12)
-            b = np.stack([b[i] @ Ps[i] for i in range(2)])
+            q = [meet @ b[1], meet.T @ b[0]]
+            b = np.stack([(b[i] * (1 - q[i])) @ Ps[i] + (b[i] * q[i]) @ Gs[i] for i in range(2)])
     # first-order hazard, per robot by enumeration of (s at k-1, s' at k)
     Ps = [policy_matrix(r.transitions, r.policy).toarray() for r in lr.robots]
     for k in range(1, 7):

@@ -48,9 +48,10 @@ def test_boyd2_scenarios(name, j_probs):
     np.testing.assert_array_equal(sc.game.col_payoffs, SPEC_B)
     assert sc.played_equilibrium.label() == "stop/go"
     assert sc.feature_map == DEFAULT_FEATURE_MAP
-    assert set(sc.reward_spec.turn_around) == {(0, 8), (16, 8)}
-    assert set(sc.reward_spec.upper_hallway) == {(0, c) for c in range(2, 9)}
-    assert set(sc.reward_spec.lower_hallway) == {(16, c) for c in range(2, 9)}
+    assert sc.reward_spec.names == ("moved", "upper_hallway", "lower_hallway", "turn_around")
+    assert set(sc.reward_spec.feature("turn_around").cells) == {(0, 8), (16, 8)}
+    assert set(sc.reward_spec.feature("upper_hallway").cells) == {(0, c) for c in range(2, 9)}
+    assert set(sc.reward_spec.feature("lower_hallway").cells) == {(16, c) for c in range(2, 9)}
     # I and J start at opposite ends, heading west
     assert sc.robots[0].start == (0, 8, 2) and sc.robots[1].start == (16, 8, 2)
     for r in sc.robots:

@@ -348,6 +348,7 @@ def _learn(args: argparse.Namespace) -> int:
         },
         "iterations": result.iterations,
         "label_changes": list(result.label_changes),
+        **_pair_labels(result, scenario),
         "message": result.message,
         "timings": {k: round(v, 4) for k, v in result.timings.items()},
     }
@@ -358,6 +359,18 @@ def _learn(args: argparse.Namespace) -> int:
             print(f"{args.observations}: " + loaded.discretised.summary())
         _print_learn(out, result, scenario.name)
     return 0
+
+
+def _pair_labels(result, scenario) -> dict:
+    """Teams of three or more: the equilibrium learned for each pair L saw meet."""
+    if len(scenario.robots) <= 2:
+        return {}
+    names = scenario.robot_names
+    return {
+        "pair_equilibria": {
+            f"{names[i]}/{names[j]}": e.label() for (i, j), e in result.pair_equilibria.items()
+        }
+    }
 
 
 def _print_learn(out: dict, result, scenario_name: str) -> None:

@@ -45,9 +45,10 @@ import scipy.sparse as sp
 from mirl.learning.dbn_em import EM_INITS, em_transition_model
 from mirl.learning.equilibria import (
     EquilibriumWeights,
+    TeamEquilibria,
     meeting_log_likelihood,
     potential_meetings,
-    weigh_equilibria,
+    weigh_team_equilibria,
 )
 from mirl.learning.irl import OccludedMaxEntIRL
 from mirl.learning.models import LearnResult, RobotModel, behavior_accuracy, oracle_models
@@ -93,6 +94,7 @@ class LoopTrace:
     label_changes: list[int] = field(default_factory=list)
     irl: list[OccludedMaxEntIRL | None] = field(default_factory=list)
     equilibria: EquilibriumWeights | None = None
+    team_equilibria: TeamEquilibria | None = None  # per pair L saw meet (N ≥ 2)
     policies: list[np.ndarray] = field(default_factory=list)
     converged: bool = False
     message: str = ""
@@ -212,7 +214,7 @@ def learn(
             policies = [_greedy(setup, transitions[i], weights[i]) for i in range(n)]
     if eq is None:
         with clock("equilibria"):
-            trace.equilibria = _weigh(setup, policies, transitions)
+            trace.equilibria = _weigh(setup, policies, transitions, trace)
         eq = trace.equilibria.equilibrium
     message = "; ".join(m for m in (message, *sorted(trace.notes)) if m)
     robots = []
@@ -221,6 +223,7 @@ def learn(
         robots.append(RobotModel(r.name, weights[i], probs[i], transitions[i], policies[i], acc))
     clock.timings["total"] = time.perf_counter() - start
     eq_w = trace.equilibria
+    team = trace.team_equilibria
     return LearnResult(
         method=method,
         robots=tuple(robots),
@@ -231,6 +234,7 @@ def learn(
         timings=clock.timings,
         success=bool(trace.converged),
         message=message,
+        pair_equilibria=team.best_per_pair() if team is not None else {},
     )
 
 
@@ -306,7 +310,7 @@ def relabel_loop(
         if round_ < max_iterations:
             labels = new
     with clock("equilibria"):
-        trace.equilibria = _weigh(setup, trace.policies, transitions)
+        trace.equilibria = _weigh(setup, trace.policies, transitions, trace)
     return weights, transitions, probs, trace.equilibria.equilibrium  # type: ignore[return-value]
 
 
@@ -315,11 +319,11 @@ def _equilibrium_for_labels(setup: _Setup, policies, transitions) -> Equilibrium
     evident meetings (both robots seen at t and t+1) are most likely. Only those steps' labels
     depend on it; the full joint-filter weighing is done once, for the final models."""
     candidates = setup.scenario.game.equilibria()
-    scores = [
-        meeting_log_likelihood(setup.domain, setup.series[:2], policies[:2], transitions[:2], e)
-        for e in candidates
-    ]
-    ll = np.array([sc[0] for sc in scores])
+    ll = np.zeros(len(candidates))
+    for pair in setup.scenario.pairs:  # summed over every pair (one game for the team)
+        sub = [(setup.series[k], policies[k], transitions[k]) for k in pair]
+        x, pol, T = (list(v) for v in zip(*sub, strict=True))
+        ll += [meeting_log_likelihood(setup.domain, x, pol, T, e)[0] for e in candidates]
     return candidates[int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])]
 
 
@@ -414,14 +418,16 @@ def _greedy(setup: _Setup, T: sp.csr_array, weights: np.ndarray) -> np.ndarray:
     return value_iteration(mdp).policy
 
 
-def _weigh(setup: _Setup, policies, transitions) -> EquilibriumWeights:
-    """Equilibria weighed on the first two robots (the game is a two-player game; with more
-    robots the same equilibrium is taken to hold for every pair)."""
-    return weigh_equilibria(
+def _weigh(setup: _Setup, policies, transitions, trace: LoopTrace) -> EquilibriumWeights:
+    """Equilibria weighed on every pair L has seen meet (one game for the team: the pairs'
+    log-likelihoods add up; each pair's own best is kept as well)."""
+    team = weigh_team_equilibria(
         setup.domain,
-        setup.series[:2],
-        policies[:2],
-        transitions[:2],
+        setup.series,
+        policies,
+        transitions,
         setup.scenario.game.equilibria(),
         setup.visible,
     )
+    trace.team_equilibria = team
+    return team.shared

@@ -44,6 +44,12 @@ class LearnResult:
     timings: dict[str, float] = field(default_factory=dict)
     success: bool = True
     message: str = ""
+    # per pair (i < j, i the row player): the equilibrium it was learned to play; pairs not
+    # listed play ``equilibrium``
+    pair_equilibria: Mapping[tuple[int, int], Equilibrium] = field(default_factory=dict)
+
+    def pair_equilibrium(self, i: int, j: int) -> Equilibrium:
+        return self.pair_equilibria.get((i, j), self.equilibrium)
 
     def robot(self, name: str) -> RobotModel:
         for r in self.robots:
@@ -73,4 +79,9 @@ def oracle_models(scenario: Scenario, method: str = "oracle") -> LearnResult:
         )
         for i, r in enumerate(scenario.robots)
     )
-    return LearnResult(method=method, robots=robots, equilibrium=scenario.played_equilibrium)
+    return LearnResult(
+        method=method,
+        robots=robots,
+        equilibrium=scenario.played_equilibrium,
+        pair_equilibria={p: scenario.pair_equilibrium(*p) for p in scenario.pairs},
+    )

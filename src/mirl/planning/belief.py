@@ -7,8 +7,10 @@ robot is known *not* to stand on a visible cell (negative evidence — L sees it
 view). The belief at t = 0 is uniform, so a robot never seen is spread over the occluded states.
 With two robots the filter tracks their **joint** state (S² states, 15 376 on boyd2): meetings,
 where the equilibrium replaces the policies' actions, are then modelled exactly (propagated as
-the S × S matrix P_Iᵀ B P_J, never as an S² × S² matrix). With more robots (or S² above
-``max_joint_states``) it tracks independent marginals and ignores meetings.
+the S × S matrix P_Iᵀ B P_J, never as an S² × S² matrix). With N ≥ 3 robots and S^N within
+``max_joint_states`` the joint is an N-dimensional tensor (:class:`~mirl.planning.team_filter.
+ExactTeam`); beyond, the filter is **factored** — one marginal per robot with pairwise meeting
+corrections (:class:`~mirl.planning.team_filter.FactoredTeam`).
 :meth:`BeliefFilter.predict` propagates the belief without evidence into the future and turns it
 into per-cell detection probabilities d_t(c) = P(some patroller sees cell c at t).
 """
@@ -23,11 +25,13 @@ import scipy.sparse as sp
 from mirl.learning.models import LearnResult
 from mirl.mdp import policy_matrix
 from mirl.planning.observer import ObserverModel
+from mirl.planning.team_filter import ExactTeam, FactoredTeam, TeamParts, factored_detection
 from mirl.world.domain import N_HEADINGS, STOP, TURN_LEFT, PatrolDomain
 from mirl.world.game import Equilibrium, meeting
 
 __all__ = ["UNSEEN", "NOT_WATCHING", "BeliefFilter", "Prediction"]
 
+MAX_EXACT_STATES = 20_000_000  # an S^N joint tensor beyond this does not fit comfortably
 UNSEEN = -1  # BeliefFilter.update: L watched and did not see the robot
 NOT_WATCHING = -2  # BeliefFilter.update: L did not watch (it has left its room): no evidence
 
@@ -78,22 +82,34 @@ class BeliefFilter:
         self.visible = np.zeros(S, bool) if visible is None else np.asarray(visible, bool)
         self.heading_noise = float(heading_noise)
         if joint is None:
-            joint = self.n_robots == 2 and S * S <= max_joint_states
-        if joint and self.n_robots != 2:
-            raise ValueError("the joint filter supports exactly two patrollers")
+            joint = S**self.n_robots <= max_joint_states
+        if joint and self.n_robots > 2 and S**self.n_robots > MAX_EXACT_STATES:
+            raise ValueError(
+                f"an exact joint of {self.n_robots} patrollers needs {S}^{self.n_robots} "
+                f"states (limit {MAX_EXACT_STATES:,}); use the factored filter (joint=False)"
+            )
         self.joint = bool(joint)
+        # "pair": the S × S joint of two robots; "team": the S^N tensor; "factored": marginals
+        self.mode = "pair" if joint and self.n_robots == 2 else "factored"
+        if joint and self.n_robots > 2:
+            self.mode = "team"
+        self.joint = self.mode != "factored"
+        self._team: ExactTeam | FactoredTeam | None = None
+        if self.mode != "pair":
+            parts = TeamParts(domain, learned)
+            self._team = ExactTeam(parts) if self.mode == "team" else FactoredTeam(parts)
         steps = [policy_matrix(r.transitions, r.policy) for r in learned.robots]
         # per-robot transposed one-step matrices (meetings ignored) for the detection hazard
         self._step_T = [sp.csr_array(P.T) for P in steps]
-        if self.joint:
+        if self.mode == "pair":
             # b' = (P_I ⊗ P_J)ᵀ((1 − m)∘b) + (M_I ⊗ M_J)ᵀ(m∘b), as matrices B (S × S):
             # B' = P_Iᵀ (B∘(1 − m)) P_J + M_Iᵀ (B∘m) M_J — O(S²) memory, no S² × S² matrix
             self._meet, mixed = _pair_parts(domain, learned, steps)
             self._mixed_T = [sp.csr_array(M.T) for M in mixed]
         unseen = (~self.visible).astype(float)
-        self._both_unseen = np.outer(unseen, unseen).ravel() if self.joint else None
+        self._both_unseen = np.outer(unseen, unseen).ravel() if self.mode == "pair" else None
         self.t = -1
-        self.belief: np.ndarray | None = None  # joint: (S·S,), else (N, S)
+        self.belief: np.ndarray | None = None  # pair: (S·S,), team: (S,)*N, factored: (N, S)
         self.fallbacks = 0  # steps whose evidence had probability ~0 under the learned model
 
     # evidence of one robot: likelihood of each state given what L saw
@@ -111,6 +127,8 @@ class BeliefFilter:
         return e
 
     def _propagate(self, belief: np.ndarray) -> np.ndarray:
+        if self._team is not None:
+            return self._team.propagate(belief)
         if self.joint:
             S = self.n_states
             B = belief.reshape(S, S)
@@ -126,6 +144,8 @@ class BeliefFilter:
         """(N, S) per-robot marginals of ``belief`` (default: the current one)."""
         b = self.belief if belief is None else belief
         assert b is not None, "no belief yet: call update() first"
+        if isinstance(self._team, ExactTeam):
+            return self._team.marginals(b)
         if not self.joint:
             return b
         m = b.reshape(self.n_states, self.n_states)
@@ -135,14 +155,19 @@ class BeliefFilter:
         """Advance one step and condition on ``observed`` ((N,) state indices, -1 = unseen)."""
         observed = np.asarray(observed, dtype=int)
         S = self.n_states
-        if self.belief is None:
+        prior: np.ndarray
+        if self.belief is None and self.mode == "team":
+            prior = np.full((S,) * self.n_robots, float(S) ** -self.n_robots)
+        elif self.belief is None:
             prior = (
                 np.full(S * S, 1.0 / (S * S)) if self.joint else np.full((self.n_robots, S), 1 / S)
             )
         else:
             prior = self._propagate(self.belief)
         ev = [self._evidence(int(o)) for o in observed]
-        if self.joint:
+        if self.mode == "team":
+            self._update_team(prior, ev)
+        elif self.joint:
             if observed[0] < 0 and observed[1] < 0 and observed[0] == observed[1]:
                 pair = self._both_unseen if observed[0] == UNSEEN else 1.0  # the common case
             else:
@@ -158,6 +183,23 @@ class BeliefFilter:
         else:
             self.belief = np.stack([self._condition(p, e) for p, e in zip(prior, ev, strict=True)])
         self.t += 1
+
+    def _update_team(self, prior: np.ndarray, ev: list[np.ndarray]) -> None:
+        post = prior.copy()
+        for axis, e in enumerate(ev):
+            shape = [1] * self.n_robots
+            shape[axis] = self.n_states
+            post *= e.reshape(shape)
+        z = post.sum()
+        if z > 1e-300:
+            self.belief = post / z
+            return
+        self.fallbacks += 1
+        m = [self._condition(p, e) for p, e in zip(self.marginals(prior), ev, strict=True)]
+        out = m[0]
+        for x in m[1:]:
+            out = np.multiply.outer(out, x)
+        self.belief = out
 
     def _condition(self, prior: np.ndarray, evidence: np.ndarray) -> np.ndarray:
         post = prior * evidence
@@ -177,10 +219,53 @@ class BeliefFilter:
         """
         if self.belief is None:
             raise ValueError("predict() before any update(): the filter has no belief yet")
-        S, K1 = self.n_states, steps + 1
+        if self.mode == "factored":
+            occ = np.empty((steps + 1, *self.belief.shape))
+            occ[0] = self.belief
+            for k in range(steps):
+                occ[k + 1] = self._propagate(occ[k])
+            det, haz = factored_detection(occ, model.detection, self._step_T, model.cell_pairs)
+            return Prediction(self.t, occ, np.clip(det, 0, 1), np.clip(haz, 0, 1), model.cell_pairs)
         Dd = sp.csr_array(model.detection).toarray()
         G = 1.0 - Dd  # (S, C): a robot in state s does not see cell c
+        if self.mode == "team":
+            occ, none = self._predict_team(steps, G)
+            seen = occ @ Dd  # (K+1, N, C): P(robot i sees cell c)
+            det = 1.0 - none
+        else:
+            occ, seen, det = self._predict_pair_or_factored(steps, Dd)
         prev, nxt = model.cell_pairs.T
+        # per robot: P(not seen on c' at k−1 and not seen on c at k) / P(not seen on c' at k−1)
+        # = occ_{k−1} · (G[:, c'] ∘ (P G)[:, c]) / occ_{k−1} · G[:, c'], one (S, pairs) matrix
+        surv = np.ones((steps, len(prev)))
+        for i, step_T in enumerate(self._step_T):
+            PG = step_T.T @ G  # (S, C): P(not seeing c one step later | s)
+            joint_ok = occ[:-1, i] @ (G[:, prev] * PG[:, nxt])
+            before = occ[:-1, i] @ G[:, prev]
+            ok = before > 1e-12
+            ratio = joint_ok / np.where(ok, before, 1.0)
+            surv *= np.where(ok, ratio, 1.0 - seen[1:, i, nxt])
+        haz = np.concatenate([det[:1, nxt], 1.0 - surv])
+        return Prediction(self.t, occ, np.clip(det, 0, 1), np.clip(haz, 0, 1), model.cell_pairs)
+
+    def _predict_team(self, steps: int, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Occupancies and P(no patroller sees c) from the N-robot joint, one step at a time
+        (the S^N tensors are not kept)."""
+        assert isinstance(self._team, ExactTeam) and self.belief is not None
+        occ, none = [], []
+        b = self.belief
+        for k in range(steps + 1):
+            occ.append(self._team.marginals(b))
+            none.append(self._team.none_sees(b, G))
+            if k < steps:
+                b = self._team.propagate(b)
+        return np.stack(occ), np.stack(none)
+
+    def _predict_pair_or_factored(self, steps: int, Dd: np.ndarray):
+        """Occupancies, per-robot sightings and detection from the pair's joint (inclusion–
+        exclusion) or from independent marginals."""
+        assert self.belief is not None
+        S, K1 = self.n_states, steps + 1
         beliefs = np.empty((K1, *self.belief.shape))
         b = self.belief
         for k in range(K1):
@@ -196,18 +281,7 @@ class BeliefFilter:
             det = seen[:, 0] + seen[:, 1] - both
         else:
             det = 1.0 - np.prod(1.0 - seen, axis=1)
-        # per robot: P(not seen on c' at k−1 and not seen on c at k) / P(not seen on c' at k−1)
-        # = occ_{k−1} · (G[:, c'] ∘ (P G)[:, c]) / occ_{k−1} · G[:, c'], one (S, pairs) matrix
-        surv = np.ones((steps, len(prev)))
-        for i, step_T in enumerate(self._step_T):
-            PG = step_T.T @ G  # (S, C): P(not seeing c one step later | s)
-            joint_ok = occ[:-1, i] @ (G[:, prev] * PG[:, nxt])
-            before = occ[:-1, i] @ G[:, prev]
-            ok = before > 1e-12
-            ratio = joint_ok / np.where(ok, before, 1.0)
-            surv *= np.where(ok, ratio, 1.0 - seen[1:, i, nxt])
-        haz = np.concatenate([det[:1, nxt], 1.0 - surv])
-        return Prediction(self.t, occ, np.clip(det, 0, 1), np.clip(haz, 0, 1), model.cell_pairs)
+        return occ, seen, det
 
 
 def _pair_parts(
@@ -216,7 +290,7 @@ def _pair_parts(
     """The (S, S) meeting mask of the pair's states and each robot's equilibrium-mixed one-step
     matrix M_i (go → own action, stop → stop, turn → turn_left, as in :mod:`mirl.world.game`)."""
     S = domain.n_states
-    eq: Equilibrium = learned.equilibrium
+    eq: Equilibrium = learned.pair_equilibrium(0, 1)
     pol = [np.asarray(r.policy, dtype=int) for r in learned.robots]
     mixed = []
     for r, probs in zip(learned.robots, (eq.row, eq.col), strict=True):

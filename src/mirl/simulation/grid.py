@@ -54,8 +54,13 @@ class PatrolSimulator:
         self.n_robots = len(scenario.robots)
         self.policies = np.stack([scenario.true_policy(i) for i in range(self.n_robots)])
         self._T = [scenario.true_transitions(i) for i in range(self.n_robots)]
-        eq = scenario.played_equilibrium
-        self._eq_cdf = (np.cumsum(eq.row), np.cumsum(eq.col))
+        pairs = scenario.pairs
+        self._pair_i = np.array([i for i, _ in pairs], dtype=int)
+        self._pair_j = np.array([j for _, j in pairs], dtype=int)
+        self._eq_cdf = []
+        for i, j in pairs:
+            eq = scenario.pair_equilibrium(i, j)
+            self._eq_cdf.append((np.cumsum(eq.row), np.cumsum(eq.col)))
         self.np_random = np.random.default_rng()
         self._perception_rng = np.random.default_rng()
         self.states = np.zeros(self.n_robots, dtype=int)
@@ -85,20 +90,33 @@ class PatrolSimulator:
         return self._observe(), {"t": 0, "states": self.states.copy(), "interaction": False}
 
     def intended_actions(self) -> tuple[np.ndarray, bool]:
-        """Each robot's action this step: its policy's, overridden by the played equilibrium
-        where two robots meet (pairs resolved in robot order)."""
-        acts = self.policies[np.arange(self.n_robots), self.states].copy()
-        own = acts.copy()
-        met = False
-        for i in range(self.n_robots):
-            for j in range(i + 1, self.n_robots):
-                if meeting(self.domain, self.states[i], self.states[j], own[i], own[j]):
-                    met = True
-                    gi = int(np.searchsorted(self._eq_cdf[0], self.np_random.random(), "right"))
-                    gj = int(np.searchsorted(self._eq_cdf[1], self.np_random.random(), "right"))
-                    acts[i] = game_action_to_action(min(gi, 2), int(own[i]))
-                    acts[j] = game_action_to_action(min(gj, 2), int(own[j]))
-        return acts, met
+        """Each robot's action this step: its policy's, overridden by the pair's equilibrium
+        where two robots meet (:meth:`Scenario.pair_equilibrium`, the lower index the row player).
+
+        Meetings are found on the policies' own actions for every pair at once. When a robot
+        meets two others in the same step (three in a corridor junction), the pairs are
+        resolved in robot order ((0, 1), (0, 2), (1, 2), …) and the robot plays the game of its
+        *first* meeting; every meeting pair still draws both of its game actions, so the random
+        stream does not depend on which draws were used."""
+        idx = np.arange(self.n_robots)
+        own = self.policies[idx, self.states]
+        acts = own.copy()
+        si, sj = self._pair_i, self._pair_j
+        hits = np.flatnonzero(
+            meeting(self.domain, self.states[si], self.states[sj], own[si], own[sj])
+        )
+        engaged = np.zeros(self.n_robots, dtype=bool)
+        for k in hits:
+            i, j = int(si[k]), int(sj[k])
+            cdf_i, cdf_j = self._eq_cdf[k]
+            gi = int(np.searchsorted(cdf_i, self.np_random.random(), "right"))
+            gj = int(np.searchsorted(cdf_j, self.np_random.random(), "right"))
+            if not engaged[i]:
+                acts[i] = game_action_to_action(min(gi, 2), int(own[i]))
+            if not engaged[j]:
+                acts[j] = game_action_to_action(min(gj, 2), int(own[j]))
+            engaged[i] = engaged[j] = True
+        return acts, bool(hits.size)
 
     def step(self, action=None):
         acts, met = self.intended_actions()

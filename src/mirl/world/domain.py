@@ -13,7 +13,9 @@ from functools import cached_property
 
 import numpy as np
 
+from mirl.world import schema
 from mirl.world.maps import HEADING_DELTAS, GridMap
+from mirl.world.rewards import RewardFeature, RewardSpec
 
 __all__ = [
     "ACTIONS",
@@ -24,7 +26,9 @@ __all__ = [
     "FeatureOverride",
     "FeatureMap",
     "DEFAULT_FEATURE_MAP",
+    "RewardFeature",
     "RewardSpec",
+    "REWARD_FEATURES",
     "PatrolDomain",
     "detection_cells",
 ]
@@ -103,24 +107,42 @@ class FeatureMap:
         return table, tuple(distinct)
 
     @classmethod
-    def from_dict(cls, data: Mapping, *, where: str = "transition_features") -> FeatureMap:
-        try:
-            features = tuple(data["features"])
-            actions = {a: tuple(v) for a, v in data["actions"].items()}
-        except KeyError as exc:
-            raise ValueError(f"{where}: missing key {exc.args[0]!r}") from None
+    def from_dict(
+        cls, data: Mapping, *, where: str = "transition_features", shape=None
+    ) -> FeatureMap:
+        """ξ from a ``[transition_features]`` table (``features``, ``actions``, optional
+        ``override`` list), every value type-checked (:mod:`mirl.world.schema`; override cells
+        on a map of ``shape`` if given); problems are ``FieldError`` naming the field path."""
+        data = schema.table(
+            data, where, ("features", "actions", "override"), ("features", "actions")
+        )
+        features = _names(data["features"], f"{where}.features")
+        acts = schema.table(data["actions"], f"{where}.actions", data["actions"].keys())
+        actions = {a: _names(v, f"{where}.actions.{a}") for a, v in acts.items()}
         overrides = []
-        for ov in data.get("override", []):
-            cells = ov.get("cells")
+        for i, ov in enumerate(schema.array(data.get("override", []), f"{where}.override")):
+            p = f"{where}.override[{i}]"
+            ov = schema.table(ov, p, ("cells", "actions", "add", "remove"))
+            cells = None
+            if "cells" in ov:
+                items = schema.array(ov["cells"], f"{p}.cells")
+                cells = tuple(schema.cell(c, f"{p}.cells[{k}]", shape) for k, c in enumerate(items))
             overrides.append(
                 FeatureOverride(
-                    cells=None if cells is None else tuple((int(c[0]), int(c[1])) for c in cells),
-                    actions=tuple(ov["actions"]) if "actions" in ov else None,
-                    add=tuple(ov.get("add", ())),
-                    remove=tuple(ov.get("remove", ())),
+                    cells=cells,
+                    actions=_names(ov["actions"], f"{p}.actions") if "actions" in ov else None,
+                    add=_names(ov.get("add", []), f"{p}.add"),
+                    remove=_names(ov.get("remove", []), f"{p}.remove"),
                 )
             )
-        return cls(features, actions, tuple(overrides))
+        try:
+            return cls(features, actions, tuple(overrides))
+        except ValueError as exc:
+            raise schema.FieldError(where, str(exc)) from None
+
+
+def _names(value, path: str) -> tuple[str, ...]:
+    return tuple(schema.string(v, f"{path}[{i}]") for i, v in enumerate(schema.array(value, path)))
 
 
 DEFAULT_FEATURE_MAP = FeatureMap(
@@ -135,21 +157,7 @@ DEFAULT_FEATURE_MAP = FeatureMap(
 )
 
 
-REWARD_FEATURES: tuple[str, ...] = ("moved", "upper_hallway", "lower_hallway", "turn_around")
-
-
-@dataclass(frozen=True)
-class RewardSpec:
-    """Where the region-based reward features fire.
-
-    ``upper_hallway`` / ``lower_hallway`` fire in their cells for any action; ``turn_around``
-    fires for a turn at one of ``turn_around`` cells (the patrol's designated hallway ends; by
-    default the map's dead ends); ``moved`` fires for a forward that changes cell.
-    """
-
-    upper_hallway: tuple[tuple[int, int], ...] = ()
-    lower_hallway: tuple[tuple[int, int], ...] = ()
-    turn_around: tuple[tuple[int, int], ...] | None = None
+REWARD_FEATURES: tuple[str, ...] = RewardSpec().names  # the paper's four (SPEC §2)
 
 
 class PatrolDomain:
@@ -245,8 +253,10 @@ class PatrolDomain:
     # ---- φ ----------------------------------------------------------------------------------
     @cached_property
     def turn_around_cells(self) -> tuple[tuple[int, int], ...]:
-        if self.reward_spec.turn_around is not None:
-            return self.reward_spec.turn_around
+        """Cells of the (first) ``turn_around`` feature: its own, or the map's dead ends."""
+        for f in self.reward_spec.features:
+            if f.kind == "turn_around" and f.cells is not None:
+                return f.cells
         return dead_ends(self.map)
 
     def _cell_mask(self, cells: Sequence[tuple[int, int]]) -> np.ndarray:
@@ -260,25 +270,42 @@ class PatrolDomain:
             mask[(idx[:, None] * N_HEADINGS + np.arange(N_HEADINGS)).ravel()] = True
         return mask
 
+    def _feature_values(self, feature: RewardFeature) -> np.ndarray:
+        """(S, A) values of one reward feature (kinds in :mod:`mirl.world.rewards`)."""
+        out = np.zeros((self.n_states, self.n_actions))
+        if feature.kind == "moved":
+            cell_of = self.state_cell(np.arange(self.n_states))
+            out[:, FORWARD] = self.state_cell(self.intended[:, FORWARD]) != cell_of
+        elif feature.kind == "turn_around":
+            cells = dead_ends(self.map) if feature.cells is None else feature.cells
+            ends = self._cell_mask(cells)
+            out[:, TURN_LEFT] = ends
+            out[:, TURN_RIGHT] = ends
+        else:
+            mask = self._cell_mask(feature.cells or ())
+            if feature.kind == "heading_in_region":
+                mask &= np.isin(self.states[:, 2], feature.headings)
+            out[:, :] = mask[:, None]
+        return out
+
     @cached_property
     def reward_features(self) -> np.ndarray:
-        """φ as an (S, A, K) array for :data:`REWARD_FEATURES`."""
-        phi = np.zeros((self.n_states, self.n_actions, len(REWARD_FEATURES)))
-        cell_of = self.state_cell(np.arange(self.n_states))
-        phi[:, FORWARD, 0] = self.state_cell(self.intended[:, FORWARD]) != cell_of
-        phi[:, :, 1] = self._cell_mask(self.reward_spec.upper_hallway)[:, None]
-        phi[:, :, 2] = self._cell_mask(self.reward_spec.lower_hallway)[:, None]
-        ends = self._cell_mask(self.turn_around_cells)
-        phi[:, TURN_LEFT, 3] = ends
-        phi[:, TURN_RIGHT, 3] = ends
+        """φ as an (S, A, K) array over :attr:`reward_feature_names`."""
+        feats = self.reward_spec.features
+        phi = np.zeros((self.n_states, self.n_actions, len(feats)))
+        for k, f in enumerate(feats):
+            phi[:, :, k] = self._feature_values(f)
         return phi
 
-    reward_feature_names = REWARD_FEATURES
+    @property
+    def reward_feature_names(self) -> tuple[str, ...]:
+        return self.reward_spec.names
 
     def rewards(self, weights: Sequence[float]) -> np.ndarray:
         w = np.asarray(weights, dtype=float)
-        if w.shape != (len(REWARD_FEATURES),):
-            raise ValueError(f"expected {len(REWARD_FEATURES)} reward weights, got {w.shape}")
+        k = len(self.reward_spec.features)
+        if w.shape != (k,):
+            raise ValueError(f"expected {k} reward weights, got {w.shape}")
         return self.reward_features @ w
 
     # ---- visibility -------------------------------------------------------------------------

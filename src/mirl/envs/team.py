@@ -1,0 +1,124 @@
+"""The whole team as a PettingZoo ``ParallelEnv`` (:class:`TeamEnv`): every patroller and L is
+an agent acting at the same time.
+
+* **Patroller** agents (named as in the scenario): observe their own (row, col, heading), act
+  with the four patroller actions (``forward``, ``turn_left``, ``turn_right``, ``stop``), which
+  succeed or fail by their **true** transition functions; their reward is their true reward
+  r(s, a) (the scenario's features and that robot's weights) plus ``detection_reward`` when
+  some patroller sees L. Meetings are not arbitrated: the agents choose for themselves.
+* **L** (agent ``"L"``): observation, actions and reward as in
+  :class:`~mirl.envs.penetration.PenetrationEnv`.
+
+The episode ends for every agent when L is seen or reaches its goal, and is truncated after
+``max_cycles`` steps. ``reset(seed=...)`` fixes the patrollers' starts and every outcome.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+from mirl.envs.core import PenetrationWorld, as_scenario
+from mirl.envs.penetration import OBSERVER_ACTIONS, observation_space
+from mirl.world.domain import ACTIONS
+from mirl.world.scenario import Scenario
+
+__all__ = ["TeamEnv", "OBSERVER"]
+
+OBSERVER = "L"
+
+
+class TeamEnv(ParallelEnv):
+    """Patrollers and L of ``scenario`` (a Scenario or a shipped name) as parallel agents."""
+
+    metadata = {"render_modes": [], "name": "mirl_team_v0"}
+
+    def __init__(
+        self,
+        scenario: Scenario | str = "boyd2",
+        *,
+        observability: float | None = None,
+        max_cycles: int = 500,
+        goal_reward: float = 1.0,
+        detection_penalty: float = 1.0,
+        detection_reward: float = 1.0,
+    ) -> None:
+        sc = as_scenario(scenario)
+        if OBSERVER in sc.robot_names:
+            raise ValueError(f"a patroller may not be named '{OBSERVER}' (L's agent name)")
+        self.world = PenetrationWorld(sc, observability)
+        self.max_cycles = int(max_cycles)
+        self.rewards_for = (float(goal_reward), float(detection_penalty), float(detection_reward))
+        self.possible_agents = [*sc.robot_names, OBSERVER]
+        self.agents: list[str] = []
+        rows, cols = sc.map.shape
+        own = spaces.Box(
+            np.zeros(3, dtype=np.int64), np.array([rows - 1, cols - 1, 3]), dtype=np.int64
+        )
+        self._obs_spaces: dict[str, spaces.Space] = {n: own for n in sc.robot_names}
+        self._obs_spaces[OBSERVER] = observation_space(self.world)
+        self._act_spaces: dict[str, spaces.Space] = {
+            n: spaces.Discrete(len(ACTIONS)) for n in sc.robot_names
+        }
+        self._act_spaces[OBSERVER] = spaces.Discrete(len(OBSERVER_ACTIONS))
+        self._rewards = [sc.domain.rewards(list(r.weights)) for r in sc.robots]
+        self._t = 0
+
+    def observation_space(self, agent: str) -> spaces.Space:
+        return self._obs_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Space:
+        return self._act_spaces[agent]
+
+    def _observations(self) -> dict[str, Any]:
+        w = self.world
+        states = w.sim.domain.states[w.sim.states].astype(np.int64)
+        obs: dict[str, Any] = {n: states[i] for i, n in enumerate(w.scenario.robot_names)}
+        obs[OBSERVER] = {
+            "patrollers": w.patrollers_seen(),
+            "observer": w.observer_state(),
+            "out": int(w.out),
+        }
+        return obs
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        if seed is None:
+            seed = int(np.random.SeedSequence().generate_state(1)[0])
+        self.world.reset(int(seed))
+        self.agents = list(self.possible_agents)
+        self._t = 0
+        return self._observations(), {a: {} for a in self.agents}
+
+    def step(self, actions: dict[str, Any]):
+        w = self.world
+        names = w.scenario.robot_names
+        acts = np.array([int(actions.get(n, ACTIONS.index("stop"))) for n in names])
+        before = w.sim.states.copy()
+        w.move_observer(int(actions.get(OBSERVER, 3)))
+        w.step_patrollers(acts)
+        self._t += 1
+        goal_reward, penalty, bonus = self.rewards_for
+        detected, arrived = w.detected(), (not w.detected()) and w.at_goal()
+        rewards = {
+            n: float(self._rewards[i][before[i], acts[i]]) + (bonus if detected else 0.0)
+            for i, n in enumerate(names)
+        }
+        rewards[OBSERVER] = -penalty if detected else (goal_reward if arrived else 0.0)
+        done = detected or arrived
+        truncated = not done and self._t >= self.max_cycles
+        agents = self.agents
+        obs = self._observations()
+        outcome = "detected" if detected else ("success" if arrived else None)
+        result = (
+            {a: obs[a] for a in agents},
+            {a: rewards[a] for a in agents},
+            {a: done for a in agents},
+            {a: truncated for a in agents},
+            {a: {"t": self._t, "outcome": outcome} for a in agents},
+        )
+        if done or truncated:
+            self.agents = []
+        return result

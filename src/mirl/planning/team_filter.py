@@ -1,0 +1,213 @@
+"""Belief propagation for teams of N ≥ 2 patrollers (used by :class:`~mirl.planning.belief.
+BeliefFilter` when the team is not a pair small enough for its S × S joint).
+
+**Meetings.** Robot i meets robot j when their policies' intended moves meet (SPEC §2); it then
+plays its side of the pair's equilibrium instead of its policy. A robot that meets two others
+in one step plays the game of its first pair in robot order ((0, 1), (0, 2), …, (1, 2), …), as
+the simulator does (:meth:`mirl.simulation.grid.PatrolSimulator.intended_actions`).
+
+**Exact** (:class:`ExactTeam`): the belief over the joint state, a tensor of S^N entries. Given
+the joint state the robots move independently, each with its policy's or its game's one-step
+matrix, so the joint step is a sum over the *assignments* (which game, if any, each robot
+plays) present in the tensor of the masked belief pushed through one matrix per axis.
+
+**Factored** (:class:`FactoredTeam`): one marginal per robot, with pairwise meeting corrections:
+robot i at s meets j with probability q_ij(s) = Σ_s' m_ij(s, s') b_j(s') (independence between
+robots), plays pair (i, j)'s game with probability q_ij(s) ∏_{earlier pairs k} (1 − q_ik(s)), and
+its policy otherwise. Meeting masks are sparse (robots meet only on neighbouring cells), built
+by sparse products of "next cell" and "current cell" incidence matrices.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from mirl.learning.models import LearnResult
+from mirl.mdp import policy_matrix
+from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
+
+__all__ = ["meeting_matrix", "game_step_matrix", "TeamParts", "ExactTeam", "FactoredTeam"]
+
+
+def meeting_matrix(domain: PatrolDomain, pol_i: np.ndarray, pol_j: np.ndarray) -> sp.csr_array:
+    """Sparse (S, S) 0/1: robots i in s and j in s' meet under their policies' actions — the rule
+    of :func:`mirl.world.game.meeting`, without an S × S dense mask."""
+    S = domain.n_states
+    cells = np.arange(S) // 4
+    nxt_i = domain.state_cell(domain.intended[np.arange(S), pol_i])
+    nxt_j = domain.state_cell(domain.intended[np.arange(S), pol_j])
+    C = domain.n_cells
+
+    def inc(col: np.ndarray, rows: np.ndarray | None = None) -> sp.csr_array:
+        r = np.arange(S) if rows is None else rows
+        return sp.csr_array((np.ones(len(r)), (r, col[r])), shape=(S, C))
+
+    same = inc(nxt_i) @ inc(nxt_j).T  # same next cell …
+    stay_i, stay_j = np.flatnonzero(nxt_i == cells), np.flatnonzero(nxt_j == cells)
+    both_stay = inc(nxt_i, stay_i) @ inc(nxt_j, stay_j).T  # … unless neither moves
+    swap = (inc(nxt_i) @ inc(cells).T) * (inc(cells) @ inc(nxt_j).T)
+    swap = swap - swap * (inc(cells) @ inc(cells).T)  # swapping needs two different cells
+    out = (same - both_stay + swap).tocsr()
+    out.data = (out.data > 0.5).astype(float)
+    out.eliminate_zeros()
+    return sp.csr_array(out)
+
+
+def game_step_matrix(
+    domain: PatrolDomain, transitions: sp.csr_array, policy: np.ndarray, side
+) -> sp.csr_array:
+    """One-step matrix of a robot playing ``side`` (go/stop/turn probabilities): go → its own
+    action, stop → stop, turn → turn_left (:func:`mirl.world.game.game_action_to_action`)."""
+    S = domain.n_states
+    w = np.zeros((S, domain.n_actions))
+    np.add.at(w, (np.arange(S), np.asarray(policy, dtype=int)), side[0])
+    w[:, STOP] += side[1]
+    w[:, TURN_LEFT] += side[2]
+    return sp.csr_array(policy_matrix(transitions, w))
+
+
+class TeamParts:
+    """Per robot the policy step Pᵢ and, per pair, meeting masks and the game steps of both
+    sides, transposed for propagation (column vectors b' = Pᵀ b)."""
+
+    def __init__(self, domain: PatrolDomain, learned: LearnResult) -> None:
+        robots = learned.robots
+        self.n = n = len(robots)
+        self.S = domain.n_states
+        self.pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
+        pols = [np.asarray(r.policy, dtype=int) for r in robots]
+        self.step_T = [sp.csr_array(policy_matrix(r.transitions, r.policy).T) for r in robots]
+        self.meet = [meeting_matrix(domain, pols[i], pols[j]) for i, j in self.pairs]
+        self.game_T: list[tuple[sp.csr_array, sp.csr_array]] = []
+        for i, j in self.pairs:
+            eq = learned.pair_equilibrium(i, j)
+            gi = game_step_matrix(domain, robots[i].transitions, pols[i], eq.row)
+            gj = game_step_matrix(domain, robots[j].transitions, pols[j], eq.col)
+            self.game_T.append((sp.csr_array(gi.T), sp.csr_array(gj.T)))
+
+    def robot_pairs(self, i: int) -> list[tuple[int, int, int]]:
+        """(pair index, other robot, side 0 = row / 1 = col) of robot i's pairs in order."""
+        return [(k, b if a == i else a, 0 if a == i else 1)
+                for k, (a, b) in enumerate(self.pairs) if i in (a, b)]  # fmt: skip
+
+
+class FactoredTeam:
+    """Marginals (N, S) with pairwise meeting corrections (module doc)."""
+
+    def __init__(self, parts: TeamParts) -> None:
+        self.parts = parts
+
+    def propagate(self, belief: np.ndarray) -> np.ndarray:
+        p = self.parts
+        out = np.empty_like(belief)
+        for i in range(p.n):
+            b = belief[i]
+            free = np.ones(p.S)
+            parts = []
+            for k, other, side in p.robot_pairs(i):
+                m = p.meet[k] if side == 0 else p.meet[k].T
+                q = np.clip(m @ belief[other], 0.0, 1.0)  # P(i at s meets the other)
+                w = free * q
+                free = free - w
+                if w.any():
+                    parts.append(p.game_T[k][side] @ (b * w))
+            out[i] = p.step_T[i] @ (b * free) + sum(parts, np.zeros(p.S))
+        return out
+
+
+class ExactTeam:
+    """The joint belief over S^N states as an N-dimensional tensor (module doc)."""
+
+    def __init__(self, parts: TeamParts) -> None:
+        self.parts = p = parts
+        shape = (p.S,) * p.n
+        # per robot, which of its options it takes in each joint state: 0 = policy, 1 + k =
+        # the game of its k-th pair (first meeting in robot order)
+        choice = np.zeros((p.n, *shape), dtype=np.int8)
+        for k, (i, j) in enumerate(p.pairs):
+            met = _broadcast(p.meet[k].toarray() > 0, i, j, p.n)
+            for r in (i, j):
+                choice[r] = np.where((choice[r] == 0) & met, 1 + k, choice[r])
+        code = np.zeros(shape, dtype=np.int64)
+        for r in range(p.n):
+            code = code * (len(p.pairs) + 1) + choice[r]
+        self.free = code == 0
+        self.groups = []  # (mask, per robot transposed matrix) for each meeting assignment
+        for value in np.unique(code[~self.free]):
+            mask = code == value
+            mats = []
+            for r in range(p.n):
+                k = int(choice[r][mask].flat[0]) - 1
+                if k < 0:
+                    mats.append(p.step_T[r])
+                else:
+                    mats.append(p.game_T[k][0 if p.pairs[k][0] == r else 1])
+            self.groups.append((mask, mats))
+
+    def propagate(self, belief: np.ndarray) -> np.ndarray:
+        p = self.parts
+        out = _mode_products(np.where(self.free, belief, 0.0), p.step_T)
+        for mask, mats in self.groups:
+            part = np.where(mask, belief, 0.0)
+            if part.any():
+                out += _mode_products(part, mats)
+        return out
+
+    def marginals(self, belief: np.ndarray) -> np.ndarray:
+        n = self.parts.n
+        return np.stack([belief.sum(axis=tuple(a for a in range(n) if a != i)) for i in range(n)])
+
+    def none_sees(self, belief: np.ndarray, G: np.ndarray) -> np.ndarray:
+        """(C,) P(no patroller sees cell c) = Σ_s B[s] ∏ᵢ G[sᵢ, c]."""
+        x = np.tensordot(belief, G, axes=([belief.ndim - 1], [0]))  # (S, …, S, C)
+        while x.ndim > 2:
+            x = np.einsum("...sc,sc->...c", x, G)
+        return np.einsum("sc,sc->c", x, G)
+
+
+def _broadcast(mask2: np.ndarray, i: int, j: int, n: int) -> np.ndarray:
+    shape = [1] * n
+    shape[i] = shape[j] = mask2.shape[0]
+    return mask2.reshape(shape)
+
+
+def _mode_products(x: np.ndarray, mats_T: list[sp.csr_array]) -> np.ndarray:
+    """x ×₀ M₀ᵀ ×₁ M₁ᵀ …: apply each (transposed) one-step matrix along its axis."""
+    for axis, M in enumerate(mats_T):
+        moved = np.moveaxis(x, axis, 0)
+        shape = moved.shape
+        y = M @ moved.reshape(shape[0], -1)
+        x = np.moveaxis(y.reshape(shape), 0, axis)
+    return x
+
+
+def factored_detection(
+    occ: np.ndarray, detection: sp.csr_array, step_T: list[sp.csr_array], cell_pairs: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Detection d_k(c) = 1 − ∏ᵢ (1 − P(i sees c)) and the first-order hazards of
+    :meth:`~mirl.planning.belief.BeliefFilter.predict` from per-robot occupancies ``occ``
+    (K+1, N, S), with the detection matrix D kept sparse: with G = 1 − D and P G = 1 − P D,
+    occ · (G[:, c'] ∘ (P G)[:, c]) = Σocc − occ·D[:, c'] − occ·(P D)[:, c] + occ·(D[:, c'] ∘
+    (P D)[:, c]). On the 60 × 60 office (S = 3 804, ~4 000 cell pairs, 390 steps) this takes
+    well under a second where the dense (S, pairs) products took ~60 s."""
+    K1, N, S = occ.shape
+    D = sp.csc_array(detection)
+    seen = (D.T @ occ.reshape(K1 * N, S).T).T.reshape(K1, N, -1)  # P(robot i sees c)
+    det = 1.0 - np.prod(1.0 - seen, axis=1)
+    prev, nxt = np.asarray(cell_pairs).T
+    Dp = sp.csc_array(D[:, prev])
+    surv = np.ones((K1 - 1, len(prev)))
+    for i, PT in enumerate(step_T):
+        PDn = sp.csc_array(sp.csr_array(PT.T) @ D)[:, nxt]  # P(sees c one step later | s)
+        both = sp.csc_array(Dp.multiply(PDn))
+        o = occ[:-1, i]
+        total = o.sum(axis=1, keepdims=True)
+        o_prev = (Dp.T @ o.T).T
+        joint_ok = total - o_prev - (PDn.T @ o.T).T + (both.T @ o.T).T
+        before = total - o_prev
+        ok = before > 1e-12
+        ratio = joint_ok / np.where(ok, before, 1.0)
+        surv *= np.where(ok, ratio, 1.0 - seen[1:, i, nxt])
+    haz = np.concatenate([det[:1, nxt], 1.0 - surv])
+    return det, haz

@@ -1,0 +1,183 @@
+"""Reward features φ as data: a scenario names any number of features, each of a *kind*, and gives
+every patroller its own true weights over them (so two robots can patrol different routes).
+
+Kinds (``cells`` is a region: a list whose entries are cells ``[r, c]`` or inclusive rectangles
+``{from = [r, c], to = [r, c]}``, or one such rectangle):
+
+============================ ==================================================================
+``moved``                    a forward that changes cell
+``region``                   standing on one of ``cells`` (any action)
+``turn_around``              a turn (left or right) on one of ``cells`` (default: the map's dead
+                             ends, where a patrol must turn)
+``heading_in_region``        standing on one of ``cells`` facing one of ``headings`` (names
+                             ``east``/``north``/``west``/``south`` or 0-3), any action
+============================ ==================================================================
+
+The paper's four features (``moved``, ``upper_hallway``, ``lower_hallway``, ``turn_around``)
+are :func:`hallway_features`, which the older ``[reward]`` keys of a scenario still produce.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from mirl.world import schema
+
+__all__ = [
+    "KINDS",
+    "HEADING_NAMES",
+    "RewardFeature",
+    "RewardSpec",
+    "hallway_features",
+    "read_region",
+    "read_reward_spec",
+    "read_weights",
+]
+
+KINDS = ("moved", "region", "turn_around", "heading_in_region")
+HEADING_NAMES = ("east", "north", "west", "south")
+LEGACY_KEYS = ("upper_hallway", "lower_hallway", "turn_around")
+Cells = tuple[tuple[int, int], ...]
+
+
+@dataclass(frozen=True)
+class RewardFeature:
+    """One reward feature: its name, kind (module doc), cells (None: the kind's default) and,
+    for ``heading_in_region``, headings."""
+
+    name: str
+    kind: str
+    cells: Cells | None = None
+    headings: tuple[int, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"reward feature '{self.name}': unknown kind '{self.kind}'")
+
+
+def hallway_features(
+    upper: Cells = (), lower: Cells = (), turn_around: Cells | None = None
+) -> tuple[RewardFeature, ...]:
+    """The paper's four reward features (SPEC §2)."""
+    return (
+        RewardFeature("moved", "moved"),
+        RewardFeature("upper_hallway", "region", tuple(upper)),
+        RewardFeature("lower_hallway", "region", tuple(lower)),
+        RewardFeature("turn_around", "turn_around", turn_around),
+    )
+
+
+@dataclass(frozen=True)
+class RewardSpec:
+    """The reward features of a domain, in weight order."""
+
+    features: tuple[RewardFeature, ...] = hallway_features()
+
+    def __post_init__(self) -> None:
+        names = [f.name for f in self.features]
+        if len(set(names)) != len(names):
+            raise ValueError(f"duplicate reward feature name in {names}")
+        if not names:
+            raise ValueError("a reward needs at least one feature")
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(f.name for f in self.features)
+
+    def feature(self, name: str) -> RewardFeature:
+        return self.features[self.names.index(name)]
+
+
+def read_region(value: Any, path: str, shape: tuple[int, int]) -> Cells:
+    """A region (module doc) as a tuple of cells, rectangles expanded row by row."""
+    if isinstance(value, dict):
+        return _rectangle(value, path, shape)
+    out: list[tuple[int, int]] = []
+    for i, item in enumerate(schema.array(value, path)):
+        if isinstance(item, dict):
+            out.extend(_rectangle(item, f"{path}[{i}]", shape))
+        else:
+            out.append(schema.cell(item, f"{path}[{i}]", shape))
+    return tuple(out)
+
+
+def _rectangle(value: dict, path: str, shape: tuple[int, int]) -> Cells:
+    value = schema.table(value, path, ("from", "to"), required=("from", "to"))
+    r0, c0 = schema.cell(value["from"], f"{path}.from", shape)
+    r1, c1 = schema.cell(value["to"], f"{path}.to", shape)
+    return tuple(
+        (r, c)
+        for r in range(min(r0, r1), max(r0, r1) + 1)
+        for c in range(min(c0, c1), max(c0, c1) + 1)
+    )
+
+
+def _headings(value: Any, path: str) -> tuple[int, ...]:
+    out = []
+    for i, h in enumerate(schema.array(value, path, min_length=1)):
+        if isinstance(h, str):
+            out.append(HEADING_NAMES.index(schema.string(h, f"{path}[{i}]", HEADING_NAMES)))
+        else:
+            out.append(schema.integer(h, f"{path}[{i}]", low=0, high=3))
+    return tuple(sorted(set(out)))
+
+
+def _feature(value: Any, path: str, shape: tuple[int, int]) -> RewardFeature:
+    value = schema.table(value, path, ("name", "kind", "cells", "headings"), ("name", "kind"))
+    name = schema.string(value["name"], f"{path}.name")
+    kind = schema.string(value["kind"], f"{path}.kind", KINDS)
+    allowed = {"moved": (), "region": ("cells",), "turn_around": ("cells",)}
+    allowed["heading_in_region"] = ("cells", "headings")
+    for key in ("cells", "headings"):
+        if key in value and key not in allowed[kind]:
+            raise schema.FieldError(f"{path}.{key}", f"a '{kind}' feature takes no {key}")
+    if kind in ("region", "heading_in_region") and "cells" not in value:
+        raise schema.FieldError(path, f"a '{kind}' feature needs cells")
+    cells = read_region(value["cells"], f"{path}.cells", shape) if "cells" in value else None
+    headings: tuple[int, ...] = ()
+    if kind == "heading_in_region":
+        if "headings" not in value:
+            raise schema.FieldError(path, "a 'heading_in_region' feature needs headings")
+        headings = _headings(value["headings"], f"{path}.headings")
+    return RewardFeature(name, kind, cells, headings)
+
+
+def read_reward_spec(reward: dict, shape: tuple[int, int]) -> tuple[RewardSpec, bool]:
+    """The ``[reward]`` table's features and whether they came in the older fixed form
+    (``upper_hallway`` / ``lower_hallway`` / ``turn_around`` keys)."""
+    reward = schema.table(reward, "reward", ("features", "weights", *LEGACY_KEYS))
+    legacy = [k for k in LEGACY_KEYS if k in reward]
+    if "features" in reward:
+        if legacy:
+            raise schema.FieldError(
+                f"reward.{legacy[0]}", "give either reward.features or the fixed hallway keys"
+            )
+        items = schema.array(reward["features"], "reward.features", min_length=1)
+        feats = tuple(_feature(f, f"reward.features[{i}]", shape) for i, f in enumerate(items))
+        names = [f.name for f in feats]
+        for i, name in enumerate(names):
+            if name in names[:i]:
+                raise schema.FieldError(f"reward.features[{i}].name", f"'{name}' is used twice")
+        return RewardSpec(feats), False
+    regions = {
+        k: read_region(reward[k], f"reward.{k}", shape) if k in reward else None
+        for k in LEGACY_KEYS
+    }
+    return RewardSpec(
+        hallway_features(
+            regions["upper_hallway"] or (), regions["lower_hallway"] or (), regions["turn_around"]
+        )
+    ), True
+
+
+def read_weights(
+    value: Any, path: str, names: tuple[str, ...], base: Mapping[str, float]
+) -> dict[str, float]:
+    """``base`` updated by the table ``value`` of feature = weight (finite numbers)."""
+    value = schema.table(value, path, names)
+    out = dict(base)
+    for k, v in value.items():
+        out[k] = schema.number(v, f"{path}.{k}")
+    return out

@@ -1,0 +1,191 @@
+"""Reading the sections of a scenario TOML (see :mod:`mirl.world.scenario`) with the typed readers
+of :mod:`mirl.world.schema`: each function takes the parsed table and returns plain values; every
+problem is a :class:`~mirl.world.schema.FieldError` naming the field's path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mirl.world import schema
+from mirl.world.catalog import load_map
+from mirl.world.domain import FeatureMap, PatrolDomain
+from mirl.world.game import GAME_ACTIONS, InteractionGame
+from mirl.world.maps import GridMap, MapError, MapFrame
+from mirl.world.rewards import RewardSpec, read_weights
+
+__all__ = [
+    "HEALTHY_PROBABILITIES",
+    "TRUE_WEIGHTS",
+    "RobotSpec",
+    "read_map",
+    "read_feature_map",
+    "read_robots",
+    "read_game",
+    "read_pairs",
+]
+
+HEALTHY_PROBABILITIES = {"left_wheel": 0.95, "right_wheel": 0.95, "navigation": 0.97, "floor": 0.99}
+TRUE_WEIGHTS = {"moved": 1.0, "upper_hallway": 0.05, "lower_hallway": 0.05, "turn_around": 0.3}
+MAX_ROBOTS = 26  # a team, not a crowd: every pair is checked for meetings each step
+FieldError = schema.FieldError
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    name: str
+    start: tuple[int, int, int]  # row, col, heading
+    feature_probabilities: Mapping[str, float]
+    weights: np.ndarray  # over the domain's reward feature names
+
+
+def read_map(data: dict, base: Path | None) -> GridMap:
+    """The scenario's map (relative paths are relative to the scenario file), placed in the
+    metric frame of the optional ``[frame]`` table (``cell_size``, ``origin = [x, y]``: the
+    map-frame position of the centre of cell (0, 0))."""
+    if "map" not in data:
+        raise FieldError("map", "missing field")
+    map_ref = schema.string(data["map"], "map")
+    candidate = Path(map_ref)
+    if base is not None and not candidate.is_absolute() and (base / candidate).exists():
+        candidate = base / candidate
+    try:
+        gridmap = load_map(map_ref if not candidate.is_file() else candidate)
+    except (MapError, OSError, ValueError) as exc:
+        raise FieldError("map", str(exc).splitlines()[0] if str(exc) else "cannot load") from None
+    if "frame" not in data:
+        return gridmap
+    frame = schema.table(data["frame"], "frame", ("cell_size", "origin"))
+    cell_size = schema.number(frame.get("cell_size", gridmap.frame.cell_size), "frame.cell_size")
+    origin = schema.array(
+        frame.get("origin", [gridmap.frame.origin_x, gridmap.frame.origin_y]),
+        "frame.origin",
+        length=2,
+    )
+    x, y = (schema.number(v, f"frame.origin[{i}]") for i, v in enumerate(origin))
+    try:
+        placed = MapFrame(cell_size, x, y)
+    except MapError as exc:
+        raise FieldError("frame", str(exc)) from None
+    return replace(gridmap, frame=placed)
+
+
+def read_feature_map(data: Any, shape: tuple[int, int]) -> FeatureMap:
+    """The ``[transition_features]`` table (ξ as data, :class:`~mirl.world.domain.FeatureMap`)."""
+    return FeatureMap.from_dict(data, shape=shape)
+
+
+def _probabilities(value: Any, where: str, features: tuple[str, ...]) -> dict[str, float]:
+    value = schema.table(value, where, features)
+    out = dict(HEALTHY_PROBABILITIES) if set(features) >= set(HEALTHY_PROBABILITIES) else {}
+    out = {k: v for k, v in out.items() if k in features}
+    for k, v in value.items():
+        out[k] = schema.number(v, f"{where}.{k}", low=0.0, high=1.0)
+    missing = [f for f in features if f not in out]
+    if missing:
+        raise FieldError(where, f"no probability for feature '{missing[0]}'")
+    return out
+
+
+def read_robots(
+    data: Any,
+    domain: PatrolDomain,
+    reward: RewardSpec,
+    base_weights: Mapping[str, float],
+) -> tuple[RobotSpec, ...]:
+    """``[[robots]]``: names, starts on hallway states, true feature probabilities and
+    per-robot reward weights (the ``[reward] weights`` table updated by the robot's own)."""
+    items = schema.array(data, "robots", min_length=2)
+    if len(items) > MAX_ROBOTS:
+        raise FieldError("robots", f"at most {MAX_ROBOTS} patrollers, got {len(items)}")
+    names = reward.names
+    robots: list[RobotSpec] = []
+    for i, rd in enumerate(items):
+        where = f"robots[{i}]"
+        rd = schema.table(rd, where, ("name", "start", "feature_probabilities", "weights"))
+        name = schema.string(rd["name"], f"{where}.name") if "name" in rd else "IJKLMNOP"[i : i + 1]
+        name = name or f"R{i}"
+        if not name.strip() or any(ch in name for ch in ",:\n"):
+            raise FieldError(f"{where}.name", f"{name!r} is not a usable robot name")
+        if "start" not in rd:
+            raise FieldError(where, "missing field 'start'")
+        start = schema.cell(rd["start"], f"{where}.start", domain.map.shape, n=3)
+        if domain.state_index(*start) < 0:
+            raise FieldError(f"{where}.start", f"{list(start)} is not a hallway cell")
+        probs = _probabilities(
+            rd.get("feature_probabilities", {}),
+            f"{where}.feature_probabilities",
+            domain.feature_map.features,
+        )
+        w = read_weights(rd.get("weights", {}), f"{where}.weights", names, base_weights)
+        missing = [k for k in names if k not in w]
+        if missing:
+            raise FieldError(f"{where}.weights", f"no weight for reward feature '{missing[0]}'")
+        if name in [r.name for r in robots]:
+            raise FieldError(f"{where}.name", f"duplicate robot name '{name}'")
+        robots.append(RobotSpec(name, start, probs, np.array([w[k] for k in names])))
+    return tuple(robots)
+
+
+def _payoffs(value: Any, where: str) -> np.ndarray:
+    rows = schema.array(value, where, length=3)
+    return np.array(
+        [
+            [
+                schema.number(x, f"{where}[{i}][{j}]")
+                for j, x in enumerate(schema.array(r, f"{where}[{i}]", length=3))
+            ]
+            for i, r in enumerate(rows)
+        ]
+    )
+
+
+def _played(value: Any, where: str) -> tuple[str, str]:
+    items = schema.array(value, where, length=2)
+    a, b = (schema.string(v, f"{where}[{i}]", GAME_ACTIONS) for i, v in enumerate(items))
+    return a, b
+
+
+def read_game(data: Any) -> tuple[InteractionGame, tuple[str, str], list]:
+    """``[game]``: payoffs, the played equilibrium and the raw per-pair list (``pairs``)."""
+    game = schema.table(data, "game", ("row_payoffs", "col_payoffs", "played", "pairs"))
+    kwargs = {
+        k: _payoffs(game[k], f"game.{k}") for k in ("row_payoffs", "col_payoffs") if k in game
+    }
+    played = _played(game["played"], "game.played") if "played" in game else ("stop", "go")
+    return InteractionGame(**kwargs), played, schema.array(game.get("pairs", []), "game.pairs")
+
+
+def read_pairs(
+    items: list, names: tuple[str, ...], game: InteractionGame
+) -> dict[tuple[int, int], tuple[str, str]]:
+    """``[[game.pairs]]``: ``robots = [A, B]`` and ``played = [a, b]`` (A plays a), stored with
+    the lower robot index as the game's row player."""
+    out: dict[tuple[int, int], tuple[str, str]] = {}
+    for k, item in enumerate(items):
+        where = f"game.pairs[{k}]"
+        item = schema.table(item, where, ("robots", "played"), ("robots", "played"))
+        pair = schema.array(item["robots"], f"{where}.robots", length=2)
+        idx = []
+        for i, n in enumerate(pair):
+            schema.string(n, f"{where}.robots[{i}]", names)
+            idx.append(names.index(n))
+        if idx[0] == idx[1]:
+            raise FieldError(f"{where}.robots", "a robot does not meet itself")
+        played = _played(item["played"], f"{where}.played")
+        if idx[0] > idx[1]:
+            idx, played = idx[::-1], (played[1], played[0])
+        try:
+            game.pure(*played)
+        except ValueError as exc:
+            raise FieldError(f"{where}.played", str(exc)) from None
+        key = (idx[0], idx[1])
+        if key in out:
+            raise FieldError(f"{where}.robots", "this pair is given twice")
+        out[key] = played
+    return out

@@ -1,0 +1,207 @@
+"""Teams of N ≥ 2 patrollers (issue 14): meetings between any pair in the simulator, the sparse
+meeting masks, the exact N-robot joint filter against the pair filter and the factored one,
+equilibrium weighing over pairs, three-robot learning, and the RL environments."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mirl.learning.equilibria import meeting_pairs, weigh_equilibria, weigh_team_equilibria
+from mirl.learning.models import oracle_models
+from mirl.planning.belief import UNSEEN, BeliefFilter
+from mirl.planning.observer import observer_model
+from mirl.planning.team_filter import meeting_matrix
+from mirl.simulation.grid import PatrolSimulator, simulate
+from mirl.world.game import meeting
+from mirl.world.scenario import load_scenario
+
+
+@pytest.fixture(scope="module")
+def br3():
+    return load_scenario("boydright-3")
+
+
+def test_meeting_matrix_is_the_meeting_rule(br3):
+    d = br3.domain
+    S = d.n_states
+    pol = [br3.true_policy(i) for i in range(3)]
+    si, sj = np.divmod(np.arange(S * S), S)
+    for i, j in ((0, 1), (0, 2), (2, 1)):
+        dense = meeting(d, si, sj, pol[i][si], pol[j][sj]).reshape(S, S)
+        sparse = meeting_matrix(d, pol[i], pol[j]).toarray() > 0
+        np.testing.assert_array_equal(sparse, dense)
+        assert dense.any()
+
+
+def test_three_robots_meet_pairwise_and_first_meeting_wins(br3):
+    d = br3.domain
+    sim = PatrolSimulator(br3)
+    sim.reset(seed=0)
+    # I and K face each other on the top hallway next to (0, 10); J is far away
+    sim.states = np.array(
+        [d.state_index(0, 9, 0), d.state_index(13, 16, 1), d.state_index(0, 11, 2)]
+    )
+    sim.policies = sim.policies.copy()
+    sim.policies[:, :] = 0  # everybody drives forward
+    acts, met = sim.intended_actions()
+    assert met
+    # stop/go: I (row player of pair (0, 2)) stops, K goes; J keeps its own action
+    assert acts.tolist() == [3, 0, 0]
+    # a result over a long run: meetings happen between every pair of the three
+    res = simulate(br3, 600, seed=2, random_starts=True)
+    assert res.interactions > 0 and res.truth.horizon == 600
+
+
+def test_exact_team_filter_equals_the_pair_filter():
+    """The S^N tensor filter with N = 2 is the pair filter (same meetings, same game)."""
+    sc = load_scenario("boyd2")
+    learned = oracle_models(sc)
+    model = observer_model(sc)
+    vis = sc.domain.visible_states(sc.observability)
+    pair = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
+    team = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
+    # force the general tensor code on two robots
+    from mirl.planning.team_filter import ExactTeam, TeamParts
+
+    team.mode, team._team = "team", ExactTeam(TeamParts(sc.domain, learned))
+    res = simulate(sc, 60, seed=4, random_starts=True)
+    seen = np.stack([res.observations.state_series(sc.domain, i) for i in range(2)], axis=1)
+    for row in seen:
+        pair.update(row)
+        team.update(row)
+    a, b = pair.predict(15, model), team.predict(15, model)
+    np.testing.assert_allclose(a.occupancy, b.occupancy, atol=1e-10)
+    np.testing.assert_allclose(a.detection, b.detection, atol=1e-10)
+
+
+RING = """\
+L......
+#.###.#
+#.#g#.#
+#.....#
+"""
+
+RING_SCENARIO = """\
+name = "ring3"
+map = "ring.txt"
+observability = 0.3
+[reward]
+features = [{ name = "moved", kind = "moved" }, { name = "ends", kind = "turn_around" }]
+weights = { moved = 1.0, ends = 0.3 }
+[[robots]]
+start = [0, 1, 0]
+[[robots]]
+start = [3, 5, 2]
+[[robots]]
+start = [0, 6, 2]
+"""
+
+
+def test_factored_filter_is_closer_to_exact_than_independent_marginals(tmp_path):
+    """Three robots on a small ring (S³ = 262 144 joint states): the factored filter's pairwise
+    meeting corrections bring its predicted detection closer to the exact joint's than
+    independent marginals (meetings ignored) get."""
+    from mirl.planning.team_filter import FactoredTeam, TeamParts
+
+    (tmp_path / "ring.txt").write_text(RING)
+    (tmp_path / "ring3.toml").write_text(RING_SCENARIO)
+    sc = load_scenario(tmp_path / "ring3.toml")
+    learned = oracle_models(sc)
+    model = observer_model(sc)
+    vis = sc.domain.visible_states(sc.observability)
+    exact = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
+    fact = BeliefFilter(sc.domain, learned, visible=vis, joint=False)
+    indep = BeliefFilter(sc.domain, learned, visible=vis, joint=False)
+    parts = TeamParts(sc.domain, learned)
+    parts.meet = [m * 0.0 for m in parts.meet]
+    indep._team = FactoredTeam(parts)
+    assert exact.mode == "team" and fact.mode == "factored"
+    res = simulate(sc, 30, seed=1, random_starts=True)
+    assert res.interactions > 0
+    seen = np.stack([res.observations.state_series(sc.domain, i) for i in range(3)], axis=1)
+    for row in seen:
+        for f in (exact, fact, indep):
+            f.update(row)
+    a, b, c = (f.predict(12, model) for f in (exact, fact, indep))
+    for p in (a, b, c):
+        assert p.occupancy.sum(axis=2) == pytest.approx(1.0)
+    err_fact = np.abs(a.detection - b.detection).mean()
+    err_indep = np.abs(a.detection - c.detection).mean()
+    assert err_fact < err_indep
+
+
+def test_default_filter_for_three_on_boyd2_is_factored():
+    sc = load_scenario("boydright-3")
+    f = BeliefFilter(sc.domain, oracle_models(sc))
+    assert f.mode == "factored"  # 184³ joint states exceed max_joint_states
+    f.update([UNSEEN] * 3)
+    assert f.belief.shape == (3, sc.domain.n_states)
+
+
+def test_team_weighing_reduces_to_the_pair_for_two():
+    sc = load_scenario("boyd2")
+    res = simulate(sc, 200, seed=3, random_starts=True)
+    series = [res.observations.state_series(sc.domain, i) for i in range(2)]
+    pol = [sc.true_policy(i) for i in range(2)]
+    T = [sc.true_transitions(i) for i in range(2)]
+    vis = sc.domain.visible_states(sc.observability)
+    cands = sc.game.equilibria()
+    pair = weigh_equilibria(sc.domain, series, pol, T, cands, vis)
+    team = weigh_team_equilibria(sc.domain, series, pol, T, cands, vis)
+    np.testing.assert_array_equal(pair.log_likelihoods, team.shared.log_likelihoods)
+    assert list(team.pairs) == [(0, 1)]
+
+
+def test_meeting_pairs_lists_pairs_seen_together(br3):
+    res = simulate(br3, 300, seed=0, observability=1.0, random_starts=True)
+    series = [res.observations.state_series(br3.domain, i) for i in range(3)]
+    pairs = meeting_pairs(br3.domain, series)
+    assert set(pairs) <= {(0, 1), (0, 2), (1, 2)} and len(pairs) >= 2
+
+
+def test_damage_any_robot(br3):
+    hurt = br3.with_damage("K", "right_wheel", 0.6)
+    assert hurt.robots[2].feature_probabilities["right_wheel"] == 0.6
+    assert br3.robots[2].feature_probabilities["right_wheel"] == 0.95
+
+
+# ---- environments ------------------------------------------------------------------------------
+def test_gymnasium_env_passes_the_checker():
+    from gymnasium.utils.env_checker import check_env
+
+    from mirl.envs import PenetrationEnv
+
+    env = PenetrationEnv("boyd2", max_steps=200)
+    check_env(env, skip_render_check=True)
+    a, _ = env.reset(seed=5)
+    b, _ = env.reset(seed=5)
+    np.testing.assert_array_equal(a["patrollers"], b["patrollers"])
+
+
+def test_pettingzoo_env_passes_the_parallel_api_test():
+    from pettingzoo.test import parallel_api_test
+
+    from mirl.envs import TeamEnv
+
+    env = TeamEnv("boydright-3", max_cycles=40)
+    parallel_api_test(env, num_cycles=50)
+    assert env.possible_agents == ["I", "J", "K", "L"]
+
+
+def test_envs_end_with_goal_or_detection():
+    from mirl.envs import PenetrationEnv
+
+    env = PenetrationEnv("boyd2", max_steps=300)
+    outcomes = set()
+    for seed in range(3):
+        env.reset(seed=seed)
+        env.action_space.seed(seed)
+        while True:
+            _, reward, term, trunc, info = env.step(env.action_space.sample())
+            if term or trunc:
+                break
+        outcomes.add(info["outcome"])
+        if info["outcome"] == "detected":
+            assert reward == -1.0
+    assert outcomes <= {"detected", "success", None}
