@@ -72,6 +72,7 @@ class Scenario:
     discount: float = 0.95
     error_model: str = "uniform"
     source: str = "<memory>"
+    physics: Mapping[str, Any] = field(default_factory=dict)  # [physics] table (mirl.physics)
 
     def __post_init__(self) -> None:
         if self.observer_start is None:
@@ -261,6 +262,7 @@ _TOP_KEYS = {
     "transition_features",
     "game",
     "robots",
+    "physics",
 }
 
 
@@ -353,6 +355,7 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         discount=float(data.get("discount", 0.95)),
         error_model=str(data.get("error_model", "uniform")),
         source=source,
+        physics=_table(data.get("physics", {}), "physics", set(data.get("physics", {}))),
     )
     try:
         scenario.played_equilibrium  # noqa: B018 - validate now, not mid-run
