@@ -46,15 +46,16 @@ def robot_mjcf(name: str, x: float, y: float, yaw_deg: float, rgba: str, k: Kobu
     r, h = k.wheel_radius, k.base_height
     half = k.wheel_separation / 2
     cz = k.caster_radius
+    fx, cpz = k.base_radius - 0.04, cz - r  # caster x offset and height in the body frame
     return f"""
     <body name="{name}" pos="{x:.4f} {y:.4f} {r:.4f}" euler="0 0 {yaw_deg:.3f}">
       <freejoint name="{name}_root"/>
       <geom name="{name}_base" type="cylinder" size="{k.base_radius} {h / 2:.4f}"
             pos="0 0 {h / 2 + 0.005:.4f}" mass="{k.base_mass}" rgba="{rgba}"
             friction="0.1 0.005 0.0001" contype="2" conaffinity="2"/>
-      <geom name="{name}_caster_f" type="sphere" size="{cz}" pos="{k.base_radius - 0.04} 0 {cz - r:.4f}"
+      <geom name="{name}_caster_f" type="sphere" size="{cz}" pos="{fx} 0 {cpz:.4f}"
             mass="0.001" condim="1" priority="1" contype="1" conaffinity="1"/>
-      <geom name="{name}_caster_b" type="sphere" size="{cz}" pos="{-k.base_radius + 0.04} 0 {cz - r:.4f}"
+      <geom name="{name}_caster_b" type="sphere" size="{cz}" pos="{-fx} 0 {cpz:.4f}"
             mass="0.001" condim="1" priority="1" contype="1" conaffinity="1"/>
       <body name="{name}_lw" pos="0 {half} 0">
         <joint name="{name}_left" type="hinge" axis="0 1 0" damping="{k.gear_damping}"
@@ -75,8 +76,9 @@ def actuator_mjcf(name: str, left: float = 1.0, right: float = 1.0, k: Kobuki = 
     """Velocity servos of one robot's wheels; ``left``/``right`` are the motors' strengths."""
     out = []
     for side, s in (("left", left), ("right", right)):
+        kv, tau = k.motor_gain * s, k.torque_limit * s
         out.append(
-            f'<velocity name="{name}_{side}_motor" joint="{name}_{side}" kv="{k.motor_gain * s:.6g}"'
-            f' forcelimited="true" forcerange="{-k.torque_limit * s:.6g} {k.torque_limit * s:.6g}"/>'
+            f'<velocity name="{name}_{side}_motor" joint="{name}_{side}" kv="{kv:.6g}"'
+            f' forcelimited="true" forcerange="{-tau:.6g} {tau:.6g}"/>'
         )
     return "\n    ".join(out)
