@@ -11,12 +11,12 @@ import time
 
 import numpy as np
 
-from mirl.domain import PatrolDomain
 from mirl.mdp import TabularMDP, value_iteration
-from mirl.office_maps import generate_office_map
-from mirl.scenario import HEALTHY_PROBABILITIES, load_scenario
-from mirl.simulator import simulate
-from mirl.transitions import transition_matrix
+from mirl.simulation.grid import simulate
+from mirl.world.domain import PatrolDomain
+from mirl.world.motion import transition_matrix
+from mirl.world.office_maps import generate_office_map
+from mirl.world.scenario import HEALTHY_PROBABILITIES, load_scenario
 
 
 def best_of(fn, repeats: int = 3) -> float:

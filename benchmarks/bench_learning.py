@@ -29,9 +29,9 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 from joblib import Parallel, delayed  # noqa: E402
 
-from mirl.learning import learn  # noqa: E402
-from mirl.scenario import load_scenario  # noqa: E402
-from mirl.simulator import simulate  # noqa: E402
+from mirl.learning.learn import learn
+from mirl.simulation.grid import simulate
+from mirl.world.scenario import load_scenario
 
 OBSERVABILITY = (0.14, 0.3, 0.5, 0.75, 1.0)
 STEPS = (150, 300, 450, 900)

@@ -41,8 +41,8 @@ METHODS = ["oracle", "known-r-t", "mirl-t", "mirl", "known-r", "random", "dbn-em
 
 
 def _one(scenario_name: str, damage: list[str], method: str, seed: int, kwargs: dict) -> dict:
-    from mirl.runs import run_episode
-    from mirl.scenario import load_scenario, parse_damage
+    from mirl.experiments.episode import run_episode
+    from mirl.world.scenario import load_scenario, parse_damage
 
     scenario = load_scenario(scenario_name)
     for d in damage:

@@ -13,10 +13,10 @@ import numpy as np
 from joblib import Parallel, delayed
 from scipy import stats
 
-from mirl.feature_solver import solve_feature_probabilities
-from mirl.scenario import load_scenario
-from mirl.simulator import simulate
-from mirl.transitions import TransitionFeatureLearner, observed_steps, policy_labels
+from mirl.learning.feature_solver import solve_feature_probabilities
+from mirl.learning.transitions import TransitionFeatureLearner, observed_steps, policy_labels
+from mirl.simulation.grid import simulate
+from mirl.world.scenario import load_scenario
 
 WHEELS = ("left_wheel", "right_wheel")
 

@@ -7,17 +7,12 @@ import itertools
 import numpy as np
 import pytest
 
-from mirl.baselines import (
-    em_fit,
-    em_transition_model,
-    expected_counts,
-    initial_transitions,
-    random_go,
-)
-from mirl.domain import PatrolDomain
-from mirl.maps import parse_map
-from mirl.scenario import load_scenario
-from mirl.simulator import simulate
+from mirl.learning.dbn_em import em_fit, em_transition_model, expected_counts, initial_transitions
+from mirl.planning.random_go import random_go
+from mirl.simulation.grid import simulate
+from mirl.world.domain import PatrolDomain
+from mirl.world.maps import parse_map
+from mirl.world.scenario import load_scenario
 
 
 @pytest.fixture(scope="module")

@@ -16,7 +16,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from spec_reference import DELTA, FEATURES, SPEC_XI
 
-from mirl.domain import (
+from mirl.world.catalog import load_map
+from mirl.world.domain import (
     ACTIONS,
     DEFAULT_FEATURE_MAP,
     REWARD_FEATURES,
@@ -27,7 +28,7 @@ from mirl.domain import (
     dead_ends,
     detection_cells,
 )
-from mirl.maps import load_map, parse_map
+from mirl.world.maps import parse_map
 
 BOYD2_ENDS = {(0, 8), (16, 8)}
 
@@ -36,7 +37,7 @@ BOYD2_ENDS = {(0, 8), (16, 8)}
 
 
 def hallway_from_text(text: str) -> list[list[bool]]:
-    """Patroller cells of a map text: '.' and 'G' (independent of mirl.maps.parse_map)."""
+    """Patroller cells of a map text: '.' and 'G' (independent of mirl.world.maps.parse_map)."""
     lines = [ln for ln in text.splitlines() if ln and not ln.startswith(";")]
     return [[ch in ".G" for ch in ln] for ln in lines]
 

@@ -16,8 +16,9 @@ from pathlib import Path
 import pytest
 
 from mirl.cli import main
-from mirl.experiments import EXPERIMENTS, Condition, StoreError, run_seed, selftest_run
-from mirl.sweep import load_results, run_experiment
+from mirl.experiments.conditions import EXPERIMENTS, Condition, StoreError, run_seed, selftest_run
+from mirl.experiments.store import load_results
+from mirl.experiments.sweep import run_experiment
 
 QUIET = {"progress": False, "log": lambda msg: None}
 VOLATILE = {"elapsed", "finished_at"}  # timing columns differ between identical runs

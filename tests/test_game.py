@@ -10,10 +10,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mirl.domain import ACTIONS, PatrolDomain
-from mirl.game import GAME_ACTIONS, Equilibrium, InteractionGame, game_action_to_action, meeting
-from mirl.maps import load_map
-from mirl.scenario import load_scenario
+from mirl.world.catalog import load_map
+from mirl.world.domain import ACTIONS, PatrolDomain
+from mirl.world.game import (
+    GAME_ACTIONS,
+    Equilibrium,
+    InteractionGame,
+    game_action_to_action,
+    meeting,
+)
+from mirl.world.scenario import load_scenario
 
 # SPEC §2 payoffs, typed out from the prose: (I's action, J's action) -> (I's payoff, J's payoff)
 SPEC_PAYOFFS = {

@@ -8,18 +8,12 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from mirl.domain import FORWARD, STOP
-from mirl.irl import (
-    ANCHORS,
-    OBJECTIVES,
-    OccludedMaxEntIRL,
-    joint_log_likelihood,
-    potential_meetings,
-    soft_policy_iteration,
-    weigh_equilibria,
-)
+from mirl.learning.equilibria import joint_log_likelihood, potential_meetings, weigh_equilibria
+from mirl.learning.irl import ANCHORS, OBJECTIVES, OccludedMaxEntIRL
+from mirl.learning.soft_policy import soft_policy_iteration
 from mirl.mdp import TabularMDP, soft_value_iteration, value_iteration
-from mirl.scenario import load_scenario
+from mirl.world.domain import FORWARD, STOP
+from mirl.world.scenario import load_scenario
 
 LEFT, RIGHT, STAY = range(3)
 

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from mirl.cli import main
-from mirl.domain import FORWARD, TURN_LEFT, TURN_RIGHT
-from mirl.learning import METHODS, LoopTrace, learn
-from mirl.models import LearnResult
-from mirl.scenario import load_scenario
-from mirl.simulator import simulate
-from mirl.transitions import count_subsets, observed_steps, perception_labels
+from mirl.learning.learn import METHODS, LoopTrace, learn
+from mirl.learning.models import LearnResult
+from mirl.learning.transitions import count_subsets, observed_steps, perception_labels
+from mirl.simulation.grid import simulate
+from mirl.world.domain import FORWARD, TURN_LEFT, TURN_RIGHT
+from mirl.world.scenario import load_scenario
 
 
 @pytest.fixture(scope="module")

@@ -12,10 +12,11 @@ from hypothesis import strategies as st
 from PIL import Image
 from scipy import ndimage
 
-from mirl.maps import GridMap, MapError, load_map, parse_map, shipped_maps
-from mirl.office_maps import generate_office_map, office_map_from_name
-from mirl.render import draw_map, map_to_text, save_map_png
-from mirl.ros_maps import load_ros_map
+from mirl.viz.maps import draw_map, map_to_text, save_map_png
+from mirl.world.catalog import load_map, shipped_maps
+from mirl.world.maps import GridMap, MapError, parse_map
+from mirl.world.office_maps import generate_office_map, office_map_from_name
+from mirl.world.ros_maps import load_ros_map
 
 SHARED_MAPS = Path("/work/shared/maps")
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mirl.observations import HEADER, Trajectories, TrajectoryError, read_csv
-from mirl.scenario import load_scenario
-from mirl.simulator import simulate
+from mirl.observations.trajectories import HEADER, Trajectories, TrajectoryError, read_csv
+from mirl.simulation.grid import simulate
+from mirl.world.scenario import load_scenario
 
 NAMES = ("I", "J")
 

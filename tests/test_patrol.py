@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mirl.scenario import load_scenario
+from mirl.world.scenario import load_scenario
 
 DELTA = {0: (0, 1), 1: (-1, 0), 2: (0, -1), 3: (1, 0)}
 ENDS = ((0, 8), (16, 8))

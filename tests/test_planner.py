@@ -8,25 +8,21 @@ import itertools
 import numpy as np
 import pytest
 
-from mirl.domain import FORWARD, STOP, detection_cells
-from mirl.game import Equilibrium, game_action_to_action, meeting
-from mirl.maps import parse_map
+from mirl.learning.models import LearnResult, RobotModel, oracle_models
 from mirl.mdp import policy_matrix
-from mirl.models import LearnResult, RobotModel, oracle_models
-from mirl.planner import (
-    NOT_WATCHING,
-    UNSEEN,
-    BeliefFilter,
-    Prediction,
-    _joint_step_matrix,
+from mirl.planning.belief import NOT_WATCHING, UNSEEN, BeliefFilter, Prediction, _joint_step_matrix
+from mirl.planning.go import solve_observer_mdp
+from mirl.planning.observer import (
     detection_matrix,
     observer_domain,
     observer_model,
     shortest_path_policy,
-    solve_observer_mdp,
 )
-from mirl.scenario import HEALTHY_PROBABILITIES, RobotSpec, Scenario, load_scenario
-from mirl.transitions import transition_matrix, transition_matrix_from_success
+from mirl.world.domain import FORWARD, STOP, detection_cells
+from mirl.world.game import Equilibrium, game_action_to_action, meeting
+from mirl.world.maps import parse_map
+from mirl.world.motion import transition_matrix, transition_matrix_from_success
+from mirl.world.scenario import HEALTHY_PROBABILITIES, RobotSpec, Scenario, load_scenario
 
 CORRIDOR = "L.G...\n"  # L's room (0,0), hallway (0,1)…(0,5), goal (0,2)
 TWO_ROUTES = "L...\n.#.#\n..G.\n"

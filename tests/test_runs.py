@@ -8,11 +8,13 @@ import numpy as np
 import pytest
 
 from mirl.cli import main
-from mirl.domain import detection_cells
-from mirl.models import oracle_models
-from mirl.planner import observer_model
-from mirl.runs import OUTCOMES, format_report, run_episode
-from mirl.scenario import load_scenario
+from mirl.experiments.episode import run_episode
+from mirl.experiments.records import OUTCOMES
+from mirl.experiments.run_report import format_report
+from mirl.learning.models import oracle_models
+from mirl.planning.observer import observer_model
+from mirl.world.domain import detection_cells
+from mirl.world.scenario import load_scenario
 
 FAST = {"obs_steps": 80, "max_wait": 60}
 
@@ -147,10 +149,11 @@ def test_default_run_is_the_main_job(capsys):
 
 
 def test_l_replans_when_it_outlives_its_plan(boyd2):
-    from mirl.planner import BeliefFilter, solve_observer_mdp
-    from mirl.runs import _execute, _World
+    from mirl.experiments.execution import RunWorld, execute
+    from mirl.planning.belief import BeliefFilter
+    from mirl.planning.go import solve_observer_mdp
 
-    world = _World(boyd2, 0.14, seed=2)  # both patrollers start in the lower hallway
+    world = RunWorld(boyd2, 0.14, seed=2)  # both patrollers start in the lower hallway
     model = observer_model(boyd2)
     belief = BeliefFilter(boyd2.domain, oracle_models(boyd2), visible=world.sim.visible)
     belief.update(world.seen[0])
@@ -161,7 +164,7 @@ def test_l_replans_when_it_outlives_its_plan(boyd2):
         return solve_observer_mdp(model, belief.predict(40, model), window=0)
 
     short = solve_observer_mdp(model, belief.predict(2, model), window=0)  # two steps only
-    outcome, path, _, plan = _execute(
+    outcome, path, _, plan = execute(
         world,
         model,
         lambda k, s: int(short.policy[k, s]),

@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mirl.domain import DEFAULT_FEATURE_MAP
-from mirl.game import InteractionGame
-from mirl.scenario import (
+from mirl.world.domain import DEFAULT_FEATURE_MAP
+from mirl.world.game import InteractionGame
+from mirl.world.scenario import (
     HEALTHY_PROBABILITIES,
     Scenario,
     ScenarioError,

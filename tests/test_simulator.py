@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from mirl.domain import ACTIONS
-from mirl.scenario import load_scenario
-from mirl.simulator import PatrolSimulator, SimulationResult, patrol_cycle, simulate
+from mirl.simulation.grid import PatrolSimulator, SimulationResult, patrol_cycle, simulate
+from mirl.world.domain import ACTIONS
+from mirl.world.scenario import load_scenario
 
 FWD, LEFT, RIGHT, STOP = (ACTIONS.index(a) for a in ("forward", "turn_left", "turn_right", "stop"))
 EAST, NORTH, WEST, SOUTH = range(4)

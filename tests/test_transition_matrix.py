@@ -16,9 +16,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from spec_reference import DELTA, FEATURES, SPEC_XI
 
-from mirl.domain import ACTIONS, FeatureMap, FeatureOverride, PatrolDomain
-from mirl.maps import load_map
-from mirl.transitions import transition_matrix
+from mirl.world.catalog import load_map
+from mirl.world.domain import ACTIONS, FeatureMap, FeatureOverride, PatrolDomain
+from mirl.world.motion import transition_matrix
 
 CARPET_CELLS = {(3, 1), (4, 1), (0, 5), (16, 8)}
 

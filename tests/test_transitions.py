@@ -9,16 +9,16 @@ import pytest
 from scipy import stats
 
 from mirl.cli import main
-from mirl.domain import ACTIONS, FORWARD, STOP, TURN_LEFT, TURN_RIGHT
-from mirl.scenario import load_scenario
-from mirl.simulator import simulate
-from mirl.transitions import (
+from mirl.learning.transitions import (
     TransitionFeatureLearner,
     count_subsets,
     observed_steps,
     perception_labels,
     policy_labels,
 )
+from mirl.simulation.grid import simulate
+from mirl.world.domain import ACTIONS, FORWARD, STOP, TURN_LEFT, TURN_RIGHT
+from mirl.world.scenario import load_scenario
 
 
 @pytest.fixture(scope="module")

@@ -1,11 +1,109 @@
 """mirl: learn how other robots behave — rewards, policies and faulty motion — from mostly
-occluded observations (Bogert & Doshi, mIRL*/T+Int), and act on it."""
+occluded observations (Bogert & Doshi, mIRL*/T+Int), and act on it.
 
+The entry points a user needs are importable from here (``from mirl import load_scenario,
+simulate, learn, run_episode``); they are loaded on first use, so ``import mirl`` stays cheap.
+The package is layered by pipeline stage — :mod:`mirl.mdp` → :mod:`mirl.world` →
+:mod:`mirl.observations` → :mod:`mirl.simulation` → :mod:`mirl.learning` →
+:mod:`mirl.planning` → :mod:`mirl.experiments` → :mod:`mirl.viz` → :mod:`mirl.cli` — and a
+stage imports only the stages before it (checked by import-linter).
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
 
 try:
     __version__ = version("mirl")
 except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0.0.0+unknown"
 
-__all__ = ["__version__"]
+# public name -> module that defines it
+_EXPORTS = {
+    "TabularMDP": "mirl.mdp",
+    "value_iteration": "mirl.mdp",
+    "GridMap": "mirl.world.maps",
+    "MapFrame": "mirl.world.maps",
+    "load_map": "mirl.world.catalog",
+    "Scenario": "mirl.world.scenario",
+    "load_scenario": "mirl.world.scenario",
+    "PatrolDomain": "mirl.world.domain",
+    "transition_matrix": "mirl.world.motion",
+    "Trajectories": "mirl.observations.trajectories",
+    "read_csv": "mirl.observations.trajectories",
+    "PatrolSimulator": "mirl.simulation.grid",
+    "simulate": "mirl.simulation.grid",
+    "solve_feature_probabilities": "mirl.learning.feature_solver",
+    "TransitionFeatureLearner": "mirl.learning.transitions",
+    "OccludedMaxEntIRL": "mirl.learning.irl",
+    "learn": "mirl.learning.learn",
+    "LearnResult": "mirl.learning.models",
+    "BeliefFilter": "mirl.planning.belief",
+    "observer_model": "mirl.planning.observer",
+    "solve_observer_mdp": "mirl.planning.go",
+    "run_episode": "mirl.experiments.episode",
+    "RunResult": "mirl.experiments.records",
+}
+
+__all__ = [
+    "__version__",
+    "TabularMDP",
+    "value_iteration",
+    "GridMap",
+    "MapFrame",
+    "load_map",
+    "Scenario",
+    "load_scenario",
+    "PatrolDomain",
+    "transition_matrix",
+    "Trajectories",
+    "read_csv",
+    "PatrolSimulator",
+    "simulate",
+    "solve_feature_probabilities",
+    "TransitionFeatureLearner",
+    "OccludedMaxEntIRL",
+    "learn",
+    "LearnResult",
+    "BeliefFilter",
+    "observer_model",
+    "solve_observer_mdp",
+    "run_episode",
+    "RunResult",
+]
+
+
+def __getattr__(name: str) -> Any:
+    # PEP 562: import the defining module on first use (keeps `mirl --version` fast)
+    if name in _EXPORTS:
+        value = getattr(import_module(_EXPORTS[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'mirl' has no attribute '{name}'")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
+
+if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
+    from mirl.experiments.episode import run_episode
+    from mirl.experiments.records import RunResult
+    from mirl.learning.feature_solver import solve_feature_probabilities
+    from mirl.learning.irl import OccludedMaxEntIRL
+    from mirl.learning.learn import learn
+    from mirl.learning.models import LearnResult
+    from mirl.learning.transitions import TransitionFeatureLearner
+    from mirl.mdp import TabularMDP, value_iteration
+    from mirl.observations.trajectories import Trajectories, read_csv
+    from mirl.planning.belief import BeliefFilter
+    from mirl.planning.go import solve_observer_mdp
+    from mirl.planning.observer import observer_model
+    from mirl.simulation.grid import PatrolSimulator, simulate
+    from mirl.world.catalog import load_map
+    from mirl.world.domain import PatrolDomain
+    from mirl.world.maps import GridMap, MapFrame
+    from mirl.world.motion import transition_matrix
+    from mirl.world.scenario import Scenario, load_scenario

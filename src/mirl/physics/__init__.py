@@ -13,8 +13,7 @@ What it holds:
 - :mod:`~mirl.physics.calibration` — effective per-action success rates of the physics.
 
 Layer rule: this package may import only :mod:`mirl.world`, :mod:`mirl.observations` and
-:mod:`mirl.mdp` (before the layout of issue 9: ``mirl.maps``, ``mirl.scenario``,
-``mirl.domain``, ``mirl.game``, ``mirl.observations``) — never learning, planning, experiments
+:mod:`mirl.mdp` — never learning, planning, experiments
 or the grid simulator. The learner gets only the discretised observations L's camera makes.
 
 MuJoCo is optional: ``pip install "mirl[physics]"``. :func:`require_mujoco` gives the one-line

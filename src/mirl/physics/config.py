@@ -21,7 +21,6 @@ WHEELS = ("left_wheel", "right_wheel")
 
 @dataclass(frozen=True)
 class PhysicsConfig:
-    cell_size: float | None = None  # m; None: the map frame's (default 1 m)
     timestep: float = 0.01  # s, MuJoCo integration step
     control_hz: float = 10.0  # controller, localisation and detection checks per second
     step_seconds: float = 2.0  # one decision step

@@ -3,8 +3,8 @@
 Every decision step (``step_seconds``, default 2 s) each patroller discretises its *estimated*
 pose (true pose + a temporally correlated, AMCL-like error), takes its true grid policy's action
 there (``scenario.true_policy``), with the scenario's played equilibrium where two patrollers'
-intended moves meet (:func:`mirl.game.meeting`), and the :class:`~mirl.physics.control.Controller`
-drives towards the intended cell and heading. A step that does not get there in time is simply
+intended moves meet (:func:`mirl.world.game.meeting`), and the
+:class:`~mirl.physics.control.Controller` drives towards the intended cell and heading. A step that does not get there in time is simply
 where the robot is at the next decision. L's camera records the patrollers it sees once per
 decision step (true pose + measurement noise): that pose track is all the learner gets. While L
 is out of its room the patrollers' cameras look for it at every control tick (10 Hz). Contacts
@@ -21,14 +21,14 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from mirl.domain import ACTIONS
-from mirl.game import game_action_to_action, meeting
-from mirl.observations import Trajectories
+from mirl.observations.trajectories import Trajectories
 from mirl.physics.camera import Cone, line_of_sight
 from mirl.physics.config import PhysicsConfig, physics_config
 from mirl.physics.control import DRIVE, HOLD, PIVOT, Controller, wrap
 from mirl.physics.robot import KOBUKI
 from mirl.physics.world import YAW, Frame, world_mjcf
+from mirl.world.domain import ACTIONS
+from mirl.world.game import game_action_to_action, meeting
 
 __all__ = [
     "PhysicalWorld",
@@ -124,7 +124,7 @@ class PhysicalWorld:
         self.cfg = cfg = config or scenario_physics(scenario)
         self.domain = dom = scenario.domain
         self.map = gm = scenario.map
-        self.frame = Frame.of(gm, cfg.cell_size)
+        self.frame = Frame.of(gm)
         self.n = len(scenario.robots)
         self.names = scenario.robot_names
         self.degree = scenario.observability if observability is None else float(observability)

@@ -19,7 +19,8 @@ YAW = np.array([0.0, np.pi / 2, np.pi, -np.pi / 2])
 
 
 class Frame:
-    """Cells to metres (the map frame of LAYOUT.md): x = ox + col·cell, y = oy − row·cell."""
+    """Cells to metres, as :class:`mirl.world.maps.MapFrame` (x = ox + col·cell, y = oy − row·cell),
+    plus nearest-cell lookup."""
 
     def __init__(self, cell_size: float = 1.0, origin_x: float = 0.0, origin_y: float = 0.0):
         self.cell_size, self.origin_x, self.origin_y = float(cell_size), origin_x, origin_y
@@ -41,11 +42,10 @@ class Frame:
         return np.rint(r).astype(int), np.rint(c).astype(int)
 
     @classmethod
-    def of(cls, gridmap, cell_size: float | None = None) -> Frame:
-        f = getattr(gridmap, "frame", None)
-        if f is not None and cell_size is None:
-            return cls(f.cell_size, f.origin_x, f.origin_y)
-        return cls(1.0 if cell_size is None else cell_size)
+    def of(cls, gridmap) -> Frame:
+        """The map's frame (``GridMap.frame``; a scenario's ``[frame]`` table sets it)."""
+        f = gridmap.frame
+        return cls(f.cell_size, f.origin_x, f.origin_y)
 
 
 def wall_rectangles(wall: np.ndarray) -> list[tuple[int, int, int, int]]:

@@ -1,0 +1,30 @@
+"""The ``mirl`` command line (top layer): parses arguments, runs a sub-command, and turns every
+user error into one line on stderr with exit code 2. It may import every other stage."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+
+from mirl.cli.commands import COMMANDS, UsageError
+from mirl.cli.parser import build_parser
+
+__all__ = ["main"]
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    try:
+        return COMMANDS[args.command](args)
+    except (ValueError, OSError, UsageError) as exc:
+        # domain errors (MapError, ScenarioError, TrajectoryError, ...) already name the file
+        msg = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
+        print(f"mirl: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("mirl: interrupted", file=sys.stderr)
+        return 130

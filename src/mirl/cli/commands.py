@@ -1,0 +1,280 @@
+"""The sub-commands of ``mirl``: each parses nothing itself, imports what it needs when it runs
+(so building the parser stays cheap) and prints its result; errors propagate to :func:`main`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections.abc import Callable
+
+__all__ = ["COMMANDS", "UsageError", "print_json"]
+
+COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {}
+
+
+def command(name: str):
+    def register(fn):
+        COMMANDS[name] = fn
+        return fn
+
+    return register
+
+
+def _load_scenario(args: argparse.Namespace):
+    from mirl.world.scenario import load_scenario, parse_damage
+
+    scenario = load_scenario(args.scenario)
+    for text in getattr(args, "damage", None) or []:
+        robot, feature, p = parse_damage(text)
+        scenario = scenario.with_damage(robot, feature, p)
+    return scenario
+
+
+@command("show-map")
+def _show_map(args: argparse.Namespace) -> int:
+    from mirl.viz.maps import map_to_text, save_map_png
+    from mirl.world.catalog import load_map
+
+    gridmap = load_map(args.map, cell_size=args.cell_size)
+    mask = gridmap.visible_mask(args.observability) if args.observability is not None else None
+    print(map_to_text(gridmap, mask))
+    n = gridmap.n_patroller_cells
+    line = f"{gridmap.name}: {gridmap.shape[0]}x{gridmap.shape[1]}, {n} patroller cells"
+    if mask is not None:
+        line += f", {int(mask.sum())} visible at observability {args.observability:g}"
+    print(line)
+    if args.png:
+        save_map_png(gridmap, args.png, observability=args.observability)
+        print(f"wrote {args.png}")
+    return 0
+
+
+@command("simulate")
+def _simulate(args: argparse.Namespace) -> int:
+    from mirl.simulation.grid import simulate
+
+    scenario = _load_scenario(args)
+    start = time.perf_counter()
+    result = simulate(
+        scenario,
+        args.steps,
+        seed=args.seed,
+        observability=args.observability,
+        heading_noise=args.heading_noise,
+        random_starts=args.random_starts,
+    )
+    elapsed = time.perf_counter() - start
+    share = result.observed_share()
+    degree = scenario.observability if args.observability is None else args.observability
+    print(
+        f"scenario {scenario.name}: {args.steps} steps, seed {args.seed}, "
+        f"observability {degree:g} ({int(scenario.domain.visible_states(degree).sum() // 4)}"
+        f"/{scenario.map.n_patroller_cells} cells)"
+    )
+    for name, s in zip(scenario.robot_names, share, strict=True):
+        print(f"  {name}: observed {s:.1%} of steps")
+    print(f"  interactions: {result.interactions} ({result.interactions_seen} seen by L)")
+    print(f"  simulated in {elapsed:.3f} s")
+    if args.observations:
+        result.observations.to_csv(args.observations)
+        print(f"wrote {args.observations} ({len(result.observations)} rows)")
+    if args.truth:
+        result.truth.to_csv(args.truth)
+        print(f"wrote {args.truth} ({len(result.truth)} rows)")
+    return 0
+
+
+@command("learn-transitions")
+def _learn_transitions(args: argparse.Namespace) -> int:
+    from mirl.learning.transitions import (
+        TransitionFeatureLearner,
+        observed_steps,
+        perception_labels,
+        policy_labels,
+    )
+    from mirl.observations.trajectories import read_csv
+
+    scenario = _load_scenario(args)
+    domain = scenario.domain
+    obs = read_csv(args.observations, domain, scenario.robot_names)
+    series = [obs.state_series(domain, i) for i in range(len(scenario.robots))]
+    if args.labels == "true-policy":
+        # Known R/T setting: the scenario's true policies and played equilibrium label the steps
+        policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
+        labels = policy_labels(domain, series, policies, scenario.played_equilibrium)
+    learned = {}
+    for i, name in enumerate(scenario.robot_names):
+        t, s, s_next = observed_steps(series[i])
+        a = labels[i][t] if args.labels == "true-policy" else perception_labels(domain, s, s_next)
+        learned[name] = TransitionFeatureLearner(domain, scenario.error_model).fit(s, a, s_next)
+    if args.json:
+        print_json({n: m.feature_probabilities_ for n, m in learned.items()})
+        return 0
+    features = domain.feature_map.features
+    print(f"learned transition-feature probabilities ({args.labels} labels, {args.observations})")
+    print(f"{'robot':<6}" + "".join(f"{f:>13}" for f in features) + f"{'steps':>8}")
+    for name, m in learned.items():
+        probs = m.feature_probabilities_
+        lowest = min(features, key=probs.__getitem__)
+        cells = "".join(f"{probs[f]:>12.3f}{'*' if f == lowest else ' '}" for f in features)
+        print(f"{name:<6}{cells}{int(m.counts_.trials.sum()):>8}")
+        if not m.result_.success:
+            print(f"  note: {m.result_.message}")
+    print("* lowest feature of the robot; uninformed features get 0.5 (maximum entropy)")
+    return 0
+
+
+@command("experiment")
+def _experiment(args: argparse.Namespace) -> int:
+    from mirl.experiments.conditions import get_experiment
+    from mirl.experiments.sweep import run_experiment
+
+    exp = get_experiment(args.name)  # unknown name: one-line error, exit 2
+    out = args.out or f"results/{exp.name}"
+    summary = run_experiment(
+        exp,
+        out,
+        runs=args.runs,
+        workers=args.workers,
+        resume=args.resume,
+        dask_scheduler=args.dask_scheduler,
+        base_seed=args.seed,
+        progress=not args.quiet,
+    )
+    print(f"wrote {out}/results.sqlite and {out}/results.csv; `mirl report {out}` draws it")
+    return 1 if summary.outcomes.get("error") else 0
+
+
+@command("report")
+def _report(args: argparse.Namespace) -> int:
+    from mirl.viz.report import write_report
+
+    print(f"wrote {write_report(args.dir)}")
+    return 0
+
+
+@command("run")
+def _run(args: argparse.Namespace) -> int:
+    from mirl.experiments.episode import run_episode
+    from mirl.experiments.run_report import format_report
+
+    scenario = _load_scenario(args)
+    result = run_episode(
+        scenario,
+        args.method,
+        observability=args.observability,
+        obs_steps=args.obs_steps,
+        seed=args.seed,
+        p=args.p,
+        max_wait=args.max_wait,
+    )
+    if args.plot:
+        from mirl.viz.runs import save_run_png
+
+        save_run_png(scenario, result, args.plot)
+    if args.json:
+        print_json(result.to_dict())
+    else:
+        print(format_report(scenario, result))
+        if args.plot:
+            print(f"wrote {args.plot}")
+    return 0
+
+
+@command("learn")
+def _learn(args: argparse.Namespace) -> int:
+    from mirl.learning.learn import learn
+    from mirl.observations.trajectories import read_csv
+
+    scenario = _load_scenario(args)
+    obs = read_csv(args.observations, scenario.domain, scenario.robot_names)
+    degree = scenario.observability if args.observability is None else args.observability
+    result = learn(
+        obs,
+        scenario,
+        args.method,
+        p=args.p,
+        observability=degree,
+        max_iterations=args.max_iterations,
+        objective=args.objective,
+        optimizer=args.optimizer,
+        random_state=args.seed,
+    )
+    names = scenario.domain.reward_feature_names
+    robots = {
+        r.name: {
+            "weights": dict(zip(names, map(float, r.weights), strict=True)),
+            "feature_probabilities": {k: float(v) for k, v in r.feature_probabilities.items()},
+            "behavior_accuracy": r.behavior_accuracy,
+        }
+        for r in result.robots
+    }
+    candidates = scenario.game.equilibria()
+    eq_weights = result.equilibrium_weights or (None,) * len(candidates)
+    out = {
+        "method": result.method,
+        "scenario": scenario.name,
+        "observations": str(args.observations),
+        "steps": obs.horizon,
+        "observability": degree,
+        "robots": robots,
+        "equilibrium": {
+            "label": result.equilibrium.label(),
+            "row": list(map(float, result.equilibrium.row)),
+            "col": list(map(float, result.equilibrium.col)),
+            "candidates": [
+                {"label": e.label(), "weight": w}
+                for e, w in zip(candidates, eq_weights, strict=True)
+            ],
+        },
+        "iterations": result.iterations,
+        "label_changes": list(result.label_changes),
+        "message": result.message,
+        "timings": {k: round(v, 4) for k, v in result.timings.items()},
+    }
+    if args.json:
+        print_json(out)
+    else:
+        _print_learn(out, result, scenario.name)
+    return 0
+
+
+def _print_learn(out: dict, result, scenario_name: str) -> None:
+    """The text form of ``mirl learn``'s result."""
+    robots = out["robots"]
+    print(
+        f"{result.method} on {scenario_name}: {out['observations']} ({out['steps']} steps, "
+        f"observability {out['observability']:g})"
+    )
+    for name, r in robots.items():
+        print(f"robot {name}")
+        print("  weights       " + "  ".join(f"{k}={v:.3f}" for k, v in r["weights"].items()))
+        probs = r["feature_probabilities"]
+        line = "  ".join(f"{k}={v:.3f}" for k, v in probs.items()) if probs else result.message
+        print(f"  features      {line}")
+        if r["behavior_accuracy"] is not None:
+            print(f"  behaviour accuracy {r['behavior_accuracy']:.3f} (vs the scenario's truth)")
+    weights = ", ".join(
+        f"{c['label']} {c['weight']:.2f}"
+        for c in out["equilibrium"]["candidates"]
+        if c["weight"] is not None
+    )
+    print(
+        f"equilibrium   {out['equilibrium']['label']}"
+        + (f" (weights: {weights})" if weights else "")
+    )
+    changes = ", ".join(map(str, result.label_changes))
+    print(
+        f"iterations    {result.iterations}"
+        + (f" (labels changed: {changes}; {result.message})" if changes else "")
+    )
+    print("timings       " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
+
+
+def print_json(obj) -> None:
+    print(json.dumps(obj, indent=2, sort_keys=False))
+
+
+class UsageError(Exception):
+    """A problem with the user's input, reported in one line."""

@@ -1,0 +1,181 @@
+"""The argument parser of ``mirl``: every sub-command, flag, default and help text."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+from mirl import __version__
+
+__all__ = ["build_parser"]
+
+
+def _learn_parser(sub) -> None:
+    from mirl.learning.irl import OBJECTIVES, OPTIMIZERS
+    from mirl.learning.learn import METHODS
+
+    le = sub.add_parser(
+        "learn",
+        help="learn the patrollers' rewards, policies and transitions from a CSV (mIRL*/T+Int)",
+        description="Learn per robot reward weights, policy and transition-feature "
+        "probabilities, and the interaction equilibrium, from L's observations.",
+    )
+    _scenario_args(le)
+    le.add_argument("--observations", required=True, metavar="FILE.csv")
+    le.add_argument("--method", choices=[m for m in METHODS if m != "oracle"], default="mirl-t")
+    le.add_argument("--p", type=_degree, default=0.9, help="fixed success p of mirl / known-r")
+    le.add_argument(
+        "--observability",
+        type=_degree,
+        default=None,
+        metavar="D",
+        help="degree the observations were taken at (default: the scenario's)",
+    )
+    le.add_argument("--max-iterations", type=_positive_int, default=5, metavar="N")
+    le.add_argument("--objective", choices=OBJECTIVES, default="sequence")
+    le.add_argument("--optimizer", choices=OPTIMIZERS, default="lbfgs")
+    le.add_argument("--seed", type=int, default=0)
+    le.add_argument("--json", action="store_true", help="print the result as one JSON object")
+
+
+def _run_parser(sub) -> None:
+    from mirl.experiments.records import MAX_WAIT, METHODS
+
+    ru = sub.add_parser(
+        "run",
+        help="one penetration run: observe, learn, plan, go (default: boyd2, mirl-t, 0.14)",
+        description="L observes the patrollers, learns their models, predicts them and goes "
+        "for its goal; prints what it saw, learned and did, and the outcome.",
+    )
+    _scenario_args(ru, default="boyd2")
+    ru.add_argument("--method", choices=METHODS, default="mirl-t")
+    ru.add_argument("--observability", type=_degree, default=None, metavar="D")
+    ru.add_argument("--obs-steps", type=_positive_int, default=300, metavar="N")
+    ru.add_argument("--seed", type=int, default=0)
+    ru.add_argument("--p", type=float, default=0.9, help="fixed success p of mirl / known-r")
+    ru.add_argument(
+        "--max-wait",
+        type=int,
+        default=MAX_WAIT,
+        metavar="N",
+        help=f"steps L may wait after observing (default {MAX_WAIT}: 25 min in all with 300 "
+        "observed)",
+    )
+    ru.add_argument("--json", action="store_true", help="print the run as one JSON object")
+    ru.add_argument("--plot", metavar="FILE.png", help="draw the run")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="mirl",
+        description="Learn other robots' rewards, policies and faulty motion under occlusion.",
+    )
+    p.add_argument("--version", action="version", version=f"mirl {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    sm = sub.add_parser("show-map", help="print a map (and draw it with --png)")
+    sm.add_argument("map", metavar="NAME_OR_PATH")
+    sm.add_argument(
+        "--observability",
+        type=float,
+        default=None,
+        metavar="D",
+        help="shade the cells visible to L at degree D",
+    )
+    sm.add_argument("--png", metavar="FILE", help="also draw the map to a PNG file")
+    sm.add_argument(
+        "--cell-size", type=float, default=None, help="cell size in metres for ROS map_server maps"
+    )
+
+    si = sub.add_parser("simulate", help="simulate the patrollers and record what L sees")
+    _scenario_args(si)
+    si.add_argument("--steps", type=_positive_int, default=300)
+    si.add_argument("--seed", type=int, default=0)
+    si.add_argument("--observability", type=_degree, default=None, metavar="D")
+    si.add_argument(
+        "--heading-noise",
+        type=_degree,
+        default=0.0,
+        metavar="EPS",
+        help="probability that an observed heading is misread",
+    )
+    si.add_argument(
+        "--random-starts",
+        action="store_true",
+        help="start each patroller at a random state of its patrol cycle",
+    )
+    si.add_argument("--observations", metavar="FILE.csv", help="write L's observations")
+    si.add_argument("--truth", metavar="FILE.csv", help="write the true trajectories")
+    lt = sub.add_parser(
+        "learn-transitions", help="learn transition-feature probabilities (mIRL*/T) from a CSV"
+    )
+    _scenario_args(lt)
+    lt.add_argument("--observations", required=True, metavar="FILE.csv")
+    lt.add_argument(
+        "--labels",
+        choices=("true-policy", "perception"),
+        default="true-policy",
+        help="label observed steps with the true policy (Known R/T) or by perception",
+    )
+    lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
+    _experiment_parsers(sub)
+    _run_parser(sub)
+    _learn_parser(sub)
+    return p
+
+
+def _experiment_parsers(sub) -> None:
+    ex = sub.add_parser(
+        "experiment",
+        help="run one of the paper's experiments (fig3, fig4a, fig4b, fig4c, table1)",
+        description="Runs a grid of conditions × seeds in parallel, committing every finished "
+        "run to DIR/results.sqlite; --resume continues an interrupted (or extends a) sweep.",
+    )
+    ex.add_argument("name", metavar="NAME", help="fig3, fig4a, fig4b, fig4c or table1")
+    ex.add_argument("--runs", type=_positive_int, default=None, help="runs per condition")
+    ex.add_argument(
+        "--workers", type=_positive_int, default=os.cpu_count() or 1, help="local processes"
+    )
+    ex.add_argument("--out", metavar="DIR", help="results directory (default results/NAME)")
+    ex.add_argument("--resume", action="store_true", help="skip the runs DIR already holds")
+    ex.add_argument("--dask-scheduler", metavar="ADDRESS", help="run on this Dask cluster")
+    ex.add_argument("--seed", type=int, default=0, help="base seed of the run seeds")
+    ex.add_argument("--quiet", action="store_true", help="no progress bar or progress lines")
+    rp = sub.add_parser("report", help="figures and DIR/report.md from an experiment's results")
+    rp.add_argument("dir", metavar="DIR", help="an experiment's results directory (or parent)")
+
+
+def _scenario_args(sp: argparse.ArgumentParser, default: str | None = None) -> None:
+    sp.add_argument(
+        "--scenario",
+        default=default,
+        required=default is None,
+        metavar="NAME_OR_FILE",
+        help="shipped scenario name or TOML file",
+    )
+    sp.add_argument(
+        "--damage",
+        action="append",
+        metavar="ROBOT:FEATURE=P",
+        help="override a true feature probability, e.g. J:left_wheel=0.7",
+    )
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not an integer") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {v}")
+    return v
+
+
+def _degree(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not 0.0 <= v <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {v}")
+    return v

@@ -1,0 +1,282 @@
+"""The paper's evaluation as data: conditions, experiment grids (SPEC §6) and run functions.
+
+How the grids are executed and stored is :mod:`mirl.experiments.sweep`.
+
+An experiment is a grid of :class:`Condition` s × run indices 0…runs−1. Run ``i`` of *every*
+condition uses the seed derived from (base seed, i) only — common random numbers: all methods,
+observabilities and observation times face the same patrol realisations, so their differences
+are not noise from different patrols. A run's result depends only on (condition, seed), never on
+the number of workers or the order in which runs finish.
+
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+import zlib
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mirl import __version__
+
+__all__ = [
+    "Condition",
+    "Experiment",
+    "EXPERIMENTS",
+    "experiment_names",
+    "get_experiment",
+    "run_seed",
+    "code_version",
+    "episode_run",
+    "selftest_run",
+    "StoreError",
+    "OUTCOMES",
+]
+
+DEFAULT_OBS_STEPS = 300
+DEFAULT_RUNS = 200  # per point, as in the paper's simulations
+OUTCOMES = ("success", "detected", "timeout")
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One point of an experiment grid. ``p`` is the fixed success probability of the
+    fixed-T methods (``mirl``, ``known-r``); None for methods that learn or know T."""
+
+    method: str
+    scenario: str = "boyd2"
+    observability: float = 0.14
+    obs_steps: int = DEFAULT_OBS_STEPS
+    p: float | None = None
+
+    @property
+    def key(self) -> str:
+        """Stable identity: JSON of the sorted fields (part of the database's primary key)."""
+        return json.dumps(asdict(self), sort_keys=True, separators=(",", ":"))
+
+    @classmethod
+    def from_key(cls, key: str) -> Condition:
+        return cls(**json.loads(key))
+
+    @property
+    def label(self) -> str:
+        return self.method if self.p is None else f"{self.method} (p={self.p:g})"
+
+
+RunFunction = Callable[[Condition, int], Mapping[str, Any]]
+"""``fn(condition, seed) -> result``: a picklable top-level callable. The result maps
+``outcome`` (success/detected/timeout) and optionally ``go_time``, ``behavior_accuracy``,
+``feature_probabilities`` ({robot: {feature: p}}), ``timings`` ({phase: seconds}); any other
+JSON-serialisable entries are kept as metrics."""
+
+
+@dataclass(frozen=True)
+class Experiment:
+    name: str
+    description: str
+    conditions: tuple[Condition, ...]
+    run_function: RunFunction
+    default_runs: int = DEFAULT_RUNS
+    hidden: bool = False  # built-in smoke experiments, not listed in help
+
+
+@lru_cache(maxsize=1)
+def code_version() -> str:
+    """The library version plus a hash of the package's source and shipped data, so rows that
+    different code computed are told apart even between releases (work in progress, a
+    resumed sweep after an edit)."""
+    root = Path(__file__).parent
+    h = hashlib.sha256()
+    for p in sorted(root.rglob("*")):
+        if p.is_file() and p.suffix in {".py", ".txt", ".toml"}:
+            h.update(p.relative_to(root).as_posix().encode())
+            h.update(p.read_bytes())
+    return f"{__version__}+src.{h.hexdigest()[:10]}"
+
+
+def run_seed(base_seed: int, run: int) -> int:
+    """Seed of run ``run`` of every condition: a function of (base seed, run) only."""
+    return int(np.random.SeedSequence([base_seed, run]).generate_state(1)[0])
+
+
+# ---------------------------------------------------------------------------------------------
+# Run functions
+
+
+@lru_cache(maxsize=8)
+def _scenario(name: str):
+    # loading a scenario solves the true patrollers' MDPs; do it once per worker process
+    from mirl.world.scenario import load_scenario
+
+    return load_scenario(name)
+
+
+def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
+    """The real run: one episode of :func:`mirl.experiments.episode.run_episode`, flattened to a
+    result mapping."""
+    from mirl.experiments.episode import run_episode
+
+    kwargs: dict[str, Any] = {}
+    if condition.p is not None:
+        kwargs["p"] = condition.p
+    result = run_episode(
+        _scenario(condition.scenario),
+        condition.method,
+        observability=condition.observability,
+        obs_steps=condition.obs_steps,
+        seed=seed,
+        **kwargs,
+    )
+    return _flatten_run_result(result)
+
+
+def _flatten_run_result(result: Any) -> dict[str, Any]:
+    out: dict[str, Any] = {
+        "outcome": result.outcome,
+        "go_time": _maybe_float(getattr(result, "go_time", None)),
+        "behavior_accuracy": _maybe_float(getattr(result, "behavior_accuracy", None)),
+        "feature_probabilities": {
+            str(r): {str(f): float(p) for f, p in fp.items()}
+            for r, fp in (getattr(result, "feature_probabilities", None) or {}).items()
+        },
+        "timings": {str(k): float(v) for k, v in (getattr(result, "timings", None) or {}).items()},
+    }
+    for robot, acc in (getattr(result, "behavior_accuracy_per_robot", None) or {}).items():
+        out[f"behavior_accuracy_{robot}"] = _maybe_float(acc)
+    # why a run went as it did: how much L saw and how confident its plan was
+    for robot, n in (getattr(result, "seen_steps", None) or {}).items():
+        out[f"seen_steps_{robot}"] = int(n)
+    out["plan_value"] = _maybe_float(getattr(result, "plan_value", None))
+    out["plan_attempts"] = len(getattr(result, "attempts", ()) or ())
+    return out
+
+
+def _maybe_float(v: Any) -> float | None:
+    return None if v is None else float(v)
+
+
+def selftest_run(condition: Condition, seed: int) -> dict[str, Any]:
+    """A cheap deterministic stand-in for an episode (the ``selftest`` experiment): the result
+    is a pure function of (condition, seed); ``MIRL_SELFTEST_SLEEP`` seconds of sleep make it
+    slow enough to be interrupted in tests."""
+    time.sleep(float(os.environ.get("MIRL_SELFTEST_SLEEP", "0")))
+    rng = np.random.default_rng([seed, zlib.crc32(condition.key.encode())])
+    acc = float(np.clip(0.4 + 0.5 * condition.observability + 0.1 * rng.standard_normal(), 0, 1))
+    u = rng.random()
+    outcome = "success" if u < acc * 0.6 else ("timeout" if u > 0.97 else "detected")
+    return {
+        "outcome": outcome,
+        "go_time": None if outcome == "timeout" else float(rng.integers(0, 50)),
+        "behavior_accuracy": acc,
+        "behavior_accuracy_I": acc,
+        "behavior_accuracy_J": acc,
+        "feature_probabilities": {
+            "I": {"left_wheel": 0.95 - 0.02 * rng.random(), "right_wheel": 0.95},
+            "J": {"left_wheel": 0.70 + 0.05 * rng.random(), "right_wheel": 0.95},
+        },
+        "timings": {"learn": 0.001},
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# Grids (SPEC §6)
+
+OBSERVABILITIES = (0.14, 0.3, 0.5, 0.75, 1.0)
+OBS_STEPS = (150, 300, 450, 900)
+FIXED_PS = (0.7, 0.8, 0.9, 0.95)
+
+
+def _fig3() -> tuple[Condition, ...]:
+    return tuple(
+        Condition(m, "boyd2", d, n)
+        for m in ("mirl-t", "known-r-t")
+        for n in OBS_STEPS
+        for d in OBSERVABILITIES
+    )
+
+
+def _fig4a() -> tuple[Condition, ...]:
+    conds: list[Condition] = []
+    for d in (0.14, 1.0):
+        conds += [Condition(m, "boyd2", d) for m in ("oracle", "known-r-t", "mirl-t")]
+        conds.append(Condition("known-r", "boyd2", d, p=0.9))
+        conds += [Condition("mirl", "boyd2", d, p=p) for p in FIXED_PS]
+        conds += [Condition(m, "boyd2", d) for m in ("dbn-em", "random")]
+    return tuple(conds)
+
+
+def _features(scenario: str) -> tuple[Condition, ...]:
+    return tuple(Condition(m, scenario, d) for d in (0.14, 1.0) for m in ("mirl-t", "known-r-t"))
+
+
+def _table1() -> tuple[Condition, ...]:
+    return tuple(
+        Condition(m, s, 0.14, p=p)
+        for s in ("boyd2", "boyd2-healthy")
+        for m, p in (("mirl-t", None), ("mirl", 0.9), ("random", None))
+    )
+
+
+def _selftest() -> tuple[Condition, ...]:
+    return tuple(Condition(m, "boyd2", d, 10) for m in ("a", "b") for d in (0.14, 1.0))
+
+
+EXPERIMENTS: dict[str, Experiment] = {
+    e.name: e
+    for e in (
+        Experiment(
+            "fig3",
+            "behaviour accuracy and success vs observability × observation time",
+            _fig3(),
+            episode_run,
+        ),
+        Experiment("fig4a", "success and timed-out rates of every method", _fig4a(), episode_run),
+        Experiment(
+            "fig4b",
+            "learned feature probabilities, J's left wheel damaged",
+            _features("boyd2"),
+            episode_run,
+        ),
+        Experiment(
+            "fig4c",
+            "learned feature probabilities, healthy patrollers",
+            _features("boyd2-healthy"),
+            episode_run,
+        ),
+        Experiment(
+            "table1", "the physical-runs table on the grid simulator at 14%", _table1(), episode_run
+        ),
+        Experiment(
+            "selftest",
+            "built-in smoke test with a fake run",
+            _selftest(),
+            selftest_run,
+            default_runs=6,
+            hidden=True,
+        ),
+    )
+}
+
+
+def experiment_names(include_hidden: bool = False) -> list[str]:
+    return [n for n, e in EXPERIMENTS.items() if include_hidden or not e.hidden]
+
+
+def get_experiment(name: str) -> Experiment:
+    try:
+        return EXPERIMENTS[name]
+    except KeyError:
+        known = ", ".join(experiment_names())
+        raise StoreError(f"unknown experiment '{name}' (known: {known})") from None
+
+
+class StoreError(ValueError):
+    """A problem with an experiment's request or its results directory (one-line message)."""

@@ -1,0 +1,123 @@
+"""The readable report of `mirl run`: what L saw, what it learned of each robot, what it decided,
+and how the run ended."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mirl.experiments.records import RunResult
+from mirl.world.scenario import Scenario
+
+
+# ---- the readable report of `mirl run` -------------------------------------------------------
+def policy_cycle(domain, policy: np.ndarray, start: int) -> np.ndarray:
+    """States of the loop that ``policy`` settles into from ``start`` under intended outcomes."""
+    s = int(start)
+    for _ in range(domain.n_states):  # walk long enough to be on the loop
+        s = int(domain.intended[s, policy[s]])
+    cycle = [s]
+    s = int(domain.intended[s, policy[s]])
+    while s != cycle[0]:
+        cycle.append(s)
+        s = int(domain.intended[s, policy[s]])
+    return np.asarray(cycle)
+
+
+def _turn_cells(domain, cycle: np.ndarray) -> list[tuple[int, int]]:
+    """Cells where the loop reverses direction (heading turned by 180° across a stay)."""
+    rch = domain.states[cycle]
+    out: list[tuple[int, int]] = []
+    for i in range(len(cycle)):
+        a, b = rch[i], rch[(i + 2) % len(cycle)]
+        cell = (int(a[0]), int(a[1]))
+        if (a[2] - b[2]) % 4 == 2 and (a[0], a[1]) == (b[0], b[1]) and cell not in out:
+            out.append(cell)
+    return out
+
+
+def format_report(scenario: Scenario, result: RunResult) -> str:
+    """The short readable report printed by ``mirl run``."""
+    dom = scenario.domain
+    n_vis = int(scenario.map.visible_mask(result.observability).sum())
+    damaged = [
+        f"{r.name}:{f}={p:g}"
+        for r in scenario.robots
+        for f, p in r.feature_probabilities.items()
+        if p < 0.9
+    ]
+    lines = [
+        f"mirl run: scenario {scenario.name} (truth: {', '.join(damaged) or 'no damage'}), "
+        f"method {result.method}, observability {result.observability:g} "
+        f"({n_vis}/{scenario.map.n_patroller_cells} cells), seed {result.seed}",
+        "",
+        f"observed  {result.obs_steps} steps ({result.obs_steps * 2 / 60:.0f} min of robot time):"
+        + "".join(f" saw {n} on {k} steps;" for n, k in result.seen_steps.items()).rstrip(";"),
+    ]
+    learned = result.learned
+    has_features = any(result.feature_probabilities.values())
+    if learned is not None and not has_features:
+        lines.append(f"learned   no feature probabilities: {learned.message or learned.method}")
+    if learned is not None and has_features:
+        feats = list(scenario.feature_map.features)
+        lines.append(f"learned   transition-feature probabilities ({learned.method}):")
+        lines.append("            robot" + "".join(f"{f:>13}" for f in feats))
+        probs = result.feature_probabilities
+        ranked = sorted((probs[n][f], n, f) for n in probs for f in feats if f in probs[n])
+        low = ranked[0][1:] if ranked[1][0] - ranked[0][0] > 1e-6 else None  # a unique lowest
+        for name, fp in probs.items():
+            cells = "".join(
+                f"{fp[f]:>12.3f}{'*' if (name, f) == low else ' '}" for f in feats if f in fp
+            )
+            unseen = " (never seen: maximum entropy)" if result.seen_steps.get(name) == 0 else ""
+            lines.append(f"            {name:<5}{cells}{unseen}")
+        if low is not None:
+            lines.append(
+                f"            * lowest: {low[0]}'s {low[1]} — L's guess of the damaged part"
+            )
+        else:
+            lines.append(f"            no single lowest feature ({ranked[0][0]:.3f} is shared)")
+    if learned is not None:
+        acc = ", ".join(f"{n} {a:.2f}" for n, a in result.behavior_accuracy_per_robot.items())
+        lines.append(f"          behaviour accuracy: {acc} (mean {result.behavior_accuracy:.2f})")
+        for i, r in enumerate(learned.robots):
+            start = dom.state_index(*scenario.robots[i].start)
+            cyc = policy_cycle(dom, r.policy, int(start))
+            true = set(policy_cycle(dom, scenario.true_policy(i), int(start)).tolist())
+            same = "the true patrol" if set(cyc.tolist()) == true else "differs from the truth"
+            ends = " and ".join(str(c) for c in _turn_cells(dom, cyc)) or "nowhere"
+            lines.append(
+                f"          patrol of {r.name}: a {len(cyc)}-step loop turning at {ends} ({same})"
+            )
+        lines.append(f"          interaction equilibrium (I/J): {learned.equilibrium.label()}")
+    if result.go_time is None:
+        lines.append(
+            f"planned   {len(result.attempts)} rounds, no go time with a positive value "
+            f"(best {max(a.best_value for a in result.attempts):.2f})"
+            if result.attempts
+            else "planned   -"
+        )
+    elif result.plan_value is None:
+        lines.append(f"went      at t={result.go_time} (a random time)")
+    else:
+        lines.append(
+            f"went      at t={result.go_time}, {result.go_time - (result.obs_steps - 1)} steps "
+            f"after observing, value {result.plan_value:.2f} ({len(result.attempts)} planning "
+            "rounds)"
+        )
+    outcome = {
+        "success": f"success — reached the goal {scenario.goal} unseen at t={result.end_time}",
+        "detected": "detected — "
+        + "; ".join(
+            f"{d.robot} at {d.robot_state} saw L on {d.observer_cell} at t={d.t}"
+            for d in result.detections
+        ),
+        "timeout": f"timeout — no safe go time before t={result.end_time}",
+    }[result.outcome]
+    lines.append(f"outcome   {outcome}")
+    tm = result.timings
+    lines.append(
+        "time      "
+        + ", ".join(f"{k} {tm[k]:.2f} s" for k in ("observe", "learn", "plan", "execute"))
+        + f"; total {tm['total']:.2f} s"
+    )
+    return "\n".join(lines)

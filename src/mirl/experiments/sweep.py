@@ -1,0 +1,248 @@
+"""Running an experiment grid: in parallel (joblib processes, or a Dask cluster through joblib's
+dask backend), every finished run committed to ``DIR/results.sqlite`` as it arrives.
+
+The parent process alone writes — one transaction per run, WAL journal, primary key
+(condition_key, run) — so killing the sweep at any moment loses only the runs in flight, and
+``resume=True`` runs exactly what is missing.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import traceback
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import ExitStack, nullcontext
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from mirl.experiments.conditions import (
+    OUTCOMES,
+    Condition,
+    Experiment,
+    RunFunction,
+    StoreError,
+    _maybe_float,
+    code_version,
+    get_experiment,
+    run_seed,
+)
+from mirl.experiments.store import RunRecord, open_store
+
+__all__ = ["Summary", "run_experiment", "conditions_of"]
+
+# ---------------------------------------------------------------------------------------------
+# Execution
+
+
+def _execute(fn: RunFunction, experiment: str, cond: Condition, run: int, seed: int) -> RunRecord:
+    """Worker side: one run, never raising — a failing run becomes an ``error`` record so one
+    bad condition does not take the sweep down (resume retries error rows)."""
+    start = time.perf_counter()
+    try:
+        res = dict(fn(cond, seed))
+        error = ""
+    except Exception as exc:  # noqa: BLE001 — recorded, reported, retried on resume
+        tb = traceback.format_exception_only(type(exc), exc)[-1].strip()
+        res, error = {"outcome": "error"}, tb
+    elapsed = time.perf_counter() - start
+    outcome = str(res.pop("outcome"))
+    if not error and outcome not in OUTCOMES:
+        outcome, error = "error", f"run function returned outcome '{outcome}'"
+    return RunRecord(
+        experiment=experiment,
+        condition_key=cond.key,
+        run=run,
+        seed=seed,
+        outcome=outcome,
+        go_time=_maybe_float(res.pop("go_time", None)),
+        behavior_accuracy=_maybe_float(res.pop("behavior_accuracy", None)),
+        feature_probabilities=dict(res.pop("feature_probabilities", None) or {}),
+        timings=dict(res.pop("timings", None) or {}),
+        metrics=res,
+        error=error,
+        elapsed=elapsed,
+        version=code_version(),
+    )
+
+
+@dataclass
+class Summary:
+    experiment: str
+    out_dir: Path
+    planned: int  # conditions × runs
+    already_done: int  # finished before this session
+    finished: int  # finished in this session
+    wall_seconds: float
+    workers: int
+    outcomes: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def runs_per_minute(self) -> float:
+        return 60.0 * self.finished / self.wall_seconds if self.wall_seconds > 0 else 0.0
+
+    def line(self) -> str:
+        counts = ", ".join(f"{k} {v}" for k, v in sorted(self.outcomes.items()))
+        return (
+            f"{self.experiment}: {self.finished} runs in {self.wall_seconds / 60:.1f} min on "
+            f"{self.workers} workers ({self.runs_per_minute:.1f} runs/min); "
+            f"{self.already_done + self.finished}/{self.planned} done; this session: {counts}"
+        )
+
+
+def run_experiment(
+    experiment: Experiment | str,
+    out_dir: str | Path,
+    *,
+    runs: int | None = None,
+    workers: int = 1,
+    resume: bool = False,
+    dask_scheduler: str | None = None,
+    base_seed: int = 0,
+    progress: bool = True,
+    log: Callable[[str], None] | None = None,
+) -> Summary:
+    """Run every pending (condition, run) of ``experiment``, storing each result as it arrives
+    in ``out_dir/results.sqlite``; export ``out_dir/results.csv`` at the end.
+
+    Without ``resume`` an existing non-empty database is refused (StoreError) rather than
+    silently mixed; with it, finished runs are skipped, ``error`` runs retried, and a larger
+    ``runs`` extends the sweep. ``dask_scheduler`` runs the same tasks on a Dask cluster.
+    """
+    exp = get_experiment(experiment) if isinstance(experiment, str) else experiment
+    runs = exp.default_runs if runs is None else runs
+    if runs < 1:
+        raise StoreError(f"runs must be at least 1, got {runs}")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    store = open_store(out / "results.sqlite", exp.name, base_seed, resume=resume)
+    emit = log or (lambda msg: print(msg, file=sys.stderr))
+    with ExitStack() as stack:
+        stack.callback(store.close)
+        retried = store.delete_errors()
+        if retried:
+            emit(f"{exp.name}: retrying {retried} runs that failed before")
+        done = store.finished_keys()
+        tasks = [
+            (cond, i, run_seed(base_seed, i))
+            for i in range(runs)  # run-major: a partial sweep covers every condition evenly
+            for cond in exp.conditions
+            if (cond.key, i) not in done
+        ]
+        planned = runs * len(exp.conditions)
+        already = planned - len(tasks)
+        client = _dask_client(dask_scheduler) if dask_scheduler else nullcontext()
+        stack.enter_context(client)
+        n_workers = workers if dask_scheduler is None else _dask_threads(client)
+        summary = Summary(exp.name, out, planned, already, 0, 0.0, n_workers)
+        emit(
+            f"{exp.name}: {len(exp.conditions)} conditions × {runs} runs; {already} done, "
+            f"{len(tasks)} to run on {n_workers} workers"
+            + (f" via dask at {dask_scheduler}" if dask_scheduler else "")
+        )
+        session = store.begin_session(n_workers, "dask" if dask_scheduler else "joblib")
+        start = time.perf_counter()
+        with _ProgressLog(out / "progress.log", len(tasks), exp.name, progress) as bar:
+            for rec in _results(exp, tasks, workers, dask_scheduler):
+                summary.finished += 1
+                # committed before anything else happens
+                store.add(rec, session, summary.finished, time.perf_counter() - start)
+                summary.outcomes[rec.outcome] = summary.outcomes.get(rec.outcome, 0) + 1
+                bar.update(rec)
+        summary.wall_seconds = time.perf_counter() - start
+        order = {c.key: k for k, c in enumerate(exp.conditions)}
+        store.export_csv(out / "results.csv", order)
+        emit(summary.line())
+        if summary.outcomes.get("error"):
+            emit(f"{exp.name}: {summary.outcomes['error']} runs failed; see the 'error' column")
+        return summary
+
+
+def _results(
+    exp: Experiment, tasks: list[tuple[Condition, int, int]], workers: int, scheduler: str | None
+) -> Iterator[RunRecord]:
+    """Results in completion order, so each is stored as soon as it exists."""
+    if not tasks:
+        return
+    import joblib
+
+    calls = (joblib.delayed(_execute)(exp.run_function, exp.name, c, i, s) for c, i, s in tasks)
+    if scheduler is None:
+        # batch_size=1: runs last seconds, so per-task overhead is nothing next to losing a
+        # whole batch of finished-but-unreturned runs on a kill
+        par = joblib.Parallel(
+            n_jobs=workers, return_as="generator_unordered", batch_size=1, pre_dispatch="2*n_jobs"
+        )
+        yield from par(calls)
+        return
+    # the dask backend runs on the client opened by run_experiment
+    with joblib.parallel_config(backend="dask"):
+        par = joblib.Parallel(
+            n_jobs=-1, return_as="generator_unordered", batch_size=1, pre_dispatch="all"
+        )
+        yield from par(calls)
+
+
+def _dask_client(address: str):
+    from distributed import Client
+
+    return Client(address, timeout="30s")
+
+
+def _dask_threads(client: Any) -> int:
+    return sum(client.nthreads().values()) or 1
+
+
+class _ProgressLog:
+    """tqdm bar with ETA on a terminal; otherwise, and always in ``progress.log``, one line per
+    run with the count, the run and the ETA, so a detached sweep can be followed with tail."""
+
+    def __init__(self, path: Path, total: int, name: str, show: bool) -> None:
+        from tqdm import tqdm
+
+        self.total, self.name, self.start, self.n = total, name, time.perf_counter(), 0
+        self.file = path.open("a", encoding="utf-8")
+        tty = show and sys.stderr.isatty()
+        self.bar = tqdm(
+            total=total, desc=name, unit="run", file=sys.stderr, disable=not tty, smoothing=0.05
+        )
+        self.echo = show and not tty
+        self.last_echo = 0.0
+
+    def update(self, rec: RunRecord) -> None:
+        self.n += 1
+        self.bar.update(1)
+        elapsed = time.perf_counter() - self.start
+        eta = elapsed / self.n * (self.total - self.n)
+        cond = Condition.from_key(rec.condition_key)
+        line = (
+            f"{time.strftime('%H:%M:%S')} {self.name} {self.n}/{self.total} {cond.label} "
+            f"d={cond.observability:g} steps={cond.obs_steps} {cond.scenario} run {rec.run}: "
+            f"{rec.outcome} in {rec.elapsed:.1f}s; ETA {_hms(eta)}"
+        )
+        self.file.write(line + "\n")
+        self.file.flush()
+        if self.echo and (elapsed - self.last_echo > 30 or self.n == self.total):
+            self.last_echo = elapsed
+            print(line, file=sys.stderr)
+
+    def __enter__(self) -> _ProgressLog:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.bar.close()
+        self.file.close()
+
+
+def _hms(seconds: float) -> str:
+    s = int(round(seconds))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}"
+
+
+def conditions_of(rows: Iterable[Mapping[str, Any]]) -> list[Condition]:
+    """Distinct conditions of stored rows, in first-seen order."""
+    seen: dict[str, Condition] = {}
+    for r in rows:
+        seen.setdefault(r["condition_key"], Condition.from_key(r["condition_key"]))
+    return list(seen.values())

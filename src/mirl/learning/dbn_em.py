@@ -1,0 +1,172 @@
+"""The DBN-EM baseline of SPEC §5 (the random observer is :mod:`mirl.planning.random_go`).
+
+**dbn-em** (:func:`em_transition_model`): each patroller is a two-slice state–action–state
+dynamic Bayesian network s_t → a_t → s_{t+1} with parameters π(a | s) and a tabular
+T(s, a, s'). L observes states only, and only on visible cells, so the actions and the occluded
+states are hidden. EM alternates
+
+* an exact E-step — forward–backward over the hidden chain with P(s, s') = Σ_a π(a|s) T(s,a,s')
+  (scaled messages; an observed step clamps the state, an occluded step leaves it free), giving
+  the expected pair counts Ξ(s, s') = Σ_t P(s_t = s, s_{t+1} = s' | data) and, per pair, the
+  posterior of the action π(a|s) T(s,a,s') / P(s,s');
+* an M-step with the expected counts: π(a|s) ∝ N(s,a), T(s,a,s') ∝ N(s,a,s'). A (s, a) with no
+  expected count keeps its previous (initial) parameters.
+
+The initial T(s, a, ·) is uniform over the intended states of all actions {ψ(s, a')}
+(``init="intended"``, default) or over all states (``init="uniform"``). Both are the same for
+every action, and since only states are observed nothing in the data can tell the actions
+apart: EM keeps T(s, a, ·) = T(s, a', ·) for ever and learns the state chain P only. This is
+the weakness the paper reports — no feature is shared between actions or states, so where the
+robot was never seen T stays at its uninformative initialisation. ``"intended"`` at least keeps
+the robot's physical reach (four successors); ``"uniform"`` lets a robot jump anywhere.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from mirl.world.domain import PatrolDomain
+
+__all__ = ["EMResult", "em_fit", "em_transition_model", "expected_counts"]
+
+
+@dataclass(frozen=True)
+class EMResult:
+    policy: np.ndarray  # (S, A) π(a | s)
+    transitions: np.ndarray  # (S, A, S) T(s, a, s')
+    log_likelihood: tuple[float, ...]  # after the E-step of each iteration (non-decreasing)
+    iterations: int
+    converged: bool
+
+    def transition_matrix(self) -> sp.csr_array:
+        S, A, _ = self.transitions.shape
+        return sp.csr_array(self.transitions.reshape(S * A, S))
+
+
+def initial_transitions(domain: PatrolDomain, init: str = "intended") -> np.ndarray:
+    """(S, A, S) initial T: uniform over {ψ(s, a')} (``intended``) or over all states."""
+    S, A = domain.n_states, domain.n_actions
+    if init == "uniform":
+        return np.full((S, A, S), 1.0 / S)
+    if init != "intended":
+        raise ValueError(f"unknown EM initialisation '{init}' (known: intended, uniform)")
+    support = np.zeros((S, S))
+    support[np.repeat(np.arange(S), A), domain.intended.ravel()] = 1.0  # duplicates count once
+    support /= support.sum(axis=1, keepdims=True)
+    return np.repeat(support[:, None, :], A, axis=1)
+
+
+def _check_series(series_list: Sequence[np.ndarray], n_states: int) -> list[np.ndarray]:
+    out = []
+    for i, x in enumerate(series_list):
+        x = np.asarray(x, dtype=int)
+        if x.ndim != 1 or len(x) < 2:
+            raise ValueError(f"series {i} must be a 1-D array of at least two steps")
+        if np.any((x < -1) | (x >= n_states)):
+            raise ValueError(f"series {i} has state indices outside -1 … {n_states - 1}")
+        out.append(x)
+    return out
+
+
+def expected_counts(
+    policy: np.ndarray,
+    transitions: np.ndarray,
+    series_list: Sequence[np.ndarray],
+    *,
+    prior: np.ndarray | None = None,
+    hidden_states: np.ndarray | None = None,
+) -> tuple[np.ndarray, float]:
+    """E-step: expected counts N(s, a, s') (S, A, S) and the log-likelihood of the data.
+
+    ``series_list`` holds (horizon,) state indices with -1 where the robot was not observed.
+    ``prior`` is the distribution of s_0 (default uniform). ``hidden_states`` (S,) bool, if
+    given, restricts where an unobserved robot can be (negative evidence); default: anywhere,
+    i.e. occluded steps are plain missing data.
+    """
+    S, A, _ = transitions.shape
+    P = np.einsum("sa,sat->st", policy, transitions)  # chain P(s, s')
+    prior = np.full(S, 1.0 / S) if prior is None else np.asarray(prior, float)
+    free = np.ones(S) if hidden_states is None else np.asarray(hidden_states, float)
+    pair = np.zeros((S, S))
+    loglik = 0.0
+    for x in _check_series(series_list, S):
+        n = len(x)
+        ev = np.tile(free, (n, 1))
+        obs = np.flatnonzero(x >= 0)
+        ev[obs] = 0.0
+        ev[obs, x[obs]] = 1.0
+        alpha = np.empty((n, S))
+        scale = np.empty(n)
+        a = prior * ev[0]
+        for t in range(n):
+            if t:
+                a = (alpha[t - 1] @ P) * ev[t]
+            scale[t] = a.sum()
+            if scale[t] <= 0:
+                raise ValueError(f"observations impossible under the model at t={t}")
+            alpha[t] = a / scale[t]
+        beta = np.empty((n, S))
+        beta[-1] = 1.0
+        for t in range(n - 2, -1, -1):
+            beta[t] = P @ (ev[t + 1] * beta[t + 1]) / scale[t + 1]
+        loglik += float(np.log(scale).sum())
+        b = ev[1:] * beta[1:] / scale[1:, None]  # (n-1, S)
+        pair += alpha[:-1].T @ b  # Σ_t α_t(s)·e_{t+1}(s')β_{t+1}(s')/c_{t+1}
+    pair *= P  # Ξ(s, s')
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = np.where(P[:, None, :] > 0, policy[:, :, None] * transitions / P[:, None, :], 0.0)
+    return pair[:, None, :] * share, loglik
+
+
+def em_fit(
+    domain: PatrolDomain,
+    series_list: Sequence[np.ndarray],
+    *,
+    n_iter: int = 20,
+    tol: float = 1e-4,
+    init: str = "intended",
+    hidden_states: np.ndarray | None = None,
+    min_count: float = 1e-9,
+) -> EMResult:
+    """EM for π and T of one robot (module doc); stops when the log-likelihood gains < ``tol``."""
+    S, A = domain.n_states, domain.n_actions
+    if S * S * A > 50_000_000:
+        raise ValueError(f"dbn-em keeps a dense T of {S}×{A}×{S}; too large for this map")
+    T = initial_transitions(domain, init)
+    pi = np.full((S, A), 1.0 / A)
+    history: list[float] = []
+    converged = False
+    it = 0
+    for it in range(1, n_iter + 1):  # noqa: B007 - reported
+        N, ll = expected_counts(pi, T, series_list, hidden_states=hidden_states)
+        history.append(ll)
+        n_sa = N.sum(axis=2)
+        seen_sa = n_sa > min_count
+        T = np.where(seen_sa[:, :, None], N / np.where(seen_sa, n_sa, 1.0)[:, :, None], T)
+        n_s = n_sa.sum(axis=1)
+        seen_s = n_s > min_count
+        pi = np.where(seen_s[:, None], n_sa / np.where(seen_s, n_s, 1.0)[:, None], pi)
+        if len(history) > 1 and history[-1] - history[-2] < tol:
+            converged = True
+            break
+    return EMResult(pi, T, tuple(history), it, converged)
+
+
+def em_transition_model(
+    domain: PatrolDomain,
+    series_list: Sequence[np.ndarray],
+    *,
+    n_iter: int = 20,
+    tol: float = 1e-4,
+    init: str = "intended",
+) -> sp.csr_array:
+    """DBN-EM estimate of one robot's T(s, a, s') as a CSR (S·A, S) matrix.
+
+    ``series_list``: one or more (horizon,) arrays of the same robot's state indices, -1 where
+    it was occluded. See the module doc for the model and :func:`em_fit` for diagnostics.
+    """
+    return em_fit(domain, series_list, n_iter=n_iter, tol=tol, init=init).transition_matrix()

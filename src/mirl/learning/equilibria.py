@@ -1,0 +1,230 @@
+"""Interactions: which observed steps could be meetings, and the weighing of the interaction game's
+candidate equilibria by the exact likelihood of both robots' observations under the joint
+dynamics (a forward filter over joint states where the equilibrium replaces the policies at
+meeting states)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from mirl.learning.soft_policy import _Dynamics
+from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
+from mirl.world.game import Equilibrium, meeting
+
+__all__ = [
+    "potential_meetings",
+    "EquilibriumWeights",
+    "joint_log_likelihood",
+    "meeting_log_likelihood",
+    "weigh_equilibria",
+]
+
+
+# ---- interactions ------------------------------------------------------------------------------
+def potential_meetings(domain: PatrolDomain, series_i: np.ndarray, series_j: np.ndarray):
+    """(horizon,) bool: both robots observed and *some* pair of actions would make them meet.
+
+    Used to leave game-driven steps out of the per-robot IRL without knowing the policies yet.
+    """
+    x, y = np.asarray(series_i), np.asarray(series_j)
+    both = np.flatnonzero((x >= 0) & (y >= 0))
+    out = np.zeros(len(x), dtype=bool)
+    if both.size == 0:
+        return out
+    A = domain.n_actions
+    ai, aj = np.meshgrid(np.arange(A), np.arange(A), indexing="ij")
+    hit = meeting(
+        domain,
+        x[both][:, None],
+        y[both][:, None],
+        ai.ravel()[None, :],
+        aj.ravel()[None, :],
+    )
+    out[both] = hit.any(axis=1)
+    return out
+
+
+def _game_actions(equilibrium_side: Sequence[float], own: np.ndarray, n_actions: int):
+    """(n, A) action distribution of a robot playing ``equilibrium_side`` (go/stop/turn)."""
+    p = np.asarray(equilibrium_side, dtype=float)
+    out = np.zeros((len(own), n_actions))
+    out[np.arange(len(own)), own] += p[0]
+    out[:, STOP] += p[1]
+    out[:, TURN_LEFT] += p[2]
+    return out
+
+
+@dataclass(frozen=True)
+class _JointModel:
+    """Per robot: ε-greedy P_πᵀ and the equilibrium's game-move matrix Gᵀ (both (S, S) CSR);
+    ``meet`` (S, S) bool marks the joint states where the robots' intended moves meet."""
+
+    PT: tuple[sp.csr_array, sp.csr_array]
+    GT: tuple[sp.csr_array, sp.csr_array]
+    meet: np.ndarray
+
+    def step(self, M: np.ndarray) -> np.ndarray:
+        """Joint distribution one step on: Pᵢᵀ (M off meetings) Pⱼ + Gᵢᵀ (M at meetings) Gⱼ.
+
+        A robot's game move depends only on its own state (its policy action, stop or turn), so
+        the meeting part factorises like the rest."""
+        at = np.where(self.meet, M, 0.0)
+        off = M - at
+        return self.PT[0] @ (self.PT[1] @ off.T).T + self.GT[0] @ (self.GT[1] @ at.T).T
+
+
+def _joint_model(domain, policies, transitions, equilibrium, epsilon) -> _JointModel:
+    S, A = domain.n_states, domain.n_actions
+    pol = [np.asarray(p, dtype=int) for p in policies]
+    PT, GT = [], []
+    for p, t, side in zip(pol, transitions, (equilibrium.row, equilibrium.col), strict=True):
+        dyn = _Dynamics(sp.csr_array(t), A)
+        own = np.zeros((S, A))
+        own[np.arange(S), p] = 1.0
+        PT.append(dyn.transposed_policy((1 - epsilon) * own + epsilon / A))
+        game = _game_actions(side, p, A)
+        GT.append(dyn.transposed_policy((1 - epsilon) * game + epsilon / A))
+    si, sj = np.divmod(np.arange(S * S), S)
+    meet = meeting(domain, si, sj, pol[0][si], pol[1][sj]).reshape(S, S)
+    return _JointModel((PT[0], PT[1]), (GT[0], GT[1]), meet)
+
+
+def _condition(M: np.ndarray, x: int, visible: np.ndarray, axis: int) -> None:
+    """In-place: keep only what is consistent with one robot's observation at this step."""
+    view = M if axis == 0 else M.T
+    if x >= 0:
+        keep = view[x].copy()
+        view[:] = 0.0
+        view[x] = keep
+    else:
+        view[visible] = 0.0
+
+
+def joint_log_likelihood(
+    domain: PatrolDomain,
+    series: Sequence[np.ndarray],
+    policies: Sequence[np.ndarray],
+    transitions: Sequence[sp.csr_array],
+    equilibrium: Equilibrium,
+    visible: np.ndarray,
+    *,
+    epsilon: float = 1e-3,
+) -> float:
+    """log P(observations of both robots | policies, T, equilibrium), exactly.
+
+    A forward (HMM) filter over the joint state (s_I, s_J): S² states, propagated as an S × S
+    matrix M ← P_Iᵀ (M off meetings) P_J + the equilibrium's joint moves at meeting states, then
+    conditioned on what L saw (the observed state, or "somewhere not visible"). Policies are the
+    greedy ones mixed with ε of uniform actions so that no observation has probability 0.
+    """
+    x, y = (np.asarray(s, dtype=int) for s in series)
+    S = domain.n_states
+    vis = np.asarray(visible, dtype=bool).copy()
+    vis[x[x >= 0]] = True
+    vis[y[y >= 0]] = True
+    jm = _joint_model(domain, policies, transitions, equilibrium, epsilon)
+    M = np.full((S, S), 1.0 / (S * S))
+    total = 0.0
+    for t in range(len(x)):
+        if t > 0:
+            M = jm.step(M)
+        _condition(M, x[t], vis, 0)
+        _condition(M, y[t], vis, 1)
+        c = M.sum()
+        if c <= 0.0:  # impossible under the model (e.g. noisy data): restart the filter
+            total += np.log(1e-300)
+            M = np.full((S, S), 1.0)
+            _condition(M, x[t], vis, 0)
+            _condition(M, y[t], vis, 1)
+            c = M.sum()
+        else:
+            total += np.log(c)
+        M /= c
+    return float(total)
+
+
+def meeting_log_likelihood(
+    domain: PatrolDomain,
+    series: Sequence[np.ndarray],
+    policies: Sequence[np.ndarray],
+    transitions: Sequence[sp.csr_array],
+    equilibrium: Equilibrium,
+    *,
+    epsilon: float = 1e-3,
+) -> tuple[float, int]:
+    """log-likelihood of the *evident* meetings — both robots observed at t and t+1 and meeting
+    under the policies — under the equilibrium, and how many there were."""
+    x, y = (np.asarray(s, dtype=int) for s in series)
+    t = np.flatnonzero((x[:-1] >= 0) & (y[:-1] >= 0) & (x[1:] >= 0) & (y[1:] >= 0))
+    pol = [np.asarray(p, dtype=int) for p in policies]
+    t = t[meeting(domain, x[t], y[t], pol[0][x[t]], pol[1][y[t]])]
+    if t.size == 0:
+        return 0.0, 0
+    A = domain.n_actions
+    total = 0.0
+    for s, s2, p, T, side in (
+        (x[t], x[t + 1], pol[0], transitions[0], equilibrium.row),
+        (y[t], y[t + 1], pol[1], transitions[1], equilibrium.col),
+    ):
+        act = (1 - epsilon) * _game_actions(side, p[s], A) + epsilon / A
+        Td = sp.csr_array(T)[(s[:, None] * A + np.arange(A)).ravel()][:, s2]
+        prob_next = Td.toarray().reshape(len(s), A, len(s))[np.arange(len(s)), :, np.arange(len(s))]
+        total += float(np.log(np.maximum((act * prob_next).sum(axis=1), 1e-300)).sum())
+    return total, int(t.size)
+
+
+@dataclass(frozen=True)
+class EquilibriumWeights:
+    """Candidate equilibria scored against the observations."""
+
+    candidates: tuple[Equilibrium, ...]
+    log_likelihoods: np.ndarray  # joint-filter log-likelihood per candidate
+    weights: np.ndarray  # posterior under a uniform prior
+    meeting_log_likelihoods: np.ndarray  # evident meetings only, per candidate
+    n_meetings: int  # evident meetings seen
+    best: int
+
+    @property
+    def equilibrium(self) -> Equilibrium:
+        return self.candidates[self.best]
+
+
+def weigh_equilibria(
+    domain: PatrolDomain,
+    series: Sequence[np.ndarray],
+    policies: Sequence[np.ndarray],
+    transitions: Sequence[sp.csr_array],
+    candidates: Sequence[Equilibrium],
+    visible: np.ndarray,
+    *,
+    epsilon: float = 1e-3,
+) -> EquilibriumWeights:
+    """Weight each candidate equilibrium by the likelihood of everything L saw of both robots
+    (:func:`joint_log_likelihood`); ties go to the earlier candidate."""
+    if len(series) != 2:
+        raise ValueError("equilibrium weighting is defined for two robots")
+    ll = np.array(
+        [
+            joint_log_likelihood(domain, series, policies, transitions, e, visible, epsilon=epsilon)
+            for e in candidates
+        ]
+    )
+    meet = [
+        meeting_log_likelihood(domain, series, policies, transitions, e, epsilon=epsilon)
+        for e in candidates
+    ]
+    w = np.exp(ll - ll.max())
+    w /= w.sum()
+    best = int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])
+    return EquilibriumWeights(
+        tuple(candidates),
+        ll,
+        w,
+        np.array([m[0] for m in meet]),
+        meet[0][1] if meet else 0,
+        best,
+    )

@@ -1,0 +1,414 @@
+"""What L learns from its observations: the methods of SPEC §5 behind one entry point, `learn`.
+
+``mirl-t`` is mIRL*/T+Int with the relabelling loop of Sec. 3.6:
+
+1. label every observed step (s_t, s_{t+1}) by perception — the action whose intended state is
+   s_{t+1} (:func:`mirl.learning.transitions.perception_labels`);
+2. learn each robot's transition-feature probabilities and T from the labelled steps (mIRL*/T,
+   :class:`mirl.learning.transitions.TransitionFeatureLearner`);
+3. learn each robot's reward by occluded max-ent IRL with that T
+   (:class:`mirl.learning.irl.OccludedMaxEntIRL`), leaving out the observed steps where the two
+   robots could be interacting, and weigh the game's candidate equilibria against everything L saw
+   (:func:`mirl.learning.equilibria.weigh_equilibria`);
+4. relabel every observed step with the learned policy's action, or the best equilibrium's at an
+   evident meeting (:func:`mirl.learning.transitions.policy_labels`) — a perceived turn where the
+   policy says forward becomes a *failed* forward — and go back to 2, until no label changes or
+   ``max_iterations`` rounds have run. Rounds after the first start the IRL from the previous
+   weights (one start instead of ``n_restarts``).
+
+The other methods reuse the same code paths with parts switched off: ``mirl`` fixes T from one
+success probability ``p`` (no T learning, one round: the relabelled labels could only change T);
+``known-r-t`` uses the true reward and played equilibrium and learns T from labels given by the
+true policies (no IRL); ``known-r`` is the true reward and equilibrium with T from ``p``;
+``dbn-em`` takes T from :func:`mirl.learning.dbn_em.em_transition_model` and learns the reward like
+``mirl``; ``oracle`` is the truth (:func:`mirl.learning.models.oracle_models`).
+
+Fixed-T methods (``mirl``, ``known-r``, ``dbn-em``) report ``feature_probabilities = {}``: they have
+no per-feature probabilities; the success probability ``p`` is in the result's ``message``.
+
+Every learned policy is the greedy policy of hard value iteration with the learned weights and
+that robot's T. ``behavior_accuracy`` (SPEC §6) is filled in from the scenario's truth when
+``score=True``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+
+from mirl.learning.dbn_em import em_transition_model
+from mirl.learning.equilibria import (
+    EquilibriumWeights,
+    meeting_log_likelihood,
+    potential_meetings,
+    weigh_equilibria,
+)
+from mirl.learning.irl import OccludedMaxEntIRL
+from mirl.learning.models import LearnResult, RobotModel, behavior_accuracy, oracle_models
+from mirl.learning.transitions import (
+    TransitionFeatureLearner,
+    observed_steps,
+    perception_labels,
+    policy_labels,
+)
+from mirl.mdp import TabularMDP, value_iteration
+from mirl.observations.trajectories import Trajectories
+from mirl.world.game import Equilibrium
+from mirl.world.motion import transition_matrix_from_success
+from mirl.world.scenario import Scenario
+
+__all__ = ["METHODS", "LoopTrace", "learn", "relabel_loop"]
+
+METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "oracle")
+
+
+class _Clock:
+    """Accumulates wall time per phase."""
+
+    def __init__(self) -> None:
+        self.timings: dict[str, float] = {}
+
+    @contextmanager
+    def __call__(self, phase: str) -> Iterator[None]:
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.timings[phase] = self.timings.get(phase, 0.0) + time.perf_counter() - start
+
+
+@dataclass
+class LoopTrace:
+    """What happened in the learning rounds: labels used per round and per robot ((horizon,)
+    arrays, -1 where unobserved or unlabelled), labels changed by each relabelling, and the
+    IRL estimators and equilibrium weights of the last round."""
+
+    labels: list[list[np.ndarray]] = field(default_factory=list)
+    label_changes: list[int] = field(default_factory=list)
+    irl: list[OccludedMaxEntIRL | None] = field(default_factory=list)
+    equilibria: EquilibriumWeights | None = None
+    policies: list[np.ndarray] = field(default_factory=list)
+    converged: bool = False
+    message: str = ""
+    notes: set[str] = field(default_factory=set)
+
+
+@dataclass
+class _Setup:
+    scenario: Scenario
+    series: list[np.ndarray]
+    visible: np.ndarray
+    exclude: np.ndarray  # (horizon,) steps where the robots may be interacting
+    clock: _Clock
+    irl_options: dict
+    random_state: int | None
+
+    @property
+    def domain(self):
+        return self.scenario.domain
+
+    def robot_seed(self, robot: int, round_: int) -> int:
+        ss = np.random.SeedSequence([self.random_state or 0, robot, round_])
+        return int(ss.generate_state(1)[0])
+
+
+def learn(
+    observations: Trajectories,
+    scenario: Scenario,
+    method: str = "mirl-t",
+    *,
+    p: float = 0.9,
+    visible: np.ndarray | None = None,
+    observability: float | None = None,
+    max_iterations: int = 5,
+    objective: str = "sequence",
+    optimizer: str = "lbfgs",
+    n_restarts: int | None = None,
+    irl_options: Mapping[str, Any] | None = None,
+    random_state: int | None = 0,
+    score: bool = True,
+    trace: LoopTrace | None = None,
+) -> LearnResult:
+    """Learn models of the scenario's patrollers from L's ``observations`` with ``method``.
+
+    ``visible``: (S,) bool states L can see; by default those of ``observability`` (or the
+    scenario's degree). ``p``: success probability of every action for the fixed-T methods.
+    ``objective``, ``optimizer``, ``n_restarts``: passed to
+    :class:`mirl.learning.irl.OccludedMaxEntIRL` (the paper's choice is ``objective="counts",
+    optimizer="nelder-mead"``; the defaults were picked by measured behaviour accuracy and
+    speed, see the :mod:`mirl.learning.irl` docstring).
+    ``n_restarts`` defaults to 1 for L-BFGS (its restarts were measured to land on the same
+    optimum) and 3 for Nelder–Mead. ``irl_options``: further keyword arguments of the
+    estimator (e.g. ``anchor``, ``l2``, ``max_evaluations``).
+    ``trace``: an empty :class:`LoopTrace` to receive the labels of every round.
+    ``random_state`` seeds every random choice (IRL restarts); ``None`` counts as 0, so learning
+    is deterministic.
+    """
+    if method not in METHODS:
+        raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
+    if not 0.0 <= p <= 1.0:
+        raise ValueError(f"p must be in [0, 1], got {p}")
+    if max_iterations < 1:
+        raise ValueError(f"max_iterations must be at least 1, got {max_iterations}")
+    if tuple(observations.robot_names) != tuple(scenario.robot_names):
+        raise ValueError(
+            f"observations are of robots {list(observations.robot_names)}, "
+            f"the scenario has {list(scenario.robot_names)}"
+        )
+    clock = _Clock()
+    start = time.perf_counter()
+    if method == "oracle":
+        res = oracle_models(scenario, method="oracle")
+        res.timings["total"] = time.perf_counter() - start
+        return res
+    domain = scenario.domain
+    n = len(scenario.robots)
+    with clock("labels"):
+        series = [observations.state_series(domain, i) for i in range(n)]
+        if visible is None:
+            degree = scenario.observability if observability is None else observability
+            visible = domain.visible_states(degree)
+        exclude = np.zeros(observations.horizon, dtype=bool)
+        for i in range(n):
+            for j in range(i + 1, n):
+                exclude |= potential_meetings(domain, series[i], series[j])
+    setup = _Setup(
+        scenario,
+        series,
+        np.asarray(visible, dtype=bool),
+        exclude,
+        clock,
+        {
+            "objective": objective,
+            "optimizer": optimizer,
+            "n_restarts": n_restarts or (1 if optimizer == "lbfgs" else 3),
+            **(irl_options or {}),
+        },
+        random_state,
+    )
+    trace = LoopTrace() if trace is None else trace
+    weights, transitions, probs, eq, message = _method_models(
+        setup, method, p, max_iterations, trace
+    )
+    if method == "mirl-t":
+        policies = trace.policies
+    else:
+        with clock("policies"):
+            policies = [_greedy(setup, transitions[i], weights[i]) for i in range(n)]
+    if eq is None:
+        with clock("equilibria"):
+            trace.equilibria = _weigh(setup, policies, transitions)
+        eq = trace.equilibria.equilibrium
+    message = "; ".join(m for m in (message, *sorted(trace.notes)) if m)
+    robots = []
+    for i, r in enumerate(scenario.robots):
+        acc = behavior_accuracy(scenario, i, policies[i]) if score else None
+        robots.append(RobotModel(r.name, weights[i], probs[i], transitions[i], policies[i], acc))
+    clock.timings["total"] = time.perf_counter() - start
+    eq_w = trace.equilibria
+    return LearnResult(
+        method=method,
+        robots=tuple(robots),
+        equilibrium=eq,
+        equilibrium_weights=tuple(float(w) for w in eq_w.weights) if eq_w is not None else (),
+        iterations=max(len(trace.labels), 1),
+        label_changes=tuple(trace.label_changes),
+        timings=clock.timings,
+        success=bool(trace.converged),
+        message=message,
+    )
+
+
+def _method_models(setup: _Setup, method: str, p: float, max_iterations: int, trace: LoopTrace):
+    """Weights, transition matrices, feature probabilities, equilibrium (None: to be weighed)
+    and a message, by ``method``'s recipe (SPEC §5)."""
+    scenario = setup.scenario
+    message = ""
+    if method == "mirl-t":
+        weights, transitions, probs, eq = relabel_loop(setup, max_iterations, trace)
+        message = trace.message
+    elif method in ("known-r-t", "known-r"):
+        weights = [np.asarray(r.weights, dtype=float) for r in scenario.robots]
+        eq = scenario.played_equilibrium
+        if method == "known-r-t":
+            with setup.clock("labels"):
+                policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
+                labels = policy_labels(setup.domain, setup.series, policies, eq)
+            transitions, probs = _learn_transitions(setup, labels)
+            trace.labels.append(labels)
+        else:
+            transitions, probs = _fixed_transitions(setup, p)
+            message = f"fixed success probability p={p:g} for every action"
+        trace.converged = True
+    else:  # mirl, dbn-em: reward learned once against a given T
+        with setup.clock("labels"):
+            labels = _perception(setup)
+        trace.labels.append(labels)
+        if method == "mirl":
+            transitions, probs = _fixed_transitions(setup, p)
+            message = f"fixed success probability p={p:g} for every action"
+        else:
+            transitions, probs = _em_transitions(setup)
+            message = "tabular T from DBN-EM"
+        weights = _irl_round(setup, transitions, labels, None, 1, trace)
+        eq = None
+        trace.converged = True
+    return weights, transitions, probs, eq, message
+
+
+def relabel_loop(
+    setup: _Setup, max_iterations: int, trace: LoopTrace
+) -> tuple[list[np.ndarray], list[sp.csr_array], list[dict[str, float]], Equilibrium]:
+    """The mirl-t rounds (module docstring, steps 1–4); returns weights, T, feature
+    probabilities and the best equilibrium of the last round.
+
+    The loop ends when a relabelling changes nothing (converged), when it reproduces the labels
+    of an earlier round (a cycle: the labels will never fixate), or after ``max_iterations``."""
+    clock, n = setup.clock, len(setup.series)
+    with clock("labels"):
+        labels = _perception(setup)
+    weights: list[np.ndarray | None] = [None] * n
+    trace.message = "stopped at max_iterations"
+    for round_ in range(1, max_iterations + 1):
+        trace.labels.append(labels)
+        transitions, probs = _learn_transitions(setup, labels)
+        weights = _irl_round(setup, transitions, labels, weights, round_, trace)
+        with clock("policies"):
+            policies = [_greedy(setup, transitions[i], weights[i]) for i in range(n)]
+        trace.policies = policies
+        with clock("equilibria"):
+            eq = _equilibrium_for_labels(setup, policies, transitions)
+        with clock("labels"):
+            new = policy_labels(setup.domain, setup.series, policies, eq)
+            changes = _count_changes(setup.series, labels, new)
+        trace.label_changes.append(changes)
+        if changes == 0:
+            trace.converged, trace.message = True, "labels converged"
+            break
+        if any(_count_changes(setup.series, old, new) == 0 for old in trace.labels[:-1]):
+            trace.message = "labels cycle between rounds; stopped"
+            break
+        if round_ < max_iterations:
+            labels = new
+    with clock("equilibria"):
+        trace.equilibria = _weigh(setup, trace.policies, transitions)
+    return weights, transitions, probs, trace.equilibria.equilibrium  # type: ignore[return-value]
+
+
+def _equilibrium_for_labels(setup: _Setup, policies, transitions) -> Equilibrium:
+    """The equilibrium that relabels evident meetings in a round: the candidate under which the
+    evident meetings (both robots seen at t and t+1) are most likely. Only those steps' labels
+    depend on it; the full joint-filter weighing is done once, for the final models."""
+    candidates = setup.scenario.game.equilibria()
+    scores = [
+        meeting_log_likelihood(setup.domain, setup.series[:2], policies[:2], transitions[:2], e)
+        for e in candidates
+    ]
+    ll = np.array([sc[0] for sc in scores])
+    return candidates[int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])]
+
+
+# ---- the parts -------------------------------------------------------------------------------
+def _perception(setup: _Setup) -> list[np.ndarray]:
+    """Per robot (horizon,) perception labels of the steps with both ends observed, else -1."""
+    out = []
+    for x in setup.series:
+        lab = np.full(len(x), -1, dtype=int)
+        t, s, s_next = observed_steps(x)
+        lab[t] = perception_labels(setup.domain, s, s_next)
+        out.append(lab)
+    return out
+
+
+def _count_changes(series, old: list[np.ndarray], new: list[np.ndarray]) -> int:
+    """Labels that differ on the steps T is learned from (both ends observed)."""
+    total = 0
+    for x, a, b in zip(series, old, new, strict=True):
+        t = observed_steps(x)[0]
+        total += int((a[t] != b[t]).sum())
+    return total
+
+
+def _learn_transitions(setup: _Setup, labels: list[np.ndarray]):
+    out_T, out_p = [], []
+    with setup.clock("transitions"):
+        for x, lab in zip(setup.series, labels, strict=True):
+            t, s, s_next = observed_steps(x)
+            m = TransitionFeatureLearner(setup.domain, setup.scenario.error_model).fit(
+                s, lab[t], s_next
+            )
+            out_T.append(m.transition_model_)
+            out_p.append({k: float(v) for k, v in m.feature_probabilities_.items()})
+    return out_T, out_p
+
+
+def _fixed_transitions(setup: _Setup, p: float):
+    with setup.clock("transitions"):
+        T = transition_matrix_from_success(setup.domain, p, setup.scenario.error_model)
+    n = len(setup.series)
+    return [T] * n, [{} for _ in range(n)]
+
+
+def _em_transitions(setup: _Setup):
+    with setup.clock("transitions"):
+        T = [sp.csr_array(em_transition_model(setup.domain, [x])) for x in setup.series]
+    return T, [{} for _ in setup.series]
+
+
+def _irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.ndarray]:
+    """One IRL per robot; rounds after the first warm-start from the previous weights."""
+    d = setup.domain
+    weights, estimators = [], []
+    with setup.clock("irl"):
+        for i, (x, T) in enumerate(zip(setup.series, transitions, strict=True)):
+            if not (x >= 0).any():  # never seen: filled in below
+                weights.append(None)
+                estimators.append(None)
+                continue
+            init = None if previous is None else previous[i]
+            options = dict(setup.irl_options)
+            if init is not None:
+                options["n_restarts"] = 1
+            irl = OccludedMaxEntIRL(
+                d.reward_features,
+                T,
+                discount=setup.scenario.discount,
+                visible=setup.visible,
+                random_state=setup.robot_seed(i, round_),
+                **options,
+            ).fit(x, labels[i], exclude=setup.exclude, initial_weights=init)
+            weights.append(irl.weights_)
+            estimators.append(irl)
+    # A robot L never saw gets the mean reward of those it saw — the patrollers are robots of
+    # one kind on one route (SPEC §2); its T stays at the uninformed maximum-entropy solution.
+    seen = [w for w in weights if w is not None]
+    fill = np.mean(seen, axis=0) if seen else np.zeros(len(d.reward_feature_names))
+    unseen = [setup.scenario.robot_names[i] for i, w in enumerate(weights) if w is None]
+    if unseen:
+        trace.notes.add(f"never observed: {', '.join(unseen)} (reward of the others)")
+    trace.irl = estimators
+    return [fill.copy() if w is None else w for w in weights]
+
+
+def _greedy(setup: _Setup, T: sp.csr_array, weights: np.ndarray) -> np.ndarray:
+    mdp = TabularMDP(T, setup.domain.rewards(weights), setup.scenario.discount)
+    return value_iteration(mdp).policy
+
+
+def _weigh(setup: _Setup, policies, transitions) -> EquilibriumWeights:
+    """Equilibria weighed on the first two robots (the game is a two-player game; with more
+    robots the same equilibrium is taken to hold for every pair)."""
+    return weigh_equilibria(
+        setup.domain,
+        setup.series[:2],
+        policies[:2],
+        transitions[:2],
+        setup.scenario.game.equilibria(),
+        setup.visible,
+    )

@@ -1,0 +1,123 @@
+"""Soft (maximum-entropy) values and policies: soft policy iteration (Newton's method on the soft
+Bellman equation) over T held as dense (S, A, S) for small models and sparse otherwise."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+__all__ = ["soft_policy_iteration"]
+
+_DENSE_LIMIT = 600  # states up to which linear solves are dense
+
+
+# ---- soft values -------------------------------------------------------------------------------
+class _Dynamics:
+    """T with the operations the solvers need; dense (S, A, S) for small models, sparse else."""
+
+    def __init__(self, transitions: sp.csr_array, n_actions: int) -> None:
+        self.T = sp.csr_array(transitions)
+        self.S = self.T.shape[1]
+        self.A = n_actions
+        self.rows = np.repeat(np.arange(self.S * self.A), np.diff(self.T.indptr))
+        self.dense = None
+        if self.S <= _DENSE_LIMIT:
+            self.dense = self.T.toarray().reshape(self.S, self.A, self.S)
+        # fixed sparsity pattern of P_πᵀ: entry (s', s) collects T(s, a, s') over actions a
+        S = self.S
+        key = self.T.indices * S + self.rows // self.A
+        uniq, self._pt_pos = np.unique(key, return_inverse=True)
+        self._pt_indices = uniq % S
+        self._pt_indptr = np.searchsorted(uniq // S, np.arange(S + 1))
+
+    def transposed_policy(self, w: np.ndarray) -> sp.csr_array:
+        """P_πᵀ (S, S) as CSR for π = ``w`` (S, A); for ``w`` of shape (S, A, K) the K matrices
+        Σ_a w[s, a, k] T(s, a, ·), transposed and stacked into one (K·S, S) CSR."""
+        S, nnz = self.S, len(self._pt_indices)
+        flat = w.reshape(S * self.A, -1)[self.rows] * self.T.data[:, None]
+        data = np.concatenate(
+            [
+                np.bincount(self._pt_pos, weights=flat[:, k], minlength=nnz)
+                for k in range(flat.shape[1])
+            ]
+        )
+        K = flat.shape[1]
+        indptr = (self._pt_indptr[None, :-1] + nnz * np.arange(K)[:, None]).ravel()
+        indptr = np.append(indptr, K * nnz)
+        indices = np.tile(self._pt_indices, K)
+        return sp.csr_array((data, indices, indptr), shape=(K * S, S))
+
+    def transition_values(self, s: np.ndarray, s_next: np.ndarray) -> np.ndarray:
+        """T(s_i, a, s_next_i) for every action, (n, A)."""
+        if self.dense is not None:
+            return self.dense[s, :, s_next]
+        rows = (np.asarray(s)[:, None] * self.A + np.arange(self.A)).ravel()
+        sub = self.T[rows].toarray().reshape(len(s), self.A, self.S)
+        return sub[np.arange(len(s)), :, s_next]
+
+    def next_values(self, V: np.ndarray) -> np.ndarray:
+        """E[V(s') | s, a] as (S, A) (or (S, A, K) for V of shape (S, K))."""
+        if self.dense is not None:
+            return np.tensordot(self.dense, V, axes=(2, 0))
+        return (self.T @ V).reshape(self.S, self.A, *V.shape[1:])
+
+    def policy_matrix(self, pi: np.ndarray):
+        """P_π (S, S): dense ndarray for small models, CSR otherwise (π may be any weights)."""
+        if self.dense is not None:
+            return np.einsum("sa,sat->st", pi, self.dense)
+        return _policy_matrix(self.T, self.rows, pi, self.S)
+
+    def solve(self, P, discount: float, b: np.ndarray) -> np.ndarray:
+        """Solve (I − γ P) x = b for one or several right-hand sides."""
+        if self.dense is not None:
+            return sla.solve(np.eye(self.S) - discount * P, b, check_finite=False)
+        A = sp.csc_array(sp.eye_array(self.S) - discount * P)
+        return spla.splu(A).solve(np.asarray(b, dtype=float))
+
+
+def _policy_matrix(T: sp.csr_array, rows: np.ndarray, pi: np.ndarray, n_states: int):
+    """P_π (S, S) as CSR from T (S·A, S) and a stochastic policy (S, A)."""
+    n_actions = pi.shape[1]
+    data = T.data * pi.ravel()[rows]
+    return sp.csr_array((data, (rows // n_actions, T.indices)), shape=(n_states, n_states))
+
+
+def _softmax(Q: np.ndarray, temperature: float) -> tuple[np.ndarray, np.ndarray]:
+    m = Q.max(axis=1)
+    z = np.exp((Q - m[:, None]) / temperature)
+    tot = z.sum(axis=1)
+    return z / tot[:, None], m + temperature * np.log(tot)
+
+
+def soft_policy_iteration(
+    transitions: sp.csr_array | _Dynamics,
+    rewards: np.ndarray,
+    discount: float,
+    *,
+    temperature: float = 1.0,
+    initial_values: np.ndarray | None = None,
+    tol: float = 1e-8,
+    max_iter: int = 100,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Maximum-entropy values by soft policy iteration: evaluate π exactly, then π ∝ exp(Q/τ).
+
+    This is Newton's method on the soft Bellman equation V = τ log Σ_a exp(Q/τ): it converges
+    quadratically, typically in 3–6 linear solves from a warm start. Returns (V, Q, π, iterations).
+    """
+    S, A = rewards.shape
+    dyn = transitions if isinstance(transitions, _Dynamics) else _Dynamics(transitions, A)
+    V = np.zeros(S) if initial_values is None else np.asarray(initial_values, dtype=float)
+    Q = rewards + discount * dyn.next_values(V)
+    pi, V_soft = _softmax(Q, temperature)
+    for it in range(1, max_iter + 1):
+        # evaluate π: V = Σ_a π (R − τ log π) + γ P_π V
+        log_pi = (Q - V_soft[:, None]) / temperature
+        b = (pi * (rewards - temperature * log_pi)).sum(axis=1)
+        V = dyn.solve(dyn.policy_matrix(pi), discount, b)
+        Q = rewards + discount * dyn.next_values(V)
+        pi, V_soft = _softmax(Q, temperature)
+        if np.abs(V_soft - V).max() < tol:
+            return V_soft, Q, pi, it
+    return V_soft, Q, pi, max_iter

@@ -1,0 +1,158 @@
+"""mIRL*/T: counting observed successes per feature subset, labelling observed steps with
+actions, and the estimator that learns feature probabilities from occluded trajectories by
+maximum entropy (Eq. 4, solved in :mod:`mirl.learning.feature_solver`). The transition function
+these probabilities define (Eq. 5) is :mod:`mirl.world.motion`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mirl.world.domain import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, PatrolDomain
+from mirl.world.game import Equilibrium, game_action_to_action, meeting
+from mirl.world.motion import ERROR_MODELS, transition_matrix
+
+__all__ = [
+    "observed_steps",
+    "perception_labels",
+    "policy_labels",
+    "count_subsets",
+    "SubsetCounts",
+    "TransitionFeatureLearner",
+]
+
+
+# ---- counting and labelling --------------------------------------------------------------------
+def observed_steps(series: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t, s_t, s_{t+1}) for every step whose both ends were observed (``series`` uses -1 for
+    occluded time steps)."""
+    series = np.asarray(series)
+    t = np.flatnonzero((series[:-1] >= 0) & (series[1:] >= 0))
+    return t, series[t], series[t + 1]
+
+
+# Preference among actions with the same intended state: a robot that stayed put is read as
+# having stopped, not as having driven into a wall.
+_PERCEPTION_ORDER = (STOP, FORWARD, TURN_LEFT, TURN_RIGHT)
+
+
+def perception_labels(domain: PatrolDomain, s: np.ndarray, s_next: np.ndarray) -> np.ndarray:
+    """The action whose intended outcome ψ(s, a) is the observed next state (what L perceives),
+    -1 where no action explains the step (possible only with perception noise)."""
+    s, s_next = np.asarray(s, dtype=int), np.asarray(s_next, dtype=int)
+    labels = np.full(s.shape, -1, dtype=int)
+    for a in reversed(_PERCEPTION_ORDER):  # earlier entries of the order overwrite later ones
+        labels[domain.intended[s, a] == s_next] = a
+    return labels
+
+
+def policy_labels(
+    domain: PatrolDomain,
+    series_list: Sequence[np.ndarray],
+    policies: Sequence[np.ndarray],
+    equilibrium: Equilibrium,
+) -> list[np.ndarray]:
+    """Label every observed time step of every robot with the action its (learned or true)
+    policy prescribes — or, where two robots are both observed and their intended moves meet
+    (SPEC §2), with the action of the equilibrium's most likely game action (Sec. 3.6).
+
+    A meeting with a robot L cannot see is invisible to L, so such steps keep the policy's
+    action; they may then count as failures, a bias confined to the edge of the visible region.
+    Returns per robot an (horizon,) array with -1 at unobserved steps.
+    """
+    series = [np.asarray(x, dtype=int) for x in series_list]
+    labels = []
+    for x, pol in zip(series, policies, strict=True):
+        lab = np.full(x.shape, -1, dtype=int)
+        seen = x >= 0
+        lab[seen] = np.asarray(pol)[x[seen]]
+        labels.append(lab)
+    own = [lab.copy() for lab in labels]
+    game_choice = (int(np.argmax(equilibrium.row)), int(np.argmax(equilibrium.col)))
+    for i in range(len(series)):
+        for j in range(i + 1, len(series)):
+            both = np.flatnonzero((series[i] >= 0) & (series[j] >= 0))
+            if both.size == 0:
+                continue
+            met = meeting(domain, series[i][both], series[j][both], own[i][both], own[j][both])
+            t = both[met]
+            labels[i][t] = game_action_to_action(np.full(t.size, game_choice[0]), own[i][t])
+            labels[j][t] = game_action_to_action(np.full(t.size, game_choice[1]), own[j][t])
+    return labels
+
+
+@dataclass(frozen=True)
+class SubsetCounts:
+    """Pooled successes and trials per distinct feature subset of the domain."""
+
+    subsets: tuple[tuple[str, ...], ...]
+    successes: np.ndarray
+    trials: np.ndarray
+
+    def observations(self) -> list[tuple[tuple[str, ...], int, int]]:
+        """The ``(subset, successes, trials)`` triples the solver takes (observed subsets only)."""
+        return [
+            (sub, int(k), int(n))
+            for sub, k, n in zip(self.subsets, self.successes, self.trials, strict=True)
+            if n > 0
+        ]
+
+
+def count_subsets(
+    domain: PatrolDomain, s: np.ndarray, a: np.ndarray, s_next: np.ndarray
+) -> SubsetCounts:
+    """Pool labelled steps by ξ(s, a): success when s_{t+1} = ψ(s_t, a_t). Unlabelled steps
+    (a = -1) are left out. Counts are pooled, not probabilities (SPEC §3)."""
+    s, a, s_next = (np.asarray(v, dtype=int) for v in (s, a, s_next))
+    keep = a >= 0
+    s, a, s_next = s[keep], a[keep], s_next[keep]
+    idx = domain.subset_index[s, a]
+    hit = domain.intended[s, a] == s_next
+    n = len(domain.subsets)
+    return SubsetCounts(
+        domain.subsets,
+        np.bincount(idx, weights=hit, minlength=n).astype(int),
+        np.bincount(idx, minlength=n).astype(int),
+    )
+
+
+class TransitionFeatureLearner:
+    """mIRL*/T as an estimator: learn transition-feature probabilities from labelled observed
+    steps by maximum entropy (Eq. 4), then the full transition function (Eq. 5).
+
+    After ``fit``: ``counts_`` (pooled counts), ``result_`` (the solver's result object),
+    ``feature_probabilities_`` (dict over *all* features) and ``transition_model_`` (CSR).
+    """
+
+    def __init__(
+        self, domain: PatrolDomain, error_model: str = "uniform", method: str = "maxent"
+    ) -> None:
+        if error_model not in ERROR_MODELS:
+            raise ValueError(f"unknown error model '{error_model}' (known: {ERROR_MODELS})")
+        self.domain = domain
+        self.error_model = error_model
+        self.method = method
+
+    def fit(self, s: np.ndarray, a: np.ndarray, s_next: np.ndarray) -> TransitionFeatureLearner:
+        from mirl.learning.feature_solver import solve_feature_probabilities
+
+        s, a, s_next = (np.asarray(v, dtype=int) for v in (s, a, s_next))
+        if not (s.shape == a.shape == s_next.shape):
+            raise ValueError("s, a and s_next must have the same length")
+        S = self.domain.n_states
+        if s.size and (s.min() < 0 or s.max() >= S or s_next.min() < 0 or s_next.max() >= S):
+            raise ValueError(f"states must be indices in [0, {S})")
+        if a.size and (a.min() < -1 or a.max() >= self.domain.n_actions):
+            raise ValueError("actions must be indices of domain.actions (or -1 for unlabelled)")
+        self.counts_ = count_subsets(self.domain, s, a, s_next)
+        self.result_ = solve_feature_probabilities(
+            self.domain.feature_map.features, self.counts_.observations(), method=self.method
+        )
+        self.feature_probabilities_ = dict(self.result_.probabilities)
+        self.transition_model_ = transition_matrix(
+            self.domain, self.feature_probabilities_, self.error_model
+        )
+        return self

@@ -1,0 +1,191 @@
+"""Trajectory records ``t,robot,row,col,heading`` as columns of numpy arrays, with CSV input and
+output. Reading validates every row against the scenario and reports the file, line and problem.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mirl.world.domain import PatrolDomain
+
+__all__ = ["Trajectories", "TrajectoryError", "read_csv", "HEADER"]
+
+HEADER = ("t", "robot", "row", "col", "heading")
+
+
+class TrajectoryError(ValueError):
+    """A trajectory file that cannot be used; the message names the file, line and problem."""
+
+
+@dataclass(frozen=True)
+class Trajectories:
+    """Observed (or true) states of several robots: one row per (time, robot).
+
+    ``robot`` holds indices into ``robot_names``; rows are sorted by (t, robot).
+    """
+
+    robot_names: tuple[str, ...]
+    t: np.ndarray
+    robot: np.ndarray
+    row: np.ndarray
+    col: np.ndarray
+    heading: np.ndarray
+    horizon: int  # number of time steps the record spans (observed or not): t in [0, horizon)
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def states(self, domain: PatrolDomain) -> np.ndarray:
+        return domain.state_index(self.row, self.col, self.heading)
+
+    def for_robot(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        """(times, rows) of one robot, sorted by time."""
+        sel = self.robot == index
+        return self.t[sel], np.flatnonzero(sel)
+
+    def state_series(self, domain: PatrolDomain, index: int) -> np.ndarray:
+        """(horizon,) state index per time step for one robot; -1 where not observed."""
+        out = np.full(self.horizon, -1, dtype=int)
+        t, rows = self.for_robot(index)
+        out[t] = self.states(domain)[rows]
+        return out
+
+    def select(self, mask: np.ndarray) -> Trajectories:
+        return Trajectories(
+            self.robot_names,
+            self.t[mask],
+            self.robot[mask],
+            self.row[mask],
+            self.col[mask],
+            self.heading[mask],
+            self.horizon,
+        )
+
+    def truncate(self, steps: int) -> Trajectories:
+        out = self.select(self.t < steps)
+        return Trajectories(
+            *[getattr(out, f) for f in ("robot_names", "t", "robot", "row", "col", "heading")],
+            steps,
+        )
+
+    @classmethod
+    def from_states(
+        cls,
+        domain: PatrolDomain,
+        robot_names: tuple[str, ...],
+        states: np.ndarray,
+        t0: int = 0,
+    ) -> Trajectories:
+        """From a (T, N) array of state indices, -1 meaning unobserved."""
+        states = np.asarray(states)
+        tt, rr = np.nonzero(states >= 0)
+        rch = domain.states[states[tt, rr]]
+        return cls(robot_names, tt + t0, rr, rch[:, 0], rch[:, 1], rch[:, 2], states.shape[0] + t0)
+
+    def to_csv(self, path: str | Path) -> None:
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(HEADER)
+            names = np.asarray(self.robot_names, dtype=object)[self.robot]
+            w.writerows(
+                zip(
+                    self.t.tolist(),
+                    names,
+                    self.row.tolist(),
+                    self.col.tolist(),
+                    self.heading.tolist(),
+                    strict=True,
+                )
+            )
+
+
+def read_csv(
+    path: str | Path,
+    domain: PatrolDomain,
+    robot_names: tuple[str, ...],
+    horizon: int | None = None,
+) -> Trajectories:
+    """Read and validate a ``t,robot,row,col,heading`` file.
+
+    Raises :class:`TrajectoryError` for a missing column, a non-integer cell, a negative time, a
+    state that is not a hallway cell with heading 0–3, an unknown robot or a duplicate (t, robot).
+    ``horizon`` defaults to the last time + 1.
+    """
+    path = Path(path)
+    try:
+        fh = open(path, newline="")
+    except OSError as exc:
+        raise TrajectoryError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    with fh:
+        reader = csv.reader(fh)
+        header = next(reader, None)
+        if header is None:
+            raise TrajectoryError(f"{path}: file is empty (expected header {','.join(HEADER)})")
+        header = [h.strip() for h in header]
+        missing = [h for h in HEADER if h not in header]
+        if missing:
+            raise TrajectoryError(f"{path}: line 1: missing column '{missing[0]}'")
+        idx = [header.index(h) for h in HEADER]
+        rows: list[tuple[int, int, int, int, int]] = []
+        lines: list[int] = []
+        for lineno, rec in enumerate(reader, start=2):
+            if not rec or all(not x.strip() for x in rec):
+                continue
+            if len(rec) < len(header):
+                raise TrajectoryError(f"{path}: line {lineno}: expected {len(header)} cells")
+            vals = [rec[i].strip() for i in idx]
+            name = vals[1]
+            if name not in robot_names:
+                known = ", ".join(robot_names)
+                raise TrajectoryError(
+                    f"{path}: line {lineno}: robot '{name}' is not in the scenario ({known})"
+                )
+            try:
+                t, r, c, h = (int(vals[i]) for i in (0, 2, 3, 4))
+            except ValueError:
+                bad = next(v for v in (vals[0], *vals[2:]) if not _is_int(v))
+                raise TrajectoryError(f"{path}: line {lineno}: '{bad}' is not an integer") from None
+            if t < 0:
+                raise TrajectoryError(f"{path}: line {lineno}: negative time {t}")
+            if domain.state_index(r, c, h) < 0:
+                what = (
+                    f"heading {h} is not 0-3"
+                    if 0 <= r < domain.map.shape[0]
+                    and 0 <= c < domain.map.shape[1]
+                    and domain.cell_lut[r, c] >= 0
+                    else f"cell ({r},{c}) is not a hallway cell (a wall or off the map)"
+                )
+                raise TrajectoryError(f"{path}: line {lineno}: {what}")
+            rows.append((t, robot_names.index(name), r, c, h))
+            lines.append(lineno)
+    if not rows:
+        arr = np.zeros((0, 5), dtype=int)
+    else:
+        arr = np.asarray(rows, dtype=int)
+    order = np.lexsort((arr[:, 1], arr[:, 0]))
+    arr = arr[order]
+    dup = np.flatnonzero((np.diff(arr[:, 0]) == 0) & (np.diff(arr[:, 1]) == 0))
+    if dup.size:
+        line = lines[order[dup[0] + 1]]
+        raise TrajectoryError(
+            f"{path}: line {line}: duplicate row for robot {robot_names[arr[dup[0], 1]]} "
+            f"at t={arr[dup[0], 0]}"
+        )
+    last = int(arr[:, 0].max()) + 1 if len(arr) else 0
+    if horizon is None:
+        horizon = last
+    elif horizon < last:
+        raise TrajectoryError(f"{path}: time {last - 1} is beyond the horizon {horizon}")
+    return Trajectories(robot_names, *arr.T, horizon=horizon)
+
+
+def _is_int(text: str) -> bool:
+    try:
+        int(text)
+    except ValueError:
+        return False
+    return True

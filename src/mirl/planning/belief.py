@@ -1,0 +1,247 @@
+"""What L believes about the patrollers: exact Bayesian filtering of their state under the
+*learned* models.
+
+Each step the belief is propagated with the learned policy, transition function and equilibrium,
+then conditioned on what L saw. An observed robot collapses onto its observed state; an unseen
+robot is known *not* to stand on a visible cell (negative evidence — L sees its whole field of
+view). The belief at t = 0 is uniform, so a robot never seen is spread over the occluded states.
+With two robots the filter tracks their **joint** state (S² states, 15 376 on boyd2): meetings,
+where the equilibrium replaces the policies' actions, are then modelled exactly (propagated as
+the S × S matrix P_Iᵀ B P_J, never as an S² × S² matrix). With more robots (or S² above
+``max_joint_states``) it tracks independent marginals and ignores meetings.
+:meth:`BeliefFilter.predict` propagates the belief without evidence into the future and turns it
+into per-cell detection probabilities d_t(c) = P(some patroller sees cell c at t).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from mirl.learning.models import LearnResult
+from mirl.mdp import policy_matrix
+from mirl.planning.observer import ObserverModel
+from mirl.world.domain import N_HEADINGS, STOP, TURN_LEFT, PatrolDomain
+from mirl.world.game import Equilibrium, meeting
+
+__all__ = ["UNSEEN", "NOT_WATCHING", "BeliefFilter", "Prediction"]
+
+UNSEEN = -1  # BeliefFilter.update: L watched and did not see the robot
+NOT_WATCHING = -2  # BeliefFilter.update: L did not watch (it has left its room): no evidence
+
+
+# ---- prediction ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Prediction:
+    """The patrollers' predicted future from time ``t0`` (index k ↔ time t0 + k).
+
+    ``occupancy[k, i]`` is robot i's marginal state distribution; ``detection[k, c]`` the
+    probability that some patroller sees L's cell c (from the joint distribution when the filter
+    is joint); ``hazard[k, j]`` the probability that L is seen on cell ``pairs[j, 1]`` at k given
+    it was not seen on ``pairs[j, 0]`` at k − 1 (row 0 is the unconditional detection).
+    """
+
+    t0: int
+    occupancy: np.ndarray  # (K+1, N, S)
+    detection: np.ndarray  # (K+1, n_L_cells)
+    hazard: np.ndarray  # (K+1, n_pairs)
+    pairs: np.ndarray  # (n_pairs, 2) L cell before, after
+
+    @property
+    def steps(self) -> int:
+        return self.detection.shape[0] - 1
+
+
+class BeliefFilter:
+    """Bayesian filter over the patrollers' states under a :class:`LearnResult` (module doc).
+
+    Call :meth:`update` once per time step, from t = 0, with the state each robot was observed
+    in (:data:`UNSEEN` = -1 if L watched and did not see it, :data:`NOT_WATCHING` = -2 if L did
+    not watch); :meth:`predict` then looks ahead from the current step.
+    """
+
+    def __init__(
+        self,
+        domain: PatrolDomain,
+        learned: LearnResult,
+        *,
+        visible: np.ndarray | None = None,
+        joint: bool | None = None,
+        heading_noise: float = 0.0,
+        max_joint_states: int = 60_000,
+    ) -> None:
+        self.domain = domain
+        self.n_robots = len(learned.robots)
+        self.n_states = S = domain.n_states
+        self.visible = np.zeros(S, bool) if visible is None else np.asarray(visible, bool)
+        self.heading_noise = float(heading_noise)
+        if joint is None:
+            joint = self.n_robots == 2 and S * S <= max_joint_states
+        if joint and self.n_robots != 2:
+            raise ValueError("the joint filter supports exactly two patrollers")
+        self.joint = bool(joint)
+        steps = [policy_matrix(r.transitions, r.policy) for r in learned.robots]
+        # per-robot transposed one-step matrices (meetings ignored) for the detection hazard
+        self._step_T = [sp.csr_array(P.T) for P in steps]
+        if self.joint:
+            # b' = (P_I ⊗ P_J)ᵀ((1 − m)∘b) + (M_I ⊗ M_J)ᵀ(m∘b), as matrices B (S × S):
+            # B' = P_Iᵀ (B∘(1 − m)) P_J + M_Iᵀ (B∘m) M_J — O(S²) memory, no S² × S² matrix
+            self._meet, mixed = _pair_parts(domain, learned, steps)
+            self._mixed_T = [sp.csr_array(M.T) for M in mixed]
+        unseen = (~self.visible).astype(float)
+        self._both_unseen = np.outer(unseen, unseen).ravel() if self.joint else None
+        self.t = -1
+        self.belief: np.ndarray | None = None  # joint: (S·S,), else (N, S)
+        self.fallbacks = 0  # steps whose evidence had probability ~0 under the learned model
+
+    # evidence of one robot: likelihood of each state given what L saw
+    def _evidence(self, observed: int) -> np.ndarray:
+        S = self.n_states
+        if observed == NOT_WATCHING:
+            return np.ones(S)
+        if observed < 0:
+            return (~self.visible).astype(float)  # not seen ⇒ not on a visible cell
+        e = np.zeros(S)
+        if self.heading_noise > 0:
+            cell = observed // N_HEADINGS
+            e[cell * N_HEADINGS : (cell + 1) * N_HEADINGS] = self.heading_noise / 3
+        e[observed] = 1.0 - self.heading_noise if self.heading_noise > 0 else 1.0
+        return e
+
+    def _propagate(self, belief: np.ndarray) -> np.ndarray:
+        if self.joint:
+            S = self.n_states
+            B = belief.reshape(S, S)
+            met = B * self._meet
+            out = self._step_T[0] @ (B - met)  # P_Iᵀ X
+            out = (self._step_T[1] @ out.T).T  # … P_J
+            if met.any():
+                out += (self._mixed_T[1] @ (self._mixed_T[0] @ met).T).T
+            return out.ravel()
+        return np.stack([F @ b for F, b in zip(self._step_T, belief, strict=True)])
+
+    def marginals(self, belief: np.ndarray | None = None) -> np.ndarray:
+        """(N, S) per-robot marginals of ``belief`` (default: the current one)."""
+        b = self.belief if belief is None else belief
+        if not self.joint:
+            return b
+        m = b.reshape(self.n_states, self.n_states)
+        return np.stack([m.sum(axis=1), m.sum(axis=0)])
+
+    def update(self, observed) -> None:
+        """Advance one step and condition on ``observed`` ((N,) state indices, -1 = unseen)."""
+        observed = np.asarray(observed, dtype=int)
+        S = self.n_states
+        if self.belief is None:
+            prior = (
+                np.full(S * S, 1.0 / (S * S)) if self.joint else np.full((self.n_robots, S), 1 / S)
+            )
+        else:
+            prior = self._propagate(self.belief)
+        ev = [self._evidence(int(o)) for o in observed]
+        if self.joint:
+            if observed[0] < 0 and observed[1] < 0 and observed[0] == observed[1]:
+                pair = self._both_unseen if observed[0] == UNSEEN else 1.0  # the common case
+            else:
+                pair = np.outer(ev[0], ev[1]).ravel()
+            post = prior * pair
+            z = post.sum()
+            if z > 1e-300:
+                self.belief = post / z
+            else:  # the learned model cannot explain the pair: condition each marginal alone
+                self.fallbacks += 1
+                m = [self._condition(p, e) for p, e in zip(self.marginals(prior), ev, strict=True)]
+                self.belief = np.outer(m[0], m[1]).ravel()
+        else:
+            self.belief = np.stack([self._condition(p, e) for p, e in zip(prior, ev, strict=True)])
+        self.t += 1
+
+    def _condition(self, prior: np.ndarray, evidence: np.ndarray) -> np.ndarray:
+        post = prior * evidence
+        z = post.sum()
+        if z <= 1e-300:  # impossible under the model: trust the observation alone
+            self.fallbacks += not self.joint
+            post, z = evidence.copy(), evidence.sum()
+            if z <= 0:
+                post, z = np.ones_like(prior), float(len(prior))
+        return post / z
+
+    def predict(self, steps: int, model: ObserverModel) -> Prediction:
+        """Occupancies, detection probabilities and hazards for t = now … now + ``steps``.
+
+        The only sequential part is the propagation (one sparse product per step); detection
+        and hazards are then computed for all steps at once.
+        """
+        if self.belief is None:
+            raise ValueError("predict() before any update(): the filter has no belief yet")
+        S, K1 = self.n_states, steps + 1
+        Dd = sp.csr_array(model.detection).toarray()
+        G = 1.0 - Dd  # (S, C): a robot in state s does not see cell c
+        prev, nxt = model.cell_pairs.T
+        beliefs = np.empty((K1, *self.belief.shape))
+        b = self.belief
+        for k in range(K1):
+            beliefs[k] = b
+            if k < steps:
+                b = self._propagate(b)
+        occ = np.stack([self.marginals(x) for x in beliefs]) if self.joint else beliefs
+        seen = occ @ Dd  # (K+1, N, C): P(robot i sees cell c)
+        if self.joint:
+            # inclusion–exclusion with the joint: P(I or J) = P(I) + P(J) − P(I and J),
+            # P(I and J)[c] = Σ p[sI, sJ]·D[sI, c]·D[sJ, c]
+            both = (beliefs.reshape(K1, S, S) @ Dd * Dd).sum(axis=1)
+            det = seen[:, 0] + seen[:, 1] - both
+        else:
+            det = 1.0 - np.prod(1.0 - seen, axis=1)
+        # per robot: P(not seen on c' at k−1 and not seen on c at k) / P(not seen on c' at k−1)
+        # = occ_{k−1} · (G[:, c'] ∘ (P G)[:, c]) / occ_{k−1} · G[:, c'], one (S, pairs) matrix
+        surv = np.ones((steps, len(prev)))
+        for i, step_T in enumerate(self._step_T):
+            PG = step_T.T @ G  # (S, C): P(not seeing c one step later | s)
+            joint_ok = occ[:-1, i] @ (G[:, prev] * PG[:, nxt])
+            before = occ[:-1, i] @ G[:, prev]
+            ok = before > 1e-12
+            ratio = joint_ok / np.where(ok, before, 1.0)
+            surv *= np.where(ok, ratio, 1.0 - seen[1:, i, nxt])
+        haz = np.concatenate([det[:1, nxt], 1.0 - surv])
+        return Prediction(self.t, occ, np.clip(det, 0, 1), np.clip(haz, 0, 1), model.cell_pairs)
+
+
+def _pair_parts(
+    domain: PatrolDomain, learned: LearnResult, steps: list[sp.csr_array]
+) -> tuple[np.ndarray, list[sp.csr_array]]:
+    """The (S, S) meeting mask of the pair's states and each robot's equilibrium-mixed one-step
+    matrix M_i (go → own action, stop → stop, turn → turn_left, as in :mod:`mirl.world.game`)."""
+    S = domain.n_states
+    eq: Equilibrium = learned.equilibrium
+    pol = [np.asarray(r.policy, dtype=int) for r in learned.robots]
+    mixed = []
+    for r, probs in zip(learned.robots, (eq.row, eq.col), strict=True):
+        w = np.zeros((S, domain.n_actions))
+        np.add.at(w, (np.arange(S), np.asarray(r.policy, dtype=int)), probs[0])  # go
+        w[:, STOP] += probs[1]
+        w[:, TURN_LEFT] += probs[2]
+        mixed.append(sp.csr_array(policy_matrix(r.transitions, w)))
+    sI, sJ = np.divmod(np.arange(S * S), S)
+    met = meeting(domain, sI, sJ, pol[0][sI], pol[1][sJ]).reshape(S, S)
+    return met.astype(float), mixed
+
+
+def _joint_step_matrix(
+    domain: PatrolDomain, learned: LearnResult, steps: list[sp.csr_array]
+) -> sp.csr_array:
+    """(S², S²) row-stochastic one-step matrix of the pair (robot 0 = the game's row player).
+
+    Given the pair's state the two robots move independently, so each row is an outer product:
+    of the policies' rows away from meetings, and of the equilibrium-mixed rows at a meeting.
+    Hence diag(1 − m)·(P_I ⊗ P_J) + diag(m)·(M_I ⊗ M_J). Its size is nnz(P_I)·nnz(P_J) (12 GB
+    for dense chains), so the filter propagates in the equivalent matrix form instead; this is
+    the reference the tests check that form against.
+    """
+    met, mixed = _pair_parts(domain, learned, steps)
+    m = met.ravel()
+    free = sp.kron(sp.csr_array(steps[0]), sp.csr_array(steps[1]), format="csr")
+    meet = sp.kron(mixed[0], mixed[1], format="csr")
+    return sp.csr_array(sp.diags_array(1.0 - m) @ free + sp.diags_array(m) @ meet)

@@ -1,0 +1,157 @@
+"""L's own MDP: states (row, col, heading) over every free cell of the map (hallways and rooms),
+the patrollers' four actions, L's failure (2.5 %: the robot stays put), its goal and the sparse
+**detection matrix** D (patroller states × L cells, SPEC §2: straight ahead along the heading, up
+to ``detect_distance`` cells, stopped by walls; room cells are never visible).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+from mirl.world.domain import N_HEADINGS, PatrolDomain
+from mirl.world.maps import HEADING_DELTAS, GridMap
+from mirl.world.motion import transition_matrix_from_success
+from mirl.world.scenario import Scenario
+
+__all__ = [
+    "OBSERVER_FAILURE",
+    "ObserverModel",
+    "observer_model",
+    "observer_domain",
+    "detection_matrix",
+    "shortest_path_policy",
+]
+
+OBSERVER_FAILURE = 0.025  # L's own action failure (the paper's 2.5 %): the robot stays put
+
+
+def observer_domain(gridmap: GridMap) -> PatrolDomain:
+    """A :class:`PatrolDomain` whose cells are all of the map's free cells (L may enter rooms)."""
+    free = gridmap.free
+    lmap = GridMap(
+        name=f"{gridmap.name}-observer",
+        patroller=free,
+        observer_only=np.zeros_like(free),
+        observer_start=gridmap.observer_start,
+        goals=gridmap.goals,
+        visibility_order=np.zeros((0, 2), dtype=int),
+        source=gridmap.source,
+    )
+    return PatrolDomain(lmap)
+
+
+def detection_matrix(patrol: PatrolDomain, observer: PatrolDomain, distance: int) -> sp.csr_array:
+    """Sparse (patroller states × L cells) 0/1 matrix: D[s, c] = 1 iff a patroller in state s
+    sees L on cell c (the rule of :func:`mirl.world.domain.detection_cells`, vectorised over
+    states).
+    """
+    if distance < 0:
+        raise ValueError(f"detect_distance must be non-negative, got {distance}")
+    r, c, h = patrol.states.T
+    dr, dc = HEADING_DELTAS[h].T
+    rows_n, cols_n = patrol.map.shape
+    alive = np.ones(patrol.n_states, dtype=bool)
+    rows, cols = [], []
+    for k in range(distance + 1):  # loop over distances, vectorised over states
+        rr, cc = r + k * dr, c + k * dc
+        inside = (rr >= 0) & (rr < rows_n) & (cc >= 0) & (cc < cols_n)
+        rr_c, cc_c = np.clip(rr, 0, rows_n - 1), np.clip(cc, 0, cols_n - 1)
+        alive &= inside & patrol.map.patroller[rr_c, cc_c]  # sight stops at walls and rooms
+        s = np.flatnonzero(alive)
+        rows.append(s)
+        cols.append(observer.cell_lut[rr_c[s], cc_c[s]])
+    rows_a, cols_a = np.concatenate(rows), np.concatenate(cols)
+    data = np.ones(len(rows_a))
+    return sp.csr_array((data, (rows_a, cols_a)), shape=(patrol.n_states, observer.n_cells))
+
+
+@dataclass(frozen=True, eq=False)
+class ObserverModel:
+    """L's MDP without its rewards (those come from the prediction)."""
+
+    domain: PatrolDomain  # over the map's free cells
+    transitions: sp.csr_array  # (S_L·A, S_L); failure = stay put
+    goal: np.ndarray  # (S_L,) bool: states on L's goal cell
+    start_state: int  # L's start cell, heading towards its door
+    detection: sp.csr_array  # (S_patroller, n_L_cells), see detection_matrix
+    failure: float = OBSERVER_FAILURE
+
+    @property
+    def n_states(self) -> int:
+        return self.domain.n_states
+
+    def cell_of(self, states) -> np.ndarray:
+        return self.domain.state_cell(states)
+
+    def seen_by(self, patroller_states: np.ndarray, observer_state: int) -> np.ndarray:
+        """(N,) bool: which patrollers (true states) see L in ``observer_state`` — the true rule."""
+        cell = int(self.cell_of(observer_state))
+        column = self.detection[:, [cell]].toarray().ravel()
+        return column[np.asarray(patroller_states)] > 0
+
+    @cached_property
+    def distance_to_goal(self) -> np.ndarray:
+        """(S_L,) steps to the goal under intended outcomes (inf where unreachable)."""
+        return _distance_to_goal(self.domain, self.goal)
+
+    @cached_property
+    def cell_pairs(self) -> np.ndarray:
+        """(n_pairs, 2) distinct (cell before, cell after) of L's possible one-step moves."""
+        T = self.transitions.tocoo()
+        A = self.domain.n_actions
+        pairs = np.column_stack([self.cell_of(T.row // A), self.cell_of(T.col)])
+        return np.unique(pairs, axis=0)
+
+    @cached_property
+    def _transition_entries(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Non-zeros of T as (row s·A+a, next state, probability, index into cell_pairs)."""
+        T = self.transitions.tocoo()
+        A = self.domain.n_actions
+        n_cells = self.domain.n_cells
+        key = self.cell_of(T.row // A) * n_cells + self.cell_of(T.col)
+        pair_keys = self.cell_pairs[:, 0] * n_cells + self.cell_pairs[:, 1]
+        return T.row, T.col, T.data, np.searchsorted(pair_keys, key)
+
+
+def observer_model(scenario: Scenario, *, failure: float = OBSERVER_FAILURE) -> ObserverModel:
+    """Build L's MDP for ``scenario``: L starts in its start cell facing its first step towards
+    the goal (the door), and its goal is ``scenario.goal``."""
+    dom = observer_domain(scenario.map)
+    T = transition_matrix_from_success(dom, 1.0 - failure, "stop")
+    goal = np.zeros(dom.n_states, dtype=bool)
+    gcell = dom.cell_lut[scenario.goal]
+    goal[gcell * N_HEADINGS : (gcell + 1) * N_HEADINGS] = True
+    D = detection_matrix(scenario.domain, dom, scenario.detect_distance)
+    start_cell = dom.cell_lut[scenario.observer_start]
+    dist = _distance_to_goal(dom, goal)
+    heads = start_cell * N_HEADINGS + np.arange(N_HEADINGS)
+    # facing the door = the heading from which the goal is nearest (ties: lowest heading)
+    start = int(heads[np.argmin(dist[heads])])
+    if not np.isfinite(dist[start]):
+        raise ValueError(
+            f"{scenario.source}: L's goal {scenario.goal} is unreachable from its start"
+        )
+    return ObserverModel(dom, T, goal, start, D, failure)
+
+
+def _distance_to_goal(dom: PatrolDomain, goal: np.ndarray) -> np.ndarray:
+    """Steps to the goal under intended outcomes (inf where unreachable), by vectorised
+    relaxation: dist(s) = 1 + min_a dist(ψ(s, a)) until nothing changes."""
+    dist = np.where(goal, 0.0, np.inf)
+    psi = dom.intended
+    for _ in range(dom.n_states):
+        new = np.where(goal, 0.0, 1.0 + dist[psi].min(axis=1))
+        if np.array_equal(new, dist):
+            break
+        dist = new
+    return dist
+
+
+def shortest_path_policy(model: ObserverModel) -> np.ndarray:
+    """(S_L,) stationary action taking L along a shortest path to its goal (ignores patrollers).
+    A failed step leaves L where it was, so following it again retries."""
+    return np.argmin(model.distance_to_goal[model.domain.intended], axis=1)

@@ -1,0 +1,176 @@
+"""Grid simulator of N ≥ 2 patrollers with stochastic outcomes, interactions resolved by the
+scenario's equilibrium, and L's occluded (optionally noisy) observations.
+
+Follows gymnasium's conventions: ``reset(seed=...)`` seeds ``np_random`` and returns
+``(observation, info)``; ``step()`` returns ``(observation, reward, terminated, truncated, info)``.
+L is passive while it observes, so ``step`` takes no action.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mirl.observations.trajectories import Trajectories
+from mirl.world.game import game_action_to_action, meeting
+from mirl.world.scenario import Scenario
+
+__all__ = ["PatrolSimulator", "SimulationResult", "simulate", "patrol_cycle"]
+
+
+def patrol_cycle(scenario: Scenario, robot: int) -> np.ndarray:
+    """States of the cycle the robot's true policy settles into under intended outcomes."""
+    d = scenario.domain
+    pol = scenario.true_policy(robot)
+    s = int(d.state_index(*scenario.robots[robot].start))
+    for _ in range(2 * d.n_states):
+        s = d.intended[s, pol[s]]
+    cycle = [s]
+    s = d.intended[s, pol[s]]
+    while s != cycle[0]:
+        cycle.append(int(s))
+        s = d.intended[s, pol[s]]
+    return np.asarray(cycle)
+
+
+class PatrolSimulator:
+    """Patrollers following their true policies; L watching at an observability degree."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        *,
+        observability: float | None = None,
+        heading_noise: float = 0.0,
+    ) -> None:
+        if not 0.0 <= heading_noise <= 1.0:
+            raise ValueError(f"heading_noise must be in [0, 1], got {heading_noise}")
+        self.scenario = scenario
+        self.domain = scenario.domain
+        self.observability = scenario.observability if observability is None else observability
+        self.visible = self.domain.visible_states(self.observability)
+        self.heading_noise = heading_noise
+        self.n_robots = len(scenario.robots)
+        self.policies = np.stack([scenario.true_policy(i) for i in range(self.n_robots)])
+        self._T = [scenario.true_transitions(i) for i in range(self.n_robots)]
+        eq = scenario.played_equilibrium
+        self._eq_cdf = (np.cumsum(eq.row), np.cumsum(eq.col))
+        self.np_random = np.random.default_rng()
+        self._perception_rng = np.random.default_rng()
+        self.states = np.zeros(self.n_robots, dtype=int)
+        self.t = 0
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start a new episode. ``options={"random_starts": True}`` starts each robot at a
+        uniformly drawn state of its patrol cycle; ``{"starts": [(r, c, h), ...]}`` sets them."""
+        seq = np.random.SeedSequence(seed)
+        self.np_random = np.random.default_rng(seq)  # the same stream as default_rng(seed)
+        # perception noise has its own stream: misreading a heading never changes the world, so
+        # runs with the same seed and different heading_noise have the same true trajectories
+        self._perception_rng = np.random.default_rng(seq.spawn(1)[0])
+        options = options or {}
+        if "starts" in options:
+            starts = [tuple(s) for s in options["starts"]]
+        else:
+            starts = [r.start for r in self.scenario.robots]
+        self.states = np.array([self.domain.state_index(*s) for s in starts], dtype=int)
+        if np.any(self.states < 0):
+            raise ValueError(f"start {starts[int(np.argmin(self.states))]} is not a hallway state")
+        if options.get("random_starts"):
+            for i in range(self.n_robots):
+                cyc = patrol_cycle(self.scenario, i)
+                self.states[i] = cyc[self.np_random.integers(len(cyc))]
+        self.t = 0
+        return self._observe(), {"t": 0, "states": self.states.copy(), "interaction": False}
+
+    def intended_actions(self) -> tuple[np.ndarray, bool]:
+        """Each robot's action this step: its policy's, overridden by the played equilibrium
+        where two robots meet (pairs resolved in robot order)."""
+        acts = self.policies[np.arange(self.n_robots), self.states].copy()
+        own = acts.copy()
+        met = False
+        for i in range(self.n_robots):
+            for j in range(i + 1, self.n_robots):
+                if meeting(self.domain, self.states[i], self.states[j], own[i], own[j]):
+                    met = True
+                    gi = int(np.searchsorted(self._eq_cdf[0], self.np_random.random(), "right"))
+                    gj = int(np.searchsorted(self._eq_cdf[1], self.np_random.random(), "right"))
+                    acts[i] = game_action_to_action(min(gi, 2), own[i])
+                    acts[j] = game_action_to_action(min(gj, 2), own[j])
+        return acts, met
+
+    def step(self, action=None):
+        acts, met = self.intended_actions()
+        A = self.domain.n_actions
+        for i in range(self.n_robots):
+            T = self._T[i]
+            row = self.states[i] * A + acts[i]
+            lo, hi = T.indptr[row], T.indptr[row + 1]
+            cdf = np.cumsum(T.data[lo:hi])
+            k = min(
+                int(np.searchsorted(cdf, self.np_random.random() * cdf[-1], "right")), hi - lo - 1
+            )
+            self.states[i] = T.indices[lo + k]
+        self.t += 1
+        info = {"t": self.t, "states": self.states.copy(), "interaction": met, "actions": acts}
+        return self._observe(), 0.0, False, False, info
+
+    def _observe(self) -> np.ndarray:
+        """(k, 4) rows (robot, row, col, heading) of the robots on visible cells."""
+        seen = np.flatnonzero(self.visible[self.states])
+        rch = self.domain.states[self.states[seen]].copy()
+        if self.heading_noise > 0 and len(seen):
+            flip = self._perception_rng.random(len(seen)) < self.heading_noise
+            shift = self._perception_rng.integers(1, 4, size=len(seen))
+            rch[flip, 2] = (rch[flip, 2] + shift[flip]) % 4
+        return np.column_stack([seen, rch]).astype(int)
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    truth: Trajectories
+    observations: Trajectories
+    interactions: int  # steps at which some pair of robots met
+    interactions_seen: int  # of those, steps at which both meeting robots were visible
+    true_states: np.ndarray  # (steps, N) state indices
+
+    def observed_share(self) -> np.ndarray:
+        """Per robot, the share of time steps at which L saw it."""
+        n = len(self.truth.robot_names)
+        counts = np.bincount(self.observations.robot, minlength=n)
+        return counts / max(self.truth.horizon, 1)
+
+
+def simulate(
+    scenario: Scenario,
+    steps: int,
+    *,
+    seed: int | None = None,
+    observability: float | None = None,
+    heading_noise: float = 0.0,
+    random_starts: bool = False,
+) -> SimulationResult:
+    """Run ``steps`` time steps (t = 0 … steps−1) and record truth and L's observations."""
+    if steps < 1:
+        raise ValueError(f"steps must be at least 1, got {steps}")
+    sim = PatrolSimulator(scenario, observability=observability, heading_noise=heading_noise)
+    obs, info = sim.reset(seed=seed, options={"random_starts": random_starts})
+    true_states = np.empty((steps, sim.n_robots), dtype=int)
+    observed = np.full((steps, sim.n_robots, 3), -1, dtype=int)
+    interactions = seen = 0
+    for t in range(steps):
+        true_states[t] = info["states"]
+        observed[t, obs[:, 0]] = obs[:, 1:]
+        if t == steps - 1:
+            break
+        obs, _, _, _, info = sim.step()
+        if info["interaction"]:
+            interactions += 1
+            seen += int(sim.visible[true_states[t]].all())
+    names = scenario.robot_names
+    truth = Trajectories.from_states(sim.domain, names, true_states)
+    tt, rr = np.nonzero(observed[:, :, 0] >= 0)
+    o = observed[tt, rr]
+    observations = Trajectories(names, tt, rr, o[:, 0], o[:, 1], o[:, 2], steps)
+    return SimulationResult(truth, observations, interactions, seen, true_states)

@@ -1,0 +1,360 @@
+"""Figures and the markdown report of stored experiment results, in the paper's form.
+
+``write_report(DIR)`` reads ``DIR/results.sqlite`` (or every ``*/results.sqlite`` under DIR),
+draws each experiment's figures to ``DIR/figures/*.png|svg`` and writes ``DIR/report.md`` with
+each result beside the paper's numbers. Figures use matplotlib's object API (no pyplot state),
+so they can be drawn from worker threads and tests.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+from scipy import stats
+
+from mirl.experiments.conditions import Condition
+from mirl.viz.aggregate import FIG4A_PAPER, PAPER_NAMES, TABLE1_PAPER, Group, method_name
+
+__all__ = [
+    "fig3",
+    "fig3_markdown",
+    "fig4a_markdown",
+    "ttest",
+    "fig4bc_markdown",
+    "table1_markdown",
+    "outcomes_markdown",
+]
+
+
+def _fmt(x: float, se: float | None = None, digits: int = 2) -> str:
+    if x != x:
+        return "–"
+    return f"{x:.{digits}f}" if se is None else f"{x:.{digits}f} ± {se:.{digits}f}"
+
+
+def _save(fig: Figure, figdir: Path, stem: str) -> str:
+    figdir.mkdir(parents=True, exist_ok=True)
+    for ext in ("png", "svg"):
+        fig.savefig(figdir / f"{stem}.{ext}", dpi=150 if ext == "png" else None)
+    return f"figures/{stem}.png"
+
+
+# ---------------------------------------------------------------------------------------------
+# Fig. 3
+
+
+def fig3(gs: list[Group], figdir: Path) -> str:
+    methods = [m for m in ("mirl-t", "known-r-t") if any(g.condition.method == m for g in gs)]
+    steps = sorted({g.condition.obs_steps for g in gs})
+    fig = Figure(figsize=(7.5, 8.5), layout="constrained")
+    top, bottom = fig.subplots(2, 1)
+    colors = {n: f"C{k}" for k, n in enumerate(steps)}
+    for mi, m in enumerate(methods):
+        for n in steps:
+            sel = sorted(
+                (g for g in gs if g.condition.method == m and g.condition.obs_steps == n),
+                key=lambda g: g.condition.observability,
+            )
+            if not sel:
+                continue
+            x = np.array([g.condition.observability for g in sel]) + 0.006 * (mi * 2 - 1)
+            ms = np.array([g.mean_std("behavior_accuracy") for g in sel])
+            top.errorbar(
+                x,
+                ms[:, 0],
+                yerr=ms[:, 1],
+                color=colors[n],
+                capsize=3,
+                ls="-" if m == "mirl-t" else "--",
+                marker="o" if m == "mirl-t" else "s",
+                label=f"{PAPER_NAMES[m]}, {n} steps",
+            )
+    top.set_xlabel("degree of observability")
+    top.set_ylabel("learned behavior accuracy")
+    lows = [ln.get_ydata().min() for ln in top.get_lines() if len(ln.get_ydata())]
+    top.set_ylim(max(0.0, min(lows, default=0.0) - 0.15), 1.02)  # accuracies crowd near 1
+    top.legend(fontsize=7, ncol=2)
+    top.set_title("Behavior accuracy vs observability and observing time (bars: 1 std)")
+    acc, succ, r_text = _accuracy_success(gs)
+    for m, marker in (("mirl-t", "o"), ("known-r-t", "s")):
+        sel = [i for i, g in enumerate(gs) if g.condition.method == m]
+        if sel:
+            bottom.scatter(acc[sel], succ[sel], marker=marker, label=PAPER_NAMES[m])
+    if len(acc) >= 2 and np.ptp(acc) > 0:
+        slope, icept = np.polyfit(acc, succ, 1)
+        xs = np.linspace(acc.min(), acc.max(), 2)
+        bottom.plot(xs, slope * xs + icept, "k:", lw=1)
+    bottom.set_xlabel("mean learned behavior accuracy (one point per condition)")
+    bottom.set_ylabel("success rate")
+    bottom.set_title(f"Success vs accuracy: {r_text}")
+    bottom.legend(fontsize=8)
+    return _save(fig, figdir, "fig3")
+
+
+def _accuracy_success(gs: list[Group]) -> tuple[np.ndarray, np.ndarray, str]:
+    pts = [(g.mean_std("behavior_accuracy")[0], g.rate("success")) for g in gs]
+    pts = [(a, s) for a, s in pts if a == a]
+    acc = np.array([a for a, _ in pts])
+    succ = np.array([s for _, s in pts])
+    if len(acc) < 3 or np.ptp(acc) == 0 or np.ptp(succ) == 0:
+        return acc, succ, "correlation undefined"
+    r, p = stats.pearsonr(acc, succ)
+    return acc, succ, f"Pearson r = {r:.2f} (p = {p:.2g}, {len(acc)} conditions)"
+
+
+def fig3_markdown(gs: list[Group], figdir: Path) -> str:
+    png = fig3(gs, figdir)
+    degrees = sorted({g.condition.observability for g in gs})
+    head = "| method | steps | " + " | ".join(f"d = {d:g}" for d in degrees) + " |"
+    lines = [
+        f"![Fig. 3]({png})",
+        "",
+        "Behavior accuracy (mean ± std) / success rate:",
+        "",
+        head,
+        "|" + " --- |" * (len(degrees) + 2),
+    ]
+    by = {(g.condition.method, g.condition.obs_steps, g.condition.observability): g for g in gs}
+    for m in ("mirl-t", "known-r-t"):
+        for n in sorted({g.condition.obs_steps for g in gs}):
+            cells = []
+            for d in degrees:
+                g = by.get((m, n, d))
+                cells.append(
+                    "–"
+                    if g is None
+                    else f"{_fmt(*g.mean_std('behavior_accuracy'))} / {_fmt(g.rate('success'))}"
+                )
+            if any(c != "–" for c in cells):
+                lines.append(f"| {PAPER_NAMES[m]} | {n} | " + " | ".join(cells) + " |")
+    _, succ, r_text = _accuracy_success(gs)
+    best = max(
+        (g for g in gs if g.condition.method == "mirl-t"),
+        key=lambda g: g.rate("success"),
+        default=None,
+    )
+    lines += ["", f"Accuracy vs success: {r_text}."]
+    if best is not None:
+        c = best.condition
+        lines.append(
+            f"Best mIRL*/T+Int success: **{best.rate('success'):.2f}** "
+            f"(d = {c.observability:g}, {c.obs_steps} steps, n = {best.n}); "
+            "paper: up to **0.60**."
+        )
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------
+# Fig. 4a
+
+
+def fig4a_markdown(gs: list[Group], figdir: Path) -> str:
+    degrees = sorted({g.condition.observability for g in gs})
+    fig = Figure(figsize=(9, 3.6 * len(degrees)), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(len(degrees), 1))
+    for ax, d in zip(axes, degrees, strict=True):
+        sel = [g for g in gs if g.condition.observability == d]
+        x = np.arange(len(sel))
+        for k, (outcome, label) in enumerate((("success", "success"), ("timeout", "timed out"))):
+            ax.bar(
+                x + (k - 0.5) * 0.38,
+                [g.rate(outcome) for g in sel],
+                0.38,
+                yerr=[g.rate_se(outcome) for g in sel],
+                capsize=2,
+                label=label,
+            )
+        ax.set_xticks(
+            x, [method_name(g.condition) for g in sel], rotation=25, ha="right", fontsize=8
+        )
+        ax.set_ylim(0, 1.05)
+        ax.set_ylabel("rate")
+        ax.set_title(f"J's left wheel damaged, observability {d:g} (bars: ±1 s.e.)")
+        ax.legend(fontsize=8)
+    png = _save(fig, figdir, "fig4a")
+    lines = [
+        f"![Fig. 4a]({png})",
+        "",
+        "| method | d | n | success | detected | timed out | vs mIRL*/T+Int | paper |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for g in sorted(gs, key=lambda g: g.condition.observability):
+        c = g.condition
+        ref = next((h for h in gs if h.condition == Condition("mirl-t", c.scenario,
+                    c.observability, c.obs_steps)), None)  # fmt: skip
+        lines.append(
+            f"| {method_name(c)} | {c.observability:g} | {g.n} | "
+            f"{_fmt(g.rate('success'), g.rate_se('success'))} | {_fmt(g.rate('detected'))} | "
+            f"{_fmt(g.rate('timeout'))} | {_paired(ref, g)} | {FIG4A_PAPER.get(c.method, '')} |"
+        )
+    return "\n".join(lines + ["", PAIRED_NOTE])
+
+
+PAIRED_NOTE = (
+    "*vs mIRL\\*/T+Int*: runs with the same seed see the same patrol (common random numbers), "
+    "so methods are compared run by run: W–L counts the seeds where mIRL\\*/T+Int succeeded and "
+    "this method did not (W) and the reverse (L); p is the exact two-sided sign test."
+)
+
+
+def _paired(ref: Group | None, g: Group) -> str:
+    """Paired wins–losses of ``ref`` over ``g`` on shared seeds, with a sign test."""
+    if ref is None or ref is g:
+        return ""
+    other = {r["run"]: r["outcome"] == "success" for r in g.rows}
+    pairs = [(r["outcome"] == "success", other[r["run"]]) for r in ref.rows if r["run"] in other]
+    w = sum(a and not b for a, b in pairs)
+    lost = sum(b and not a for a, b in pairs)
+    p = stats.binomtest(w, w + lost, 0.5).pvalue if w + lost else 1.0
+    return f"{w}–{lost} (p = {p:.2g})"
+
+
+# ---------------------------------------------------------------------------------------------
+# Fig. 4b / 4c
+
+
+def _features(gs: list[Group]) -> tuple[list[str], list[str]]:
+    keys = {k for g in gs for r in g.rows for k in r if k.startswith("fp.")}
+    robots = sorted({k.split(".")[1] for k in keys})
+    order = ["left_wheel", "right_wheel", "navigation", "floor"]
+    feats = sorted(
+        {k.split(".", 2)[2] for k in keys},
+        key=lambda f: (f not in order, order.index(f) if f in order else 0, f),
+    )
+    return robots, feats
+
+
+def _true_probabilities(scenario: str) -> dict[str, dict[str, float]]:
+    try:
+        from mirl.world.scenario import load_scenario
+
+        s = load_scenario(scenario)
+        return {r.name: dict(r.feature_probabilities) for r in s.robots}
+    except (ValueError, OSError):
+        return {}
+
+
+def ttest(g: Group, robot: str, a: str, b: str) -> tuple[float, float, int]:
+    """Two-tailed Student's t-test (the paper's) of ``robot``'s learned ``a`` vs ``b``."""
+    x, y = g.values(f"fp.{robot}.{a}"), g.values(f"fp.{robot}.{b}")
+    if min(len(x), len(y)) < 2 or (np.ptp(x) == 0 and np.ptp(y) == 0):
+        return float("nan"), float("nan"), min(len(x), len(y))
+    with warnings.catch_warnings():  # near-constant samples: scipy warns, the answer stands
+        warnings.simplefilter("ignore", RuntimeWarning)
+        t, p = stats.ttest_ind(x, y)
+    return float(t), float(p), min(len(x), len(y))
+
+
+def fig4bc_markdown(gs: list[Group], figdir: Path, stem: str) -> str:
+    robots, feats = _features(gs)
+    if not feats:
+        return "No learned feature probabilities were stored for these runs."
+    cols = min(len(gs), 2)
+    nrows = -(-len(gs) // cols)
+    fig = Figure(figsize=(5.0 * cols, 3.8 * nrows), layout="constrained")
+    grid = np.atleast_1d(fig.subplots(nrows, cols, sharey=True, squeeze=False)).ravel()
+    for ax in grid[len(gs) :]:
+        ax.set_visible(False)
+    axes = grid[: len(gs)]
+    lines = [
+        f"![Fig. {stem[3:]}](figures/{stem}.png)",
+        "",
+        "| method | d | n | robot | " + " | ".join(feats) + " |",
+        "| --- | --- | --- | --- |" + " --- |" * len(feats),
+    ]
+    tests = []
+    for ax, g in zip(axes, gs, strict=True):
+        c = g.condition
+        truth = _true_probabilities(c.scenario)
+        x = np.arange(len(feats))
+        w = 0.8 / max(len(robots), 1)
+        for k, robot in enumerate(robots):
+            ms = np.array([g.mean_std(f"fp.{robot}.{f}") for f in feats])
+            xs = x + (k - (len(robots) - 1) / 2) * w
+            ax.bar(
+                xs,
+                ms[:, 0],
+                w,
+                yerr=ms[:, 1],
+                capsize=2,
+                label=robot,
+                color=f"C{k}",
+                error_kw={"ecolor": "dimgray", "elinewidth": 1},
+            )
+            true = [truth.get(robot, {}).get(f, np.nan) for f in feats]
+            ax.scatter(
+                xs, true, marker="D", s=22, color="red", zorder=5, label="true" if k == 0 else None
+            )
+            cells = " | ".join(_fmt(*ms[i], digits=3) for i in range(len(feats)))
+            lines.append(f"| {method_name(c)} | {c.observability:g} | {g.n} | {robot} | {cells} |")
+        t, p, n = ttest(g, "J", "left_wheel", "right_wheel")
+        tests.append(
+            f"- {method_name(c)}, d = {c.observability:g}: J left vs right wheel "
+            f"t = {_fmt(t)}, p = {p:.2g} (n = {n})"
+        )
+        ax.set_xticks(x, [f.replace("_", " ") for f in feats], rotation=20, fontsize=8)
+        ax.set_ylim(0.4, 1.02)
+        ax.set_title(
+            f"{method_name(c)}, d = {c.observability:g}\nJ left vs right: p = {p:.2g}", fontsize=9
+        )
+        ax.legend(fontsize=7, loc="lower left")
+    for ax in grid[::cols]:
+        ax.set_ylabel("learned probability (mean ± std)")
+    _save(fig, figdir, stem)
+    return "\n".join(lines + ["", "Two-tailed Student's t-tests over runs:", "", *tests])
+
+
+# ---------------------------------------------------------------------------------------------
+# Table 1
+
+
+def table1_markdown(gs: list[Group], figdir: Path) -> str:
+    del figdir  # a table only
+    by = {(g.condition.method, g.condition.scenario): g for g in gs}
+    lines = [
+        "| method | J's left wheel damaged: ours | paper | no damaged wheels: ours | paper |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    for m, label in (
+        ("mirl-t", "mIRL*/T+Int"),
+        ("mirl", "mIRL*+Int (p=0.9)"),
+        ("random", "Random"),
+    ):
+        cells = []
+        for s in ("boyd2", "boyd2-healthy"):
+            g = by.get((m, s))
+            ours = (
+                "–" if g is None else f"{_fmt(g.rate('success'), g.rate_se('success'))} (n={g.n})"
+            )
+            cells += [ours, f"{TABLE1_PAPER[(m, s)]:.2f} (n=10)"]
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines + ["", "Ours: success rate ± 1 s.e. over n simulated runs."])
+
+
+def outcomes_markdown(gs: list[Group]) -> str:
+    lines = [
+        "| condition | n | success | detected | timed out | accuracy | go time |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for g in gs:
+        c = g.condition
+        lines.append(
+            f"| {method_name(c)}, {c.scenario}, d={c.observability:g}, {c.obs_steps} steps | "
+            f"{g.n} | {_fmt(g.rate('success'))} | {_fmt(g.rate('detected'))} | "
+            f"{_fmt(g.rate('timeout'))} | {_fmt(*g.mean_std('behavior_accuracy'))} | "
+            f"{_fmt(g.mean_std('go_time')[0], digits=1)} |"
+        )
+    return "\n".join(lines)
+
+
+SECTIONS: dict[str, Callable[[list[Group], Path], str]] = {
+    "fig3": fig3_markdown,
+    "fig4a": fig4a_markdown,
+    "fig4b": lambda gs, d: fig4bc_markdown(gs, d, "fig4b"),
+    "fig4c": lambda gs, d: fig4bc_markdown(gs, d, "fig4c"),
+    "table1": table1_markdown,
+}

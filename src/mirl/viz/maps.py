@@ -1,0 +1,164 @@
+"""Drawing grid maps: matplotlib axes (for figures) and plain text (for ``mirl show-map``).
+
+Coordinates: every drawing helper puts cell ``(row, col)`` at its centre ``x = col``,
+``y = row`` with row 0 at the top, so later layers (patroller paths, L's path) can be plotted on
+the same axes with ``ax.plot(cols, rows)``. Only the object API (``matplotlib.figure.Figure``) is
+used, so importing this module never switches the global matplotlib backend.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from mirl.world.maps import GridMap
+
+__all__ = ["MAP_COLORS", "TEXT_LEGEND", "draw_map", "map_figure", "map_to_text", "save_map_png"]
+
+MAP_COLORS = {
+    "wall": "#2b2b2b",
+    "hallway": "#f2f2ee",
+    "room": "#cfe3f7",  # L-only cells (L's room, goal rooms)
+    "visible": "#f6c85f",  # hallway cells L sees
+    "grid": "#bdbdbd",
+    "start": "#1f5fbf",
+    "goal": "#2ca02c",
+}
+
+TEXT_LEGEND = (
+    "; . hallway  # wall  L L's start  G/g goal (hallway/room)  o/O visible to L (hallway/goal)"
+)
+
+
+def _rgb(hex_color: str) -> np.ndarray:
+    h = hex_color.lstrip("#")
+    return np.array([int(h[i : i + 2], 16) / 255.0 for i in (0, 2, 4)])
+
+
+def _checked_mask(gridmap: GridMap, visible_mask: np.ndarray | None) -> np.ndarray:
+    if visible_mask is None:
+        return np.zeros(gridmap.shape, dtype=bool)
+    mask = np.asarray(visible_mask, dtype=bool)
+    if mask.shape != gridmap.shape:
+        raise ValueError(
+            f"visible_mask has shape {mask.shape}, map {gridmap.name} is {gridmap.shape}"
+        )
+    return mask & gridmap.patroller  # only patroller cells can be seen
+
+
+def draw_map(ax, gridmap: GridMap, visible_mask: np.ndarray | None = None, *, legend: bool = True):
+    """Draw ``gridmap`` on matplotlib axes ``ax`` and return ``ax``.
+
+    Walls dark, hallway light, L-only rooms pale blue, cells in ``visible_mask`` amber; L's start
+    is a blue triangle, goals green stars. Cell ``(r, c)`` is centred at ``x = c, y = r`` with
+    row 0 at the top and square cells.
+    """
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    rows, cols = gridmap.shape
+    visible = _checked_mask(gridmap, visible_mask)
+    img = np.empty((rows, cols, 3))
+    img[:] = _rgb(MAP_COLORS["wall"])
+    img[gridmap.patroller] = _rgb(MAP_COLORS["hallway"])
+    img[gridmap.observer_only] = _rgb(MAP_COLORS["room"])
+    img[visible] = _rgb(MAP_COLORS["visible"])
+    ax.imshow(
+        img,
+        origin="upper",
+        extent=(-0.5, cols - 0.5, rows - 0.5, -0.5),
+        interpolation="nearest",
+        zorder=0,
+    )
+    if max(rows, cols) <= 40:  # cell borders help on small maps, clutter large ones
+        ax.set_xticks(np.arange(-0.5, cols, 1.0), minor=True)
+        ax.set_yticks(np.arange(-0.5, rows, 1.0), minor=True)
+        ax.grid(which="minor", color=MAP_COLORS["grid"], linewidth=0.4)
+        ax.tick_params(which="minor", length=0)
+    size = max(4.0, 160.0 / max(rows, cols))
+    sr, sc = gridmap.observer_start
+    ax.plot(
+        [sc], [sr], marker="^", color=MAP_COLORS["start"], markersize=size, linestyle="", zorder=3
+    )
+    if gridmap.goals:
+        gr, gc = np.asarray(gridmap.goals).T
+        ax.plot(
+            gc,
+            gr,
+            marker="*",
+            color=MAP_COLORS["goal"],
+            markersize=size * 1.3,
+            linestyle="",
+            zorder=3,
+        )
+    ax.set_xlim(-0.5, cols - 0.5)
+    ax.set_ylim(rows - 0.5, -0.5)
+    ax.set_aspect("equal")
+    ax.set_xlabel("col")
+    ax.set_ylabel("row")
+    if legend:
+        handles = [
+            Patch(facecolor=MAP_COLORS["hallway"], edgecolor="0.5", label="hallway"),
+            Patch(facecolor=MAP_COLORS["wall"], label="wall"),
+            Patch(facecolor=MAP_COLORS["room"], edgecolor="0.5", label="L's rooms"),
+            Line2D([], [], marker="^", color=MAP_COLORS["start"], linestyle="", label="L start"),
+            Line2D([], [], marker="*", color=MAP_COLORS["goal"], linestyle="", label="goal"),
+        ]
+        if visible.any():
+            handles.insert(3, Patch(facecolor=MAP_COLORS["visible"], label="visible to L"))
+        ax.legend(
+            handles=handles,
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            fontsize="small",
+            frameon=False,
+        )
+    return ax
+
+
+def map_figure(gridmap: GridMap, visible_mask: np.ndarray | None = None, *, legend: bool = True):
+    """A new ``Figure`` (no pyplot, no global backend) with the map drawn; returns ``(fig, ax)``."""
+    from matplotlib.figure import Figure
+
+    rows, cols = gridmap.shape
+    scale = 0.3 if max(rows, cols) <= 30 else 9.0 / max(rows, cols)
+    fig = Figure(figsize=(cols * scale + (2.2 if legend else 0.8), rows * scale + 0.8))
+    ax = fig.add_subplot(1, 1, 1)
+    draw_map(ax, gridmap, visible_mask, legend=legend)
+    title = gridmap.name
+    if visible_mask is not None:
+        n = int(_checked_mask(gridmap, visible_mask).sum())
+        title += f" — {n}/{gridmap.n_patroller_cells} cells visible"
+    ax.set_title(title, fontsize="medium")
+    fig.tight_layout()
+    return fig, ax
+
+
+def save_map_png(gridmap: GridMap, path: str | Path, observability: float | None = None) -> Path:
+    """Write the map as an image; the format follows the suffix (``.png`` default, ``.svg``…).
+
+    ``observability`` (a degree in [0, 1]) shades the cells L sees at that degree.
+    """
+    path = Path(path)
+    mask = None if observability is None else gridmap.visible_mask(observability)
+    fig, _ = map_figure(gridmap, mask)
+    fmt = path.suffix.lstrip(".").lower() or "png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, format=fmt, dpi=150)
+    return path
+
+
+def map_to_text(gridmap: GridMap, visible_mask: np.ndarray | None = None) -> str:
+    """Plain-text map (``.#LGg`` as in the map format) with visible cells as ``o`` (``O`` for a
+    visible hallway goal), followed by a ``;`` legend line (a comment in the map format)."""
+    visible = _checked_mask(gridmap, visible_mask)
+    chars = np.array([list(line) for line in gridmap.to_text().split("\n")])
+    chars[visible & (chars == ".")] = "o"
+    chars[visible & (chars == "G")] = "O"
+    lines = ["".join(row) for row in chars]
+    legend = TEXT_LEGEND
+    if visible_mask is not None:
+        n, total = int(visible.sum()), gridmap.n_patroller_cells
+        legend += f"\n; visible: {n} of {total} patroller cells ({n / max(total, 1):.2f})"
+    return "\n".join([*lines, legend])

@@ -1,0 +1,101 @@
+"""`report.md` beside the paper's numbers: every experiment found in a directory, its figures and
+tables, and the sweep's throughput."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from mirl.experiments.conditions import EXPERIMENTS, StoreError, experiment_names
+from mirl.experiments.store import load_results
+from mirl.viz.aggregate import PAPER, Row, groups
+from mirl.viz.figures import SECTIONS, outcomes_markdown
+
+__all__ = ["write_report", "report_markdown"]
+
+# ---------------------------------------------------------------------------------------------
+# Report
+
+
+def _throughput(sessions: list[dict]) -> str:
+    done = [s for s in sessions if s["finished"] and s["seconds"] > 0]
+    if not done:
+        return "no timed sessions"
+    parts = []
+    for w in sorted({s["workers"] for s in done}):
+        sel = [s for s in done if s["workers"] == w]
+        n, sec = sum(s["finished"] for s in sel), sum(s["seconds"] for s in sel)
+        parts.append(f"{60 * n / sec:.1f} runs/min on {w} workers ({n} runs in {sec / 60:.1f} min)")
+    return "; ".join(parts)
+
+
+def report_markdown(
+    meta: dict[str, str], rows: list[Row], sessions: list[dict], figdir: Path
+) -> str:
+    """One experiment's section: header facts, its figure/table beside the paper, outcomes."""
+    name = meta.get("experiment", "?")
+    gs = groups(rows)
+    if name in EXPERIMENTS:  # the experiment's own order: methods as the paper lists them
+        rank = {c.key: k for k, c in enumerate(EXPERIMENTS[name].conditions)}
+        gs.sort(key=lambda g: rank.get(g.condition.key, len(rank)))
+    errors = sum(r["outcome"] == "error" for r in rows)
+    ns = [g.n for g in gs] or [0]
+    versions = sorted({str(r["version"]) for r in rows})
+    head = [
+        f"## {name}",
+        "",
+        f"{len(rows)} runs over {len(gs)} conditions, {_span(ns)} finished runs per "
+        f"condition ({errors} failed runs excluded); base seed {meta.get('base_seed')}; mirl "
+        f"{', '.join(versions)}"
+        + (" (**rows from different code versions**)" if len(versions) > 1 else "")
+        + f". Throughput: {_throughput(sessions)}.",
+        "",
+    ]
+    if name in PAPER:
+        head += [f"**Paper:** {PAPER[name]}", ""]
+    body = SECTIONS[name](gs, figdir) if name in SECTIONS and gs else ""
+    tail = [
+        "",
+        "<details><summary>Outcomes per condition</summary>",
+        "",
+        outcomes_markdown(gs),
+        "",
+        "</details>",
+        "",
+    ]
+    return "\n".join(head + [body] + tail)
+
+
+def _span(ns: list[int]) -> str:
+    return str(min(ns)) if min(ns) == max(ns) else f"{min(ns)}–{max(ns)}"
+
+
+def _databases(path: Path) -> list[Path]:
+    if (path / "results.sqlite").exists():
+        return [path / "results.sqlite"]
+    found = sorted(path.glob("*/results.sqlite"))
+    rank = {n: k for k, n in enumerate(experiment_names(include_hidden=True))}
+    return sorted(found, key=lambda p: (rank.get(p.parent.name, len(rank)), p.parent.name))
+
+
+def write_report(directory: str | Path) -> Path:
+    """Draw the figures of every experiment under ``directory`` and write its report.md."""
+    root = Path(directory)
+    dbs = _databases(root) if root.is_dir() else []
+    if not dbs:
+        raise StoreError(f"{root}: no results.sqlite here or in its sub-directories")
+    sections = [
+        "# mirl experiment report",
+        "",
+        "Each result beside the paper's (Bogert & Doshi, Sec. 4). Rates are shares of "
+        "finished runs; ± is one standard error unless marked std.",
+        "",
+    ]
+    for db in dbs:
+        meta, rows, sessions = load_results(db)
+        md = report_markdown(meta, rows, sessions, db.parent / "figures")
+        if db.parent != root:  # each experiment's figures stay beside its database
+            md = md.replace("](figures/", f"]({db.parent.relative_to(root).as_posix()}/figures/")
+        sections.append(md)
+    out = root / "report.md"
+    out.write_text("\n".join(sections), encoding="utf-8")
+    return out

@@ -1,0 +1,313 @@
+"""The patrol domain: robot states, actions, intended outcomes ψ, transition features ξ (as
+data), reward features φ, detection, and the patrollers' interaction game.
+
+A robot state is (row, col, heading) on a patroller cell; state index = 4·cell_index + heading,
+with cells in row-major order. Headings: 0 east, 1 north, 2 west, 3 south.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from mirl.world.maps import HEADING_DELTAS, GridMap
+
+__all__ = [
+    "ACTIONS",
+    "FORWARD",
+    "TURN_LEFT",
+    "TURN_RIGHT",
+    "STOP",
+    "FeatureOverride",
+    "FeatureMap",
+    "DEFAULT_FEATURE_MAP",
+    "RewardSpec",
+    "PatrolDomain",
+    "detection_cells",
+]
+
+ACTIONS: tuple[str, ...] = ("forward", "turn_left", "turn_right", "stop")
+FORWARD, TURN_LEFT, TURN_RIGHT, STOP = range(4)
+N_HEADINGS = 4
+
+
+@dataclass(frozen=True)
+class FeatureOverride:
+    """A state-dependent change to ξ: on ``cells`` (all cells if None) and ``actions`` (all if
+    None), add and/or remove features — e.g. a ``carpet`` feature on some cells."""
+
+    cells: tuple[tuple[int, int], ...] | None = None
+    actions: tuple[str, ...] | None = None
+    add: tuple[str, ...] = ()
+    remove: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class FeatureMap:
+    """ξ as data: the transition features and the feature subset of every (state, action)."""
+
+    features: tuple[str, ...]
+    action_subsets: Mapping[str, tuple[str, ...]]
+    overrides: tuple[FeatureOverride, ...] = ()
+
+    def __post_init__(self) -> None:
+        if len(set(self.features)) != len(self.features):
+            raise ValueError(f"duplicate transition feature in {list(self.features)}")
+        known = set(self.features)
+        missing = [a for a in ACTIONS if a not in self.action_subsets]
+        if missing:
+            raise ValueError(f"transition feature map has no subset for action '{missing[0]}'")
+        for action, subset in self.action_subsets.items():
+            if action not in ACTIONS:
+                raise ValueError(f"unknown action '{action}' in transition feature map")
+            self._check(subset, known, f"action '{action}'")
+        for i, ov in enumerate(self.overrides):
+            self._check(ov.add + ov.remove, known, f"override {i + 1}")
+            for a in ov.actions or ():
+                if a not in ACTIONS:
+                    raise ValueError(f"override {i + 1}: unknown action '{a}'")
+
+    @staticmethod
+    def _check(names: Iterable[str], known: set[str], where: str) -> None:
+        for name in names:
+            if name not in known:
+                known_list = ", ".join(sorted(known))
+                raise ValueError(
+                    f"{where}: unknown transition feature '{name}' (known: {known_list})"
+                )
+
+    def subset_table(self, domain: PatrolDomain) -> tuple[np.ndarray, tuple[tuple[str, ...], ...]]:
+        """(S, A) index into the tuple of distinct subsets (each sorted in feature order)."""
+        sets = [[set(self.action_subsets[a]) for a in ACTIONS] for _ in range(domain.n_states)]
+        cells = domain.states[:, :2]
+        for ov in self.overrides:
+            if ov.cells is None:
+                hit = np.ones(domain.n_states, dtype=bool)
+            else:
+                targets = {tuple(c) for c in ov.cells}
+                hit = np.array([tuple(c) in targets for c in cells.tolist()])
+            acts = [ACTIONS.index(a) for a in (ov.actions or ACTIONS)]
+            for s in np.flatnonzero(hit):
+                for a in acts:
+                    sets[s][a] = (sets[s][a] | set(ov.add)) - set(ov.remove)
+        order = {f: i for i, f in enumerate(self.features)}
+        distinct: dict[tuple[str, ...], int] = {}
+        table = np.empty((domain.n_states, len(ACTIONS)), dtype=int)
+        for s, row in enumerate(sets):
+            for a, subset in enumerate(row):
+                key = tuple(sorted(subset, key=order.__getitem__))
+                table[s, a] = distinct.setdefault(key, len(distinct))
+        return table, tuple(distinct)
+
+    @classmethod
+    def from_dict(cls, data: Mapping, *, where: str = "transition_features") -> FeatureMap:
+        try:
+            features = tuple(data["features"])
+            actions = {a: tuple(v) for a, v in data["actions"].items()}
+        except KeyError as exc:
+            raise ValueError(f"{where}: missing key {exc.args[0]!r}") from None
+        overrides = []
+        for ov in data.get("override", []):
+            cells = ov.get("cells")
+            overrides.append(
+                FeatureOverride(
+                    cells=None if cells is None else tuple(tuple(map(int, c)) for c in cells),
+                    actions=tuple(ov["actions"]) if "actions" in ov else None,
+                    add=tuple(ov.get("add", ())),
+                    remove=tuple(ov.get("remove", ())),
+                )
+            )
+        return cls(features, actions, tuple(overrides))
+
+
+DEFAULT_FEATURE_MAP = FeatureMap(
+    features=("left_wheel", "right_wheel", "navigation", "floor"),
+    action_subsets={
+        "forward": ("left_wheel", "right_wheel", "navigation", "floor"),
+        # a left turn pivots on the left wheel, so only the right wheel drives it
+        "turn_left": ("right_wheel", "navigation", "floor"),
+        "turn_right": ("left_wheel", "navigation", "floor"),
+        "stop": ("floor",),
+    },
+)
+
+
+REWARD_FEATURES: tuple[str, ...] = ("moved", "upper_hallway", "lower_hallway", "turn_around")
+
+
+@dataclass(frozen=True)
+class RewardSpec:
+    """Where the region-based reward features fire.
+
+    ``upper_hallway`` / ``lower_hallway`` fire in their cells for any action; ``turn_around``
+    fires for a turn at one of ``turn_around`` cells (the patrol's designated hallway ends; by
+    default the map's dead ends); ``moved`` fires for a forward that changes cell.
+    """
+
+    upper_hallway: tuple[tuple[int, int], ...] = ()
+    lower_hallway: tuple[tuple[int, int], ...] = ()
+    turn_around: tuple[tuple[int, int], ...] | None = None
+
+
+class PatrolDomain:
+    """States, actions, ψ, ξ and φ of one patroller on a map."""
+
+    actions = ACTIONS
+
+    def __init__(
+        self,
+        gridmap: GridMap,
+        feature_map: FeatureMap = DEFAULT_FEATURE_MAP,
+        reward_spec: RewardSpec | None = None,
+    ) -> None:
+        self.map = gridmap
+        self.feature_map = feature_map
+        self.reward_spec = reward_spec or RewardSpec()
+        self.cells = gridmap.patroller_cells
+        self.n_cells = len(self.cells)
+        self.n_states = self.n_cells * N_HEADINGS
+        self.n_actions = len(ACTIONS)
+        lut = np.full(gridmap.shape, -1, dtype=int)
+        lut[self.cells[:, 0], self.cells[:, 1]] = np.arange(self.n_cells)
+        self.cell_lut = lut
+        headings = np.tile(np.arange(N_HEADINGS), self.n_cells)
+        self.states = np.column_stack([np.repeat(self.cells, N_HEADINGS, axis=0), headings])
+
+    # ---- indexing -------------------------------------------------------------------------
+    def state_index(self, row, col, heading) -> np.ndarray:
+        """Vectorised (row, col, heading) → state index; -1 where not a patroller state."""
+        row, col, heading = (np.asarray(x, dtype=int) for x in (row, col, heading))
+        rows, cols = self.map.shape
+        inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
+        clipped = self.cell_lut[np.clip(row, 0, rows - 1), np.clip(col, 0, cols - 1)]
+        cell = np.where(inside, clipped, -1)
+        ok = (cell >= 0) & (heading >= 0) & (heading < N_HEADINGS)
+        return np.where(ok, cell * N_HEADINGS + heading, -1)
+
+    def state_cell(self, states) -> np.ndarray:
+        return np.asarray(states) // N_HEADINGS
+
+    # ---- ψ ----------------------------------------------------------------------------------
+    @cached_property
+    def intended(self) -> np.ndarray:
+        """ψ as an (S, A) array of intended next states."""
+        r, c, h = self.states.T
+        out = np.empty((self.n_states, self.n_actions), dtype=int)
+        s = np.arange(self.n_states)
+        dr, dc = HEADING_DELTAS[h].T
+        ahead = self.state_index(r + dr, c + dc, h)
+        out[:, FORWARD] = np.where(ahead >= 0, ahead, s)
+        out[:, TURN_LEFT] = s - h + (h + 1) % N_HEADINGS
+        out[:, TURN_RIGHT] = s - h + (h + 3) % N_HEADINGS
+        out[:, STOP] = s
+        return out
+
+    # ---- ξ ----------------------------------------------------------------------------------
+    @cached_property
+    def _subsets(self) -> tuple[np.ndarray, tuple[tuple[str, ...], ...]]:
+        return self.feature_map.subset_table(self)
+
+    @property
+    def subset_index(self) -> np.ndarray:
+        """(S, A) index into :attr:`subsets` of ξ(s, a)."""
+        return self._subsets[0]
+
+    @property
+    def subsets(self) -> tuple[tuple[str, ...], ...]:
+        return self._subsets[1]
+
+    @cached_property
+    def subset_masks(self) -> np.ndarray:
+        """(n_subsets, n_features) bool incidence of features in each distinct subset."""
+        names = self.feature_map.features
+        return np.array([[f in sub for f in names] for sub in self.subsets], dtype=bool)
+
+    def success_probabilities(self, feature_probabilities: Mapping[str, float]) -> np.ndarray:
+        """(S, A) product of feature probabilities over ξ(s, a) (Eq. 2)."""
+        names = self.feature_map.features
+        unknown = set(feature_probabilities) - set(names)
+        if unknown:
+            raise ValueError(f"unknown transition feature '{sorted(unknown)[0]}'")
+        try:
+            p = np.array([float(feature_probabilities[f]) for f in names])
+        except KeyError as exc:
+            raise ValueError(f"no probability given for transition feature {exc}") from None
+        if np.any(~np.isfinite(p)) or np.any((p < 0) | (p > 1)):
+            bad = names[int(np.flatnonzero(~((p >= 0) & (p <= 1)))[0])]
+            raise ValueError(f"probability of '{bad}' must be in [0, 1]")
+        with np.errstate(divide="ignore"):
+            log_p = np.where(self.subset_masks, np.log(p), 0.0).sum(axis=1)
+        return np.exp(log_p)[self.subset_index]
+
+    # ---- φ ----------------------------------------------------------------------------------
+    @cached_property
+    def turn_around_cells(self) -> tuple[tuple[int, int], ...]:
+        if self.reward_spec.turn_around is not None:
+            return self.reward_spec.turn_around
+        return dead_ends(self.map)
+
+    def _cell_mask(self, cells: Sequence[tuple[int, int]]) -> np.ndarray:
+        mask = np.zeros(self.n_states, dtype=bool)
+        if len(cells):
+            arr = np.asarray(cells, dtype=int)
+            idx = self.cell_lut[arr[:, 0], arr[:, 1]]
+            if np.any(idx < 0):
+                bad = tuple(int(x) for x in arr[np.flatnonzero(idx < 0)[0]])
+                raise ValueError(f"reward region cell {bad} is not a hallway cell")
+            mask[(idx[:, None] * N_HEADINGS + np.arange(N_HEADINGS)).ravel()] = True
+        return mask
+
+    @cached_property
+    def reward_features(self) -> np.ndarray:
+        """φ as an (S, A, K) array for :data:`REWARD_FEATURES`."""
+        phi = np.zeros((self.n_states, self.n_actions, len(REWARD_FEATURES)))
+        cell_of = self.state_cell(np.arange(self.n_states))
+        phi[:, FORWARD, 0] = self.state_cell(self.intended[:, FORWARD]) != cell_of
+        phi[:, :, 1] = self._cell_mask(self.reward_spec.upper_hallway)[:, None]
+        phi[:, :, 2] = self._cell_mask(self.reward_spec.lower_hallway)[:, None]
+        ends = self._cell_mask(self.turn_around_cells)
+        phi[:, TURN_LEFT, 3] = ends
+        phi[:, TURN_RIGHT, 3] = ends
+        return phi
+
+    reward_feature_names = REWARD_FEATURES
+
+    def rewards(self, weights: Sequence[float]) -> np.ndarray:
+        w = np.asarray(weights, dtype=float)
+        if w.shape != (len(REWARD_FEATURES),):
+            raise ValueError(f"expected {len(REWARD_FEATURES)} reward weights, got {w.shape}")
+        return self.reward_features @ w
+
+    # ---- visibility -------------------------------------------------------------------------
+    def visible_states(self, degree: float) -> np.ndarray:
+        """(S,) bool: states whose cell is visible to L at observability ``degree``."""
+        mask = self.map.visible_mask(degree)
+        return np.repeat(mask[self.cells[:, 0], self.cells[:, 1]], N_HEADINGS)
+
+
+def dead_ends(gridmap: GridMap) -> tuple[tuple[int, int], ...]:
+    """Patroller cells with exactly one patroller neighbour: where a patrol must turn around."""
+    P = np.pad(gridmap.patroller, 1)
+    neighbours = P[:-2, 1:-1].astype(int) + P[2:, 1:-1] + P[1:-1, :-2] + P[1:-1, 2:]
+    ends = np.argwhere(gridmap.patroller & (neighbours == 1))
+    return tuple(map(tuple, ends.tolist()))
+
+
+def detection_cells(
+    gridmap: GridMap, row: int, col: int, heading: int, distance: int
+) -> list[tuple[int, int]]:
+    """Cells a patroller at (row, col, heading) sees: straight ahead, up to ``distance`` cells,
+    stopping at the first wall. L's room cells are never seen (SPEC §2)."""
+    dr, dc = HEADING_DELTAS[heading]
+    rows, cols = gridmap.shape
+    out = [(row, col)]
+    r, c = row, col
+    for _ in range(distance):
+        r, c = r + dr, c + dc
+        if not (0 <= r < rows and 0 <= c < cols) or not gridmap.patroller[r, c]:
+            break
+        out.append((r, c))
+    return out

@@ -1,0 +1,118 @@
+"""The patrollers' interaction game: a bimatrix game over {go, stop, turn} played when two
+patrollers meet head-on, its Nash equilibria (by nashpy), and the meeting rule."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+
+from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
+
+__all__ = ["GAME_ACTIONS", "Equilibrium", "InteractionGame", "meeting", "game_action_to_action"]
+
+GAME_ACTIONS: tuple[str, ...] = ("go", "stop", "turn")
+
+
+@dataclass(frozen=True)
+class Equilibrium:
+    """A (possibly mixed) Nash equilibrium: probabilities over :data:`GAME_ACTIONS`."""
+
+    row: tuple[float, ...]
+    col: tuple[float, ...]
+
+    @property
+    def is_pure(self) -> bool:
+        return max(self.row) > 1 - 1e-9 and max(self.col) > 1 - 1e-9
+
+    def label(self) -> str:
+        def one(p):
+            if max(p) > 1 - 1e-9:
+                return GAME_ACTIONS[int(np.argmax(p))]
+            parts = [f"{a}:{x:.2f}" for a, x in zip(GAME_ACTIONS, p, strict=True) if x > 1e-9]
+            return "(" + ", ".join(parts) + ")"
+
+        return f"{one(self.row)}/{one(self.col)}"
+
+
+@lru_cache(maxsize=64)
+def _nash_equilibria(row_bytes: bytes, col_bytes: bytes, shape: tuple[int, int]):
+    import warnings
+
+    import nashpy
+
+    A = np.frombuffer(row_bytes).reshape(shape)
+    B = np.frombuffer(col_bytes).reshape(shape)
+    # Shift both matrices to be strictly positive (equilibria are unchanged). nashpy only shifts
+    # when the minimum is negative, to a minimum of 0, which leaves the best-response polytope
+    # unbounded when a whole column of A (row of B) is that minimum, e.g. an all-zero game, and
+    # its linprog then fails with a TypeError.
+    A = A - A.min() + 1.0
+    B = B - B.min() + 1.0
+    with warnings.catch_warnings():
+        # nashpy warns on degenerate games; vertex enumeration still lists the extreme equilibria
+        warnings.simplefilter("ignore")
+        found = list(nashpy.Game(A, B).vertex_enumeration())
+    uniq: list[Equilibrium] = []
+    for sr, sc in found:
+        e = Equilibrium(tuple(np.round(sr, 12) + 0.0), tuple(np.round(sc, 12) + 0.0))
+        if not any(np.allclose(e.row, u.row) and np.allclose(e.col, u.col) for u in uniq):
+            uniq.append(e)
+    # pure equilibria first, then mixed; deterministic order
+    uniq.sort(key=lambda e: (not e.is_pure, tuple(-x for x in e.row), tuple(-x for x in e.col)))
+    return tuple(uniq)
+
+
+@dataclass(frozen=True)
+class InteractionGame:
+    """2-player game at a head-on meeting; rows are the first patroller's actions."""
+
+    row_payoffs: np.ndarray = field(
+        default_factory=lambda: np.array([[-10, 2, 2], [0, 0, 0], [-1, -1, -1]], dtype=float)
+    )
+    col_payoffs: np.ndarray = field(
+        default_factory=lambda: np.array([[-10, 0, -1], [2, 0, -1], [2, 0, -1]], dtype=float)
+    )
+
+    def __post_init__(self) -> None:
+        for name in ("row_payoffs", "col_payoffs"):
+            m = np.asarray(getattr(self, name), dtype=float)
+            if m.shape != (3, 3) or not np.all(np.isfinite(m)):
+                raise ValueError(f"{name} must be a finite 3×3 matrix over {GAME_ACTIONS}")
+            object.__setattr__(self, name, m)
+
+    def equilibria(self) -> tuple[Equilibrium, ...]:
+        """All Nash equilibria (extreme points) by nashpy's vertex enumeration, cached."""
+        A = np.ascontiguousarray(self.row_payoffs, dtype=float)
+        B = np.ascontiguousarray(self.col_payoffs, dtype=float)
+        return _nash_equilibria(A.tobytes(), B.tobytes(), A.shape)
+
+    def pure(self, row_action: str, col_action: str) -> Equilibrium:
+        """The pure profile (row_action, col_action), which must be an equilibrium."""
+        for a in (row_action, col_action):
+            if a not in GAME_ACTIONS:
+                raise ValueError(f"unknown game action '{a}' (known: {', '.join(GAME_ACTIONS)})")
+        i, j = GAME_ACTIONS.index(row_action), GAME_ACTIONS.index(col_action)
+        for e in self.equilibria():
+            if e.is_pure and e.row[i] > 0.5 and e.col[j] > 0.5:
+                return e
+        raise ValueError(f"({row_action}, {col_action}) is not a Nash equilibrium of the game")
+
+
+def game_action_to_action(game_action: np.ndarray, own_action: np.ndarray) -> np.ndarray:
+    """go → the robot's own policy action; stop → stop; turn → turn_left (the first half of
+    turning back, which costs the yielding robot its direction)."""
+    return np.choose(np.asarray(game_action), [own_action, STOP, TURN_LEFT])
+
+
+def meeting(domain: PatrolDomain, s_row, s_col, a_row, a_col) -> np.ndarray:
+    """Vectorised meeting rule (SPEC §2): the two robots' intended moves would put them in the same
+    cell (at least one of them entering it) or make them swap cells."""
+    psi = domain.intended
+    cell_r, cell_c = domain.state_cell(s_row), domain.state_cell(s_col)
+    next_r = domain.state_cell(psi[s_row, a_row])
+    next_c = domain.state_cell(psi[s_col, a_col])
+    same = (next_r == next_c) & ((next_r != cell_r) | (next_c != cell_c))
+    swap = (next_r == cell_c) & (next_c == cell_r) & (cell_r != cell_c)
+    return same | swap

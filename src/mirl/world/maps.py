@@ -1,0 +1,192 @@
+"""Grid maps: the plain-text format of the reference maps, shipped maps, and visibility order.
+
+Legend (one character per cell, row 0 at the top): ``.`` hallway (patrollers and L), ``#`` wall,
+``L`` L's start (a room cell, L only), ``G`` L's goal on a hallway cell, ``g`` L's goal in a room
+(L only). Lines starting with ``;`` are comments; trailing blank lines are ignored.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["GridMap", "MapError", "MapFrame", "parse_map", "HEADING_DELTAS", "HEADING_YAWS"]
+
+# heading 0 = east (col+1), 1 = north (row-1), 2 = west, 3 = south
+HEADING_DELTAS = np.array([[0, 1], [-1, 0], [0, -1], [1, 0]])
+# ... and the same headings as yaw in a ROS map frame (x east, y north): 0, π/2, π, −π/2
+HEADING_YAWS = np.array([0.0, np.pi / 2, np.pi, -np.pi / 2])
+
+_LEGEND = set(".#LGg")
+
+
+class MapError(ValueError):
+    """A map file that cannot be used; the message names the file and the problem."""
+
+
+@dataclass(frozen=True)
+class MapFrame:
+    """Where the grid lies in a metric map frame (x east, y north, as in ROS).
+
+    ``origin_x``, ``origin_y``: the map-frame position of the *centre* of cell (0, 0); x grows
+    with the column and y with decreasing row, so heading 0 (east) is yaw 0 and heading 1
+    (north) is yaw π/2.
+    """
+
+    cell_size: float = 1.0  # metres per cell
+    origin_x: float = 0.0
+    origin_y: float = 0.0
+
+    def __post_init__(self) -> None:
+        values = (self.cell_size, self.origin_x, self.origin_y)
+        if not all(np.isfinite(values)):
+            raise MapError(f"map frame must be finite, got {values}")
+        if self.cell_size <= 0:
+            raise MapError(f"cell size must be positive, got {self.cell_size}")
+
+    def cell_centre(self, row, col):
+        """Map-frame (x, y) of the centre of cell (row, col); arrays broadcast."""
+        x = self.origin_x + np.asarray(col, dtype=float) * self.cell_size
+        y = self.origin_y - np.asarray(row, dtype=float) * self.cell_size
+        return x, y
+
+    def cell_coordinates(self, x, y):
+        """Fractional (row, col) of map-frame points: the inverse of :meth:`cell_centre`."""
+        col = (np.asarray(x, dtype=float) - self.origin_x) / self.cell_size
+        row = (self.origin_y - np.asarray(y, dtype=float)) / self.cell_size
+        return row, col
+
+
+@dataclass(frozen=True, eq=False)
+class GridMap:
+    """A grid of cells with L's start, goals, and the nested visibility order of SPEC §2."""
+
+    name: str
+    patroller: np.ndarray  # (rows, cols) bool: cells patrollers (and L) may occupy
+    observer_only: np.ndarray  # (rows, cols) bool: room cells only L may occupy
+    observer_start: tuple[int, int]
+    goals: tuple[tuple[int, int], ...]
+    visibility_order: np.ndarray = field(default=None)  # (n, 2) patroller cells, most exposed first
+    source: str = "<memory>"
+    frame: MapFrame = field(default_factory=MapFrame)  # metric placement (poses, physics)
+
+    def __post_init__(self) -> None:
+        if self.visibility_order is None:
+            order = default_visibility_order(self.patroller, self.observer_start)
+            object.__setattr__(self, "visibility_order", order)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.patroller.shape
+
+    @property
+    def free(self) -> np.ndarray:
+        """Cells L may occupy: hallway plus rooms."""
+        return self.patroller | self.observer_only
+
+    @property
+    def patroller_cells(self) -> np.ndarray:
+        """(n, 2) patroller cells in row-major order."""
+        return np.argwhere(self.patroller)
+
+    @property
+    def n_patroller_cells(self) -> int:
+        return int(self.patroller.sum())
+
+    def visible_mask(self, degree: float) -> np.ndarray:
+        """(rows, cols) bool mask of the first round(degree·n) cells of the visibility order."""
+        if not 0.0 <= degree <= 1.0:
+            raise ValueError(f"observability degree must be in [0, 1], got {degree}")
+        n = int(round(degree * len(self.visibility_order)))
+        mask = np.zeros(self.shape, dtype=bool)
+        cells = self.visibility_order[:n]
+        mask[cells[:, 0], cells[:, 1]] = True
+        return mask
+
+    def to_text(self) -> str:
+        chars = np.full(self.shape, "#")
+        chars[self.patroller] = "."
+        chars[self.observer_only] = "."
+        for r, c in self.goals:
+            chars[r, c] = "G" if self.patroller[r, c] else "g"
+        chars[self.observer_start] = "L"
+        return "\n".join("".join(row) for row in chars)
+
+
+def default_visibility_order(patroller: np.ndarray, start: tuple[int, int]) -> np.ndarray:
+    """Order patroller cells by exposure to L's door.
+
+    First the cells on straight lines of sight from L's start (along rows and columns, nearest
+    first, east/north/west/south), then the rest by breadth-first distance from the cells already
+    seen, ties broken row-major. On boyd2 this gives SPEC §2's order: (0,1)…(0,8), (1,1)…(16,1),
+    then the lower hallway.
+    """
+    rows, cols = patroller.shape
+    order: list[tuple[int, int]] = []
+    seen = np.zeros_like(patroller, dtype=bool)
+    for dr, dc in HEADING_DELTAS:
+        r, c = start[0] + dr, start[1] + dc
+        while 0 <= r < rows and 0 <= c < cols and patroller[r, c]:
+            if not seen[r, c]:
+                order.append((r, c))
+                seen[r, c] = True
+            r, c = r + dr, c + dc
+    frontier = list(order)
+    if not frontier:  # door opens on no hallway line: start from the nearest patroller cells
+        cells = np.argwhere(patroller)
+        if len(cells) == 0:
+            return np.zeros((0, 2), dtype=int)
+        d = np.abs(cells - np.asarray(start)).sum(axis=1)
+        frontier = [tuple(map(int, cells[np.argmin(d)]))]
+        order.extend(frontier)
+        seen[frontier[0]] = True
+    while frontier:
+        nxt: list[tuple[int, int]] = []
+        for r, c in frontier:
+            for dr, dc in HEADING_DELTAS:
+                rr, cc = r + dr, c + dc
+                if 0 <= rr < rows and 0 <= cc < cols and patroller[rr, cc] and not seen[rr, cc]:
+                    seen[rr, cc] = True
+                    nxt.append((rr, cc))
+        nxt.sort()
+        order.extend(nxt)
+        frontier = nxt
+    # cells unreachable from the door come last, row-major, so every cell has a rank
+    rest = [tuple(map(int, rc)) for rc in np.argwhere(patroller & ~seen)]
+    order.extend(rest)
+    return np.asarray(order, dtype=int).reshape(-1, 2)
+
+
+def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> GridMap:
+    """Parse the plain-text map format; raise :class:`MapError` naming ``source`` on problems."""
+    lines = [ln.rstrip("\r\n") for ln in text.splitlines() if not ln.startswith(";")]
+    while lines and not lines[-1].strip():
+        lines.pop()
+    if not lines:
+        raise MapError(f"{source}: map is empty")
+    width = len(lines[0])
+    for i, ln in enumerate(lines, 1):
+        if len(ln) != width:
+            raise MapError(f"{source}: line {i} has {len(ln)} cells, expected {width}")
+        bad = set(ln) - _LEGEND
+        if bad:
+            raise MapError(f"{source}: line {i} has unknown character {sorted(bad)[0]!r}")
+    chars = np.array([list(ln) for ln in lines])
+    starts = np.argwhere(chars == "L")
+    if len(starts) != 1:
+        raise MapError(f"{source}: expected exactly one 'L' (observer start), found {len(starts)}")
+    goals = [tuple(map(int, rc)) for rc in np.argwhere((chars == "G") | (chars == "g"))]
+    if not goals:
+        raise MapError(f"{source}: no goal cell ('G' or 'g')")
+    patroller = (chars == ".") | (chars == "G")
+    if patroller.sum() < 2:
+        raise MapError(f"{source}: fewer than 2 hallway cells")
+    return GridMap(
+        name=name,
+        patroller=patroller,
+        observer_only=(chars == "L") | (chars == "g"),
+        observer_start=tuple(map(int, starts[0])),
+        goals=tuple(goals),
+        source=source,
+    )

@@ -1,0 +1,285 @@
+"""ROS ``map_server`` maps (YAML + PGM/PNG image) discretised into a
+:class:`~mirl.world.maps.GridMap`.
+
+The YAML keys are those of ROS ``map_server`` / nav2 ``map_io``: ``image`` (relative to the YAML
+file), ``resolution`` (metres per pixel), ``origin`` ([x, y, yaw]), ``negate``,
+``occupied_thresh``, ``free_thresh`` and optional ``mode`` (``trinary`` default, ``scale``,
+``raw``). Pixel interpretation follows map_server:
+
+- ``trinary``/``scale``: the pixel value ``x`` is the mean of the colour channels (0–255); the
+  occupancy probability is ``p = (255 - x) / 255`` (``p = x / 255`` when ``negate``); a pixel is
+  *free* when ``p < free_thresh``. In ``scale`` mode a pixel that is not fully opaque is unknown.
+- ``raw``: the pixel value is the occupancy in percent (0–100, anything else unknown); a pixel is
+  free when ``x / 100 < free_thresh``.
+
+Unknown and occupied pixels are both "not free". The image is cut into square cells of
+``cell_size`` metres starting at its top-left corner (row 0 of the grid is the top of the image,
+i.e. the largest map *y*); a pixel belongs to the cell containing its centre. A cell is hallway
+only if it is complete (lies wholly inside the image) and *all* its pixels are free — so a cell
+never straddles a wall, at the cost of thin passages narrower than a cell vanishing.
+
+L is not in a ROS map, so its start and goals (in cell coordinates ``[row, col]``) come from the
+extra YAML keys ``mirl_observer_start: [row, col]`` and ``mirl_goals: [[row, col], ...]``, or from
+the keyword arguments of :func:`load_ros_map`, which win. The start cell becomes L's room
+(observer-only); goals stay hallway cells (``G``).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mirl.world.maps import GridMap, MapError
+
+__all__ = ["load_ros_map", "occupancy_free_mask", "discretise_free_mask"]
+
+_MODES = ("trinary", "scale", "raw")
+_EPS = 1e-9
+
+
+def _one_line(exc: BaseException) -> str:
+    return re.sub(r"\s+", " ", f"{exc.__class__.__name__}: {exc}").strip()
+
+
+def occupancy_free_mask(
+    pixels: np.ndarray,
+    *,
+    negate: bool = False,
+    free_thresh: float = 0.196,
+    mode: str = "trinary",
+    alpha: np.ndarray | None = None,
+) -> np.ndarray:
+    """(H, W) bool mask of free pixels from map_server pixel values (see module docstring).
+
+    ``pixels`` are grey values 0–255 (colour images already averaged over channels); ``alpha``
+    is the optional alpha channel, used only in ``scale`` mode.
+    """
+    x = np.asarray(pixels, dtype=float)
+    if mode == "raw":
+        return (x >= 0) & (x <= 100) & (x / 100.0 < free_thresh)
+    p = x / 255.0 if negate else (255.0 - x) / 255.0
+    free = p < free_thresh
+    if mode == "scale" and alpha is not None:
+        free &= np.asarray(alpha) >= 255
+    return free
+
+
+def discretise_free_mask(free_px: np.ndarray, resolution: float, cell_size: float) -> np.ndarray:
+    """(rows, cols) bool: cells of ``cell_size`` metres all of whose pixels are free.
+
+    The pixel with centre at ``(i + 0.5) * resolution`` metres from the top belongs to cell row
+    ``floor((i + 0.5) * resolution / cell_size)`` (same for columns). Partial cells at the bottom
+    and right edges (not wholly inside the image) are walls.
+    """
+    h, w = free_px.shape
+    rows = max(1, math.ceil(h * resolution / cell_size - _EPS))
+    cols = max(1, math.ceil(w * resolution / cell_size - _EPS))
+    full_rows = math.floor(h * resolution / cell_size + _EPS)
+    full_cols = math.floor(w * resolution / cell_size + _EPS)
+    ri = np.floor((np.arange(h) + 0.5) * resolution / cell_size + _EPS).astype(int)
+    ci = np.floor((np.arange(w) + 0.5) * resolution / cell_size + _EPS).astype(int)
+    ri = np.minimum(ri, rows - 1)
+    ci = np.minimum(ci, cols - 1)
+    blocked = np.zeros((rows, cols), dtype=int)
+    count = np.zeros((rows, cols), dtype=int)
+    rr, cc = np.meshgrid(ri, ci, indexing="ij")
+    np.add.at(blocked, (rr, cc), ~free_px)
+    np.add.at(count, (rr, cc), 1)
+    cells = (count > 0) & (blocked == 0)
+    cells[full_rows:, :] = False
+    cells[:, full_cols:] = False
+    return cells
+
+
+def _read_yaml(path: Path) -> dict[str, Any]:
+    import yaml
+
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise MapError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MapError(f"{path}: cannot read map YAML ({_one_line(exc)})") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise MapError(f"{path}: invalid YAML ({_one_line(exc)})") from None
+    if not isinstance(data, dict):
+        raise MapError(f"{path}: expected a YAML mapping with map_server keys (image, resolution…)")
+    return data
+
+
+def _number(path: Path, data: dict[str, Any], key: str, default: float | None = None) -> float:
+    if key not in data:
+        if default is None:
+            raise MapError(f"{path}: missing key '{key}'")
+        return default
+    value = data[key]
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise MapError(f"{path}: '{key}' must be a number, got {value!r}")
+    return float(value)
+
+
+def _is_cell(value: Any) -> bool:
+    return (
+        isinstance(value, list | tuple)
+        and len(value) == 2
+        and all(isinstance(v, int | np.integer) and not isinstance(v, bool) for v in value)
+    )
+
+
+def _cell(path: Path, what: str, value: Any) -> tuple[int, int]:
+    if not _is_cell(value):
+        raise MapError(f"{path}: {what} must be a cell [row, col] of integers, got {value!r}")
+    return int(value[0]), int(value[1])
+
+
+def _cells(path: Path, what: str, value: Any) -> list[tuple[int, int]]:
+    if _is_cell(value):
+        return [_cell(path, what, value)]  # a single [row, col]
+    if not isinstance(value, list | tuple) or not value:
+        raise MapError(f"{path}: {what} must be a non-empty list of cells [[row, col], ...]")
+    return [_cell(path, what, v) for v in value]
+
+
+def _read_image(path: Path, image_path: Path) -> tuple[np.ndarray, np.ndarray | None]:
+    """Grey values 0..255 (mean of the colour channels) and the alpha channel, if any."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(image_path) as img:
+            img.load()
+            if img.mode.startswith("I"):
+                # 16-bit greyscale (PGM with maxval > 255): Pillow scales it to 0..65535
+                return np.asarray(img, dtype=float) / 257.0, None
+            if img.mode in ("1", "L", "F"):
+                return np.asarray(img.convert("L") if img.mode == "1" else img, dtype=float), None
+            if img.mode == "LA":
+                la = np.asarray(img, dtype=float)
+                return la[..., 0], la[..., 1]
+            has_alpha = "A" in img.mode or "transparency" in img.info
+            rgba = np.asarray(img.convert("RGBA"), dtype=float)
+    except FileNotFoundError:
+        raise MapError(f"{path}: image file {image_path} not found") from None
+    except UnidentifiedImageError:
+        raise MapError(f"{path}: cannot read image {image_path} (not a PGM/PNG image)") from None
+    except (OSError, ValueError, SyntaxError) as exc:
+        raise MapError(f"{path}: cannot read image {image_path} ({_one_line(exc)})") from None
+    return rgba[..., :3].mean(axis=2), (rgba[..., 3] if has_alpha else None)
+
+
+def load_ros_map(
+    yaml_path: str | Path,
+    *,
+    cell_size: float | None = None,
+    observer_start: tuple[int, int] | None = None,
+    goals: list[tuple[int, int]] | tuple[tuple[int, int], ...] | None = None,
+) -> GridMap:
+    """Load a ROS ``map_server`` map and discretise it into cells of ``cell_size`` metres.
+
+    ``cell_size`` defaults to the map resolution (one pixel per cell) and may not be smaller
+    than it. ``observer_start`` ``(row, col)`` and ``goals`` ``[(row, col), ...]`` are cell
+    coordinates and override the YAML keys ``mirl_observer_start`` / ``mirl_goals``. Every
+    problem raises a one-line :class:`MapError` starting with the YAML path.
+    """
+    path = Path(yaml_path)
+    data = _read_yaml(path)
+
+    if "image" not in data:
+        raise MapError(f"{path}: missing key 'image'")
+    if not isinstance(data["image"], str) or not data["image"]:
+        raise MapError(f"{path}: 'image' must be a file name, got {data['image']!r}")
+    resolution = _number(path, data, "resolution")
+    if resolution <= 0:
+        raise MapError(f"{path}: 'resolution' must be positive, got {resolution}")
+    origin = data.get("origin")
+    if origin is None:
+        raise MapError(f"{path}: missing key 'origin'")
+    if not isinstance(origin, list | tuple) or len(origin) != 3:
+        raise MapError(f"{path}: 'origin' must be [x, y, yaw], got {origin!r}")
+    negate_raw = data.get("negate", 0)
+    if negate_raw not in (0, 1, True, False):
+        raise MapError(f"{path}: 'negate' must be 0 or 1, got {negate_raw!r}")
+    negate = bool(negate_raw)
+    occupied_thresh = _number(path, data, "occupied_thresh", 0.65)
+    free_thresh = _number(path, data, "free_thresh", 0.196)
+    if not 0.0 <= free_thresh <= occupied_thresh <= 1.0:
+        raise MapError(
+            f"{path}: need 0 <= free_thresh <= occupied_thresh <= 1, "
+            f"got free_thresh={free_thresh}, occupied_thresh={occupied_thresh}"
+        )
+    mode = str(data.get("mode", "trinary")).lower()
+    if mode not in _MODES:
+        raise MapError(f"{path}: unknown mode {data.get('mode')!r} (expected one of {_MODES})")
+
+    if cell_size is None:
+        cell_size = resolution
+    if not (isinstance(cell_size, int | float) and math.isfinite(cell_size) and cell_size > 0):
+        raise MapError(f"{path}: cell_size must be a positive number of metres, got {cell_size!r}")
+    if cell_size < resolution * (1 - _EPS):
+        raise MapError(
+            f"{path}: cell_size {cell_size} m is smaller than the map resolution {resolution} m"
+        )
+
+    image_path = Path(data["image"])
+    if not image_path.is_absolute():
+        image_path = path.parent / image_path
+    grey, alpha = _read_image(path, image_path)
+    free_px = occupancy_free_mask(
+        grey, negate=negate, free_thresh=free_thresh, mode=mode, alpha=alpha
+    )
+    free = discretise_free_mask(free_px, resolution, float(cell_size))
+    rows, cols = free.shape
+
+    hint = (
+        "add 'mirl_observer_start: [row, col]' and 'mirl_goals: [[row, col], ...]' "
+        f"(cell coordinates, {rows}x{cols} cells of {cell_size} m) to the YAML, "
+        "or pass observer_start= and goals="
+    )
+    if observer_start is not None:
+        start = _cell(path, "observer_start", list(observer_start))
+    elif "mirl_observer_start" in data:
+        start = _cell(path, "mirl_observer_start", data["mirl_observer_start"])
+    else:
+        raise MapError(f"{path}: no observer start for L; {hint}")
+    if goals is not None:
+        goal_list = _cells(path, "goals", [list(g) for g in goals])
+    elif "mirl_goals" in data:
+        goal_list = _cells(path, "mirl_goals", data["mirl_goals"])
+    else:
+        raise MapError(f"{path}: no goal for L; {hint}")
+
+    def check(what: str, rc: tuple[int, int]) -> None:
+        r, c = rc
+        if not (0 <= r < rows and 0 <= c < cols):
+            raise MapError(f"{path}: {what} {list(rc)} is outside the {rows}x{cols} cell grid")
+        if not free[r, c]:
+            raise MapError(
+                f"{path}: {what} {list(rc)} is not a free cell at cell_size {cell_size} m"
+            )
+
+    check("observer start", start)
+    for g in goal_list:
+        check("goal", g)
+        if g == start:
+            raise MapError(f"{path}: goal {list(g)} is the observer start cell")
+    goal_list = list(dict.fromkeys(goal_list))
+
+    patroller = free.copy()
+    patroller[start] = False
+    if patroller.sum() < 2:
+        raise MapError(f"{path}: fewer than 2 free cells at cell_size {cell_size} m")
+    observer_only = np.zeros_like(free)
+    observer_only[start] = True
+    return GridMap(
+        name=path.stem,
+        patroller=patroller,
+        observer_only=observer_only,
+        observer_start=start,
+        goals=tuple(goal_list),
+        source=str(path),
+    )
