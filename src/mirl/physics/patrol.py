@@ -4,11 +4,12 @@ Every decision step (``step_seconds``, default 2 s) each patroller discretises i
 pose (true pose + a temporally correlated, AMCL-like error), takes its true grid policy's action
 there (``scenario.true_policy``), with the scenario's played equilibrium where two patrollers'
 intended moves meet (:func:`mirl.world.game.meeting`), and the
-:class:`~mirl.physics.control.Controller` drives towards the intended cell and heading. A step that does not get there in time is simply
-where the robot is at the next decision. L's camera records the patrollers it sees once per
-decision step (true pose + measurement noise): that pose track is all the learner gets. While L
-is out of its room the patrollers' cameras look for it at every control tick (10 Hz). Contacts
-between robots (and with walls) are counted as events (a pair touching after not touching).
+:class:`~mirl.physics.control.Controller` drives towards the intended cell and heading. A step
+that does not get there in time is simply where the robot is at the next decision. L's camera
+records the patrollers it sees once per decision step (true pose + measurement noise): that
+pose track is all the learner gets. While L is out of its room the patrollers' cameras look for
+it at every control tick (10 Hz). Contacts between robots (and with walls) are counted as
+events (a pair touching after not touching).
 
 Every random number comes from ``seed`` through independent streams (localisation, camera
 measurement, game draws, start draws), so a run is a function of its arguments.
