@@ -115,10 +115,12 @@ def run_episode(
     negative_evidence: bool = True,
     learn_options: dict[str, Any] | None = None,
     learned: LearnResult | None = None,
+    world_kind: str = "grid",
 ) -> RunResult:
     """Run one penetration (module doc). ``learned`` overrides learning (for tests and
     experiments with hand-made models). ``travel_steps`` is the part of the planning horizon
-    after the last go time (default: 3 × L's shortest path, at least 20)."""
+    after the last go time (default: 3 × L's shortest path, at least 20). ``world_kind``
+    ``"physics"`` runs the same protocol in MuJoCo (:mod:`mirl.experiments.physical`)."""
     if method not in METHODS:
         raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
     if obs_steps < 1:
@@ -131,7 +133,18 @@ def run_episode(
     t_start, cpu_start = time.perf_counter(), time.process_time()
 
     clock = time.perf_counter()
-    world = RunWorld(scenario, degree, int(sim_seed.generate_state(1)[0]))
+    model = observer_model(scenario)
+    if world_kind == "physics":
+        from mirl.experiments.physical import PhysicalRunWorld, execute_physical
+
+        start_heading = int(model.domain.states[model.start_state][2])
+        world = PhysicalRunWorld(  # type: ignore[assignment]
+            scenario, degree, int(sim_seed.generate_state(1)[0]), observer_heading=start_heading
+        )
+    elif world_kind == "grid":
+        world = RunWorld(scenario, degree, int(sim_seed.generate_state(1)[0]))
+    else:
+        raise ValueError(f"unknown world '{world_kind}' (known: grid, physics)")
     for _ in range(obs_steps - 1):
         world.step()
     t_obs = world.t  # last step of the observation phase
@@ -150,7 +163,6 @@ def run_episode(
         learned = learn(observations, scenario, **kwargs)
     timings["learn"] += time.perf_counter() - clock
 
-    model = observer_model(scenario)
     path_len = int(model.distance_to_goal[model.start_state])
     planning = _Planning(
         window=window,
@@ -177,8 +189,9 @@ def run_episode(
             world.step()
         timings["observe"] += time.perf_counter() - clock
         clock = time.perf_counter()
-        outcome, path, detections, plan = execute(
-            world,
+        run = execute_physical if world_kind == "physics" else execute
+        outcome, path, detections, plan = run(
+            world,  # type: ignore[arg-type]
             model,
             going.policy,
             going.plan,
@@ -301,4 +314,5 @@ def _run_result(
         learned=learned,
         plan=plan,
         seen_steps={n: int((seen_arr[:, i] >= 0).sum()) for i, n in enumerate(names)},
+        physical=getattr(world, "physics", None),
     )

@@ -76,6 +76,7 @@ class RunResult:
     learned: LearnResult | None = None
     plan: ObserverPlan | None = None  # the executed (or last) plan
     seen_steps: dict[str, int] = field(default_factory=dict)  # observation-phase sightings
+    physical: Any = None  # the mirl.physics PhysicalWorld of a --world physics run (poses, cones)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -106,4 +107,7 @@ class RunResult:
             ],
             "observer_path": self.observer_path.tolist(),
             "end_time": self.end_time,
-        }
+            **({"world": "physics", "contacts": self.physical.contacts,
+                "wall_contacts": self.physical.wall_contacts}
+               if self.physical is not None else {}),
+        }  # fmt: skip

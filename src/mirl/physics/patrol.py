@@ -120,6 +120,7 @@ class PhysicalWorld:
         observer: bool = True,
         policies: np.ndarray | None = None,
         record_ticks: bool = True,
+        observer_heading: int | None = None,
     ) -> None:
         self.scenario = scenario
         self.cfg = cfg = config or scenario_physics(scenario)
@@ -167,6 +168,8 @@ class PhysicalWorld:
                 scenario, cfg, self.frame, self.degree
             )
             oyaw = self._cam[2] if self._cam else 0.0
+            if observer_heading is not None:
+                oyaw = float(YAW[observer_heading])
             poses.append((float(x), float(y), float(oyaw)))
         else:
             self._cam, self._cone, self._overhead = None, None, np.zeros(gm.shape, bool)
@@ -182,6 +185,7 @@ class PhysicalWorld:
         self._qadr = np.array(
             [self.model.jnt_qposadr[self.model.joint(f"{nm}_root").id] for nm in names]
         )
+        self._pose_idx = self._qadr[:, None] + np.array([0, 1, 3, 4, 5, 6])
         self._dadr = np.array(
             [self.model.jnt_dofadr[self.model.joint(f"{nm}_root").id] for nm in names]
         )
@@ -263,11 +267,11 @@ class PhysicalWorld:
 
     def poses(self) -> np.ndarray:
         """(m, 3) true x, y, yaw of every robot (patrollers first, L last)."""
-        q = self.data.qpos
-        a = self._qadr
-        w, x, y, z = q[a + 3], q[a + 4], q[a + 5], q[a + 6]
-        yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-        return np.column_stack([q[a], q[a + 1], yaw])
+        q = self.data.qpos[self._pose_idx]  # (m, 6): x, y, qw, qx, qy, qz
+        w, x, y, z = q[:, 2], q[:, 3], q[:, 4], q[:, 5]
+        out = q[:, :3].copy()
+        out[:, 2] = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        return out
 
     def estimated_poses(self) -> np.ndarray:
         p = self.poses()
@@ -407,22 +411,21 @@ class PhysicalWorld:
         dt = 1.0 / cfg.control_hz
         a = self._noise_a
         b = np.sqrt(1 - a * a) * self._noise_sd
+        p = self.poses()
         for _ in range(k):
-            p = self.poses()
             self._noise = a * self._noise + b * self._loc_rng.normal(size=(self.m, 3))
-            est = p.copy()
-            est[:, :2] += self._noise[:, :2]
-            est[:, 2] += self._noise[:, 2]
+            est = p + self._noise
             d.ctrl[:] = self.ctrl.wheel_speeds(
                 est[:, 0], est[:, 1], est[:, 2], self._crowded(p)
             ).ravel()
             mujoco.mj_step(m, d, nstep=cfg.substeps)
+            p = self.poses()
             self._contacts()
             if self.record_ticks:
                 self._tick_t.append(d.time)
-                self._tick_pose.append(self.poses())
+                self._tick_pose.append(p)
             if self.has_observer and self.observer_moved:
-                self._detect(dt)
+                self._detect(dt, p)
 
     def _crowded(self, p: np.ndarray) -> np.ndarray:
         """Robots that must go slowly: another robot coming the other way within
@@ -445,6 +448,8 @@ class PhysicalWorld:
             return
         g = d.contact.geom[: d.ncon]
         ra, rb = self._geom_robot[g[:, 0]], self._geom_robot[g[:, 1]]
+        if not self._touching and (ra < 0).all() and (rb < 0).all():
+            return  # the usual case: wheels and casters on the floor only
         now = set()
         both = (ra >= 0) & (rb >= 0)
         for i, j in zip(ra[both], rb[both], strict=True):
@@ -460,8 +465,8 @@ class PhysicalWorld:
                 self.wall_contacts += 1
         self._touching = now
 
-    def _detect(self, dt: float) -> None:
-        p = self.poses()
+    def _detect(self, dt: float, p: np.ndarray | None = None) -> None:
+        p = self.poses() if p is None else p
         L = p[self.n]
         r, c = self.frame.cell_of(L[0], L[1])
         rows, cols = self.map.shape
