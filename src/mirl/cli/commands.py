@@ -82,6 +82,70 @@ def _simulate(args: argparse.Namespace) -> int:
     if args.truth:
         result.truth.to_csv(args.truth)
         print(f"wrote {args.truth} ({len(result.truth)} rows)")
+    if args.poses:
+        _write_poses(args, scenario, result.observations)
+    return 0
+
+
+def _write_poses(args: argparse.Namespace, scenario, observations) -> None:
+    from pathlib import Path
+
+    from mirl.observations.bags import is_bag, write_mcap
+    from mirl.observations.discretise import poses_from_trajectories
+    from mirl.observations.poses import write_pose_csv
+
+    sigma_m, sigma_deg = args.pose_noise or (0.0, 0.0)
+    tracks = poses_from_trajectories(
+        observations,
+        scenario,
+        step_seconds=args.step_seconds,
+        rate_hz=args.pose_rate,
+        sigma_xy=sigma_m,
+        sigma_yaw_degrees=sigma_deg,
+        seed=args.seed,
+    )
+    out = Path(args.poses)
+    if out.suffix == ".csv":
+        write_pose_csv(tracks, out)
+        what = "pose CSV"
+    elif out.suffix == ".mcap" or not out.suffix or is_bag(out):
+        write_mcap(tracks, out)
+        what = "MCAP, topics /ROBOT/pose"
+    else:
+        raise UsageError(f"--poses {out}: expected a .csv or .mcap file or a bag directory")
+    print(
+        f"wrote {out} ({len(tracks)} poses, {what}, {args.pose_rate:g} Hz, steps of "
+        f"{args.step_seconds:g} s from t = 0; noise {sigma_m:g} m / {sigma_deg:g} deg)"
+    )
+
+
+def _read_observations(args: argparse.Namespace, scenario, observability=None):
+    from mirl.observations.sources import load_observations, parse_topic
+
+    return load_observations(
+        args.observations,
+        scenario,
+        topics=[parse_topic(t) for t in args.topic or []],
+        step_seconds=args.step_seconds,
+        start_time=args.start_time,
+        tolerance=args.tolerance,
+        drop_off_map=args.drop_off_map,
+        visible=args.visible,
+        observability=observability,
+    )
+
+
+@command("convert")
+def _convert(args: argparse.Namespace) -> int:
+    scenario = _load_scenario(args)
+    args.observations = args.input
+    loaded = _read_observations(args, scenario)
+    loaded.trajectories.to_csv(args.output)
+    if loaded.discretised is not None:
+        print(f"{args.input}: " + loaded.discretised.summary())
+    else:
+        print(f"{args.input}: grid observations, {loaded.trajectories.horizon} steps")
+    print(f"wrote {args.output} ({len(loaded.trajectories)} rows)")
     return 0
 
 
@@ -93,11 +157,10 @@ def _learn_transitions(args: argparse.Namespace) -> int:
         perception_labels,
         policy_labels,
     )
-    from mirl.observations.trajectories import read_csv
 
     scenario = _load_scenario(args)
     domain = scenario.domain
-    obs = read_csv(args.observations, domain, scenario.robot_names)
+    obs = _read_observations(args, scenario).trajectories
     series = [obs.state_series(domain, i) for i in range(len(scenario.robots))]
     if args.labels == "true-policy":
         # Known R/T setting: the scenario's true policies and played equilibrium label the steps
@@ -185,16 +248,17 @@ def _run(args: argparse.Namespace) -> int:
 @command("learn")
 def _learn(args: argparse.Namespace) -> int:
     from mirl.learning.learn import learn
-    from mirl.observations.trajectories import read_csv
 
     scenario = _load_scenario(args)
-    obs = read_csv(args.observations, scenario.domain, scenario.robot_names)
     degree = scenario.observability if args.observability is None else args.observability
+    loaded = _read_observations(args, scenario, observability=degree)
+    obs = loaded.trajectories
     result = learn(
         obs,
         scenario,
         args.method,
         p=args.p,
+        visible=loaded.visible_states(scenario),
         observability=degree,
         max_iterations=args.max_iterations,
         objective=args.objective,
@@ -236,6 +300,8 @@ def _learn(args: argparse.Namespace) -> int:
     if args.json:
         print_json(out)
     else:
+        if loaded.discretised is not None:
+            print(f"{args.observations}: " + loaded.discretised.summary())
         _print_learn(out, result, scenario.name)
     return 0
 

@@ -21,7 +21,7 @@ def _learn_parser(sub) -> None:
         "probabilities, and the interaction equilibrium, from L's observations.",
     )
     _scenario_args(le)
-    le.add_argument("--observations", required=True, metavar="FILE.csv")
+    _observation_args(le)
     le.add_argument("--method", choices=[m for m in METHODS if m != "oracle"], default="mirl-t")
     le.add_argument("--p", type=_degree, default=0.9, help="fixed success p of mirl / known-r")
     le.add_argument(
@@ -106,11 +106,32 @@ def build_parser() -> argparse.ArgumentParser:
     )
     si.add_argument("--observations", metavar="FILE.csv", help="write L's observations")
     si.add_argument("--truth", metavar="FILE.csv", help="write the true trajectories")
+    si.add_argument(
+        "--poses",
+        metavar="OUT",
+        help="also write L's observations as continuous poses: a pose CSV (.csv), or an MCAP "
+        "file (.mcap) / ROS 2 bag directory with a PoseStamped topic /ROBOT/pose per robot",
+    )
+    si.add_argument("--pose-rate", type=_positive_float, default=10.0, metavar="HZ")
+    si.add_argument(
+        "--pose-noise",
+        type=_non_negative_float,
+        nargs=2,
+        metavar=("SIGMA_M", "SIGMA_DEG"),
+        help="Gaussian noise on the poses: metres per axis and degrees of yaw",
+    )
+    si.add_argument(
+        "--step-seconds",
+        type=_positive_float,
+        default=2.0,
+        metavar="S",
+        help="seconds per time step of the written poses (default 2)",
+    )
     lt = sub.add_parser(
         "learn-transitions", help="learn transition-feature probabilities (mIRL*/T) from a CSV"
     )
     _scenario_args(lt)
-    lt.add_argument("--observations", required=True, metavar="FILE.csv")
+    _observation_args(lt)
     lt.add_argument(
         "--labels",
         choices=("true-policy", "perception"),
@@ -118,6 +139,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="label observed steps with the true policy (Known R/T) or by perception",
     )
     lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
+    cv = sub.add_parser(
+        "convert",
+        help="pose data (bag, MCAP, pose CSV) -> grid observations CSV, with per-robot counts",
+        description="Discretise robot poses onto the scenario's map and steps and write them as "
+        "t,robot,row,col,heading; prints per robot how many poses were read, binned, snapped "
+        "and dropped, and how many steps are observed.",
+    )
+    cv.add_argument("input", metavar="IN", help="a .bag, ROS 2 bag directory, .mcap or CSV")
+    cv.add_argument("output", metavar="OUT.csv")
+    _scenario_args(cv)
+    _observation_args(cv, with_file=False)
     _experiment_parsers(sub)
     _run_parser(sub)
     _learn_parser(sub)
@@ -159,6 +191,74 @@ def _scenario_args(sp: argparse.ArgumentParser, default: str | None = None) -> N
         metavar="ROBOT:FEATURE=P",
         help="override a true feature probability, e.g. J:left_wheel=0.7",
     )
+
+
+def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> None:
+    if with_file:
+        sp.add_argument(
+            "--observations",
+            required=True,
+            metavar="FILE",
+            help="grid CSV (t,robot,row,col,heading), pose CSV (t,robot,x,y,yaw), ROS 1 .bag, "
+            "ROS 2 bag directory or .mcap",
+        )
+    g = sp.add_argument_group("pose data (bags, MCAP, pose CSV)")
+    g.add_argument(
+        "--topic",
+        action="append",
+        metavar="TOPIC=ROBOT",
+        help="a pose topic and the scenario robot it is (repeatable), e.g. /tb_i/amcl_pose=I; "
+        "for a pose CSV, renames a robot of the file",
+    )
+    g.add_argument(
+        "--step-seconds", type=_positive_float, default=None, metavar="S", help="default 2"
+    )
+    g.add_argument(
+        "--start-time",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="time of step 0 (default: the earliest pose read)",
+    )
+    g.add_argument(
+        "--tolerance",
+        type=_non_negative_float,
+        default=None,
+        metavar="SECONDS",
+        help="a step takes the nearest pose within this (default: half a step)",
+    )
+    g.add_argument(
+        "--drop-off-map",
+        action="store_true",
+        help="drop (and count) poses more than half a cell from the hallway instead of failing",
+    )
+    g.add_argument(
+        "--visible",
+        choices=("observed",),
+        default=None,
+        help="cells L could see: default the observability degree's; 'observed': every cell "
+        "a robot was observed on",
+    )
+
+
+def _positive_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not (v > 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return v
+
+
+def _non_negative_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if not (v >= 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a non-negative number, got {text}")
+    return v
 
 
 def _positive_int(text: str) -> int:

@@ -33,9 +33,9 @@ from typing import Any
 
 import numpy as np
 
-from mirl.world.maps import GridMap, MapError
+from mirl.world.maps import GridMap, MapError, MapFrame
 
-__all__ = ["load_ros_map", "occupancy_free_mask", "discretise_free_mask"]
+__all__ = ["load_ros_map", "occupancy_free_mask", "discretise_free_mask", "ros_map_frame"]
 
 _MODES = ("trinary", "scale", "raw")
 _EPS = 1e-9
@@ -199,8 +199,15 @@ def load_ros_map(
     origin = data.get("origin")
     if origin is None:
         raise MapError(f"{path}: missing key 'origin'")
-    if not isinstance(origin, list | tuple) or len(origin) != 3:
-        raise MapError(f"{path}: 'origin' must be [x, y, yaw], got {origin!r}")
+    if (
+        not isinstance(origin, list | tuple)
+        or len(origin) != 3
+        or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            for v in origin
+        )
+    ):
+        raise MapError(f"{path}: 'origin' must be [x, y, yaw] numbers, got {origin!r}")
     negate_raw = data.get("negate", 0)
     if negate_raw not in (0, 1, True, False):
         raise MapError(f"{path}: 'negate' must be 0 or 1, got {negate_raw!r}")
@@ -282,4 +289,21 @@ def load_ros_map(
         observer_start=start,
         goals=tuple(goal_list),
         source=str(path),
+        frame=ros_map_frame(origin, resolution, grey.shape[0], float(cell_size)),
+    )
+
+
+def ros_map_frame(origin, resolution: float, height_px: int, cell_size: float) -> MapFrame:
+    """The map frame of a grid cut from a ``map_server`` image.
+
+    ``origin`` is the map-frame pose of the image's lower-left corner; grid row 0 is the top of
+    the image, so the centre of cell (0, 0) is ``cell_size / 2`` right of the left edge and
+    ``cell_size / 2`` below the top edge (``origin_y + height · resolution``). The origin's yaw
+    is ignored, as map_server's own consumers (costmaps, AMCL) ignore it.
+    """
+    top = float(origin[1]) + height_px * resolution
+    return MapFrame(
+        cell_size=cell_size,
+        origin_x=float(origin[0]) + cell_size / 2.0,
+        origin_y=top - cell_size / 2.0,
     )

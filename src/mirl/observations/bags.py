@@ -1,0 +1,333 @@
+"""Pose tracks from ROS bags through ``rosbags`` (pure Python, no ROS install).
+
+Reads ROS 1 ``.bag`` files, ROS 2 bag directories (sqlite3 or MCAP storage) and bare ``.mcap``
+files. Supported messages: ``geometry_msgs/msg/PoseStamped``,
+``geometry_msgs/msg/PoseWithCovarianceStamped`` (AMCL) and ``nav_msgs/msg/Odometry``. Time is
+``header.stamp``; x, y and yaw come from the pose (the map frame is assumed: the topics the user
+names must be in the map frame, as AMCL output is).
+
+Decoding: ``rosbags`` hands over each message's raw bytes; instead of building one Python
+object per message (``typestore.deserialize_cdr``/``deserialize_ros1``, ~10 µs each), the
+messages of a topic are stacked into a byte matrix per message length and the stamp and pose
+fields are read at their offsets with numpy (the offsets depend only on the lengths of the
+``frame_id``/``child_frame_id`` strings, read vectorised too). The first and last message of
+every topic are also deserialised by ``rosbags`` and compared, and anything the fast path does
+not know (big-endian or XCDR2 CDR) goes through ``rosbags`` message by message
+(``decode="rosbags"`` forces that path; the benchmark measures both).
+
+Every problem — a file that is not a bag, a truncated bag, a missing topic, a topic of an
+unsupported type, a NaN pose, a header stamp going backwards within a topic, a topic mapped to
+a robot the scenario does not have — is a one-line :class:`BagError` naming the file and topic.
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from mirl.observations.poses import PoseError, PoseTracks, yaw_from_quaternion
+
+__all__ = ["BagError", "read_bag", "write_mcap", "bag_topics", "SUPPORTED_TYPES", "is_bag"]
+
+# message type -> number of strings between the header and the pose (Odometry: child_frame_id)
+SUPPORTED_TYPES = {
+    "geometry_msgs/msg/PoseStamped": 0,
+    "geometry_msgs/msg/PoseWithCovarianceStamped": 0,
+    "nav_msgs/msg/Odometry": 1,
+}
+_POSE_BYTES = 56  # position x, y, z and orientation x, y, z, w: 7 float64
+
+
+class BagError(PoseError):
+    """A bag that cannot be used; the one-line message names the file and topic."""
+
+
+def is_bag(path: str | Path) -> bool:
+    """Whether ``path`` looks like a bag: ``.bag``, ``.mcap``, ``.db3`` or a ROS 2 bag dir."""
+    path = Path(path)
+    return path.suffix in (".bag", ".mcap", ".db3") or (path / "metadata.yaml").exists()
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or exc.__class__.__name__
+    return text if len(text) < 200 else text[:197] + "..."
+
+
+def _typestore(ros2: bool):
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS2_HUMBLE if ros2 else Stores.ROS1_NOETIC)
+
+
+def _reader(path: Path):
+    from rosbags.highlevel import AnyReader
+
+    if not path.exists():
+        raise BagError(f"{path}: no such file or directory")
+    ros2 = path.suffix != ".bag"
+    try:
+        return AnyReader([path], default_typestore=_typestore(ros2)), ros2
+    except Exception as exc:  # rosbags raises many kinds on a file that is not a bag
+        raise BagError(f"{path}: cannot read bag ({_one_line(exc)})") from None
+
+
+def bag_topics(path: str | Path) -> dict[str, tuple[str, int]]:
+    """topic -> (message type, message count) of a bag."""
+    path = Path(path)
+    reader, _ = _reader(path)
+    try:
+        with reader:
+            return {k: (v.msgtype or "?", v.msgcount) for k, v in reader.topics.items()}
+    except BagError:
+        raise
+    except Exception as exc:
+        raise BagError(f"{path}: cannot read bag ({_one_line(exc)})") from None
+
+
+def read_bag(
+    path: str | Path,
+    topics: Mapping[str, str],
+    *,
+    robot_names: Sequence[str] | None = None,
+    decode: str = "fast",
+) -> PoseTracks:
+    """Poses of the ``topics`` (topic -> robot name) of a bag, sorted by (robot, t).
+
+    ``robot_names``, when given (the scenario's robots), is checked first: a topic mapped to a
+    robot not in it is an error naming the topic, and the result is indexed into it. Several
+    topics may feed one robot. ``decode``: ``"fast"`` (vectorised, checked against rosbags) or
+    ``"rosbags"`` (one ``deserialize`` call per message).
+    """
+    path = Path(path)
+    if decode not in ("fast", "rosbags"):
+        raise ValueError(f"decode must be 'fast' or 'rosbags', got {decode!r}")
+    if not topics:
+        raise BagError(f"{path}: no topics given (map at least one topic to a robot)")
+    if robot_names is not None:
+        for topic, robot in topics.items():
+            if robot not in robot_names:
+                known = ", ".join(robot_names)
+                raise BagError(
+                    f"{path}: topic {topic}: robot '{robot}' is not in the scenario ({known})"
+                )
+    reader, ros2 = _reader(path)
+    raws: dict[str, list[bytes]] = {topic: [] for topic in topics}
+    try:
+        with reader:
+            available = reader.topics
+            for topic in topics:
+                if topic not in available:
+                    have = ", ".join(sorted(available)) or "none"
+                    raise BagError(f"{path}: topic {topic}: not in the bag (topics: {have})")
+                msgtype = available[topic].msgtype
+                if msgtype not in SUPPORTED_TYPES:
+                    raise BagError(
+                        f"{path}: topic {topic}: unsupported message type {msgtype} "
+                        f"(supported: {', '.join(SUPPORTED_TYPES)})"
+                    )
+            conns = [c for c in reader.connections if c.topic in raws]
+            for conn, _, raw in reader.messages(connections=conns):
+                raws[conn.topic].append(raw)
+            parts = []
+            for topic, robot in topics.items():
+                msgtype = available[topic].msgtype
+                cols = _decode(reader, raws[topic], msgtype, ros2, decode)
+                parts.append(_check(path, topic, robot, cols))
+    except BagError:
+        raise
+    except Exception as exc:  # truncated or corrupt bag: rosbags, struct, zstd, lz4 errors
+        raise BagError(f"{path}: cannot read bag ({_one_line(exc)})") from None
+    tracks = PoseTracks.concat(parts, source=str(path))
+    if robot_names is not None:
+        tracks = tracks.with_robot_names(robot_names)
+    return tracks
+
+
+def _check(path: Path, topic: str, robot: str, cols: np.ndarray) -> PoseTracks:
+    """(n, 8) columns t, x, y, z, qx, qy, qz, qw of one topic -> tracks; NaN or time going
+    backwards is an error naming the message."""
+    t, x, y = cols[:, 0], cols[:, 1], cols[:, 2]
+    bad = ~np.isfinite(cols).all(axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise BagError(f"{path}: topic {topic}: message {i} (stamp {t[i]:.9f} s): NaN pose")
+    back = np.flatnonzero(np.diff(t) < 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise BagError(
+            f"{path}: topic {topic}: header stamp goes backwards at message {i} "
+            f"({t[i]:.9f} s after {t[i - 1]:.9f} s)"
+        )
+    yaw = yaw_from_quaternion(cols[:, 4], cols[:, 5], cols[:, 6], cols[:, 7])
+    n = len(t)
+    return PoseTracks((robot,), t, np.zeros(n, dtype=np.int64), x, y, yaw, str(path))
+
+
+# ---- decoding ------------------------------------------------------------------------------
+def _decode(reader, raws: list[bytes], msgtype: str, ros2: bool, decode: str) -> np.ndarray:
+    """(n, 8) float64: stamp seconds, position xyz, orientation xyzw."""
+    if not raws:
+        return np.zeros((0, 8))
+    cols = _decode_fast(raws, SUPPORTED_TYPES[msgtype], ros2) if decode == "fast" else None
+    if cols is not None:
+        # the fast path must agree with rosbags on the first and last message
+        for i in {0, len(raws) - 1}:
+            ref = _decode_one(reader, raws[i], msgtype)
+            if not np.array_equal(ref, cols[i], equal_nan=True):
+                cols = None
+                break
+    if cols is None:
+        cols = np.array([_decode_one(reader, raw, msgtype) for raw in raws], dtype=np.float64)
+    return cols
+
+
+def _decode_one(reader, raw: bytes, msgtype: str) -> np.ndarray:
+    msg = reader.deserialize(raw, msgtype)
+    pose = msg.pose.pose if msgtype != "geometry_msgs/msg/PoseStamped" else msg.pose
+    stamp = msg.header.stamp
+    sec = stamp.sec if hasattr(stamp, "sec") else stamp.secs  # ROS 2 / ROS 1 field names
+    nsec = stamp.nanosec if hasattr(stamp, "nanosec") else stamp.nsecs
+    p, q = pose.position, pose.orientation
+    return np.array([sec + nsec * 1e-9, p.x, p.y, p.z, q.x, q.y, q.z, q.w], dtype=np.float64)
+
+
+def _u32(buf: np.ndarray, rows: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """Little-endian uint32 at per-row byte offsets of a (n, L) uint8 matrix."""
+    idx = offset[:, None] + np.arange(4)
+    return np.ascontiguousarray(buf[rows[:, None], idx]).view("<u4")[:, 0].astype(np.int64)
+
+
+def _decode_fast(raws: list[bytes], n_strings: int, ros2: bool) -> np.ndarray | None:
+    """Vectorised decoding of stamp and pose; None if the layout is not one it knows.
+
+    ROS 2 (classic little-endian CDR): 4-byte encapsulation header, then stamp sec (int32),
+    nanosec (uint32), frame_id (uint32 length incl. NUL, bytes), [child_frame_id aligned to 4],
+    then the pose's 7 float64 aligned to 8 (alignment counted after the encapsulation header).
+    ROS 1: seq, secs, nsecs (uint32), frame_id (uint32 length, bytes), [child_frame_id], pose
+    packed without alignment.
+    """
+    lengths = np.fromiter(map(len, raws), dtype=np.int64, count=len(raws))
+    out = np.empty((len(raws), 8), dtype=np.float64)
+    base = 4 if ros2 else 0
+    for length in np.unique(lengths):
+        which = np.flatnonzero(lengths == length)
+        if length < base + 16:
+            return None
+        blob = b"".join(raws[i] for i in which) if len(which) < len(raws) else b"".join(raws)
+        buf = np.frombuffer(blob, dtype=np.uint8).reshape(len(which), int(length))
+        rows = np.arange(len(which))
+        if ros2:
+            if not (np.all(buf[:, 0] == 0) and np.all(buf[:, 1] == 1)):
+                return None  # big-endian or XCDR2: leave it to rosbags
+            sec = np.ascontiguousarray(buf[:, 4:8]).view("<i4")[:, 0].astype(np.int64)
+            nsec = np.ascontiguousarray(buf[:, 8:12]).view("<u4")[:, 0].astype(np.int64)
+            end = 16 + _u32(buf, rows, np.full(len(which), 12, dtype=np.int64))
+            for _ in range(n_strings):
+                start = base + (((end - base) + 3) // 4) * 4
+                if np.any(start + 4 > length):
+                    return None
+                end = start + 4 + _u32(buf, rows, start)
+            pose_at = base + ((end - base + 7) // 8) * 8
+        else:
+            sec = np.ascontiguousarray(buf[:, 4:8]).view("<u4")[:, 0].astype(np.int64)
+            nsec = np.ascontiguousarray(buf[:, 8:12]).view("<u4")[:, 0].astype(np.int64)
+            end = 16 + _u32(buf, rows, np.full(len(which), 12, dtype=np.int64))
+            for _ in range(n_strings):
+                if np.any(end + 4 > length):
+                    return None
+                end = end + 4 + _u32(buf, rows, end)
+            pose_at = end
+        if np.any(pose_at + _POSE_BYTES > length):
+            return None
+        if np.all(pose_at == pose_at[0]):
+            a = int(pose_at[0])
+            pose = np.ascontiguousarray(buf[:, a : a + _POSE_BYTES]).view("<f8")
+        else:
+            idx = pose_at[:, None] + np.arange(_POSE_BYTES)
+            pose = np.ascontiguousarray(buf[rows[:, None], idx]).view("<f8")
+        out[which, 0] = sec + nsec * 1e-9
+        out[which, 1:] = pose
+    return out
+
+
+# ---- writing -------------------------------------------------------------------------------
+def _pose_stamped_cdr(t: np.ndarray, x, y, yaw, frame_id: str) -> np.ndarray:
+    """(n, L) uint8: CDR little-endian ``geometry_msgs/msg/PoseStamped`` messages."""
+    fid = frame_id.encode() + b"\0"
+    end = 4 + 12 + len(fid)
+    pose_at = 4 + ((end - 4 + 7) // 8) * 8
+    length = pose_at + _POSE_BYTES
+    n = len(t)
+    buf = np.zeros((n, length), dtype=np.uint8)
+    buf[:, 1] = 1  # CDR_LE encapsulation
+    sec, nsec = _split_stamp(t)
+    buf[:, 4:8] = sec.astype("<i4").view(np.uint8).reshape(n, 4)
+    buf[:, 8:12] = nsec.astype("<u4").view(np.uint8).reshape(n, 4)
+    buf[:, 12:16] = np.frombuffer(np.uint32(len(fid)).astype("<u4").tobytes(), dtype=np.uint8)
+    buf[:, 16 : 16 + len(fid)] = np.frombuffer(fid, dtype=np.uint8)
+    pose = np.zeros((n, 7), dtype="<f8")
+    pose[:, 0], pose[:, 1] = x, y
+    pose[:, 5], pose[:, 6] = np.sin(yaw / 2.0), np.cos(yaw / 2.0)
+    buf[:, pose_at:] = pose.view(np.uint8).reshape(n, _POSE_BYTES)
+    return buf
+
+
+def _split_stamp(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Seconds -> (sec, nanosec), nanosec in [0, 1e9)."""
+    ns = np.round(np.asarray(t, dtype=np.float64) * 1e9).astype(np.int64)
+    return ns // 1_000_000_000, ns % 1_000_000_000
+
+
+def write_mcap(
+    tracks: PoseTracks,
+    path: str | Path,
+    topic: str = "/{robot}/pose",
+    frame_id: str = "map",
+) -> None:
+    """Write a ROS 2 bag with MCAP storage, one ``PoseStamped`` topic per robot (``topic`` with
+    ``{robot}`` replaced by the name). ``path`` ending in ``.mcap`` gives a bare MCAP file
+    (readable by ``ros2 bag``, Foxglove and :func:`read_bag`), anything else a ROS 2 bag
+    directory with ``metadata.yaml``. Log time = header stamp; stamps must not be negative.
+    """
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    path = Path(path)
+    if len(tracks) and np.min(tracks.t) < 0:
+        raise BagError(f"{path}: cannot write negative stamps (t min {np.min(tracks.t)})")
+    if not np.all(np.isfinite(np.column_stack([tracks.t, tracks.x, tracks.y, tracks.yaw]))):
+        raise BagError(f"{path}: cannot write NaN or infinite poses")
+    if path.exists():
+        raise BagError(f"{path}: exists already, not overwriting")
+    bare = path.suffix == ".mcap"
+    tmp = Path(tempfile.mkdtemp(prefix=".mirl-", dir=path.parent)) if bare else None
+    target = path if tmp is None else tmp / path.stem
+    typestore = _typestore(True)
+    msgtype = "geometry_msgs/msg/PoseStamped"
+    try:
+        with Writer(target, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+            for i, name in enumerate(tracks.robot_names):
+                conn = writer.add_connection(topic.format(robot=name), msgtype, typestore=typestore)
+                sel = np.flatnonzero(tracks.robot == i)
+                sel = sel[np.argsort(tracks.t[sel], kind="stable")]
+                buf = _pose_stamped_cdr(
+                    tracks.t[sel], tracks.x[sel], tracks.y[sel], tracks.yaw[sel], frame_id
+                )
+                sec, nsec = _split_stamp(tracks.t[sel])
+                stamps = (sec * 1_000_000_000 + nsec).tolist()
+                write = writer.write
+                for ts, row in zip(stamps, buf, strict=True):
+                    write(conn, ts, row.data)
+        if bare:
+            inner = sorted(target.glob("*.mcap"))
+            shutil.move(str(inner[0]), str(path))
+    except BagError:
+        raise
+    except Exception as exc:
+        raise BagError(f"{path}: cannot write bag ({_one_line(exc)})") from None
+    finally:
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)

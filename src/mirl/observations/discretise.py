@@ -1,0 +1,294 @@
+"""Pose tracks onto a scenario's grid: the :class:`~mirl.observations.Trajectories` every learner
+takes, plus a per-robot account of what happened to every pose.
+
+- **Space.** The map frame (``MapFrame``: cell size, centre of cell (0, 0); x east with the
+  column, y north with decreasing row) turns (x, y) into fractional (row, col); a pose belongs
+  to the nearest cell. A pose on a wall or off the map *snaps* to the nearest patroller cell if
+  that cell's square is within half a cell of it; farther away it is an error, or, with
+  ``drop_off_map=True``, dropped and counted.
+- **Heading.** The nearest of the 4 headings: yaw 0 east (0), π/2 north (1), π west (2), −π/2
+  south (3).
+- **Time.** Step k is at ``start_time + k·step_seconds`` (default start: the earliest pose read).
+  Each step takes the robot's pose *nearest* to the step time, if one lies within ``tolerance``
+  (default half a step, so every pose is a candidate for exactly one step and none is used
+  twice). A step with no pose within the tolerance is unobserved — never interpolated.
+  ``n_steps`` defaults to the step nearest the last pose, plus one.
+
+Problems are one-line :class:`DiscretisationError` messages naming the source and robot.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mirl.observations.poses import PoseError, PoseTracks
+from mirl.observations.trajectories import Trajectories
+from mirl.world.maps import HEADING_YAWS
+from mirl.world.scenario import Scenario
+
+__all__ = ["Discretised", "DiscretisationError", "RobotCounts", "discretise", "heading_of_yaw"]
+
+# fraction of a cell a wall/off-map pose may be from a patroller cell and still snap to it
+SNAP_CELLS = 0.5
+
+
+class DiscretisationError(PoseError):
+    """Poses that cannot be put on the map; the message names the source and robot."""
+
+
+@dataclass(frozen=True)
+class RobotCounts:
+    """What happened to one robot's poses."""
+
+    robot: str
+    read: int  # poses read
+    binned: int  # within the tolerance of a step of the watch (candidates for a step)
+    snapped: int  # binned poses on a wall or off the map moved to the nearest patroller cell
+    dropped: int  # binned poses too far off the hallway, dropped (drop_off_map=True only)
+    observed_steps: int  # steps with a pose: each takes its nearest binned pose
+    outside_visible: int = 0  # observed steps on cells outside L's visible cells
+
+    def line(self) -> str:
+        extra = (
+            f", {self.outside_visible} outside L's visible cells" if self.outside_visible else ""
+        )
+        return (
+            f"{self.robot}: {self.read} poses read, {self.binned} binned, {self.snapped} snapped, "
+            f"{self.dropped} dropped, {self.observed_steps} steps observed{extra}"
+        )
+
+
+@dataclass(frozen=True)
+class Discretised:
+    trajectories: Trajectories
+    report: tuple[RobotCounts, ...]
+    start_time: float
+    step_seconds: float
+    tolerance: float
+    visible: np.ndarray  # (rows, cols) bool: the cells L could see (see ``discretise``)
+
+    def visible_states(self, scenario: Scenario) -> np.ndarray:
+        """(S,) bool states on visible cells, for :func:`mirl.learning.learn`'s ``visible``."""
+        cells = scenario.domain.states[:, :2]
+        return self.visible[cells[:, 0], cells[:, 1]]
+
+    def summary(self) -> str:
+        tr = self.trajectories
+        head = (
+            f"{tr.horizon} steps of {self.step_seconds:g} s from t = {self.start_time:.3f} s "
+            f"(tolerance {self.tolerance:g} s)"
+        )
+        return "\n".join([head, *("  " + c.line() for c in self.report)])
+
+
+def heading_of_yaw(yaw: np.ndarray) -> np.ndarray:
+    """Nearest of the 4 headings (0 east, 1 north, 2 west, 3 south) of yaw angles in radians."""
+    return np.mod(np.rint(np.asarray(yaw, dtype=float) / (np.pi / 2)), 4).astype(np.int64)
+
+
+def discretise(
+    tracks: PoseTracks,
+    scenario: Scenario,
+    *,
+    step_seconds: float = 2.0,
+    start_time: float | None = None,
+    n_steps: int | None = None,
+    tolerance: float | None = None,
+    drop_off_map: bool = False,
+    visible: np.ndarray | str | None = None,
+) -> Discretised:
+    """Bin ``tracks`` into the scenario's grid and steps (see the module docstring).
+
+    ``visible`` says which cells L could see, handed on to the learner: ``None`` (default) the
+    scenario's observability degree and visibility order; ``"observed"`` every cell a robot was
+    observed on; or a (rows, cols) bool mask. Observed steps outside it are counted
+    (``outside_visible``), never dropped.
+    """
+    src = tracks.source
+    if not (np.isfinite(step_seconds) and step_seconds > 0):
+        raise DiscretisationError(f"{src}: step_seconds must be positive, got {step_seconds}")
+    tol = step_seconds / 2.0 if tolerance is None else float(tolerance)
+    if not (np.isfinite(tol) and tol >= 0):
+        raise DiscretisationError(f"{src}: tolerance must be a non-negative number, got {tol}")
+    names = scenario.robot_names
+    try:
+        tracks = tracks.with_robot_names(names)
+    except PoseError as exc:
+        raise DiscretisationError(str(exc)) from None
+    bad = ~np.isfinite(np.column_stack([tracks.t, tracks.x, tracks.y, tracks.yaw])).all(axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise DiscretisationError(
+            f"{src}: robot {names[tracks.robot[i]]}: NaN or infinite pose at t = {tracks.t[i]}"
+        )
+    n_robots = len(names)
+    if start_time is None:
+        start_time = float(tracks.t.min()) if len(tracks) else 0.0
+    if n_steps is None:
+        last = float(tracks.t.max()) if len(tracks) else start_time
+        n_steps = max(int(np.floor((last - start_time) / step_seconds + 0.5)) + 1, 0)
+    if n_steps < 0:
+        raise DiscretisationError(f"{src}: n_steps must not be negative, got {n_steps}")
+
+    # time: nearest step and the distance to it
+    k = np.floor((tracks.t - start_time) / step_seconds + 0.5).astype(np.int64)
+    dt = np.abs(tracks.t - (start_time + k * step_seconds))
+    binned = (k >= 0) & (k < n_steps) & (dt <= tol * (1 + 1e-12))
+
+    # space: nearest cell, snapping wall / off-map poses
+    gridmap = scenario.map
+    rf, cf = gridmap.frame.cell_coordinates(tracks.x, tracks.y)
+    row, col, ok, snapped = _cells(gridmap.patroller, rf, cf, binned)
+    off = binned & ~ok
+    if off.any() and not drop_off_map:
+        i = int(np.argmax(off))
+        raise DiscretisationError(
+            f"{src}: robot {names[tracks.robot[i]]}: pose ({tracks.x[i]:.3f}, {tracks.y[i]:.3f}) m "
+            f"at t = {tracks.t[i]:.3f} s is more than {SNAP_CELLS:g} cell from the hallway "
+            f"(cell {int(np.floor(rf[i] + 0.5))}, {int(np.floor(cf[i] + 0.5))}); check the map "
+            "frame, or drop such poses explicitly"
+        )
+    keep = binned & ok
+    heading = heading_of_yaw(tracks.yaw)
+
+    # per (robot, step): the nearest kept pose (ties: the earlier one)
+    idx = np.flatnonzero(keep)
+    key = tracks.robot[idx] * max(n_steps, 1) + k[idx]
+    order = np.lexsort((tracks.t[idx], dt[idx], key))
+    idx, key = idx[order], key[order]
+    first = np.ones(len(idx), dtype=bool)
+    first[1:] = key[1:] != key[:-1]
+    chosen = idx[first]
+    chosen = chosen[np.lexsort((tracks.robot[chosen], k[chosen]))]
+    traj = Trajectories(
+        names,
+        k[chosen],
+        tracks.robot[chosen],
+        row[chosen],
+        col[chosen],
+        heading[chosen],
+        n_steps,
+    )
+
+    if visible is None:
+        vis = gridmap.visible_mask(scenario.observability)
+    elif isinstance(visible, str):
+        if visible != "observed":
+            raise ValueError(f"visible must be None, 'observed' or a mask, got {visible!r}")
+        vis = np.zeros(gridmap.shape, dtype=bool)
+        vis[traj.row, traj.col] = True
+    else:
+        vis = np.asarray(visible, dtype=bool)
+        if vis.shape != gridmap.shape:
+            raise ValueError(f"visible mask has shape {vis.shape}, the map {gridmap.shape}")
+    outside = ~vis[traj.row, traj.col]
+
+    def count(mask: np.ndarray, by: np.ndarray) -> np.ndarray:
+        return np.bincount(by[mask], minlength=n_robots)
+
+    every = np.ones(len(tracks), dtype=bool)
+    read = count(every, tracks.robot)
+    n_binned = count(binned, tracks.robot)
+    n_snapped = count(binned & snapped, tracks.robot)
+    n_dropped = count(off, tracks.robot)
+    n_obs = np.bincount(traj.robot, minlength=n_robots)
+    n_out = np.bincount(traj.robot[outside], minlength=n_robots)
+    report = tuple(
+        RobotCounts(
+            names[i],
+            int(read[i]),
+            int(n_binned[i]),
+            int(n_snapped[i]),
+            int(n_dropped[i]),
+            int(n_obs[i]),
+            int(n_out[i]),
+        )
+        for i in range(n_robots)
+    )
+    return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis)
+
+
+def _cells(patroller: np.ndarray, rf: np.ndarray, cf: np.ndarray, which: np.ndarray):
+    """Nearest patroller cell of fractional (row, col) positions.
+
+    Returns row, col (int64), ok (on a patroller cell, or snapped to one within SNAP_CELLS) and
+    snapped (moved to a neighbouring cell); only positions in ``which`` are examined.
+    """
+    rows, cols = patroller.shape
+    n = len(rf)
+    r = np.floor(rf + 0.5).astype(np.int64)
+    c = np.floor(cf + 0.5).astype(np.int64)
+    inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+    on = np.zeros(n, dtype=bool)
+    on[inside] = patroller[r[inside], c[inside]]
+    ok = on.copy()
+    snapped = np.zeros(n, dtype=bool)
+    todo = np.flatnonzero(which & ~on)
+    if todo.size:
+        best_d = np.full(todo.size, np.inf)
+        best_r = r[todo].copy()
+        best_c = c[todo].copy()
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                rr, cc = r[todo] + dr, c[todo] + dc
+                valid = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
+                valid[valid] = patroller[rr[valid], cc[valid]]
+                # distance from the point to the cell's square, in cells
+                gr = np.maximum(np.abs(rf[todo] - rr) - 0.5, 0.0)
+                gc = np.maximum(np.abs(cf[todo] - cc) - 0.5, 0.0)
+                d = np.where(valid, np.hypot(gr, gc), np.inf)
+                better = d < best_d
+                best_d[better], best_r[better], best_c[better] = d[better], rr[better], cc[better]
+        good = best_d <= SNAP_CELLS + 1e-12
+        r[todo[good]], c[todo[good]] = best_r[good], best_c[good]
+        ok[todo[good]] = True
+        snapped[todo[good]] = True
+    return r, c, ok, snapped
+
+
+def poses_from_trajectories(
+    trajectories: Trajectories,
+    scenario: Scenario,
+    *,
+    step_seconds: float = 2.0,
+    rate_hz: float = 10.0,
+    start_time: float = 0.0,
+    sigma_xy: float = 0.0,
+    sigma_yaw_degrees: float = 0.0,
+    seed: int | None = None,
+    source: str = "<simulated>",
+) -> PoseTracks:
+    """Continuous poses of grid observations, as a tracker at ``rate_hz`` would report them.
+
+    An observation at step k becomes poses at the cell centre and heading's yaw, every
+    1/``rate_hz`` s strictly inside the step's own window ``(t_k − step/2, t_k + step/2)`` around
+    ``t_k = start_time + k·step_seconds`` (times before ``start_time`` left out), one of them at
+    ``t_k`` exactly; Gaussian noise of ``sigma_xy`` metres per axis and ``sigma_yaw_degrees`` is
+    added. An unobserved step has no poses, so :func:`discretise` recovers the observations
+    (up to the noise).
+    """
+    if rate_hz <= 0 or not np.isfinite(rate_hz):
+        raise ValueError(f"pose rate must be positive, got {rate_hz}")
+    if sigma_xy < 0 or sigma_yaw_degrees < 0:
+        raise ValueError("pose noise must not be negative")
+    period = 1.0 / rate_hz
+    half = int(np.ceil(step_seconds / 2 / period - 1e-9)) - 1  # strictly inside the window
+    offsets = np.arange(-half, half + 1) * period  # includes 0
+    tr = trajectories
+    t = start_time + (tr.t[:, None] * step_seconds + offsets[None, :])
+    keep = t >= start_time - 1e-12
+    rep = keep.sum(axis=1)
+    x, y = scenario.map.frame.cell_centre(tr.row, tr.col)
+    yaw = HEADING_YAWS[tr.heading]
+    x, y, yaw, robot = (np.repeat(v, rep) for v in (x, y, yaw, tr.robot))
+    t = t[keep]
+    rng = np.random.default_rng(seed)
+    if sigma_xy > 0:
+        x = x + rng.normal(0.0, sigma_xy, len(x))
+        y = y + rng.normal(0.0, sigma_xy, len(y))
+    if sigma_yaw_degrees > 0:
+        yaw = yaw + np.deg2rad(rng.normal(0.0, sigma_yaw_degrees, len(yaw)))
+        yaw = np.angle(np.exp(1j * yaw))
+    return PoseTracks(tr.robot_names, t, robot, x, y, yaw, source).sorted()

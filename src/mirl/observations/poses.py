@@ -1,0 +1,291 @@
+"""Pose tracks: continuous robot poses (t in seconds, robot, x, y in metres, yaw in radians, map
+frame) as columns of numpy arrays, with CSV input and output.
+
+A pose CSV has the header ``t,robot,x,y,yaw`` or ``t,robot,x,y,qz,qw`` (a planar quaternion:
+yaw = 2·atan2(qz, qw)); other columns are ignored. It is read with ``pyarrow.csv`` (vectorised
+C++; see :mod:`mirl.observations` for the measurements). Every problem is a one-line
+:class:`PoseError` naming the file and, where there is one, the line.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "PoseTracks",
+    "PoseError",
+    "read_pose_csv",
+    "write_pose_csv",
+    "yaw_from_quaternion",
+    "POSE_HEADER",
+]
+
+POSE_HEADER = ("t", "robot", "x", "y", "yaw")
+
+
+class PoseError(ValueError):
+    """Pose data that cannot be used; the one-line message names the file (and topic or line)."""
+
+
+@dataclass(frozen=True)
+class PoseTracks:
+    """One row per pose message: ``robot`` indexes ``robot_names``; float64 seconds, metres and
+    radians in the map frame. Readers return rows sorted by (robot, t), stable."""
+
+    robot_names: tuple[str, ...]
+    t: np.ndarray
+    robot: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    source: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "robot_names", tuple(self.robot_names))
+        for name in ("t", "x", "y", "yaw"):
+            object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=np.float64))
+        object.__setattr__(self, "robot", np.asarray(self.robot, dtype=np.int64))
+        n = len(self.t)
+        if any(len(getattr(self, f)) != n for f in ("robot", "x", "y", "yaw")):
+            raise PoseError(f"{self.source}: pose columns have different lengths")
+        if n and (self.robot.min() < 0 or self.robot.max() >= len(self.robot_names)):
+            raise PoseError(f"{self.source}: robot index outside robot_names")
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def select(self, mask: np.ndarray) -> PoseTracks:
+        return PoseTracks(
+            self.robot_names,
+            self.t[mask],
+            self.robot[mask],
+            self.x[mask],
+            self.y[mask],
+            self.yaw[mask],
+            self.source,
+        )
+
+    def sorted(self) -> PoseTracks:
+        """Rows sorted by (robot, t); equal keys keep their order."""
+        return self.select(np.lexsort((self.t, self.robot)))
+
+    def counts(self) -> np.ndarray:
+        """Poses per robot."""
+        return np.bincount(self.robot, minlength=len(self.robot_names))
+
+    def with_robot_names(self, names: Iterable[str]) -> PoseTracks:
+        """The same poses indexed into ``names`` (e.g. the scenario's robots, in its order).
+
+        Raises :class:`PoseError` for a robot of the tracks that ``names`` does not have.
+        """
+        names = tuple(names)
+        lut = np.empty(len(self.robot_names), dtype=np.int64)
+        for i, n in enumerate(self.robot_names):
+            if n not in names:
+                known = ", ".join(names)
+                raise PoseError(f"{self.source}: robot '{n}' is not in the scenario ({known})")
+            lut[i] = names.index(n)
+        return PoseTracks(
+            names, self.t, lut[self.robot], self.x, self.y, self.yaw, self.source
+        ).sorted()
+
+    @classmethod
+    def empty(cls, names: Iterable[str] = (), source: str = "<memory>") -> PoseTracks:
+        z = np.zeros(0)
+        return cls(tuple(names), z, np.zeros(0, dtype=np.int64), z, z, z, source)
+
+    @classmethod
+    def concat(cls, parts: list[PoseTracks], source: str | None = None) -> PoseTracks:
+        """Rows of all ``parts`` (robot names merged in order of first appearance), sorted."""
+        if not parts:
+            return cls.empty(source=source or "<memory>")
+        names: list[str] = []
+        for p in parts:
+            names.extend(n for n in p.robot_names if n not in names)
+        robot = [
+            np.asarray([names.index(n) for n in p.robot_names], dtype=np.int64)[p.robot]
+            for p in parts
+        ]
+
+        def cat(f: str) -> np.ndarray:
+            return np.concatenate([getattr(p, f) for p in parts])
+
+        return cls(
+            tuple(names),
+            cat("t"),
+            np.concatenate(robot),
+            cat("x"),
+            cat("y"),
+            cat("yaw"),
+            source or parts[0].source,
+        ).sorted()
+
+
+def yaw_from_quaternion(qx, qy, qz, qw) -> np.ndarray:
+    """Yaw (rotation about z) of quaternions, radians in (−π, π] (arrays ok)."""
+    qx, qy, qz, qw = (np.asarray(v, dtype=np.float64) for v in (qx, qy, qz, qw))
+    return np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+
+
+# ---- CSV -----------------------------------------------------------------------------------
+def _data_line_numbers(path: Path) -> np.ndarray:
+    """1-based file line of each data row as pyarrow counts them (empty lines skipped).
+
+    Only used on the error path, so a plain Python scan is fine.
+    """
+    lines = []
+    with open(path, "rb") as fh:
+        next(fh, None)  # header
+        for lineno, line in enumerate(fh, start=2):
+            if line.strip(b"\r\n"):
+                lines.append(lineno)
+    return np.asarray(lines, dtype=np.int64)
+
+
+def _line_of(path: Path, row: int) -> int:
+    lines = _data_line_numbers(path)
+    return int(lines[row]) if row < len(lines) else row + 2
+
+
+def _first_bad_line(path: Path, columns: list[str], numeric: set[str]) -> str:
+    """Describe the first row that pyarrow could not parse (error path only)."""
+    import csv
+
+    with open(path, newline="") as fh:
+        reader = csv.reader(fh)
+        header = [h.strip() for h in next(reader, [])]
+        idx = {c: header.index(c) for c in columns if c in header}
+        for lineno, rec in enumerate(reader, start=2):
+            if not rec:
+                continue
+            if len(rec) < len(header):
+                return f"line {lineno}: expected {len(header)} cells, got {len(rec)}"
+            for c, i in idx.items():
+                if c in numeric:
+                    try:
+                        float(rec[i])
+                    except ValueError:
+                        return f"line {lineno}: column {c}: '{rec[i].strip()}' is not a number"
+    return "cannot parse"
+
+
+def _read_arrow_csv(path: Path, header: list[str], columns: dict, error, numeric: set[str]):
+    """Read ``columns`` (name -> arrow type) with pyarrow on one thread; raise ``error`` with a
+    one-line message naming the file and line on a problem. ``header`` is the stripped header
+    (pyarrow would keep the spaces in `` robot``)."""
+    import pyarrow as pa
+    import pyarrow.csv as pv
+
+    try:
+        table = pv.read_csv(
+            path,
+            read_options=pv.ReadOptions(
+                use_threads=False, block_size=1 << 22, column_names=header, skip_rows=1
+            ),
+            convert_options=pv.ConvertOptions(
+                column_types=columns, include_columns=list(columns), strings_can_be_null=False
+            ),
+        )
+    except FileNotFoundError:
+        raise error(f"{path}: no such file") from None
+    except OSError as exc:
+        raise error(f"{path}: cannot read ({exc})") from None
+    except (pa.ArrowInvalid, pa.ArrowKeyError) as exc:
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        if "Empty CSV file" in first:
+            raise error(f"{path}: file is empty") from None
+        raise error(f"{path}: {_first_bad_line(path, list(columns), numeric)}") from None
+    return table
+
+
+def _csv_header(path: Path, error) -> list[str]:
+    try:
+        with open(path, newline="") as fh:
+            first = fh.readline()
+    except FileNotFoundError:
+        raise error(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise error(f"{path}: cannot read ({exc})") from None
+    if not first.strip():
+        raise error(f"{path}: file is empty")
+    return [h.strip().strip('"') for h in first.strip("\r\n").split(",")]
+
+
+def read_pose_csv(path: str | Path) -> PoseTracks:
+    """Read a ``t,robot,x,y,yaw`` (or ``t,robot,x,y,qz,qw``) file; rows sorted by (robot, t).
+
+    Raises :class:`PoseError` naming the file and line for a missing column, a non-number, or a
+    missing or NaN value.
+    """
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    path = Path(path)
+    header = _csv_header(path, PoseError)
+    for col in ("t", "robot", "x", "y"):
+        if col not in header:
+            raise PoseError(f"{path}: line 1: missing column '{col}' (expected t,robot,x,y,yaw)")
+    if "yaw" in header:
+        angles = ["yaw"]
+    elif "qz" in header and "qw" in header:
+        angles = ["qz", "qw"]
+    else:
+        raise PoseError(f"{path}: line 1: need a 'yaw' column or 'qz' and 'qw' columns")
+    numeric = ["t", "x", "y", *angles]
+    types = {c: pa.float64() for c in numeric} | {"robot": pa.string()}
+    table = _read_arrow_csv(path, header, types, PoseError, set(numeric))
+    if table.num_rows == 0:
+        return PoseTracks.empty(source=str(path))
+    cols = {c: table.column(c).to_numpy(zero_copy_only=False) for c in numeric}
+    for c in numeric:
+        null = ~np.isfinite(cols[c])  # nulls arrive as NaN
+        if null.any():
+            row = int(np.argmax(null))
+            raise PoseError(
+                f"{path}: line {_line_of(path, row)}: column {c}: missing, NaN or infinite value"
+            )
+    robot = pc.dictionary_encode(pc.utf8_trim_whitespace(table.column("robot")).combine_chunks())
+    names = [str(n) for n in robot.dictionary.to_pylist()]
+    if "" in names:
+        row = int(np.argmax(np.asarray(robot.indices) == names.index("")))
+        raise PoseError(f"{path}: line {_line_of(path, row)}: empty robot name")
+    yaw = cols["yaw"] if "yaw" in cols else 2.0 * np.arctan2(cols["qz"], cols["qw"])
+    return PoseTracks(
+        tuple(names),
+        cols["t"],
+        np.asarray(robot.indices, dtype=np.int64),
+        cols["x"],
+        cols["y"],
+        yaw,
+        str(path),
+    ).sorted()
+
+
+def write_pose_csv(tracks: PoseTracks, path: str | Path) -> None:
+    """Write ``t,robot,x,y,yaw`` rows (floats at full precision: reading back is exact)."""
+    import pyarrow as pa
+    import pyarrow.csv as pv
+
+    names = pa.array(list(tracks.robot_names) or [""], type=pa.string())
+    robot = pa.DictionaryArray.from_arrays(pa.array(tracks.robot, type=pa.int32()), names)
+    table = pa.table(
+        {
+            "t": tracks.t,
+            "robot": robot.cast(pa.string()),
+            "x": tracks.x,
+            "y": tracks.y,
+            "yaw": tracks.yaw,
+        }
+    )
+    try:
+        with open(path, "wb") as fh:
+            fh.write((",".join(POSE_HEADER) + "\n").encode())
+            pv.write_csv(
+                table, fh, write_options=pv.WriteOptions(include_header=False, quoting_style="none")
+            )
+    except OSError as exc:
+        raise PoseError(f"{path}: cannot write ({exc})") from None

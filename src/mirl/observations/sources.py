@@ -1,0 +1,137 @@
+"""One entry point for L's observations from any file: a grid CSV (``t,robot,row,col,heading``),
+a pose CSV (``t,robot,x,y,yaw`` or ``qz,qw``), a ROS 1 ``.bag``, a ROS 2 bag directory or an
+``.mcap`` file. Pose data is discretised onto the scenario's map (:mod:`mirl.discretise`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mirl.observations.bags import SUPPORTED_TYPES, BagError, bag_topics, is_bag, read_bag
+from mirl.observations.discretise import Discretised, discretise
+from mirl.observations.poses import PoseError, PoseTracks, _csv_header, read_pose_csv
+from mirl.observations.trajectories import Trajectories, TrajectoryError, read_csv
+from mirl.world.scenario import Scenario
+
+__all__ = ["LoadedObservations", "load_observations", "parse_topic", "observation_kind"]
+
+
+@dataclass(frozen=True)
+class LoadedObservations:
+    trajectories: Trajectories
+    kind: str  # "grid-csv", "pose-csv" or "bag"
+    discretised: Discretised | None = None  # for pose data: the counts and the visible cells
+
+    def visible_states(self, scenario: Scenario) -> np.ndarray | None:
+        """(S,) visible states for the learner, or None for the scenario's degree."""
+        return None if self.discretised is None else self.discretised.visible_states(scenario)
+
+
+def parse_topic(text: str) -> tuple[str, str]:
+    """``TOPIC=ROBOT`` (``--topic /tb_i/amcl_pose=I``)."""
+    topic, sep, robot = text.rpartition("=")
+    if not sep or not topic.strip() or not robot.strip():
+        raise ValueError(f"--topic '{text}': expected TOPIC=ROBOT, e.g. /tb_i/amcl_pose=I")
+    return topic.strip(), robot.strip()
+
+
+def observation_kind(path: str | Path) -> str:
+    """``bag``, ``grid-csv`` or ``pose-csv`` (by the header), or a one-line error."""
+    path = Path(path)
+    if is_bag(path):
+        return "bag"
+    if path.is_dir():
+        raise PoseError(f"{path}: a directory but not a ROS 2 bag (no metadata.yaml)")
+    header = _csv_header(path, TrajectoryError)
+    if "row" in header and "col" in header:
+        return "grid-csv"
+    if "x" in header and "y" in header:
+        return "pose-csv"
+    raise TrajectoryError(
+        f"{path}: line 1: not a grid CSV (t,robot,row,col,heading) nor a pose CSV (t,robot,x,y,yaw)"
+    )
+
+
+def load_observations(
+    path: str | Path,
+    scenario: Scenario,
+    *,
+    topics: Mapping[str, str] | Sequence[tuple[str, str]] | None = None,
+    step_seconds: float | None = None,
+    start_time: float | None = None,
+    tolerance: float | None = None,
+    drop_off_map: bool = False,
+    visible: str | np.ndarray | None = None,
+    observability: float | None = None,
+) -> LoadedObservations:
+    """Read observations of ``scenario``'s robots from ``path`` (kind told by the file).
+
+    ``topics``: for a bag, topic → robot (required); for a pose CSV, an optional renaming of
+    the file's robot names. The discretisation options apply to pose data only; giving one
+    for a grid CSV is an error rather than silently ignored. ``visible`` (pose data): the cells
+    L could see, handed to the learner — by default those of ``observability`` (default: the
+    scenario's degree) along the map's visibility order; ``"observed"``: every cell a robot was
+    observed on; or a (rows, cols) bool mask.
+    """
+    path = Path(path)
+    topics = dict(topics or {})
+    kind = observation_kind(path)
+    names = scenario.robot_names
+    if kind == "grid-csv":
+        given = [
+            flag
+            for flag, value in (
+                ("--topic", topics or None),
+                ("--step-seconds", step_seconds),
+                ("--start-time", start_time),
+                ("--tolerance", tolerance),
+                ("--drop-off-map", drop_off_map or None),
+                ("--visible", visible),
+            )
+            if value is not None
+        ]
+        if given:
+            raise ValueError(f"{path}: {given[0]} applies to pose data; this is a grid CSV")
+        return LoadedObservations(read_csv(path, scenario.domain, names), kind)
+    if kind == "bag":
+        if not topics:
+            found = bag_topics(path)
+            poses = [f"{t} ({m})" for t, (m, _) in found.items() if m in SUPPORTED_TYPES]
+            raise BagError(
+                f"{path}: say which topic is which robot with --topic TOPIC=ROBOT "
+                f"(pose topics in the bag: {', '.join(poses) or 'none'})"
+            )
+        tracks = read_bag(path, topics, robot_names=names)
+    else:
+        tracks = read_pose_csv(path)
+        if topics:
+            tracks = _rename(tracks, topics)
+    if visible is None:
+        degree = scenario.observability if observability is None else observability
+        visible = scenario.map.visible_mask(degree)
+    d = discretise(
+        tracks,
+        scenario,
+        step_seconds=2.0 if step_seconds is None else step_seconds,
+        start_time=start_time,
+        tolerance=tolerance,
+        drop_off_map=drop_off_map,
+        visible=visible,
+    )
+    return LoadedObservations(d.trajectories, kind, d)
+
+
+def _rename(tracks: PoseTracks, mapping: Mapping[str, str]) -> PoseTracks:
+    for old in mapping:
+        if old not in tracks.robot_names:
+            raise PoseError(f"{tracks.source}: --topic {old}=...: no robot '{old}' in the file")
+    names = [mapping.get(n, n) for n in tracks.robot_names]
+    merged: list[str] = list(dict.fromkeys(names))
+    lut = np.array([merged.index(n) for n in names], dtype=np.int64)
+    return PoseTracks(
+        tuple(merged), tracks.t, lut[tracks.robot], tracks.x, tracks.y, tracks.yaw, tracks.source
+    ).sorted()

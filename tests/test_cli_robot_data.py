@@ -1,0 +1,131 @@
+"""``mirl convert``, ``--observations`` of any kind, ``simulate --poses`` and the round trip
+simulate → MCAP poses → learn; bad robot data ends in one line on stderr and exit code 2."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+from bag_helpers import pose_message, typestore, write_bag
+from test_bags import EXPECTED, records
+
+from mirl.cli import main
+
+TOPIC_ARGS = ["--topic", "/tb_i/amcl_pose=I", "--topic", "/tb_j/odom=J"]
+
+
+def one_error_line(capsys, code, *needles):
+    out, err = capsys.readouterr()
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert lines[0].startswith("mirl: error: ")
+    for n in needles:
+        assert str(n) in lines[0], (n, lines[0])
+
+
+@pytest.mark.parametrize("fmt", ["ros1", "mcap"])
+def test_convert_hand_built_bag(tmp_path, capsys, fmt):
+    bag = write_bag(tmp_path / ("b.bag" if fmt == "ros1" else "b"), records(fmt != "ros1"), fmt=fmt)
+    out = tmp_path / "grid.csv"
+    code = main(["convert", str(bag), str(out), "--scenario", "boyd2", *TOPIC_ARGS])
+    text = capsys.readouterr().out
+    assert code == 0
+    assert "7 steps of 2 s from t = 100.000 s (tolerance 1 s)" in text
+    assert "I: 6 poses read, 6 binned, 1 snapped, 0 dropped, 5 steps observed" in text
+    assert "J: 4 poses read, 4 binned, 0 snapped, 0 dropped, 4 steps observed" in text
+    rows = [line.split(",") for line in out.read_text().splitlines()[1:]]
+    got = [(int(t), "IJ".index(r), int(a), int(b), int(h)) for t, r, a, b, h in rows]
+    assert got == EXPECTED
+    # --start-time earlier than the first pose: L watched before any robot was seen
+    main(["convert", str(bag), str(out), "--scenario", "boyd2", *TOPIC_ARGS])
+    code = main(
+        ["convert", str(bag), str(out), "--scenario", "boyd2", *TOPIC_ARGS, "--start-time", "96"]
+    )
+    assert code == 0 and out.read_text().splitlines()[1].startswith("2,I,0,8,2")
+
+
+def test_simulate_poses_and_round_trip_json(tmp_path, capsys):
+    """One seed here; five seeds and the pose noise are measured in bench_robot_data.py."""
+    d = tmp_path
+    sim = ["simulate", "--scenario", "boyd2", "--steps", "300", "--seed", "4"]
+    sim += ["--observability", "0.5", "--observations", str(d / "o.csv")]
+    assert main([*sim, "--poses", str(d / "p.mcap"), "--pose-rate", "15"]) == 0
+    assert main([*sim, "--poses", str(d / "p.csv"), "--pose-noise", "0.05", "3"]) == 0
+    assert "noise 0.05 m / 3 deg" in capsys.readouterr().out
+    learn = ["learn", "--scenario", "boyd2", "--observability", "0.5", "--json"]
+    learn += ["--max-iterations", "2"]
+    results = []
+    for extra in (
+        ["--observations", str(d / "o.csv")],
+        ["--observations", str(d / "p.mcap"), "--topic", "/I/pose=I", "--topic", "/J/pose=J"],
+        ["--observations", str(d / "p.csv")],
+    ):
+        start = ["--start-time", "0"] if "o.csv" not in extra[1] else []
+        assert main([*learn, *extra, *start]) == 0
+        res = json.loads(capsys.readouterr().out)
+        for key in ("observations", "timings"):
+            res.pop(key)
+        results.append(res)
+    assert results[1] == results[0]
+    assert results[2] == results[0]  # 5 cm / 3 degrees never moves a pose to another cell
+
+
+def test_learn_transitions_from_pose_csv(tmp_path, capsys):
+    sim = ["simulate", "--scenario", "boyd2", "--steps", "200", "--seed", "1"]
+    assert main([*sim, "--observations", str(tmp_path / "o.csv")]) == 0
+    assert main([*sim, "--poses", str(tmp_path / "p.csv")]) == 0
+    capsys.readouterr()
+    base = ["learn-transitions", "--scenario", "boyd2", "--json", "--observations"]
+    assert main([*base, str(tmp_path / "o.csv")]) == 0
+    a = json.loads(capsys.readouterr().out)
+    assert main([*base, str(tmp_path / "p.csv"), "--start-time", "0"]) == 0
+    assert json.loads(capsys.readouterr().out) == a
+
+
+def test_bad_robot_data_one_line_exit_2(tmp_path, capsys):
+    bag = write_bag(tmp_path / "b", records(True), fmt="mcap")
+    base = ["convert", str(bag), str(tmp_path / "o.csv"), "--scenario", "boyd2"]
+    one_error_line(capsys, main([*base, "--topic", "/nope=I"]), bag, "/nope", "not in the bag")
+    one_error_line(
+        capsys, main([*base, "--topic", "/tb_i/scan=I"]), bag, "/tb_i/scan", "unsupported"
+    )
+    one_error_line(capsys, main([*base, "--topic", "/tb_i/amcl_pose=K"]), "/tb_i/amcl_pose", "'K'")
+    one_error_line(capsys, main(base), bag, "--topic TOPIC=ROBOT", "/tb_j/odom")
+    one_error_line(capsys, main([*base, "--topic", "nonsense"]), "expected TOPIC=ROBOT")
+    # a truncated bag
+    data = next(bag.glob("*.mcap"))
+    data.write_bytes(data.read_bytes()[:300])
+    one_error_line(capsys, main([*base, *TOPIC_ARGS]), bag, "cannot read bag")
+    # NaN and time going backwards within a topic (ROS 1)
+    ts = typestore(False)
+    nan = [
+        ("/p", t, pose_message(ts, "stamped", t, math.nan if t == 2 else 1.0, 0, 0))
+        for t in (1.0, 2.0)
+    ]
+    bag1 = write_bag(tmp_path / "nan.bag", nan, fmt="ros1")
+    args = ["convert", str(bag1), str(tmp_path / "o.csv"), "--scenario", "boyd2"]
+    one_error_line(capsys, main([*args, "--topic", "/p=I"]), bag1, "topic /p", "NaN")
+    back = [
+        ("/p", log, pose_message(ts, "stamped", t, 1.0, 0, 0))
+        for t, log in ((2.0, 1.0), (1.0, 2.0))
+    ]
+    bag2 = write_bag(tmp_path / "back.bag", back, fmt="ros1")
+    args = ["convert", str(bag2), str(tmp_path / "o.csv"), "--scenario", "boyd2"]
+    one_error_line(capsys, main([*args, "--topic", "/p=I"]), bag2, "topic /p", "backwards")
+    # a pose far off the hallway, and the explicit way to drop it
+    csv = tmp_path / "p.csv"
+    csv.write_text("t,robot,x,y,yaw\n0,I,1,0,0\n2,I,5,-5,0\n")
+    args = ["convert", str(csv), str(tmp_path / "o.csv"), "--scenario", "boyd2"]
+    one_error_line(capsys, main(args), csv, "robot I", "more than 0.5 cell")
+    assert main([*args, "--drop-off-map"]) == 0
+    assert "I: 2 poses read, 2 binned, 0 snapped, 1 dropped, 1 steps observed" in (
+        capsys.readouterr().out
+    )
+    # pose options on a grid CSV are an error, not ignored
+    grid = tmp_path / "g.csv"
+    grid.write_text("t,robot,row,col,heading\n0,I,0,8,2\n")
+    learn = ["learn-transitions", "--scenario", "boyd2", "--observations", str(grid)]
+    one_error_line(capsys, main([*learn, "--step-seconds", "1"]), grid, "--step-seconds")
+    one_error_line(capsys, main([*learn[:-1], str(tmp_path / "x.txt")]), "x.txt")

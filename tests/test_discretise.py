@@ -1,0 +1,188 @@
+"""Discretisation of pose tracks onto the grid: space, heading, time, gaps, snapping, frames."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mirl
+from mirl.observations.discretise import (
+    DiscretisationError,
+    discretise,
+    heading_of_yaw,
+    poses_from_trajectories,
+)
+from mirl.observations.poses import PoseTracks
+from mirl.simulation.grid import simulate
+from mirl.world.maps import MapFrame
+from mirl.world.scenario import load_scenario
+
+FIELDS = ("t", "robot", "row", "col", "heading")
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario("boyd2")
+
+
+def same(a, b):
+    return a.horizon == b.horizon and all(
+        np.array_equal(getattr(a, f), getattr(b, f)) for f in FIELDS
+    )
+
+
+def poses(rows, names=("I", "J")):
+    """rows of (t, robot index, x, y, yaw)."""
+    a = np.asarray(rows, dtype=float).reshape(-1, 5)
+    return PoseTracks(names, a[:, 0], a[:, 1].astype(int), a[:, 2], a[:, 3], a[:, 4], "test")
+
+
+def test_heading_of_yaw():
+    yaw = [0, 0.7, 0.8, math.pi / 2, math.pi, -math.pi, -math.pi / 2, 2 * math.pi, -0.7]
+    assert heading_of_yaw(yaw).tolist() == [0, 0, 1, 1, 2, 2, 3, 0, 0]
+
+
+@pytest.mark.parametrize("degree", [0.14, 0.5, 1.0])
+@pytest.mark.parametrize("rate", [1.0, 7.5, 30.0])
+def test_simulated_poses_come_back_as_the_observations(scenario, degree, rate):
+    res = simulate(scenario, 300, seed=2, observability=degree)
+    obs = res.observations
+    for sigma, deg in ((0.0, 0.0), (0.05, 3.0)):
+        p = poses_from_trajectories(
+            obs, scenario, rate_hz=rate, sigma_xy=sigma, sigma_yaw_degrees=deg, seed=1
+        )
+        d = discretise(p, scenario, start_time=0.0, n_steps=obs.horizon)
+        assert same(d.trajectories, obs)
+        assert [c.observed_steps for c in d.report] == np.bincount(obs.robot, minlength=2).tolist()
+        assert sum(c.read for c in d.report) == len(p)
+
+
+def test_nearest_pose_tolerance_and_gaps(scenario):
+    # I on (0, 1)..(0, 4) heading east; steps of 2 s from t = 10
+    p = poses(
+        [
+            (10.0, 0, 1, 0, 0),
+            (11.9, 0, 2, 0, 0),  # nearest to step 1 (12 s), 0.1 s off
+            (12.6, 0, 3, 0, 0),  # also near step 1 but 0.6 s off: not chosen
+            (19.5, 0, 4, 0, 0),  # step 5 (20 s), 0.5 s off
+        ]
+    )
+    d = discretise(p, scenario, start_time=10.0)
+    tr = d.trajectories
+    assert tr.horizon == 6
+    assert tr.t.tolist() == [0, 1, 5] and tr.col.tolist() == [1, 2, 4]
+    assert (d.report[0].binned, d.report[0].observed_steps) == (4, 3)
+    assert d.report[1].read == 0 and d.report[1].observed_steps == 0
+    # a tighter tolerance: the 0.5 s-off pose no longer counts; steps 2-4 never interpolated
+    d = discretise(p, scenario, start_time=10.0, tolerance=0.2)
+    assert d.trajectories.t.tolist() == [0, 1] and d.trajectories.horizon == 6
+    assert d.report[0].binned == 2
+    # an earlier start (L watched before I was seen): steps shift, leading steps unobserved
+    d = discretise(p, scenario, start_time=6.0)
+    assert d.trajectories.t.tolist() == [2, 3, 7] and d.trajectories.horizon == 8
+    # poses before the start or after n_steps are read but not binned
+    d = discretise(p, scenario, start_time=12.0, n_steps=2)
+    assert d.trajectories.t.tolist() == [0] and d.report[0].binned == 2
+
+
+def test_snapping_dropping_and_errors(scenario):
+    # (0, 3) is hallway, (1, 3) wall; x = col, y = -row
+    p = poses([(0.0, 0, 3.0, -0.95, 0.0), (2.0, 0, 3.4, -1.2, 0.0), (4.0, 0, 12.0, 0.0, 0.0)])
+    with pytest.raises(DiscretisationError) as e:
+        discretise(p, scenario)
+    msg = str(e.value)
+    assert msg.startswith("test: robot I:") and "(3.400, -1.200)" in msg and "\n" not in msg
+    d = discretise(p, scenario, drop_off_map=True)
+    tr = d.trajectories
+    assert tr.t.tolist() == [0] and (tr.row[0], tr.col[0]) == (0, 3)
+    c = d.report[0]
+    assert (c.read, c.binned, c.snapped, c.dropped, c.observed_steps) == (3, 3, 1, 2, 1)
+    # off the map, within half a cell of the hallway end (0, 8): snaps
+    d = discretise(poses([(0.0, 1, 8.9, 0.2, 0.0)]), scenario)
+    assert (d.trajectories.row[0], d.trajectories.col[0]) == (0, 8)
+    assert d.report[1].snapped == 1
+
+
+def test_unknown_robot_nan_and_bad_arguments(scenario):
+    with pytest.raises(DiscretisationError, match="robot 'K' is not in the scenario"):
+        discretise(poses([(0, 0, 1, 0, 0)], names=("K",)), scenario)
+    with pytest.raises(DiscretisationError, match="robot I: NaN"):
+        discretise(poses([(0, 0, float("nan"), 0, 0)]), scenario)
+    with pytest.raises(DiscretisationError, match="step_seconds"):
+        discretise(poses([(0, 0, 1, 0, 0)]), scenario, step_seconds=0)
+
+
+def test_map_frame_origin_and_cell_size(scenario, tmp_path):
+    frame = MapFrame(cell_size=0.5, origin_x=-3.0, origin_y=2.0)
+    moved = dataclasses.replace(scenario, map=dataclasses.replace(scenario.map, frame=frame))
+    # centre of (16, 4): x = -3 + 4 * 0.5 = -1, y = 2 - 16 * 0.5 = -6
+    x, y = frame.cell_centre(16, 4)
+    assert (float(x), float(y)) == (-1.0, -6.0)
+    d = discretise(poses([(0, 1, -1.1, -5.9, math.pi / 2)]), moved)
+    tr = d.trajectories
+    assert (tr.row[0], tr.col[0], tr.heading[0]) == (16, 4, 1)
+    # the same frame from a scenario file's [frame] table
+    text = (Path(mirl.__file__).parent / "data" / "scenarios" / "boyd2.toml").read_text()
+    path = tmp_path / "framed.toml"
+    path.write_text(
+        text.replace(
+            'map = "boyd2"', 'map = "boyd2"\nframe = { cell_size = 0.5, origin = [-3.0, 2.0] }'
+        )
+    )
+    framed = load_scenario(path)
+    assert framed.map.frame == frame
+    assert same(discretise(poses([(0, 1, -1.1, -5.9, math.pi / 2)]), framed).trajectories, tr)
+    # ... and the default frame puts that pose far off the hallway
+    with pytest.raises(DiscretisationError, match="more than 0.5 cell"):
+        discretise(poses([(0, 1, -1.1, -5.9, math.pi / 2)]), scenario)
+
+
+def test_visible_cells(scenario):
+    p = poses([(0.0, 0, 1, 0, 0), (0.0, 1, 1, -16, 0)])
+    d = discretise(p, scenario)
+    np.testing.assert_array_equal(d.visible, scenario.map.visible_mask(scenario.observability))
+    assert [c.outside_visible for c in d.report] == [0, 1]  # (16, 1) is not visible at 0.14
+    states = d.visible_states(scenario)
+    np.testing.assert_array_equal(states, scenario.domain.visible_states(scenario.observability))
+    d = discretise(p, scenario, visible="observed")
+    assert d.visible.sum() == 2 and [c.outside_visible for c in d.report] == [0, 0]
+
+
+def test_ros_map_frame_from_yaml(tmp_path):
+    """A map_server map: origin = lower-left corner of the image; row 0 is the image top."""
+    import yaml
+    from PIL import Image
+
+    from mirl.world.ros_maps import load_ros_map
+
+    base = load_scenario("boyd2").map
+    # boyd2 at 0.1 m per pixel, 1 m cells: 170 x 90 pixels
+    px = np.kron(base.free.astype(np.uint8), np.ones((10, 10), dtype=np.uint8)).astype(bool)
+    Image.fromarray(np.where(px, 254, 0).astype(np.uint8), mode="L").save(tmp_path / "m.pgm")
+    yml = tmp_path / "m.yaml"
+    yml.write_text(
+        yaml.safe_dump(
+            {
+                "image": "m.pgm",
+                "resolution": 0.1,
+                "origin": [-2.0, -3.0, 0.0],
+                "negate": 0,
+                "occupied_thresh": 0.65,
+                "free_thresh": 0.196,
+                "mirl_observer_start": [0, 0],
+                "mirl_goals": [[9, 1]],
+            }
+        )
+    )
+    gridmap = load_ros_map(yml, cell_size=1.0)
+    # top of the image: y = -3 + 17 m; centre of cell (0, 0): 0.5 m in from the corner
+    assert gridmap.frame == MapFrame(cell_size=1.0, origin_x=-1.5, origin_y=13.5)
+    scenario = dataclasses.replace(load_scenario("boyd2"), map=gridmap)
+    # the lower hallway's east end, cell (16, 8), spans x in [6, 7], y in [-3, -2]
+    d = discretise(poses([(0.0, 1, 6.9, -2.1, 0.0)]), scenario)
+    tr = d.trajectories
+    assert (tr.row[0], tr.col[0]) == (16, 8)
