@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from mirl.observations.discretise import discretise
+from mirl.observations.poses import PoseTracks
 from mirl.observations.trajectories import Trajectories
 from mirl.physics.camera import Cone, line_of_sight
 from mirl.physics.config import PhysicsConfig, physics_config
@@ -224,6 +226,7 @@ class PhysicalWorld:
             else scenario.detect_distance * cs,
         )
         self._nearest = self._nearest_cells()
+        self._visible_cells = gm.visible_mask(self.degree)
         self.t = 0  # decision steps so far
         self.contacts = 0  # robot-robot contact events
         self.wall_contacts = 0
@@ -329,9 +332,16 @@ class PhysicalWorld:
         meas[:, :2] += z[:, :2] * self.cfg.measurement_sigma * cs
         meas[:, 2] = wrap(meas[:, 2] + z[:, 2] * np.radians(self.cfg.measurement_sigma_deg))
         tsec = self.t * self.cfg.step_seconds
-        for k, i in enumerate(idx):
-            self._obs_rows.append((tsec, int(i), *map(float, meas[k])))
-        out[idx] = self.discretise(meas, snap=False)
+        rows = [(tsec, int(i), *map(float, meas[k])) for k, i in enumerate(idx)]
+        self._obs_rows.extend(rows)
+        # the robot-data discretisation (mirl.observations.discretise), one step at a time:
+        # nearest cell (snapped onto the hallway within its tolerance) and nearest heading
+        step = PoseTracks(self.names, *np.asarray(rows).T, source="L's camera")
+        d = discretise(
+            step, self.scenario, step_seconds=self.cfg.step_seconds, start_time=tsec, n_steps=1,
+            drop_off_map=True, visible=self._visible_cells,
+        ).trajectories  # fmt: skip
+        out[d.robot] = self.domain.state_index(d.row, d.col, d.heading)
         return out
 
     def decide(self) -> tuple[np.ndarray, np.ndarray]:
@@ -514,3 +524,18 @@ class PhysicalWorld:
     def observed_rows(self) -> np.ndarray:
         """(k, 5) rows t (s), robot, x, y, yaw of L's camera measurements."""
         return np.asarray(self._obs_rows, dtype=float).reshape(-1, 5)
+
+    def observed_tracks(self) -> PoseTracks:
+        """What L's camera measured: one noisy pose per seen patroller per decision step."""
+        r = self.observed_rows()
+        return PoseTracks(self.names, r[:, 0], r[:, 1].astype(int), r[:, 2], r[:, 3], r[:, 4],
+                          source="L's camera")  # fmt: skip
+
+    def true_tracks(self) -> PoseTracks:
+        """Every robot's true pose at every control tick (L, if present, is robot ``L``)."""
+        t, p = self.tick_poses()
+        k, m = p.shape[:2]
+        names = self.names + ((OBSERVER,) if self.has_observer else ())
+        return PoseTracks(names, np.repeat(t, m), np.tile(np.arange(m), k),
+                          p[:, :, 0].ravel(), p[:, :, 1].ravel(), p[:, :, 2].ravel(),
+                          source="physics truth")  # fmt: skip
