@@ -25,10 +25,27 @@ def _load_scenario(args: argparse.Namespace):
     from mirl.world.scenario import load_scenario, parse_damage
 
     scenario = load_scenario(args.scenario)
+    physics = getattr(args, "world", "grid") == "physics"
+    if physics:
+        _need_physics()
+        from mirl.physics.config import with_motor_strength
     for text in getattr(args, "damage", None) or []:
         robot, feature, p = parse_damage(text)
-        scenario = scenario.with_damage(robot, feature, p)
+        if physics:  # in the physical world the value is the wheel motor's strength
+            scenario = with_motor_strength(scenario, robot, feature, p)
+        else:
+            scenario = scenario.with_damage(robot, feature, p)
     return scenario
+
+
+def _need_physics() -> None:
+    """One line naming the extra when MuJoCo is missing (exit 2)."""
+    from mirl.physics import require_mujoco
+
+    try:
+        require_mujoco()
+    except ImportError as exc:
+        raise UsageError(str(exc)) from None
 
 
 @command("show-map")
@@ -55,6 +72,10 @@ def _simulate(args: argparse.Namespace) -> int:
     from mirl.simulation.grid import simulate
 
     scenario = _load_scenario(args)
+    if args.world == "physics":
+        from mirl.cli.physical import simulate_physics
+
+        return simulate_physics(args, scenario)
     start = time.perf_counter()
     result = simulate(
         scenario,
@@ -190,11 +211,14 @@ def _learn_transitions(args: argparse.Namespace) -> int:
 
 @command("experiment")
 def _experiment(args: argparse.Namespace) -> int:
-    from mirl.experiments.conditions import get_experiment
+    from mirl.experiments.conditions import get_experiment, in_world
     from mirl.experiments.sweep import run_experiment
 
     exp = get_experiment(args.name)  # unknown name: one-line error, exit 2
-    out = args.out or f"results/{exp.name}"
+    if args.world == "physics":
+        _need_physics()
+    exp = in_world(exp, args.world)
+    out = args.out or f"results/{exp.name}" + ("-physics" if args.world == "physics" else "")
     summary = run_experiment(
         exp,
         out,
@@ -231,6 +255,7 @@ def _run(args: argparse.Namespace) -> int:
         seed=args.seed,
         p=args.p,
         max_wait=args.max_wait,
+        world_kind=args.world,
     )
     if args.plot:
         from mirl.viz.runs import save_run_png

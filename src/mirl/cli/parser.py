@@ -48,6 +48,7 @@ def _run_parser(sub) -> None:
         "for its goal; prints what it saw, learned and did, and the outcome.",
     )
     _scenario_args(ru, default="boyd2")
+    _world_arg(ru)
     ru.add_argument("--method", choices=METHODS, default="mirl-t")
     ru.add_argument("--observability", type=_degree, default=None, metavar="D")
     ru.add_argument("--obs-steps", type=_positive_int, default=300, metavar="N")
@@ -89,6 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     si = sub.add_parser("simulate", help="simulate the patrollers and record what L sees")
     _scenario_args(si)
+    _world_arg(si)
     si.add_argument("--steps", type=_positive_int, default=300)
     si.add_argument("--seed", type=int, default=0)
     si.add_argument("--observability", type=_degree, default=None, metavar="D")
@@ -165,6 +167,7 @@ def _experiment_parsers(sub) -> None:
     )
     ex.add_argument("name", metavar="NAME", help="fig3, fig4a, fig4b, fig4c or table1")
     ex.add_argument("--runs", type=_positive_int, default=None, help="runs per condition")
+    _world_arg(ex)
     ex.add_argument(
         "--workers", type=_positive_int, default=os.cpu_count() or 1, help="local processes"
     )
@@ -259,6 +262,17 @@ def _non_negative_float(text: str) -> float:
     if not (v >= 0 and v < float("inf")):
         raise argparse.ArgumentTypeError(f"must be a non-negative number, got {text}")
     return v
+
+
+def _world_arg(sp: argparse.ArgumentParser) -> None:
+    sp.add_argument(
+        "--world",
+        choices=("grid", "physics"),
+        default="grid",
+        help="grid simulator (default) or the physical world: differential-drive robots in "
+        'MuJoCo seen through cameras (pip install "mirl[physics]"); there --damage '
+        "ROBOT:left_wheel=S sets a wheel motor's strength S",
+    )
 
 
 def _positive_int(text: str) -> int:

@@ -18,7 +18,7 @@ import os
 import time
 import zlib
 from collections.abc import Callable, Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -33,6 +33,7 @@ __all__ = [
     "EXPERIMENTS",
     "experiment_names",
     "get_experiment",
+    "in_world",
     "run_seed",
     "code_version",
     "episode_run",
@@ -56,11 +57,16 @@ class Condition:
     observability: float = 0.14
     obs_steps: int = DEFAULT_OBS_STEPS
     p: float | None = None
+    world: str = "grid"  # or "physics" (mirl.physics, MuJoCo)
 
     @property
     def key(self) -> str:
-        """Stable identity: JSON of the sorted fields (part of the database's primary key)."""
-        return json.dumps(asdict(self), sort_keys=True, separators=(",", ":"))
+        """Stable identity: JSON of the sorted fields (part of the database's primary key);
+        ``world`` only when it is not the grid, so grid keys stored before it existed match."""
+        fields = asdict(self)
+        if self.world == "grid":
+            del fields["world"]
+        return json.dumps(fields, sort_keys=True, separators=(",", ":"))
 
     @classmethod
     def from_key(cls, key: str) -> Condition:
@@ -69,6 +75,19 @@ class Condition:
     @property
     def label(self) -> str:
         return self.method if self.p is None else f"{self.method} (p={self.p:g})"
+
+
+def in_world(experiment: Experiment, world: str) -> Experiment:
+    """The same grid of conditions run in another world (``mirl experiment --world``)."""
+    if world == "grid":
+        return experiment
+    if world != "physics":
+        raise StoreError(f"unknown world '{world}' (known: grid, physics)")
+    if experiment.run_function is not episode_run:
+        raise StoreError(f"experiment '{experiment.name}' has no physical version")
+    conds = tuple(replace(c, world=world) for c in experiment.conditions)
+    desc = experiment.description.replace("on the grid simulator", "in the physical world")
+    return replace(experiment, conditions=conds, description=f"{desc} ({world} world)")
 
 
 RunFunction = Callable[[Condition, int], Mapping[str, Any]]
@@ -133,6 +152,7 @@ def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
         observability=condition.observability,
         obs_steps=condition.obs_steps,
         seed=seed,
+        world_kind=condition.world,
         **kwargs,
     )
     return _flatten_run_result(result)
@@ -156,6 +176,10 @@ def _flatten_run_result(result: Any) -> dict[str, Any]:
         out[f"seen_steps_{robot}"] = int(n)
     out["plan_value"] = _maybe_float(getattr(result, "plan_value", None))
     out["plan_attempts"] = len(getattr(result, "attempts", ()) or ())
+    physical = getattr(result, "physical", None)
+    if physical is not None:  # robot-robot and robot-wall contact events of a physical run
+        out["contacts"] = int(physical.contacts)
+        out["wall_contacts"] = int(physical.wall_contacts)
     return out
 
 

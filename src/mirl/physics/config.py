@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
-__all__ = ["PhysicsConfig", "physics_config", "WHEELS"]
+__all__ = ["PhysicsConfig", "physics_config", "with_motor_strength", "WHEELS"]
 
 WHEELS = ("left_wheel", "right_wheel")
 
@@ -106,3 +106,16 @@ def physics_config(
             raise ValueError(f"{source}: physics.{k}: expected a non-negative number, got {v!r}")
         out[k] = float(v)
     return PhysicsConfig(**out, motor_strength=strengths)
+
+
+def with_motor_strength(scenario, robot: str, wheel: str, strength: float):
+    """A copy of ``scenario`` whose ``[physics]`` table gives ``robot``'s ``wheel`` motor this
+    strength (what ``--damage ROBOT:WHEEL=S`` means in the physics world)."""
+    from dataclasses import replace as _replace
+
+    scenario.robot_index(robot)  # unknown robot: ValueError naming the robots
+    cfg = physics_config(scenario.physics, scenario.source, scenario.robot_names)
+    cfg = cfg.with_strength(robot, wheel, strength)
+    table = dict(scenario.physics)
+    table["motor_strength"] = {r: dict(w) for r, w in cfg.motor_strength.items()}
+    return _replace(scenario, physics=table)
