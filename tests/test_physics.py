@@ -178,3 +178,26 @@ def test_camera_cone_geometry():
     assert cone.inside(0, 0, 0, 5.9, 0) and not cone.inside(0, 0, 0, 6.1, 0)
     assert cone.inside(0, 0, 0, 1.0, np.tan(np.radians(28))) and not cone.inside(0, 0, 0, 1, 0.6)
     assert not cone.inside(0, 0, np.pi, 3.0, 0.0)
+
+
+def test_any_map_compiles_with_few_wall_boxes():
+    from mirl.world.office_maps import office_map_from_name
+
+    office = office_map_from_name("office")
+    wall = np.pad(~office.free, 1, constant_values=True)
+    rects = wall_rectangles(wall)
+    assert len(rects) < wall.sum() / 4  # merged: far fewer boxes than wall cells
+    from mirl.physics.world import world_mjcf
+
+    model = mujoco.MjModel.from_xml_string(world_mjcf(office.free, Frame.of(office), []))
+    assert model.ngeom == len(rects) + 1  # the walls and the floor
+
+
+def test_boydright_patrols_with_its_own_door_camera():
+    sc = load_scenario("boydright")
+    w = PhysicalWorld(sc, seed=0)
+    for _ in range(5):
+        w.step()
+    (cx, cy, cyaw), cone = w._cam, w._cone
+    assert (cx, cy) == Frame.of(sc.map).cell_centre(*sc.observer_start)
+    assert cone.range > 0 and len(w.true) == 6
