@@ -83,9 +83,6 @@ def hour_of_poses(scenario, hours: float, seed: int = 0) -> PoseTracks:
 
 def grid_csv(path: Path, scenario, megabytes: float, seed: int = 0) -> int:
     """A grid observations CSV of about ``megabytes`` MB; returns the number of rows."""
-    import pyarrow as pa
-    import pyarrow.csv as pv
-
     rng = np.random.default_rng(seed)
     d = scenario.domain
     rows = int(megabytes * 1e6 / 15.5)  # ~15.5 bytes a row at these magnitudes
@@ -93,19 +90,7 @@ def grid_csv(path: Path, scenario, megabytes: float, seed: int = 0) -> int:
     tr = Trajectories.from_states(
         d, scenario.robot_names[:2], rng.integers(0, d.n_states, size=(steps, 2))
     )
-    names = pa.DictionaryArray.from_arrays(pa.array(tr.robot, pa.int32()), pa.array(["I", "J"]))
-    table = pa.table(
-        {
-            "t": tr.t,
-            "robot": names.cast(pa.string()),
-            "row": tr.row,
-            "col": tr.col,
-            "heading": tr.heading,
-        }
-    )
-    with open(path, "wb") as fh:
-        fh.write(b"t,robot,row,col,heading\n")
-        pv.write_csv(table, fh, pv.WriteOptions(include_header=False, quoting_style="none"))
+    tr.to_csv(path)
     return len(tr)
 
 

@@ -240,3 +240,43 @@ def test_bare_mcap_file_is_read(tmp_path):
     bare = tmp_path / "copy.mcap"
     shutil.copy(inner, bare)
     assert read_bag(bare, TOPICS).counts().tolist() == [6, 4]
+
+
+def test_zero_quaternion_is_an_error(tmp_path):
+    ts = typestore(True)
+    recs = [("/p", t, pose_message(ts, "stamped", t, 1.0, 0.0, 0.0)) for t in (1.0, 2.0)]
+    recs[1][2][1].pose.orientation.w = 0.0  # an orientation never filled in
+    path = write_bag(tmp_path / "z", recs, fmt="mcap")
+    with pytest.raises(BagError) as e:
+        read_bag(path, {"/p": "I"})
+    _one_line(e, path, "topic /p", "message 1", "zero quaternion")
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_fast_path_is_taken(tmp_path, fmt, monkeypatch):
+    """Only the first and last message of a topic go through rosbags' deserialiser."""
+    import mirl.observations.bags as bags
+
+    path = write_bag(bag_path(tmp_path, fmt), records(fmt != "ros1"), fmt=fmt)
+    calls = []
+    original = bags._decode_one
+
+    def counting(reader, raw, msgtype):
+        calls.append(msgtype)
+        return original(reader, raw, msgtype)
+
+    monkeypatch.setattr(bags, "_decode_one", counting)
+    read_bag(path, TOPICS)
+    assert len(calls) == 4  # 2 topics x (first, last)
+    calls.clear()
+    read_bag(path, TOPICS, decode="rosbags")
+    assert len(calls) == 10
+
+
+def test_unfilled_stamps_are_an_error(tmp_path):
+    ts = typestore(False)
+    recs = [("/p", 1.0 + k, pose_message(ts, "stamped", 0.0, 1.0, 0.0, 0.0)) for k in range(3)]
+    path = write_bag(tmp_path / "z.bag", recs, fmt="ros1")
+    with pytest.raises(BagError) as e:
+        read_bag(path, {"/p": "I"})
+    _one_line(e, path, "topic /p", "3 messages have header stamp 0")

@@ -32,7 +32,7 @@ def test_convert_hand_built_bag(tmp_path, capsys, fmt):
     code = main(["convert", str(bag), str(out), "--scenario", "boyd2", *TOPIC_ARGS])
     text = capsys.readouterr().out
     assert code == 0
-    assert "7 steps of 2 s from t = 100.000 s (tolerance 1 s)" in text
+    assert "7 steps of 2 s from t = 100.000 s (tolerance 1 s); 4 cells visible to L" in text
     assert "I: 6 poses read, 6 binned, 1 snapped, 0 dropped, 5 steps observed" in text
     assert "J: 4 poses read, 4 binned, 0 snapped, 0 dropped, 4 steps observed" in text
     rows = [line.split(",") for line in out.read_text().splitlines()[1:]]
@@ -123,6 +123,8 @@ def test_bad_robot_data_one_line_exit_2(tmp_path, capsys):
     assert "I: 2 poses read, 2 binned, 0 snapped, 1 dropped, 1 steps observed" in (
         capsys.readouterr().out
     )
+    sim = ["simulate", "--scenario", "boyd2", "--steps", "5", "--poses", str(tmp_path / "s.bag")]
+    one_error_line(capsys, main(sim), "s.bag", "ROS 1 bags are read, not written")
     # pose options on a grid CSV are an error, not ignored
     grid = tmp_path / "g.csv"
     grid.write_text("t,robot,row,col,heading\n0,I,0,8,2\n")

@@ -55,6 +55,8 @@ def test_quaternion_columns_spaces_and_blank_lines(tmp_path):
     assert tr.t.tolist() == [2.5, 0.5, 1.0]
     np.testing.assert_allclose(tr.yaw, [math.pi / 2, math.pi, 0.0], atol=1e-12)
     np.testing.assert_allclose(yaw_from_quaternion(0, 0, -q, q), -math.pi / 2)
+    # any scale of the quaternion gives the same yaw
+    np.testing.assert_allclose(yaw_from_quaternion(0, 0, -3 * q, 3 * q), -math.pi / 2)
 
 
 @pytest.mark.parametrize(
@@ -68,6 +70,7 @@ def test_quaternion_columns_spaces_and_blank_lines(tmp_path):
         ("t,robot,x,y,yaw\n1,I,2,3,0\n2,I,1,3\n", "line 3: expected 5 cells"),
         ("t,robot,x,y,yaw\n1, ,2,3,0\n", "line 2: empty robot name"),
         ("", "file is empty"),
+        ("t,robot,x,y,qz,qw\n1,I,2,3,0,1\n2,I,2,3,0,0\n", "line 3: qz = qw = 0"),
     ],
 )
 def test_errors_name_file_and_line(tmp_path, text, where):

@@ -111,7 +111,7 @@ def _simulate(args: argparse.Namespace) -> int:
 def _write_poses(args: argparse.Namespace, scenario, observations) -> None:
     from pathlib import Path
 
-    from mirl.observations.bags import is_bag, write_mcap
+    from mirl.observations.bags import write_mcap
     from mirl.observations.discretise import poses_from_trajectories
     from mirl.observations.poses import write_pose_csv
 
@@ -129,11 +129,14 @@ def _write_poses(args: argparse.Namespace, scenario, observations) -> None:
     if out.suffix == ".csv":
         write_pose_csv(tracks, out)
         what = "pose CSV"
-    elif out.suffix == ".mcap" or not out.suffix or is_bag(out):
+    elif out.suffix == ".mcap" or not out.suffix:
         write_mcap(tracks, out)
         what = "MCAP, topics /ROBOT/pose"
     else:
-        raise UsageError(f"--poses {out}: expected a .csv or .mcap file or a bag directory")
+        raise UsageError(
+            f"--poses {out}: expected a .csv or .mcap file or a bag directory (no suffix); "
+            "ROS 1 bags are read, not written"
+        )
     print(
         f"wrote {out} ({len(tracks)} poses, {what}, {args.pose_rate:g} Hz, steps of "
         f"{args.step_seconds:g} s from t = 0; noise {sigma_m:g} m / {sigma_deg:g} deg)"

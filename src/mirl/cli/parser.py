@@ -108,6 +108,27 @@ def build_parser() -> argparse.ArgumentParser:
     )
     si.add_argument("--observations", metavar="FILE.csv", help="write L's observations")
     si.add_argument("--truth", metavar="FILE.csv", help="write the true trajectories")
+    _pose_output_args(si)
+    lt = sub.add_parser(
+        "learn-transitions", help="learn transition-feature probabilities (mIRL*/T) from a CSV"
+    )
+    _scenario_args(lt)
+    _observation_args(lt)
+    lt.add_argument(
+        "--labels",
+        choices=("true-policy", "perception"),
+        default="true-policy",
+        help="label observed steps with the true policy (Known R/T) or by perception",
+    )
+    lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
+    _convert_parser(sub)
+    _experiment_parsers(sub)
+    _run_parser(sub)
+    _learn_parser(sub)
+    return p
+
+
+def _pose_output_args(si: argparse.ArgumentParser) -> None:
     si.add_argument(
         "--poses",
         metavar="OUT",
@@ -129,18 +150,9 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="S",
         help="seconds per time step of the written poses (default 2)",
     )
-    lt = sub.add_parser(
-        "learn-transitions", help="learn transition-feature probabilities (mIRL*/T) from a CSV"
-    )
-    _scenario_args(lt)
-    _observation_args(lt)
-    lt.add_argument(
-        "--labels",
-        choices=("true-policy", "perception"),
-        default="true-policy",
-        help="label observed steps with the true policy (Known R/T) or by perception",
-    )
-    lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
+
+
+def _convert_parser(sub) -> None:
     cv = sub.add_parser(
         "convert",
         help="pose data (bag, MCAP, pose CSV) -> grid observations CSV, with per-robot counts",
@@ -152,10 +164,6 @@ def build_parser() -> argparse.ArgumentParser:
     cv.add_argument("output", metavar="OUT.csv")
     _scenario_args(cv)
     _observation_args(cv, with_file=False)
-    _experiment_parsers(sub)
-    _run_parser(sub)
-    _learn_parser(sub)
-    return p
 
 
 def _experiment_parsers(sub) -> None:
@@ -244,24 +252,24 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
     )
 
 
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
-    if not (v > 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
-    return v
+def _float_at_least(low: float, *, strict: bool):
+    """An argparse type: a finite number > ``low`` (``strict``) or >= ``low``."""
+
+    def parse(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+        if not (v < float("inf") and (v > low if strict else v >= low)):
+            what = "positive" if strict else "non-negative"
+            raise argparse.ArgumentTypeError(f"must be a {what} number, got {text}")
+        return v
+
+    return parse
 
 
-def _non_negative_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
-    if not (v >= 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a non-negative number, got {text}")
-    return v
+_positive_float = _float_at_least(0.0, strict=True)
+_non_negative_float = _float_at_least(0.0, strict=False)
 
 
 def _world_arg(sp: argparse.ArgumentParser) -> None:

@@ -120,7 +120,11 @@ def run_episode(
     """Run one penetration (module doc). ``learned`` overrides learning (for tests and
     experiments with hand-made models). ``travel_steps`` is the part of the planning horizon
     after the last go time (default: 3 × L's shortest path, at least 20). ``world_kind``
-    ``"physics"`` runs the same protocol in MuJoCo (:mod:`mirl.experiments.physical`)."""
+    ``"physics"`` runs the same protocol in MuJoCo (:mod:`mirl.experiments.physical`).
+
+    Long because its keyword arguments are the run protocol's knobs, each documented in the
+    module docstring; the body is the four phases in order, each a call.
+    """
     if method not in METHODS:
         raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
     if obs_steps < 1:

@@ -129,10 +129,17 @@ def execute(
         path.append((world.t, *map(int, dom.states[s])))
         seen = model.seen_by(truth, s)
         if seen.any():
-            cell = tuple(map(int, dom.states[s][:2]))
+            row, col = map(int, dom.states[s][:2])
+            patrol_states = world.domain.states
             dets = [
-                Detection(world.t, names[i], tuple(map(int, world.domain.states[truth[i]])), cell)
+                Detection(
+                    world.t,
+                    names[i],
+                    (int(r), int(c), int(h)),
+                    (row, col),
+                )
                 for i in np.flatnonzero(seen)
+                for r, c, h in [patrol_states[truth[i]]]
             ]
             return "detected", path, dets, plan
         if model.goal[s]:

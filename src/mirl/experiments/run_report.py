@@ -36,7 +36,10 @@ def _turn_cells(domain, cycle: np.ndarray) -> list[tuple[int, int]]:
 
 
 def format_report(scenario: Scenario, result: RunResult) -> str:
-    """The short readable report printed by ``mirl run``."""
+    """The short readable report printed by ``mirl run``.
+
+    Long because it is one printed page, written line by line in the order it reads.
+    """
     dom = scenario.domain
     n_vis = int(scenario.map.visible_mask(result.observability).sum())
     damaged = [

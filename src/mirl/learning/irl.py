@@ -45,14 +45,7 @@ observation, 0.509 / 0.878 / 0.952 re-anchored at re-entries (9–12 s); ``likel
 n_restarts=1`` (restarts from random θ were measured to land on the same optimum); the paper's
 configuration is ``objective="counts", optimizer="nelder-mead", n_restarts=3``.
 
-**Interactions.** Observed steps at which both robots are in view and *could* meet are left out of
-the per-robot fit (their actions may be the game's). The candidate equilibria (all Nash equilibria
-of the bimatrix) are weighed by the exact likelihood of both robots' observations under the joint
-dynamics — a forward filter over the S² joint states where the equilibrium's moves replace the
-policies' at meeting states (:func:`joint_log_likelihood`) — which contains the likelihood of the
-evident meetings (:func:`meeting_log_likelihood`). The joint filter costs ~0.1 s per equilibrium
-on boyd2 (450 steps), 10–25 times a marginal objective evaluation, so it weighs equilibria once
-per learned model rather than inside the optimiser.
+Interactions (meetings, equilibria) are :mod:`mirl.learning.equilibria`.
 """
 
 from __future__ import annotations
@@ -121,6 +114,7 @@ class OccludedMaxEntIRL:
             if value not in allowed:
                 raise ValueError(f"unknown {name} '{value}' (known: {', '.join(allowed)})")
         self.features = np.asarray(features, dtype=float)
+        self._V_warm: np.ndarray | None = None  # soft values of the last evaluation (warm start)
         if self.features.ndim != 3:
             raise ValueError(f"features must be (S, A, K), got shape {self.features.shape}")
         self.transitions = sp.csr_array(transitions)
@@ -193,9 +187,9 @@ class OccludedMaxEntIRL:
         S = self.features.shape[0]
         H = len(x)
         seen = x >= 0
-        t = np.flatnonzero(seen[:-1] & seen[1:] & own[:-1])
-        self._pair = (x[t], x[t + 1])
-        self._Tab = self._dyn.transition_values(x[t], x[t + 1])
+        pairs = np.flatnonzero(seen[:-1] & seen[1:] & own[:-1])
+        self._pair = (x[pairs], x[pairs + 1])
+        self._Tab = self._dyn.transition_values(x[pairs], x[pairs + 1])
         starts, steps, ends = [], [], []
         t = int(np.flatnonzero(seen)[0])  # condition on the first observation
         while t < H:
@@ -330,7 +324,8 @@ class OccludedMaxEntIRL:
         g = 2 * self.l2 * theta
         counts = self.objective in ("counts", "both")
         actions = self.objective in ("likelihood", "both")
-        dpi = dPT = None
+        dpi: np.ndarray | None = None
+        dPT: sp.csr_array | None = None
         if grad:
             # dQ/dθ = φ + γ T dV/dθ, dV/dθ = Σ_a π dQ/dθ (soft Bellman): successor features
             phi_pi = np.einsum("sa,sak->sk", pi, self.features)
@@ -349,6 +344,7 @@ class OccludedMaxEntIRL:
             diff = (expected - expert) / self._n_obs
             loss += float(diff @ diff)
             if grad:
+                assert dpi is not None
                 dphi_pi = np.einsum("saj,sak->skj", dpi, self.features)  # dφ_π[:, k]/dθ_j
                 expected_g = np.einsum("s,sk,sj->kj", self._vis, phi_pi, dD) + np.einsum(
                     "s,skj->kj", D * self._vis, dphi_pi
@@ -389,7 +385,7 @@ class OccludedMaxEntIRL:
         x0 = np.zeros(K) if initial_weights is None else np.asarray(initial_weights, float)
         starts = [x0] + [rng.normal(0.0, 1.0, K) for _ in range(max(self.n_restarts, 1) - 1)]
         self._V_warm = None
-        best, results = None, []
+        results: list[OptimizeResult] = []
         for x_start in starts:
             self._V_warm = None
             if self.optimizer == "nelder-mead":
@@ -416,8 +412,7 @@ class OccludedMaxEntIRL:
                     options={"maxfun": self.max_evaluations, "gtol": 1e-7},
                 )
             results.append(res)
-            if best is None or res.fun < best.fun:
-                best = res
+        best = min(results, key=lambda r: r.fun)  # the first of equal optima, as before
         theta = np.asarray(best.x, dtype=float)
         self._V_warm = None
         V, Q, pi = self._soft(theta)

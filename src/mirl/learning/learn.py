@@ -149,6 +149,9 @@ def learn(
     ``trace``: an empty :class:`LoopTrace` to receive the labels of every round.
     ``random_state`` seeds every random choice (IRL restarts); ``None`` counts as 0, so learning
     is deterministic.
+
+    Long because the signature and the validation of every option come first; the recipes
+    themselves are :func:`_method_models` and the helpers below.
     """
     if method not in METHODS:
         raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
@@ -273,7 +276,7 @@ def relabel_loop(
     clock, n = setup.clock, len(setup.series)
     with clock("labels"):
         labels = _perception(setup)
-    weights: list[np.ndarray | None] = [None] * n
+    weights: list[np.ndarray] | None = None  # previous round's, for warm starts
     trace.message = "stopped at max_iterations"
     for round_ in range(1, max_iterations + 1):
         trace.labels.append(labels)
@@ -364,7 +367,8 @@ def _em_transitions(setup: _Setup):
 def _irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.ndarray]:
     """One IRL per robot; rounds after the first warm-start from the previous weights."""
     d = setup.domain
-    weights, estimators = [], []
+    weights: list[np.ndarray | None] = []
+    estimators: list[OccludedMaxEntIRL | None] = []
     with setup.clock("irl"):
         for i, (x, T) in enumerate(zip(setup.series, transitions, strict=True)):
             if not (x >= 0).any():  # never seen: filled in below

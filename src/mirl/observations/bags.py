@@ -148,13 +148,25 @@ def read_bag(
 
 
 def _check(path: Path, topic: str, robot: str, cols: np.ndarray) -> PoseTracks:
-    """(n, 8) columns t, x, y, z, qx, qy, qz, qw of one topic -> tracks; NaN or time going
-    backwards is an error naming the message."""
+    """(n, 8) columns t, x, y, z, qx, qy, qz, qw of one topic -> tracks; NaN, a zero quaternion
+    (an orientation never filled in) or time going backwards is an error naming the message."""
     t, x, y = cols[:, 0], cols[:, 1], cols[:, 2]
     bad = ~np.isfinite(cols).all(axis=1)
     if bad.any():
         i = int(np.argmax(bad))
         raise BagError(f"{path}: topic {topic}: message {i} (stamp {t[i]:.9f} s): NaN pose")
+    zero = (cols[:, 4:8] ** 2).sum(axis=1) < 1e-12
+    if zero.any():
+        i = int(np.argmax(zero))
+        raise BagError(
+            f"{path}: topic {topic}: message {i} (stamp {t[i]:.9f} s): orientation is the zero "
+            "quaternion (not filled in?)"
+        )
+    if np.count_nonzero(t == 0.0) > 1:
+        raise BagError(
+            f"{path}: topic {topic}: {np.count_nonzero(t == 0.0)} messages have header stamp 0 "
+            "(stamps not filled in?)"
+        )
     back = np.flatnonzero(np.diff(t) < 0)
     if back.size:
         i = int(back[0]) + 1

@@ -78,7 +78,7 @@ class Discretised:
         tr = self.trajectories
         head = (
             f"{tr.horizon} steps of {self.step_seconds:g} s from t = {self.start_time:.3f} s "
-            f"(tolerance {self.tolerance:g} s)"
+            f"(tolerance {self.tolerance:g} s); {int(self.visible.sum())} cells visible to L"
         )
         return "\n".join([head, *("  " + c.line() for c in self.report)])
 
@@ -106,31 +106,14 @@ def discretise(
     observed on; or a (rows, cols) bool mask. Observed steps outside it are counted
     (``outside_visible``), never dropped.
     """
-    src = tracks.source
-    if not (np.isfinite(step_seconds) and step_seconds > 0):
-        raise DiscretisationError(f"{src}: step_seconds must be positive, got {step_seconds}")
-    tol = step_seconds / 2.0 if tolerance is None else float(tolerance)
-    if not (np.isfinite(tol) and tol >= 0):
-        raise DiscretisationError(f"{src}: tolerance must be a non-negative number, got {tol}")
-    names = scenario.robot_names
-    try:
-        tracks = tracks.with_robot_names(names)
-    except PoseError as exc:
-        raise DiscretisationError(str(exc)) from None
-    bad = ~np.isfinite(np.column_stack([tracks.t, tracks.x, tracks.y, tracks.yaw])).all(axis=1)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise DiscretisationError(
-            f"{src}: robot {names[tracks.robot[i]]}: NaN or infinite pose at t = {tracks.t[i]}"
-        )
-    n_robots = len(names)
+    tracks, tol = _checked(tracks, scenario, step_seconds, tolerance)
     if start_time is None:
         start_time = float(tracks.t.min()) if len(tracks) else 0.0
     if n_steps is None:
         last = float(tracks.t.max()) if len(tracks) else start_time
         n_steps = max(int(np.floor((last - start_time) / step_seconds + 0.5)) + 1, 0)
     if n_steps < 0:
-        raise DiscretisationError(f"{src}: n_steps must not be negative, got {n_steps}")
+        raise DiscretisationError(f"{tracks.source}: n_steps must not be negative, got {n_steps}")
 
     # time: nearest step and the distance to it
     k = np.floor((tracks.t - start_time) / step_seconds + 0.5).astype(np.int64)
@@ -145,15 +128,64 @@ def discretise(
     if off.any() and not drop_off_map:
         i = int(np.argmax(off))
         raise DiscretisationError(
-            f"{src}: robot {names[tracks.robot[i]]}: pose ({tracks.x[i]:.3f}, {tracks.y[i]:.3f}) m "
-            f"at t = {tracks.t[i]:.3f} s is more than {SNAP_CELLS:g} cell from the hallway "
-            f"(cell {int(np.floor(rf[i] + 0.5))}, {int(np.floor(cf[i] + 0.5))}); check the map "
-            "frame, or drop such poses explicitly"
+            f"{tracks.source}: robot {tracks.robot_names[tracks.robot[i]]}: pose "
+            f"({tracks.x[i]:.3f}, {tracks.y[i]:.3f}) m at t = {tracks.t[i]:.3f} s is more than "
+            f"{SNAP_CELLS:g} cell from the hallway (cell {int(np.floor(rf[i] + 0.5))}, "
+            f"{int(np.floor(cf[i] + 0.5))}); check the map frame, or drop such poses explicitly"
         )
-    keep = binned & ok
-    heading = heading_of_yaw(tracks.yaw)
+    chosen = _nearest_per_step(tracks, k, dt, binned & ok, n_steps)
+    traj = Trajectories(
+        tracks.robot_names,
+        k[chosen],
+        tracks.robot[chosen],
+        row[chosen],
+        col[chosen],
+        heading_of_yaw(tracks.yaw[chosen]),
+        n_steps,
+    )
+    vis = _visible_mask(visible, scenario, traj)
+    n = len(tracks.robot_names)
 
-    # per (robot, step): the nearest kept pose (ties: the earlier one)
+    def count(mask: np.ndarray, by: np.ndarray = tracks.robot) -> list[int]:
+        return np.bincount(by[mask], minlength=n).tolist()
+
+    columns = (
+        count(np.ones(len(tracks), dtype=bool)),
+        count(binned),
+        count(binned & snapped),
+        count(off),
+        count(np.ones(len(traj), dtype=bool), traj.robot),
+        count(~vis[traj.row, traj.col], traj.robot),
+    )
+    report = tuple(
+        RobotCounts(name, *(c[i] for c in columns)) for i, name in enumerate(tracks.robot_names)
+    )
+    return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis)
+
+
+def _checked(tracks: PoseTracks, scenario: Scenario, step_seconds: float, tolerance):
+    """Tracks indexed by the scenario's robots, NaN-free; the tolerance."""
+    src = tracks.source
+    if not (np.isfinite(step_seconds) and step_seconds > 0):
+        raise DiscretisationError(f"{src}: step_seconds must be positive, got {step_seconds}")
+    tol = step_seconds / 2.0 if tolerance is None else float(tolerance)
+    if not (np.isfinite(tol) and tol >= 0):
+        raise DiscretisationError(f"{src}: tolerance must be a non-negative number, got {tol}")
+    try:
+        tracks = tracks.with_robot_names(scenario.robot_names)
+    except PoseError as exc:
+        raise DiscretisationError(str(exc)) from None
+    bad = ~np.isfinite(np.column_stack([tracks.t, tracks.x, tracks.y, tracks.yaw])).all(axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        name = tracks.robot_names[tracks.robot[i]]
+        raise DiscretisationError(f"{src}: robot {name}: NaN or infinite pose at t = {tracks.t[i]}")
+    return tracks, tol
+
+
+def _nearest_per_step(tracks: PoseTracks, k, dt, keep, n_steps: int) -> np.ndarray:
+    """Row index of the nearest kept pose per (robot, step) (ties: the earlier pose), sorted by
+    (step, robot)."""
     idx = np.flatnonzero(keep)
     key = tracks.robot[idx] * max(n_steps, 1) + k[idx]
     order = np.lexsort((tracks.t[idx], dt[idx], key))
@@ -161,53 +193,23 @@ def discretise(
     first = np.ones(len(idx), dtype=bool)
     first[1:] = key[1:] != key[:-1]
     chosen = idx[first]
-    chosen = chosen[np.lexsort((tracks.robot[chosen], k[chosen]))]
-    traj = Trajectories(
-        names,
-        k[chosen],
-        tracks.robot[chosen],
-        row[chosen],
-        col[chosen],
-        heading[chosen],
-        n_steps,
-    )
+    return chosen[np.lexsort((tracks.robot[chosen], k[chosen]))]
 
+
+def _visible_mask(visible, scenario: Scenario, traj: Trajectories) -> np.ndarray:
+    gridmap = scenario.map
     if visible is None:
-        vis = gridmap.visible_mask(scenario.observability)
-    elif isinstance(visible, str):
+        return gridmap.visible_mask(scenario.observability)
+    if isinstance(visible, str):
         if visible != "observed":
             raise ValueError(f"visible must be None, 'observed' or a mask, got {visible!r}")
         vis = np.zeros(gridmap.shape, dtype=bool)
         vis[traj.row, traj.col] = True
-    else:
-        vis = np.asarray(visible, dtype=bool)
-        if vis.shape != gridmap.shape:
-            raise ValueError(f"visible mask has shape {vis.shape}, the map {gridmap.shape}")
-    outside = ~vis[traj.row, traj.col]
-
-    def count(mask: np.ndarray, by: np.ndarray) -> np.ndarray:
-        return np.bincount(by[mask], minlength=n_robots)
-
-    every = np.ones(len(tracks), dtype=bool)
-    read = count(every, tracks.robot)
-    n_binned = count(binned, tracks.robot)
-    n_snapped = count(binned & snapped, tracks.robot)
-    n_dropped = count(off, tracks.robot)
-    n_obs = np.bincount(traj.robot, minlength=n_robots)
-    n_out = np.bincount(traj.robot[outside], minlength=n_robots)
-    report = tuple(
-        RobotCounts(
-            names[i],
-            int(read[i]),
-            int(n_binned[i]),
-            int(n_snapped[i]),
-            int(n_dropped[i]),
-            int(n_obs[i]),
-            int(n_out[i]),
-        )
-        for i in range(n_robots)
-    )
-    return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis)
+        return vis
+    vis = np.asarray(visible, dtype=bool)
+    if vis.shape != gridmap.shape:
+        raise ValueError(f"visible mask has shape {vis.shape}, the map {gridmap.shape}")
+    return vis
 
 
 def _cells(patroller: np.ndarray, rf: np.ndarray, cf: np.ndarray, which: np.ndarray):

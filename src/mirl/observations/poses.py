@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mirl.observations._csv import arrow_read, csv_header, data_line_numbers, write_columns
+
 __all__ = [
     "PoseTracks",
     "PoseError",
@@ -126,28 +128,15 @@ class PoseTracks:
 
 
 def yaw_from_quaternion(qx, qy, qz, qw) -> np.ndarray:
-    """Yaw (rotation about z) of quaternions, radians in (−π, π] (arrays ok)."""
+    """Yaw (rotation about z) of quaternions, radians in (−π, π] (arrays ok); the same for any
+    non-zero scale of the quaternion."""
     qx, qy, qz, qw = (np.asarray(v, dtype=np.float64) for v in (qx, qy, qz, qw))
-    return np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+    return np.arctan2(2.0 * (qw * qz + qx * qy), qw * qw + qx * qx - qy * qy - qz * qz)
 
 
 # ---- CSV -----------------------------------------------------------------------------------
-def _data_line_numbers(path: Path) -> np.ndarray:
-    """1-based file line of each data row as pyarrow counts them (empty lines skipped).
-
-    Only used on the error path, so a plain Python scan is fine.
-    """
-    lines = []
-    with open(path, "rb") as fh:
-        next(fh, None)  # header
-        for lineno, line in enumerate(fh, start=2):
-            if line.strip(b"\r\n"):
-                lines.append(lineno)
-    return np.asarray(lines, dtype=np.int64)
-
-
 def _line_of(path: Path, row: int) -> int:
-    lines = _data_line_numbers(path)
+    lines = data_line_numbers(path)
     return int(lines[row]) if row < len(lines) else row + 2
 
 
@@ -173,46 +162,18 @@ def _first_bad_line(path: Path, columns: list[str], numeric: set[str]) -> str:
     return "cannot parse"
 
 
-def _read_arrow_csv(path: Path, header: list[str], columns: dict, error, numeric: set[str]):
-    """Read ``columns`` (name -> arrow type) with pyarrow on one thread; raise ``error`` with a
-    one-line message naming the file and line on a problem. ``header`` is the stripped header
-    (pyarrow would keep the spaces in `` robot``)."""
+def _read_arrow_csv(path: Path, header: list[str], columns: dict, numeric: set[str]):
+    """:func:`arrow_read`, with a one-line :class:`PoseError` naming the file and line."""
     import pyarrow as pa
-    import pyarrow.csv as pv
 
     try:
-        table = pv.read_csv(
-            path,
-            read_options=pv.ReadOptions(
-                use_threads=False, block_size=1 << 22, column_names=header, skip_rows=1
-            ),
-            convert_options=pv.ConvertOptions(
-                column_types=columns, include_columns=list(columns), strings_can_be_null=False
-            ),
-        )
+        return arrow_read(path, header, columns)
     except FileNotFoundError:
-        raise error(f"{path}: no such file") from None
+        raise PoseError(f"{path}: no such file") from None
     except OSError as exc:
-        raise error(f"{path}: cannot read ({exc})") from None
-    except (pa.ArrowInvalid, pa.ArrowKeyError) as exc:
-        first = str(exc).splitlines()[0] if str(exc) else ""
-        if "Empty CSV file" in first:
-            raise error(f"{path}: file is empty") from None
-        raise error(f"{path}: {_first_bad_line(path, list(columns), numeric)}") from None
-    return table
-
-
-def _csv_header(path: Path, error) -> list[str]:
-    try:
-        with open(path, newline="") as fh:
-            first = fh.readline()
-    except FileNotFoundError:
-        raise error(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise error(f"{path}: cannot read ({exc})") from None
-    if not first.strip():
-        raise error(f"{path}: file is empty")
-    return [h.strip().strip('"') for h in first.strip("\r\n").split(",")]
+        raise PoseError(f"{path}: cannot read ({exc})") from None
+    except (pa.ArrowInvalid, pa.ArrowKeyError):
+        raise PoseError(f"{path}: {_first_bad_line(path, list(columns), numeric)}") from None
 
 
 def read_pose_csv(path: str | Path) -> PoseTracks:
@@ -225,7 +186,7 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
     import pyarrow.compute as pc
 
     path = Path(path)
-    header = _csv_header(path, PoseError)
+    header = csv_header(path, PoseError)
     for col in ("t", "robot", "x", "y"):
         if col not in header:
             raise PoseError(f"{path}: line 1: missing column '{col}' (expected t,robot,x,y,yaw)")
@@ -237,7 +198,7 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
         raise PoseError(f"{path}: line 1: need a 'yaw' column or 'qz' and 'qw' columns")
     numeric = ["t", "x", "y", *angles]
     types = {c: pa.float64() for c in numeric} | {"robot": pa.string()}
-    table = _read_arrow_csv(path, header, types, PoseError, set(numeric))
+    table = _read_arrow_csv(path, header, types, set(numeric))
     if table.num_rows == 0:
         return PoseTracks.empty(source=str(path))
     cols = {c: table.column(c).to_numpy(zero_copy_only=False) for c in numeric}
@@ -253,7 +214,14 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
     if "" in names:
         row = int(np.argmax(np.asarray(robot.indices) == names.index("")))
         raise PoseError(f"{path}: line {_line_of(path, row)}: empty robot name")
-    yaw = cols["yaw"] if "yaw" in cols else 2.0 * np.arctan2(cols["qz"], cols["qw"])
+    if "yaw" in cols:
+        yaw = cols["yaw"]
+    else:
+        zero = cols["qz"] ** 2 + cols["qw"] ** 2 < 1e-12
+        if zero.any():
+            row = int(np.argmax(zero))
+            raise PoseError(f"{path}: line {_line_of(path, row)}: qz = qw = 0 is no orientation")
+        yaw = 2.0 * np.arctan2(cols["qz"], cols["qw"])
     return PoseTracks(
         tuple(names),
         cols["t"],
@@ -267,25 +235,9 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
 
 def write_pose_csv(tracks: PoseTracks, path: str | Path) -> None:
     """Write ``t,robot,x,y,yaw`` rows (floats at full precision: reading back is exact)."""
-    import pyarrow as pa
-    import pyarrow.csv as pv
-
-    names = pa.array(list(tracks.robot_names) or [""], type=pa.string())
-    robot = pa.DictionaryArray.from_arrays(pa.array(tracks.robot, type=pa.int32()), names)
-    table = pa.table(
-        {
-            "t": tracks.t,
-            "robot": robot.cast(pa.string()),
-            "x": tracks.x,
-            "y": tracks.y,
-            "yaw": tracks.yaw,
-        }
-    )
+    tr = tracks
+    columns = {"t": tr.t, "robot": tr.robot, "x": tr.x, "y": tr.y, "yaw": tr.yaw}
     try:
-        with open(path, "wb") as fh:
-            fh.write((",".join(POSE_HEADER) + "\n").encode())
-            pv.write_csv(
-                table, fh, write_options=pv.WriteOptions(include_header=False, quoting_style="none")
-            )
+        write_columns(path, columns, tr.robot, tr.robot_names)
     except OSError as exc:
         raise PoseError(f"{path}: cannot write ({exc})") from None

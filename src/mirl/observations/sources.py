@@ -11,9 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
+from mirl.observations._csv import csv_header
 from mirl.observations.bags import SUPPORTED_TYPES, BagError, bag_topics, is_bag, read_bag
 from mirl.observations.discretise import Discretised, discretise
-from mirl.observations.poses import PoseError, PoseTracks, _csv_header, read_pose_csv
+from mirl.observations.poses import PoseError, PoseTracks, read_pose_csv
 from mirl.observations.trajectories import Trajectories, TrajectoryError, read_csv
 from mirl.world.scenario import Scenario
 
@@ -46,7 +47,7 @@ def observation_kind(path: str | Path) -> str:
         return "bag"
     if path.is_dir():
         raise PoseError(f"{path}: a directory but not a ROS 2 bag (no metadata.yaml)")
-    header = _csv_header(path, TrajectoryError)
+    header = csv_header(path, TrajectoryError)
     if "row" in header and "col" in header:
         return "grid-csv"
     if "x" in header and "y" in header:

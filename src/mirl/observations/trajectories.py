@@ -5,7 +5,7 @@ output. Reading validates every row against the scenario and reports the file, l
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -67,10 +67,7 @@ class Trajectories:
 
     def truncate(self, steps: int) -> Trajectories:
         out = self.select(self.t < steps)
-        return Trajectories(
-            *[getattr(out, f) for f in ("robot_names", "t", "robot", "row", "col", "heading")],
-            steps,
-        )
+        return replace(out, horizon=steps)
 
     @classmethod
     def from_states(
@@ -87,20 +84,11 @@ class Trajectories:
         return cls(robot_names, tt + t0, rr, rch[:, 0], rch[:, 1], rch[:, 2], states.shape[0] + t0)
 
     def to_csv(self, path: str | Path) -> None:
-        with open(path, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(HEADER)
-            names = np.asarray(self.robot_names, dtype=object)[self.robot]
-            w.writerows(
-                zip(
-                    self.t.tolist(),
-                    names,
-                    self.row.tolist(),
-                    self.col.tolist(),
-                    self.heading.tolist(),
-                    strict=True,
-                )
-            )
+        """Write ``t,robot,row,col,heading`` rows (pyarrow, vectorised)."""
+        from mirl.observations._csv import write_columns
+
+        columns = {h: getattr(self, h) for h in HEADER}
+        write_columns(path, columns, self.robot, self.robot_names)
 
 
 def read_csv(
@@ -123,29 +111,19 @@ def read_csv(
     import pyarrow as pa
     import pyarrow.compute as pc
 
-    from mirl.observations.poses import _csv_header, _data_line_numbers
+    from mirl.observations._csv import arrow_read, csv_header, data_line_numbers
 
     path = Path(path)
     robot_names = tuple(robot_names)
     try:
-        header = _csv_header(path, TrajectoryError)
+        header = csv_header(path, TrajectoryError)
     except TrajectoryError:  # missing, unreadable or empty: the reference's message
         return _read_csv_python(path, domain, robot_names, horizon)
     if any(h not in header for h in HEADER) or len(set(header)) != len(header):
         return _read_csv_python(path, domain, robot_names, horizon)
     types = {h: pa.int64() for h in HEADER} | {"robot": pa.string()}
     try:
-        import pyarrow.csv as pv
-
-        table = pv.read_csv(
-            path,
-            read_options=pv.ReadOptions(
-                use_threads=False, block_size=1 << 22, column_names=header, skip_rows=1
-            ),
-            convert_options=pv.ConvertOptions(
-                column_types=types, include_columns=list(HEADER), strings_can_be_null=False
-            ),
-        )
+        table = arrow_read(path, header, types)
     except (pa.ArrowInvalid, pa.ArrowKeyError, UnicodeDecodeError):
         return _read_csv_python(path, domain, robot_names, horizon)
     if any(table.column(h).null_count for h in HEADER):  # empty cells: the reference decides
@@ -167,7 +145,7 @@ def read_csv(
     bad = bad_robot | bad_t | bad_state
     if bad.any():
         i = int(np.argmax(bad))
-        line = int(_data_line_numbers(path)[i])
+        line = int(data_line_numbers(path)[i])
         if bad_robot[i]:
             name = names[int(np.asarray(robot_col.indices)[i])]
             known = ", ".join(robot_names)
@@ -176,30 +154,38 @@ def read_csv(
             )
         if bad_t[i]:
             raise TrajectoryError(f"{path}: line {line}: negative time {t[i]}")
-        r, c, h = int(row[i]), int(col[i]), int(heading[i])
-        what = (
-            f"heading {h} is not 0-3"
-            if 0 <= r < domain.map.shape[0]
-            and 0 <= c < domain.map.shape[1]
-            and domain.cell_lut[r, c] >= 0
-            else f"cell ({r},{c}) is not a hallway cell (a wall or off the map)"
-        )
+        what = _state_problem(domain, int(row[i]), int(col[i]), int(heading[i]))
         raise TrajectoryError(f"{path}: line {line}: {what}")
-    order = np.lexsort((robot, t))
-    arr = np.column_stack([t, robot, row, col, heading])[order]
+    arr = np.column_stack([t, robot, row, col, heading])
+    return _sorted_checked(
+        path, arr, lambda i: int(data_line_numbers(path)[i]), robot_names, horizon
+    )
+
+
+def _state_problem(domain: PatrolDomain, r: int, c: int, h: int) -> str:
+    """Why (r, c, h) is not a patroller state."""
+    if 0 <= r < domain.map.shape[0] and 0 <= c < domain.map.shape[1] and domain.cell_lut[r, c] >= 0:
+        return f"heading {h} is not 0-3"
+    return f"cell ({r},{c}) is not a hallway cell (a wall or off the map)"
+
+
+def _sorted_checked(path, arr: np.ndarray, line_of, robot_names, horizon) -> Trajectories:
+    """Rows (t, robot, row, col, heading) in file order -> sorted trajectories; a duplicate
+    (t, robot) names the line (``line_of(file row)``) of its second occurrence."""
+    order = np.lexsort((arr[:, 1], arr[:, 0]))
+    arr = arr[order]
     dup = np.flatnonzero((np.diff(arr[:, 0]) == 0) & (np.diff(arr[:, 1]) == 0))
     if dup.size:
-        line = int(_data_line_numbers(path)[order[dup[0] + 1]])
         raise TrajectoryError(
-            f"{path}: line {line}: duplicate row for robot {robot_names[arr[dup[0], 1]]} "
-            f"at t={arr[dup[0], 0]}"
+            f"{path}: line {line_of(order[dup[0] + 1])}: duplicate row for robot "
+            f"{robot_names[arr[dup[0], 1]]} at t={arr[dup[0], 0]}"
         )
     last = int(arr[:, 0].max()) + 1 if len(arr) else 0
     if horizon is None:
         horizon = last
     elif horizon < last:
         raise TrajectoryError(f"{path}: time {last - 1} is beyond the horizon {horizon}")
-    return Trajectories(robot_names, *arr.T, horizon=horizon)
+    return Trajectories(robot_names, arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3], arr[:, 4], horizon)
 
 
 def _read_csv_python(
@@ -247,35 +233,12 @@ def _read_csv_python(
             if t < 0:
                 raise TrajectoryError(f"{path}: line {lineno}: negative time {t}")
             if domain.state_index(r, c, h) < 0:
-                what = (
-                    f"heading {h} is not 0-3"
-                    if 0 <= r < domain.map.shape[0]
-                    and 0 <= c < domain.map.shape[1]
-                    and domain.cell_lut[r, c] >= 0
-                    else f"cell ({r},{c}) is not a hallway cell (a wall or off the map)"
-                )
+                what = _state_problem(domain, r, c, h)
                 raise TrajectoryError(f"{path}: line {lineno}: {what}")
             rows.append((t, robot_names.index(name), r, c, h))
             lines.append(lineno)
-    if not rows:
-        arr = np.zeros((0, 5), dtype=int)
-    else:
-        arr = np.asarray(rows, dtype=int)
-    order = np.lexsort((arr[:, 1], arr[:, 0]))
-    arr = arr[order]
-    dup = np.flatnonzero((np.diff(arr[:, 0]) == 0) & (np.diff(arr[:, 1]) == 0))
-    if dup.size:
-        line = lines[order[dup[0] + 1]]
-        raise TrajectoryError(
-            f"{path}: line {line}: duplicate row for robot {robot_names[arr[dup[0], 1]]} "
-            f"at t={arr[dup[0], 0]}"
-        )
-    last = int(arr[:, 0].max()) + 1 if len(arr) else 0
-    if horizon is None:
-        horizon = last
-    elif horizon < last:
-        raise TrajectoryError(f"{path}: time {last - 1} is beyond the horizon {horizon}")
-    return Trajectories(robot_names, *arr.T, horizon=horizon)
+    arr = np.asarray(rows, dtype=int).reshape(-1, 5)
+    return _sorted_checked(path, arr, lines.__getitem__, robot_names, horizon)
 
 
 def _is_int(text: str) -> bool:

@@ -125,6 +125,7 @@ class BeliefFilter:
     def marginals(self, belief: np.ndarray | None = None) -> np.ndarray:
         """(N, S) per-robot marginals of ``belief`` (default: the current one)."""
         b = self.belief if belief is None else belief
+        assert b is not None, "no belief yet: call update() first"
         if not self.joint:
             return b
         m = b.reshape(self.n_states, self.n_states)

@@ -96,8 +96,8 @@ class PatrolSimulator:
                     met = True
                     gi = int(np.searchsorted(self._eq_cdf[0], self.np_random.random(), "right"))
                     gj = int(np.searchsorted(self._eq_cdf[1], self.np_random.random(), "right"))
-                    acts[i] = game_action_to_action(min(gi, 2), own[i])
-                    acts[j] = game_action_to_action(min(gj, 2), own[j])
+                    acts[i] = game_action_to_action(min(gi, 2), int(own[i]))
+                    acts[j] = game_action_to_action(min(gj, 2), int(own[j]))
         return acts, met
 
     def step(self, action=None):

@@ -1,7 +1,7 @@
-"""Figures and the markdown report of stored experiment results, in the paper's form.
+"""The paper's figures (Fig. 3, 4a–c, Table 1) and their markdown sections, drawn from stored
+experiment results; :func:`mirl.viz.report.write_report` assembles them into ``report.md``.
 
-``write_report(DIR)`` reads ``DIR/results.sqlite`` (or every ``*/results.sqlite`` under DIR),
-draws each experiment's figures to ``DIR/figures/*.png|svg`` and writes ``DIR/report.md`` with
+Each section function draws its figure to ``figures/*.png|svg`` and returns its markdown with
 each result beside the paper's numbers. Figures use matplotlib's object API (no pyplot state),
 so they can be drawn from worker threads and tests.
 """
@@ -81,9 +81,9 @@ def fig3(gs: list[Group], figdir: Path) -> str:
     top.set_title("Behavior accuracy vs observability and observing time (bars: 1 std)")
     acc, succ, r_text = _accuracy_success(gs)
     for m, marker in (("mirl-t", "o"), ("known-r-t", "s")):
-        sel = [i for i, g in enumerate(gs) if g.condition.method == m]
-        if sel:
-            bottom.scatter(acc[sel], succ[sel], marker=marker, label=PAPER_NAMES[m])
+        idx = [i for i, g in enumerate(gs) if g.condition.method == m]
+        if idx:
+            bottom.scatter(acc[idx], succ[idx], marker=marker, label=PAPER_NAMES[m])
     if len(acc) >= 2 and np.ptp(acc) > 0:
         slope, icept = np.polyfit(acc, succ, 1)
         xs = np.linspace(acc.min(), acc.max(), 2)
@@ -289,7 +289,7 @@ def fig4bc_markdown(gs: list[Group], figdir: Path, stem: str) -> str:
             ax.scatter(
                 xs, true, marker="D", s=22, color="red", zorder=5, label="true" if k == 0 else None
             )
-            cells = " | ".join(_fmt(*ms[i], digits=3) for i in range(len(feats)))
+            cells = " | ".join(_fmt(mean, sd, digits=3) for mean, sd in ms[: len(feats)])
             lines.append(f"| {method_name(c)} | {c.observability:g} | {g.n} | {robot} | {cells} |")
         t, p, n = ttest(g, "J", "left_wheel", "right_wheel")
         tests.append(

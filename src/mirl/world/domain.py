@@ -96,10 +96,10 @@ class FeatureMap:
         order = {f: i for i, f in enumerate(self.features)}
         distinct: dict[tuple[str, ...], int] = {}
         table = np.empty((domain.n_states, len(ACTIONS)), dtype=int)
-        for s, row in enumerate(sets):
+        for si, row in enumerate(sets):
             for a, subset in enumerate(row):
                 key = tuple(sorted(subset, key=order.__getitem__))
-                table[s, a] = distinct.setdefault(key, len(distinct))
+                table[si, a] = distinct.setdefault(key, len(distinct))
         return table, tuple(distinct)
 
     @classmethod
@@ -114,7 +114,7 @@ class FeatureMap:
             cells = ov.get("cells")
             overrides.append(
                 FeatureOverride(
-                    cells=None if cells is None else tuple(tuple(map(int, c)) for c in cells),
+                    cells=None if cells is None else tuple((int(c[0]), int(c[1])) for c in cells),
                     actions=tuple(ov["actions"]) if "actions" in ov else None,
                     add=tuple(ov.get("add", ())),
                     remove=tuple(ov.get("remove", ())),
@@ -293,7 +293,7 @@ def dead_ends(gridmap: GridMap) -> tuple[tuple[int, int], ...]:
     P = np.pad(gridmap.patroller, 1)
     neighbours = P[:-2, 1:-1].astype(int) + P[2:, 1:-1] + P[1:-1, :-2] + P[1:-1, 2:]
     ends = np.argwhere(gridmap.patroller & (neighbours == 1))
-    return tuple(map(tuple, ends.tolist()))
+    return tuple((int(r), int(c)) for r, c in ends)
 
 
 def detection_cells(

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
 
@@ -100,7 +101,7 @@ class InteractionGame:
         raise ValueError(f"({row_action}, {col_action}) is not a Nash equilibrium of the game")
 
 
-def game_action_to_action(game_action: np.ndarray, own_action: np.ndarray) -> np.ndarray:
+def game_action_to_action(game_action: ArrayLike, own_action: ArrayLike) -> np.ndarray:
     """go → the robot's own policy action; stop → stop; turn → turn_left (the first half of
     turning back, which costs the yielding robot its direction)."""
     return np.choose(np.asarray(game_action), [own_action, STOP, TURN_LEFT])

@@ -1,4 +1,5 @@
-"""Grid maps: the plain-text format of the reference maps, shipped maps, and visibility order.
+"""Grid maps: the plain-text format of the reference maps, visibility order, and the metric frame
+(:class:`MapFrame`) that places a grid in a ROS-style map frame.
 
 Legend (one character per cell, row 0 at the top): ``.`` hallway (patrollers and L), ``#`` wall,
 ``L`` L's start (a room cell, L only), ``G`` L's goal on a hallway cell, ``g`` L's goal in a room
@@ -67,7 +68,8 @@ class GridMap:
     observer_only: np.ndarray  # (rows, cols) bool: room cells only L may occupy
     observer_start: tuple[int, int]
     goals: tuple[tuple[int, int], ...]
-    visibility_order: np.ndarray = field(default=None)  # (n, 2) patroller cells, most exposed first
+    # (n, 2) patroller cells, most exposed first; None: computed from the map
+    visibility_order: np.ndarray = field(default=None)  # type: ignore[arg-type]
     source: str = "<memory>"
     frame: MapFrame = field(default_factory=MapFrame)  # metric placement (poses, physics)
 
@@ -138,7 +140,8 @@ def default_visibility_order(patroller: np.ndarray, start: tuple[int, int]) -> n
         if len(cells) == 0:
             return np.zeros((0, 2), dtype=int)
         d = np.abs(cells - np.asarray(start)).sum(axis=1)
-        frontier = [tuple(map(int, cells[np.argmin(d)]))]
+        r0, c0 = map(int, cells[np.argmin(d)])
+        frontier = [(r0, c0)]
         order.extend(frontier)
         seen[frontier[0]] = True
     while frontier:
@@ -153,7 +156,7 @@ def default_visibility_order(patroller: np.ndarray, start: tuple[int, int]) -> n
         order.extend(nxt)
         frontier = nxt
     # cells unreachable from the door come last, row-major, so every cell has a rank
-    rest = [tuple(map(int, rc)) for rc in np.argwhere(patroller & ~seen)]
+    rest = [(int(r), int(c)) for r, c in np.argwhere(patroller & ~seen)]
     order.extend(rest)
     return np.asarray(order, dtype=int).reshape(-1, 2)
 
@@ -176,7 +179,7 @@ def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> Grid
     starts = np.argwhere(chars == "L")
     if len(starts) != 1:
         raise MapError(f"{source}: expected exactly one 'L' (observer start), found {len(starts)}")
-    goals = [tuple(map(int, rc)) for rc in np.argwhere((chars == "G") | (chars == "g"))]
+    goals = [(int(r), int(c)) for r, c in np.argwhere((chars == "G") | (chars == "g"))]
     if not goals:
         raise MapError(f"{source}: no goal cell ('G' or 'g')")
     patroller = (chars == ".") | (chars == "G")
@@ -186,7 +189,7 @@ def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> Grid
         name=name,
         patroller=patroller,
         observer_only=(chars == "L") | (chars == "g"),
-        observer_start=tuple(map(int, starts[0])),
+        observer_start=(int(starts[0][0]), int(starts[0][1])),
         goals=tuple(goals),
         source=source,
     )

@@ -93,6 +93,9 @@ def generate_office_map(
 
     At the defaults (60 × 60, spacing 6, 20% of segments removed) the floor has about 950
     hallway cells. Raises ``ValueError`` on impossible parameters.
+
+    Long because the generator's steps (corridors, rooms, doors, L's room, goals) share
+    one random stream and read best in order.
     """
     if rows < 5 or cols < 5:
         raise ValueError(f"office map must be at least 5x5 cells, got {rows}x{cols}")

@@ -181,7 +181,7 @@ def _from_text(text: str, source: str, base: Path | None) -> Scenario:
         raise ScenarioError(f"{source}: {msg}") from None
 
 
-def _cell(value: Any, where: str, n: int = 2) -> tuple[int, ...]:
+def _cell(value: Any, where: str, n: int = 2) -> Any:  # tuple of n ints (n = 2 or 3)
     if (
         not isinstance(value, list | tuple)
         or len(value) != n
@@ -300,6 +300,7 @@ def _map_from_dict(data: dict, base: Path | None) -> GridMap:
 
 
 def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
+    """Long because every section of the scenario is read and validated in file order."""
     unknown = set(data) - _TOP_KEYS
     if unknown:
         raise ValueError(f"unknown field '{sorted(unknown)[0]}'")
@@ -388,10 +389,12 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         raise ValueError("observability: must be in [0, 1]")
     if not 0.0 <= scenario.discount < 1.0:
         raise ValueError("discount: must be in [0, 1)")
-    for label, cell in (
+    placed: list[tuple[str, tuple[int, int] | None]] = [
         ("observer.start", scenario.observer_start),
         ("observer.goal", scenario.goal),
-    ):
-        if not gridmap.free[cell]:
-            raise ValueError(f"{label}: {cell} is not a free cell of the map")
+    ]
+    for label, spot in placed:
+        assert spot is not None  # filled from the map in Scenario.__post_init__
+        if not gridmap.free[spot]:
+            raise ValueError(f"{label}: {spot} is not a free cell of the map")
     return scenario

@@ -113,7 +113,7 @@ def _as_count(value: object, what: str, index: int) -> int:
         and float(value).is_integer()
     ):
         # 3.0 from a float array is a count; 2.5 is not.
-        count = int(value)
+        count = int(float(value))
     else:
         raise ValueError(f"observation {index}: {what} must be an integer count, got {value!r}")
     if count < 0:

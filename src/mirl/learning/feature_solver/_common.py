@@ -108,7 +108,7 @@ def _report(
             + _xlogy_safe(n - s, 1.0 - model)
         )
     )
-    informed_mask = A.any(axis=0) if A.size else np.zeros(len(pooled.features), bool)
+    informed_mask = np.asarray(A.any(axis=0) if A.size else np.zeros(len(pooled.features), bool))
     return FeatureSolveResult(
         probabilities={f: float(v) for f, v in zip(pooled.features, p, strict=True)},
         success=bool(success),

@@ -59,7 +59,8 @@ def _solve_maxent(pooled: _Pooled) -> FeatureSolveResult:
         )
 
     rows = ~killable
-    cols = used_by_success  # every feature of the remaining rows is used by a successful row
+    # every feature of the remaining rows is used by a successful row
+    cols = np.asarray(used_by_success)
     if not rows.any():
         return _report(
             pooled,
@@ -158,6 +159,9 @@ def _ml_point(A: np.ndarray, s: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, 
     still concave, finite everywhere, and agrees with the likelihood wherever a maximiser can
     be — at any ML point each subset with failures has 1 − e^z ≥ 1/(N+1) (stationarity bounds
     its failure term by the total count N), so z ≤ log(N/(N+1)) < z_c.
+
+    Long because it is one projected-Newton method with its line search and active set,
+    which is easier to check read whole than split.
     """
     total = float(n.sum())
     fail = n - s
@@ -248,7 +252,8 @@ def _max_entropy_on_polytope(
     grid search over the free coordinates followed by local SLSQP refinements.
     """
     n1 = C.shape[1]
-    fixed = C[d >= -1e-14].any(axis=0)  # a row ∑ c x = 0 with c > 0, x <= 0 pins all its x
+    # a row ∑ c x = 0 with c > 0, x <= 0 pins all its x
+    fixed = np.asarray(C[d >= -1e-14].any(axis=0))
     n_eval = 0
     for _ in range(n1 + 1):  # each pass fixes at least one more feature, or stops
         face = _Face.of(C[:, ~fixed], d)
@@ -359,7 +364,7 @@ class _Face:
             grid = self.lower * np.random.default_rng(0).random((_GRID_BUDGET, k))
         grid = np.vstack([grid, x_feasible[self.free]])
         xs = self.assemble(grid)
-        feasible = (xs[:, self.basis] <= 1e-12).all(axis=1)
+        feasible = np.asarray((xs[:, self.basis] <= 1e-12).all(axis=1))
         feasible[-1] = True
         xs = np.minimum(xs[feasible], 0.0)
         return grid[feasible], xs, self.entropy(xs)

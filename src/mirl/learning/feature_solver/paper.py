@@ -32,6 +32,9 @@ def _solve_paper(pooled: _Pooled) -> FeatureSolveResult:
     clipped to eps the same way. The paper gives none of these constants. (With eps = 1e-12
     the v/p term makes such a cliff at p = 0 that BFGS's first line search already fails,
     e.g. for one subset {a, b} with q = 0.01; eps = 1e-6 lets it proceed.)
+
+    Long because it is the paper's whole procedure (Lagrangian, squared partials, BFGS,
+    penalty, success check) kept in one place to compare with the paper.
     """
     A, s, n = pooled.incidence, pooled.successes, pooled.trials
     F, m = A.shape[1], A.shape[0]

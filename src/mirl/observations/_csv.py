@@ -1,0 +1,68 @@
+"""CSV plumbing shared by the grid and pose readers: the header, pyarrow reading and writing on
+one thread, and the file line of a data row (for messages; only on the error path)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+BLOCK_BYTES = 1 << 22
+
+
+def csv_header(path: Path, error) -> list[str]:
+    """The stripped, unquoted header names; ``error`` for a missing, unreadable or empty file."""
+    try:
+        with open(path, newline="") as fh:
+            first = fh.readline()
+    except FileNotFoundError:
+        raise error(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise error(f"{path}: cannot read ({exc})") from None
+    if not first.strip():
+        raise error(f"{path}: file is empty")
+    return [h.strip().strip('"') for h in first.strip("\r\n").split(",")]
+
+
+def arrow_read(path: Path, header: list[str], columns: dict):
+    """Read ``columns`` (name -> arrow type) of a CSV whose stripped header is ``header`` (pyarrow
+    would keep the spaces of `` robot``). Raises pyarrow's errors: callers decide the message."""
+    import pyarrow.csv as pv
+
+    return pv.read_csv(
+        path,
+        read_options=pv.ReadOptions(
+            use_threads=False, block_size=BLOCK_BYTES, column_names=header, skip_rows=1
+        ),
+        convert_options=pv.ConvertOptions(
+            column_types=columns, include_columns=list(columns), strings_can_be_null=False
+        ),
+    )
+
+
+def write_columns(
+    path: str | Path, columns: dict[str, np.ndarray], robot: np.ndarray, names: tuple[str, ...]
+) -> None:
+    """Write a CSV (plain header, no quoting) with pyarrow: ``columns`` in order, the column
+    named ``robot`` (its value in ``columns`` is ignored) filled with ``names[robot]``."""
+    import pyarrow as pa
+    import pyarrow.csv as pv
+
+    labels = pa.DictionaryArray.from_arrays(
+        pa.array(np.asarray(robot, dtype=np.int32)), pa.array(list(names) or [""], pa.string())
+    ).cast(pa.string())
+    table = pa.table({k: (labels if k == "robot" else v) for k, v in columns.items()})
+    with open(path, "wb") as fh:
+        fh.write((",".join(columns) + "\n").encode())
+        pv.write_csv(table, fh, pv.WriteOptions(include_header=False, quoting_style="none"))
+
+
+def data_line_numbers(path: Path) -> np.ndarray:
+    """1-based file line of each data row as pyarrow counts them (empty lines skipped)."""
+    lines = []
+    with open(path, "rb") as fh:
+        next(fh, None)  # header
+        for lineno, line in enumerate(fh, start=2):
+            if line.strip(b"\r\n"):
+                lines.append(lineno)
+    return np.asarray(lines, dtype=np.int64)
