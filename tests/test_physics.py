@@ -198,6 +198,6 @@ def test_boydright_patrols_with_its_own_door_camera():
     w = PhysicalWorld(sc, seed=0)
     for _ in range(5):
         w.step()
-    (cx, cy, cyaw), cone = w._cam, w._cone
+    (cx, cy, _), cone = w._cam, w._cone
     assert (cx, cy) == Frame.of(sc.map).cell_centre(*sc.observer_start)
     assert cone.range > 0 and len(w.true) == 6

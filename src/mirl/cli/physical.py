@@ -60,7 +60,6 @@ def simulate_physics(args: argparse.Namespace, scenario) -> int:
 
 
 def _write_tracks(out: Path, world) -> None:
-    from mirl.cli.commands import UsageError
     from mirl.observations.poses import write_pose_csv
 
     if out.suffix == ".csv":
@@ -68,7 +67,7 @@ def _write_tracks(out: Path, world) -> None:
     elif out.suffix == ".mcap":
         from mirl.observations.bags import write_mcap as write
     else:
-        raise UsageError(f"--poses {out}: expected a .csv or .mcap file")
+        raise ValueError(f"--poses {out}: expected a .csv or .mcap file")
     observed, truth = world.observed_tracks(), world.true_tracks()
     write(observed, out)
     write(truth, true_path(out))

@@ -138,6 +138,7 @@ def run_episode(
 
     clock = time.perf_counter()
     model = observer_model(scenario)
+    world: RunWorld  # or the physical world's stand-in with the same interface
     if world_kind == "physics":
         from mirl.experiments.physical import PhysicalRunWorld, execute_physical
 

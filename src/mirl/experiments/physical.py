@@ -108,14 +108,8 @@ def execute_physical(
             sg = phys.sightings[n_seen]
             truth = world.true[-1]
             lr, lc, _ = phys.observer_cell_heading(estimated=False)
-            dets = [
-                Detection(
-                    world.t,
-                    names[sg.robot],
-                    tuple(map(int, world.domain.states[truth[sg.robot]])),
-                    (int(lr), int(lc)),
-                )
-            ]
+            rr, rc, rh = map(int, world.domain.states[truth[sg.robot]])
+            dets = [Detection(world.t, names[sg.robot], (rr, rc, rh), (int(lr), int(lc)))]
             return "detected", path, dets, plan
         true_cell = phys.observer_cell_heading(estimated=False)[:2]
         if tuple(map(int, true_cell)) in goal:

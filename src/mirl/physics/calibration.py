@@ -25,10 +25,10 @@ __all__ = ["Calibration", "calibrate", "open_loop"]
 class Calibration:
     robot_names: tuple[str, ...]
     # [robot][action] -> [trials, successes] (all steps) and (steps alone)
-    counts: np.ndarray = field(default=None)
-    counts_alone: np.ndarray = field(default=None)
-    forward_speed: list[list[float]] = field(default=None)  # m/s per alone forward step
-    turn_rate: list[dict[str, list[float]]] = field(default=None)  # deg/s peak per turn step
+    counts: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 2), dtype=int))
+    counts_alone: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 2), dtype=int))
+    forward_speed: list[list[float]] = field(default_factory=list)  # m/s, alone forward steps
+    turn_rate: list[dict[str, list[float]]] = field(default_factory=list)  # deg/s peak per turn
     contacts: int = 0
     wall_contacts: int = 0
     steps: int = 0

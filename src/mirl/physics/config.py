@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
-__all__ = ["PhysicsConfig", "physics_config", "with_motor_strength", "WHEELS"]
+__all__ = ["PhysicsConfig", "physics_config", "scenario_physics", "with_motor_strength", "WHEELS"]
 
 WHEELS = ("left_wheel", "right_wheel")
 
@@ -119,3 +119,10 @@ def with_motor_strength(scenario, robot: str, wheel: str, strength: float):
     table = dict(scenario.physics)
     table["motor_strength"] = {r: dict(w) for r, w in cfg.motor_strength.items()}
     return _replace(scenario, physics=table)
+
+
+def scenario_physics(scenario) -> PhysicsConfig:
+    """The scenario's ``[physics]`` table as a validated :class:`PhysicsConfig`."""
+    return physics_config(
+        getattr(scenario, "physics", None) or {}, scenario.source, scenario.robot_names
+    )

@@ -17,17 +17,15 @@ measurement, game draws, start draws), so a run is a function of its arguments.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import mujoco
 import numpy as np
 
 from mirl.observations.discretise import discretise
 from mirl.observations.poses import PoseTracks
-from mirl.observations.trajectories import Trajectories
-from mirl.physics.camera import Cone, line_of_sight
-from mirl.physics.config import PhysicsConfig, physics_config
+from mirl.physics.camera import Cone, Sighting, line_of_sight, observer_camera
+from mirl.physics.config import PhysicsConfig, scenario_physics
 from mirl.physics.control import DRIVE, HOLD, PIVOT, Controller, wrap
+from mirl.physics.records import OBSERVER, Records
 from mirl.physics.robot import KOBUKI
 from mirl.physics.world import YAW, Frame, world_mjcf
 from mirl.world.domain import ACTIONS
@@ -44,70 +42,11 @@ __all__ = [
 FORWARD, TURN_LEFT, TURN_RIGHT, STOP = (
     ACTIONS.index(a) for a in ("forward", "turn_left", "turn_right", "stop")
 )
+Pose = tuple[float, float, float]  # x, y (m), yaw (rad)
 HEADING_DELTAS = np.array([[0, 1], [-1, 0], [0, -1], [1, 0]])
-OBSERVER = "L"
 
 
-def scenario_physics(scenario) -> PhysicsConfig:
-    """The scenario's ``[physics]`` table as a validated :class:`PhysicsConfig`."""
-    return physics_config(
-        getattr(scenario, "physics", None) or {}, scenario.source, scenario.robot_names
-    )
-
-
-@dataclass(frozen=True)
-class Sighting:
-    """A patroller seeing L: time (s), step, robot index, both true poses (x, y, yaw)."""
-
-    time: float
-    step: int
-    robot: int
-    robot_pose: tuple[float, float, float]
-    observer_pose: tuple[float, float, float]
-
-
-def observer_camera(scenario, config: PhysicsConfig, frame: Frame, degree: float):
-    """L's view at observability ``degree``: (camera pose (x, y, yaw) or None, Cone or None,
-    overhead cells as a (rows, cols) bool mask).
-
-    Degree 1 is an overhead view of every hallway. Otherwise the camera sits at the centre of
-    L's start cell looking at the first cell of the map's visibility order (east, through the
-    door, on boyd2), with the configured field of view; its range reaches the farthest visible
-    cell (the first round(degree·n) cells of the visibility order) that lies inside the cone,
-    plus half a cell — on boyd2 at 0.14: cells (0,1)-(0,4), range 4.5 m. Visible cells outside
-    the cone (around a corner) are watched by an overhead camera over just those cells.
-    """
-    gm = scenario.map
-    mask = gm.visible_mask(degree)
-    if degree >= 1.0:
-        return None, None, mask
-    r0, c0 = scenario.observer_start
-    if config.camera_pose is not None:
-        cx, cy, cyaw = config.camera_pose
-        cyaw = np.radians(cyaw)
-    else:
-        cx, cy = frame.cell_centre(r0, c0)
-        fr, fc = gm.visibility_order[0]
-        fx, fy = frame.cell_centre(fr, fc)
-        cyaw = float(np.arctan2(fy - cy, fx - cx))
-    cells = np.argwhere(mask)
-    px, py = frame.cell_centre(cells[:, 0], cells[:, 1])
-    wide = Cone(config.camera_fov_deg, np.inf)
-    in_cone = wide.inside(cx, cy, cyaw, px, py)
-    if config.camera_range is not None:
-        rng = config.camera_range
-    elif in_cone.any():
-        rng = float(np.hypot(px[in_cone] - cx, py[in_cone] - cy).max()) + frame.cell_size / 2
-    else:
-        rng = 0.0
-    cone = Cone(config.camera_fov_deg, rng)
-    overhead = np.zeros_like(mask)
-    inside = cone.inside(cx, cy, cyaw, px, py)
-    overhead[cells[~inside, 0], cells[~inside, 1]] = True
-    return (float(cx), float(cy), float(cyaw)), cone, overhead
-
-
-class PhysicalWorld:
+class PhysicalWorld(Records):
     """N patrollers (and L, unless ``observer=False``) in one MuJoCo model."""
 
     def __init__(
@@ -127,8 +66,8 @@ class PhysicalWorld:
         self.scenario = scenario
         self.cfg = cfg = config or scenario_physics(scenario)
         self.domain = dom = scenario.domain
-        self.map = gm = scenario.map
-        self.frame = Frame.of(gm)
+        self.map = scenario.map
+        self.frame = Frame.of(scenario.map)
         self.n = len(scenario.robots)
         self.names = scenario.robot_names
         self.degree = scenario.observability if observability is None else float(observability)
@@ -140,63 +79,74 @@ class PhysicalWorld:
         )
         eq = scenario.played_equilibrium
         self._eq = (np.asarray(eq.row, float), np.asarray(eq.col, float))
-        ss = np.random.SeedSequence(int(seed))
-        loc, meas, game, start = ss.spawn(4)
+        loc, meas, game, start = np.random.SeedSequence(int(seed)).spawn(4)
         self._loc_rng = np.random.default_rng(loc)
         self._meas_rng = np.random.default_rng(meas)
         self._game_rng = np.random.default_rng(game)
-        start_rng = np.random.default_rng(start)
-
         if starts is None:
             starts = [tuple(r.start) for r in scenario.robots]
             if random_starts:
+                start_rng = np.random.default_rng(start)
                 starts = [
                     tuple(dom.states[c[start_rng.integers(len(c))]])
                     for c in (self._cycle(i, dom.state_index(*starts[i])) for i in range(self.n))
                 ]
         self.has_observer = observer
         self.m = self.n + int(observer)
-        cs = self.frame.cell_size
-        lane = cfg.lane_offset * cs
+        self._lane = cfg.lane_offset * self.frame.cell_size
+        self._build(self._start_poses(starts, observer_heading))
+        self._init_noise_and_control()
+        self._nearest = self._nearest_cells()
+        self._visible_cells = self.map.visible_mask(self.degree)
+        self._init_records(record_ticks)
+        self._record_decision_time()
+
+    def _start_poses(
+        self, starts, observer_heading: int | None
+    ) -> list[tuple[float, float, float]]:
+        """Patrollers on their start cells in their lanes; L at its start cell's centre."""
         poses = []
         for r, c, h in starts:
             x, y = self.frame.cell_centre(r, c)
-            x, y = x + lane * np.sin(YAW[h]), y - lane * np.cos(YAW[h])
+            x, y = x + self._lane * np.sin(YAW[h]), y - self._lane * np.cos(YAW[h])
             poses.append((float(x), float(y), float(YAW[h])))
-        if observer:
-            r, c = scenario.observer_start
-            x, y = self.frame.cell_centre(r, c)
+        if self.has_observer:
+            x, y = self.frame.cell_centre(*self.scenario.observer_start)
             self._cam, self._cone, self._overhead = observer_camera(
-                scenario, cfg, self.frame, self.degree
+                self.scenario, self.cfg, self.frame, self.degree
             )
             oyaw = self._cam[2] if self._cam else 0.0
             if observer_heading is not None:
                 oyaw = float(YAW[observer_heading])
             poses.append((float(x), float(y), float(oyaw)))
         else:
-            self._cam, self._cone, self._overhead = None, None, np.zeros(gm.shape, bool)
-        names = list(self.names) + ([OBSERVER] if observer else [])
+            self._cam, self._cone, self._overhead = None, None, np.zeros(self.map.shape, bool)
+        return poses
+
+    def _build(self, poses) -> None:
+        """The MuJoCo model and the index arrays every control tick uses."""
+        cfg = self.cfg
+        names = list(self.names) + ([OBSERVER] if self.has_observer else [])
         specs = [
             (nm, *poses[i], cfg.strength(nm, "left_wheel"), cfg.strength(nm, "right_wheel"))
             for i, nm in enumerate(names)
         ]
-        xml = world_mjcf(gm.free, self.frame, specs, timestep=cfg.timestep)
-        self.model = mujoco.MjModel.from_xml_string(xml)
-        self.data = mujoco.MjData(self.model)
-        mujoco.mj_forward(self.model, self.data)
-        self._qadr = np.array(
-            [self.model.jnt_qposadr[self.model.joint(f"{nm}_root").id] for nm in names]
-        )
+        xml = world_mjcf(self.map.free, self.frame, specs, timestep=cfg.timestep)
+        self.model = model = mujoco.MjModel.from_xml_string(xml)
+        self.data = mujoco.MjData(model)
+        mujoco.mj_forward(model, self.data)
+        roots = [model.joint(f"{nm}_root").id for nm in names]
+        self._qadr = np.array([model.jnt_qposadr[j] for j in roots])
         self._pose_idx = self._qadr[:, None] + np.array([0, 1, 3, 4, 5, 6])
-        self._dadr = np.array(
-            [self.model.jnt_dofadr[self.model.joint(f"{nm}_root").id] for nm in names]
-        )
-        base_ids = [self.model.geom(f"{nm}_base").id for nm in names]
-        self._geom_robot = np.full(self.model.ngeom, -1)
-        self._geom_robot[base_ids] = np.arange(self.m)
+        self._dadr = np.array([model.jnt_dofadr[j] for j in roots])
+        self._geom_robot = np.full(model.ngeom, -1)
+        self._geom_robot[[model.geom(f"{nm}_base").id for nm in names]] = np.arange(self.m)
         self._is_wall = np.array(
-            [self.model.geom(g).name.startswith("wall") for g in range(self.model.ngeom)]
+            [model.geom(g).name.startswith("wall") for g in range(model.ngeom)]
         )
+
+    def _init_noise_and_control(self) -> None:
+        cfg, cs = self.cfg, self.frame.cell_size
         self.ctrl = Controller(
             self.m,
             separation=KOBUKI.wheel_separation,
@@ -208,25 +158,16 @@ class PhysicalWorld:
             max_wheel_speed=KOBUKI.max_wheel_speed,
             dt=1.0 / cfg.control_hz,
         )
-        self._lane = lane
-        self._noise = np.zeros((self.m, 3))
-        self._noise_sd = np.array(
-            [
-                cfg.localisation_sigma * cs,
-                cfg.localisation_sigma * cs,
-                np.radians(cfg.localisation_sigma_deg),
-            ]
-        )
+        sd_xy = cfg.localisation_sigma * cs
+        self._noise_sd = np.array([sd_xy, sd_xy, np.radians(cfg.localisation_sigma_deg)])
         self._noise_a = float(np.exp(-1.0 / (cfg.control_hz * max(cfg.localisation_tau, 1e-9))))
         self._noise = self._loc_rng.normal(size=(self.m, 3)) * self._noise_sd
+        rng = cfg.patroller_range
         self._patrol_cone = Cone(
-            cfg.patroller_fov_deg,
-            cfg.patroller_range
-            if cfg.patroller_range is not None
-            else scenario.detect_distance * cs,
+            cfg.patroller_fov_deg, rng if rng is not None else self.scenario.detect_distance * cs
         )
-        self._nearest = self._nearest_cells()
-        self._visible_cells = gm.visible_mask(self.degree)
+
+    def _init_records(self, record_ticks: bool) -> None:
         self.t = 0  # decision steps so far
         self.contacts = 0  # robot-robot contact events
         self.wall_contacts = 0
@@ -243,8 +184,6 @@ class PhysicalWorld:
         self.actions: list[np.ndarray] = []  # (N,) actions taken at each decision
         self.seen: list[np.ndarray] = []  # (N,) L's discretised observation (-1 unseen)
         self._obs_rows: list[tuple[float, int, float, float, float]] = []
-        self.observer_action: int | None = None
-        self._record_decision_time()
 
     # ---- geometry helpers ---------------------------------------------------------------
     def _cycle(self, i: int, s: int) -> np.ndarray:
@@ -336,7 +275,9 @@ class PhysicalWorld:
         self._obs_rows.extend(rows)
         # the robot-data discretisation (mirl.observations.discretise), one step at a time:
         # nearest cell (snapped onto the hallway within its tolerance) and nearest heading
-        step = PoseTracks(self.names, *np.asarray(rows).T, source="L's camera")
+        a = np.asarray(rows)
+        step = PoseTracks(self.names, a[:, 0], a[:, 1].astype(int), a[:, 2], a[:, 3], a[:, 4],
+                          source="L's camera")  # fmt: skip
         d = discretise(
             step, self.scenario, step_seconds=self.cfg.step_seconds, start_time=tsec, n_steps=1,
             drop_off_map=True, visible=self._visible_cells,
@@ -353,25 +294,16 @@ class PhysicalWorld:
         for i in range(self.n):
             for j in range(i + 1, self.n):
                 if meeting(self.domain, s[i], s[j], own[i], own[j]):
-                    gi = int(
-                        min(
-                            np.searchsorted(
-                                np.cumsum(self._eq[0]), self._game_rng.random(), "right"
-                            ),
-                            2,
-                        )
-                    )
-                    gj = int(
-                        min(
-                            np.searchsorted(
-                                np.cumsum(self._eq[1]), self._game_rng.random(), "right"
-                            ),
-                            2,
-                        )
-                    )
+                    gi = self._draw(self._eq[0])
+                    gj = self._draw(self._eq[1])
                     acts[i] = game_action_to_action(gi, own[i])
                     acts[j] = game_action_to_action(gj, own[j])
         return s, acts
+
+    def _draw(self, probs: np.ndarray) -> int:
+        """A game action drawn from a (possibly mixed) equilibrium strategy."""
+        k = int(np.searchsorted(np.cumsum(probs), self._game_rng.random(), "right"))
+        return min(k, 2)
 
     def _set_targets(self, idx, states_rch, acts, lane) -> None:
         """Targets for robots ``idx`` from their intended (row, col, heading) and actions."""
@@ -488,54 +420,8 @@ class PhysicalWorld:
         cand = self._patrol_cone.inside(P[:, 0], P[:, 1], P[:, 2], L[0], L[1])
         for i in np.flatnonzero(cand):
             if line_of_sight(self.model, self.data, P[i, 0], P[i, 1], L[0], L[1]):
+                rx, ry, ryaw = map(float, P[i])
+                lx, ly, lyaw = map(float, L)
                 self.sightings.append(
-                    Sighting(
-                        float(self.data.time),
-                        self.t,
-                        int(i),
-                        tuple(map(float, P[i])),
-                        tuple(map(float, L)),
-                    )
+                    Sighting(float(self.data.time), self.t, int(i), (rx, ry, ryaw), (lx, ly, lyaw))
                 )
-
-    # ---- L -----------------------------------------------------------------------------
-    def observer_in_cell(self, cell: tuple[int, int]) -> bool:
-        p = self.poses()[self.n]
-        r, c = self.frame.cell_of(p[0], p[1])
-        return (int(r), int(c)) == tuple(cell)
-
-    # ---- records -----------------------------------------------------------------------
-    def true_states(self) -> np.ndarray:
-        return np.asarray(self.true)
-
-    def observations(self, until: int | None = None) -> Trajectories:
-        seen = np.asarray(self.seen if until is None else self.seen[: until + 1])
-        return Trajectories.from_states(self.domain, self.names, seen)
-
-    def truth(self) -> Trajectories:
-        return Trajectories.from_states(self.domain, self.names, self.true_states())
-
-    def tick_poses(self) -> tuple[np.ndarray, np.ndarray]:
-        """(k,) times and (k, m, 3) true poses at every control tick."""
-        if not self._tick_t:
-            return np.zeros(0), np.zeros((0, self.m, 3))
-        return np.asarray(self._tick_t), np.asarray(self._tick_pose)
-
-    def observed_rows(self) -> np.ndarray:
-        """(k, 5) rows t (s), robot, x, y, yaw of L's camera measurements."""
-        return np.asarray(self._obs_rows, dtype=float).reshape(-1, 5)
-
-    def observed_tracks(self) -> PoseTracks:
-        """What L's camera measured: one noisy pose per seen patroller per decision step."""
-        r = self.observed_rows()
-        return PoseTracks(self.names, r[:, 0], r[:, 1].astype(int), r[:, 2], r[:, 3], r[:, 4],
-                          source="L's camera")  # fmt: skip
-
-    def true_tracks(self) -> PoseTracks:
-        """Every robot's true pose at every control tick (L, if present, is robot ``L``)."""
-        t, p = self.tick_poses()
-        k, m = p.shape[:2]
-        names = self.names + ((OBSERVER,) if self.has_observer else ())
-        return PoseTracks(names, np.repeat(t, m), np.tile(np.arange(m), k),
-                          p[:, :, 0].ravel(), p[:, :, 1].ravel(), p[:, :, 2].ravel(),
-                          source="physics truth")  # fmt: skip

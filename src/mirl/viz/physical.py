@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 
 from mirl.viz.maps import draw_map
-from mirl.viz.runs import OBSERVER_COLOR, ROBOT_COLORS
 
 __all__ = ["draw_physical_run"]
 
@@ -34,8 +33,9 @@ def _cone(ax, frame, x, y, yaw, fov_deg, rng, color, label):
     return poly
 
 
-def draw_physical_run(ax, scenario, result, *, context: int = 10):
-    """Draw a run whose ``result.physical`` is a :class:`mirl.physics.patrol.PhysicalWorld`."""
+def draw_physical_run(ax, scenario, result, colors, observer_color, *, context: int = 10):
+    """Draw a run whose ``result.physical`` is a :class:`mirl.physics.patrol.PhysicalWorld`
+    (``colors``: one per patroller, cycled; the caller's palette)."""
     world = result.physical
     gm = scenario.map
     frame = gm.frame
@@ -49,7 +49,7 @@ def draw_physical_run(ax, scenario, result, *, context: int = 10):
         sel = (times >= t_start * step_s) & (times <= t_end * step_s + 1e-9)
         for i, name in enumerate(result.robot_names):
             c, r = _to_cells(frame, poses[sel, i, 0], poses[sel, i, 1])
-            color = ROBOT_COLORS[i % len(ROBOT_COLORS)]
+            color = colors[i % len(colors)]
             (line,) = ax.plot(c, r, "-", color=color, lw=1.4, alpha=0.85,
                               label=f"{name} (t={t_start}…{t_end})")  # fmt: skip
             if len(c):
@@ -58,7 +58,7 @@ def draw_physical_run(ax, scenario, result, *, context: int = 10):
         if world.has_observer and result.go_time is not None:
             lsel = times >= result.go_time * step_s
             c, r = _to_cells(frame, poses[lsel, -1, 0], poses[lsel, -1, 1])
-            (line,) = ax.plot(c, r, "-", color=OBSERVER_COLOR, lw=2.6,
+            (line,) = ax.plot(c, r, "-", color=observer_color, lw=2.6,
                               label=f"L (left t={result.go_time}) — {result.outcome}")  # fmt: skip
             handles.append(line)
     if world._cone is not None:

@@ -110,7 +110,7 @@ def run_figure(scenario: Scenario, result: RunResult, *, context: int = 0):
     if getattr(result, "physical", None) is not None:  # a --world physics run
         from mirl.viz.physical import draw_physical_run
 
-        draw_physical_run(ax_map, scenario, result)
+        draw_physical_run(ax_map, scenario, result, ROBOT_COLORS, OBSERVER_COLOR)
     else:
         draw_run(ax_map, scenario, result, context=context)
     draw_go_values(ax_val, result)
