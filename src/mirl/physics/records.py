@@ -35,12 +35,6 @@ class Records:
     def poses(self) -> np.ndarray:  # pragma: no cover - provided by PhysicalWorld
         raise NotImplementedError
 
-    # ---- L -----------------------------------------------------------------------------
-    def observer_in_cell(self, cell: tuple[int, int]) -> bool:
-        p = self.poses()[self.n]
-        r, c = self.frame.cell_of(p[0], p[1])
-        return (int(r), int(c)) == tuple(cell)
-
     # ---- records -----------------------------------------------------------------------
     def true_states(self) -> np.ndarray:
         return np.asarray(self.true)
