@@ -203,7 +203,7 @@ def test_argparse_rejects_bad_numbers(capsys):
     with pytest.raises(SystemExit) as info:
         main(["simulate", "--scenario", "boyd2", "--steps", "0"])
     assert info.value.code == 2
-    assert "at least 1" in capsys.readouterr().err
+    assert "--steps: must be an integer in [1, " in capsys.readouterr().err
     with pytest.raises(SystemExit) as info:
         main(["simulate", "--scenario", "boyd2", "--observability", "1.5"])
     assert info.value.code == 2

@@ -156,10 +156,10 @@ def test_report_from_a_tiny_database(tmp_path, name):
     assert f"## {name}" in text and "**Paper:**" in text
     if name == "table1":
         assert "0.60 (n=10)" in text and "0.20 (n=10)" in text
-    else:
-        for ext in ("png", "svg"):
-            assert (tmp_path / name / "figures" / f"{name}.{ext}").stat().st_size > 1000
-        assert f"]({name}/figures/{name}.png)" in text
+    for ext in ("png", "svg"):
+        assert (tmp_path / name / "figures" / f"{name}.{ext}").stat().st_size > 1000
+    assert f"]({name}/figures/{name}.png)" in text
+    assert "nan" not in text
     if name == "fig4b":
         assert "J left vs right wheel t =" in text
 

@@ -3,10 +3,12 @@ user error into one line on stderr with exit code 2. It may import every other s
 
 from __future__ import annotations
 
+import sqlite3
 import sys
 from collections.abc import Sequence
 
-from mirl.cli.commands import COMMANDS, UsageError
+from mirl.cli.checks import UsageError
+from mirl.cli.commands import COMMANDS
 from mirl.cli.parser import build_parser
 
 __all__ = ["main"]
@@ -20,7 +22,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         return COMMANDS[args.command](args)
-    except (ValueError, OSError, UsageError) as exc:
+    except (ValueError, OSError, sqlite3.Error, UsageError) as exc:
         # domain errors (MapError, ScenarioError, TrajectoryError, ...) already name the file
         msg = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
         print(f"mirl: error: {msg}", file=sys.stderr)

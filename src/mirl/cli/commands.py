@@ -8,6 +8,17 @@ import json
 import time
 from collections.abc import Callable
 
+from mirl.cli.checks import (
+    FIGURE_SUFFIXES,
+    MIN_TRIALS,
+    UsageError,
+    check_observations,
+    check_output,
+    feature_trials,
+    unique_lowest,
+    warn,
+)
+
 __all__ = ["COMMANDS", "UsageError", "print_json"]
 
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {}
@@ -53,6 +64,8 @@ def _show_map(args: argparse.Namespace) -> int:
     from mirl.viz.maps import map_to_text, save_map_png
     from mirl.world.catalog import load_map
 
+    if args.png:
+        check_output(args.png, "--png", FIGURE_SUFFIXES)
     gridmap = load_map(args.map, cell_size=args.cell_size)
     mask = gridmap.visible_mask(args.observability) if args.observability is not None else None
     print(map_to_text(gridmap, mask))
@@ -71,6 +84,9 @@ def _show_map(args: argparse.Namespace) -> int:
 def _simulate(args: argparse.Namespace) -> int:
     from mirl.simulation.grid import simulate
 
+    for flag, path in (("--observations", args.observations), ("--truth", args.truth)):
+        if path:
+            check_output(path, flag)
     scenario = _load_scenario(args)
     if args.world == "physics":
         from mirl.cli.physical import simulate_physics
@@ -185,6 +201,7 @@ def _learn_transitions(args: argparse.Namespace) -> int:
     scenario = _load_scenario(args)
     domain = scenario.domain
     obs = _read_observations(args, scenario).trajectories
+    check_observations(args.observations, obs, domain)
     series = [obs.state_series(domain, i) for i in range(len(scenario.robots))]
     if args.labels == "true-policy":
         # Known R/T setting: the scenario's true policies and played equilibrium label the steps
@@ -201,23 +218,34 @@ def _learn_transitions(args: argparse.Namespace) -> int:
     features = domain.feature_map.features
     print(f"learned transition-feature probabilities ({args.labels} labels, {args.observations})")
     print(f"{'robot':<6}" + "".join(f"{f:>13}" for f in features) + f"{'steps':>8}")
+    thin: list[str] = []
     for name, m in learned.items():
         probs = m.feature_probabilities_
-        lowest = min(features, key=probs.__getitem__)
+        lowest = unique_lowest(probs)
         cells = "".join(f"{probs[f]:>12.3f}{'*' if f == lowest else ' '}" for f in features)
         print(f"{name:<6}{cells}{int(m.counts_.trials.sum()):>8}")
+        if lowest is None:
+            print(f"  no single lowest feature ({min(probs.values()):.3f} is shared)")
         if not m.result_.success:
             print(f"  note: {m.result_.message}")
+        trials = feature_trials(m.counts_)
+        thin += [f"{name}:{f} ({trials[f]})" for f in features if trials[f] < MIN_TRIALS]
     print("* lowest feature of the robot; uninformed features get 0.5 (maximum entropy)")
+    if thin:
+        warn(
+            f"{args.observations}: fewer than {MIN_TRIALS} observed trials behind "
+            + ", ".join(thin)
+            + " — those probabilities are barely informed"
+        )
     return 0
 
 
 @command("experiment")
 def _experiment(args: argparse.Namespace) -> int:
-    from mirl.experiments.conditions import get_experiment, in_world
+    from mirl.experiments.conditions import get_experiment, in_world, with_em_init
     from mirl.experiments.sweep import run_experiment
 
-    exp = get_experiment(args.name)  # unknown name: one-line error, exit 2
+    exp = with_em_init(get_experiment(args.name), args.em_init)  # unknown: one line, exit 2
     if args.world == "physics":
         _need_physics()
     exp = in_world(exp, args.world)
@@ -231,8 +259,15 @@ def _experiment(args: argparse.Namespace) -> int:
         dask_scheduler=args.dask_scheduler,
         base_seed=args.seed,
         progress=not args.quiet,
+        progress_every=args.progress_every,
     )
-    print(f"wrote {out}/results.sqlite and {out}/results.csv; `mirl report {out}` draws it")
+    from mirl.viz.report import write_report
+
+    report = write_report(out)
+    print(
+        f"wrote {out}/results.sqlite, {out}/results.csv, {report} and the figures in "
+        f"{out}/figures/ (`mirl report {out}` redraws them)"
+    )
     return 1 if summary.outcomes.get("error") else 0
 
 
@@ -246,29 +281,42 @@ def _report(args: argparse.Namespace) -> int:
 
 @command("run")
 def _run(args: argparse.Namespace) -> int:
+    from mirl.experiments.conditions import DEFAULT_OBS_STEPS
     from mirl.experiments.episode import run_episode
+    from mirl.experiments.records import WATCH_UNTIL_SEEN
     from mirl.experiments.run_report import format_report
 
+    if args.plot:  # before the run: a bad path must not cost a run
+        check_output(args.plot, "--plot", FIGURE_SUFFIXES)
+    _check_em_init(args)
+    fixed = args.obs_steps is not None
+    if fixed and args.watch_until_seen is not None:
+        raise UsageError("--obs-steps (a fixed time) and --watch-until-seen exclude each other")
     scenario = _load_scenario(args)
     result = run_episode(
         scenario,
         args.method,
         observability=args.observability,
-        obs_steps=args.obs_steps,
+        obs_steps=args.obs_steps if fixed else DEFAULT_OBS_STEPS,
+        watch_until_seen=None if fixed else args.watch_until_seen or WATCH_UNTIL_SEEN,
         seed=args.seed,
         p=args.p,
         max_wait=args.max_wait,
+        learn_options={"em_init": args.em_init} if args.em_init else None,
         world_kind=args.world,
     )
-    if args.plot:
-        from mirl.viz.runs import save_run_png
-
-        save_run_png(scenario, result, args.plot)
     if args.json:
         print_json(result.to_dict())
     else:
         print(format_report(scenario, result))
-        if args.plot:
+    if args.plot:
+        from mirl.viz.runs import save_run_png
+
+        try:
+            save_run_png(scenario, result, args.plot)
+        except Exception as exc:  # the report is already out; say why the drawing is not
+            raise UsageError(f"--plot {args.plot}: drawing failed ({exc})") from None
+        if not args.json:
             print(f"wrote {args.plot}")
     return 0
 
@@ -281,6 +329,8 @@ def _learn(args: argparse.Namespace) -> int:
     degree = scenario.observability if args.observability is None else args.observability
     loaded = _read_observations(args, scenario, observability=degree)
     obs = loaded.trajectories
+    _check_em_init(args)
+    check_observations(args.observations, obs, scenario.domain)
     result = learn(
         obs,
         scenario,
@@ -292,6 +342,7 @@ def _learn(args: argparse.Namespace) -> int:
         objective=args.objective,
         optimizer=args.optimizer,
         random_state=args.seed,
+        em_init=args.em_init or "intended",
     )
     names = scenario.domain.reward_feature_names
     robots = {
@@ -366,9 +417,10 @@ def _print_learn(out: dict, result, scenario_name: str) -> None:
     print("timings       " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
 
 
+def _check_em_init(args: argparse.Namespace) -> None:
+    if args.em_init is not None and args.method != "dbn-em":
+        raise UsageError(f"--em-init applies to --method dbn-em only, not {args.method}")
+
+
 def print_json(obj) -> None:
     print(json.dumps(obj, indent=2, sort_keys=False))
-
-
-class UsageError(Exception):
-    """A problem with the user's input, reported in one line."""

@@ -6,6 +6,18 @@ import argparse
 import os
 
 from mirl import __version__
+from mirl.cli.flags import (
+    MAX_OBS_STEPS,
+    MAX_STEPS,
+    MAX_WAIT_STEPS,
+    OneLineParser,
+    bounded_int,
+    finite_float,
+    fraction,
+    non_negative_float,
+    positive_float,
+    seed,
+)
 
 __all__ = ["build_parser"]
 
@@ -22,24 +34,37 @@ def _learn_parser(sub) -> None:
     )
     _scenario_args(le)
     _observation_args(le)
-    le.add_argument("--method", choices=[m for m in METHODS if m != "oracle"], default="mirl-t")
-    le.add_argument("--p", type=_degree, default=0.9, help="fixed success p of mirl / known-r")
     le.add_argument(
-        "--observability",
-        type=_degree,
-        default=None,
-        metavar="D",
-        help="degree the observations were taken at (default: the scenario's)",
+        "--method",
+        choices=[m for m in METHODS if m != "oracle"],
+        default="mirl-t",
+        help="learning method (mirl-t is the paper's mIRL*/T+Int; see README 'Methods')",
     )
-    le.add_argument("--max-iterations", type=_positive_int, default=5, metavar="N")
-    le.add_argument("--objective", choices=OBJECTIVES, default="sequence")
-    le.add_argument("--optimizer", choices=OPTIMIZERS, default="lbfgs")
-    le.add_argument("--seed", type=int, default=0)
+    le.add_argument("--p", type=fraction, default=0.9, help="fixed success p of mirl / known-r")
+    _observability_arg(le, "degree the observations were taken at (default: the scenario's)")
+    le.add_argument(
+        "--max-iterations",
+        type=bounded_int(1, 100),
+        default=5,
+        metavar="N",
+        help="relabelling rounds of mirl-t / known-r-t",
+    )
+    le.add_argument(
+        "--objective", choices=OBJECTIVES, default="sequence", help="IRL objective (paper: counts)"
+    )
+    le.add_argument(
+        "--optimizer",
+        choices=OPTIMIZERS,
+        default="lbfgs",
+        help="IRL optimiser (paper: nelder-mead)",
+    )
+    _em_init_arg(le)
+    le.add_argument("--seed", type=seed, default=0, help="seed of the learner's random choices")
     le.add_argument("--json", action="store_true", help="print the result as one JSON object")
 
 
 def _run_parser(sub) -> None:
-    from mirl.experiments.records import MAX_WAIT, METHODS
+    from mirl.experiments.records import MAX_WAIT, METHODS, WATCH_LIMIT, WATCH_UNTIL_SEEN
 
     ru = sub.add_parser(
         "run",
@@ -49,121 +74,61 @@ def _run_parser(sub) -> None:
     )
     _scenario_args(ru, default="boyd2")
     _world_arg(ru)
-    ru.add_argument("--method", choices=METHODS, default="mirl-t")
-    ru.add_argument("--observability", type=_degree, default=None, metavar="D")
-    ru.add_argument("--obs-steps", type=_positive_int, default=300, metavar="N")
-    ru.add_argument("--seed", type=int, default=0)
-    ru.add_argument("--p", type=float, default=0.9, help="fixed success p of mirl / known-r")
+    ru.add_argument(
+        "--method",
+        choices=METHODS,
+        default="mirl-t",
+        help="how L models the patrollers (mirl-t is the paper's mIRL*/T+Int; see README)",
+    )
+    _observability_arg(
+        ru, "share of the patrollers' cells L sees (None: the scenario's, 0.14 on boyd2)"
+    )
+    ru.add_argument(
+        "--obs-steps",
+        type=bounded_int(1, MAX_OBS_STEPS),
+        default=None,
+        metavar="N",
+        help="observe exactly N steps (2 s each), as the experiments do; None: 300 steps, then "
+        "--watch-until-seen",
+    )
+    ru.add_argument(
+        "--watch-until-seen",
+        type=bounded_int(1, WATCH_LIMIT),
+        default=None,
+        metavar="K",
+        help=f"without --obs-steps: after 300 steps L keeps watching until it has seen every "
+        f"patroller on K steps, for at most {WATCH_LIMIT} steps ({WATCH_LIMIT * 2 // 60} min) "
+        f"(None: {WATCH_UNTIL_SEEN})",
+    )
+    ru.add_argument("--seed", type=seed, default=0, help="seed of the whole run")
+    ru.add_argument("--p", type=fraction, default=0.9, help="fixed success p of mirl / known-r")
     ru.add_argument(
         "--max-wait",
-        type=int,
+        type=bounded_int(0, MAX_WAIT_STEPS),
         default=MAX_WAIT,
         metavar="N",
-        help=f"steps L may wait after observing (default {MAX_WAIT}: 25 min in all with 300 "
-        "observed)",
+        help="steps L may wait after observing (450: 25 min in all with 300 observed)",
     )
+    _em_init_arg(ru)
     ru.add_argument("--json", action="store_true", help="print the run as one JSON object")
-    ru.add_argument("--plot", metavar="FILE.png", help="draw the run")
+    ru.add_argument("--plot", metavar="FILE.png", help="draw the run (.png, .pdf or .svg)")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = OneLineParser(
         prog="mirl",
         description="Learn other robots' rewards, policies and faulty motion under occlusion.",
     )
     p.add_argument("--version", action="version", version=f"mirl {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
-    sm = sub.add_parser("show-map", help="print a map (and draw it with --png)")
-    sm.add_argument("map", metavar="NAME_OR_PATH")
-    sm.add_argument(
-        "--observability",
-        type=float,
-        default=None,
-        metavar="D",
-        help="shade the cells visible to L at degree D",
-    )
-    sm.add_argument("--png", metavar="FILE", help="also draw the map to a PNG file")
-    sm.add_argument(
-        "--cell-size", type=float, default=None, help="cell size in metres for ROS map_server maps"
-    )
-
-    si = sub.add_parser("simulate", help="simulate the patrollers and record what L sees")
-    _scenario_args(si)
-    _world_arg(si)
-    si.add_argument("--steps", type=_positive_int, default=300)
-    si.add_argument("--seed", type=int, default=0)
-    si.add_argument("--observability", type=_degree, default=None, metavar="D")
-    si.add_argument(
-        "--heading-noise",
-        type=_degree,
-        default=0.0,
-        metavar="EPS",
-        help="probability that an observed heading is misread",
-    )
-    si.add_argument(
-        "--random-starts",
-        action="store_true",
-        help="start each patroller at a random state of its patrol cycle",
-    )
-    si.add_argument("--observations", metavar="FILE.csv", help="write L's observations")
-    si.add_argument("--truth", metavar="FILE.csv", help="write the true trajectories")
-    _pose_output_args(si)
-    lt = sub.add_parser(
-        "learn-transitions", help="learn transition-feature probabilities (mIRL*/T) from a CSV"
-    )
-    _scenario_args(lt)
-    _observation_args(lt)
-    lt.add_argument(
-        "--labels",
-        choices=("true-policy", "perception"),
-        default="true-policy",
-        help="label observed steps with the true policy (Known R/T) or by perception",
-    )
-    lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
-    _convert_parser(sub)
+    _show_map_parser(sub)
+    _simulate_parser(sub)
+    _data_parsers(sub)
     _experiment_parsers(sub)
     _run_parser(sub)
     _learn_parser(sub)
     return p
-
-
-def _pose_output_args(si: argparse.ArgumentParser) -> None:
-    si.add_argument(
-        "--poses",
-        metavar="OUT",
-        help="also write L's observations as continuous poses: a pose CSV (.csv), or an MCAP "
-        "file (.mcap) / ROS 2 bag directory with a PoseStamped topic /ROBOT/pose per robot",
-    )
-    si.add_argument("--pose-rate", type=_positive_float, default=10.0, metavar="HZ")
-    si.add_argument(
-        "--pose-noise",
-        type=_non_negative_float,
-        nargs=2,
-        metavar=("SIGMA_M", "SIGMA_DEG"),
-        help="Gaussian noise on the poses: metres per axis and degrees of yaw",
-    )
-    si.add_argument(
-        "--step-seconds",
-        type=_positive_float,
-        default=2.0,
-        metavar="S",
-        help="seconds per time step of the written poses (default 2)",
-    )
-
-
-def _convert_parser(sub) -> None:
-    cv = sub.add_parser(
-        "convert",
-        help="pose data (bag, MCAP, pose CSV) -> grid observations CSV, with per-robot counts",
-        description="Discretise robot poses onto the scenario's map and steps and write them as "
-        "t,robot,row,col,heading; prints per robot how many poses were read, binned, snapped "
-        "and dropped, and how many steps are observed.",
-    )
-    cv.add_argument("input", metavar="IN", help="a .bag, ROS 2 bag directory, .mcap or CSV")
-    cv.add_argument("output", metavar="OUT.csv")
-    _scenario_args(cv)
-    _observation_args(cv, with_file=False)
 
 
 def _experiment_parsers(sub) -> None:
@@ -174,16 +139,29 @@ def _experiment_parsers(sub) -> None:
         "run to DIR/results.sqlite; --resume continues an interrupted (or extends a) sweep.",
     )
     ex.add_argument("name", metavar="NAME", help="fig3, fig4a, fig4b, fig4c or table1")
-    ex.add_argument("--runs", type=_positive_int, default=None, help="runs per condition")
     _world_arg(ex)
     ex.add_argument(
-        "--workers", type=_positive_int, default=os.cpu_count() or 1, help="local processes"
+        "--runs",
+        type=bounded_int(1, 100_000),
+        default=None,
+        help="runs per condition (None: the experiment's default, 200 for the paper's)",
     )
-    ex.add_argument("--out", metavar="DIR", help="results directory (default results/NAME)")
+    ex.add_argument(
+        "--workers", type=bounded_int(1, 1024), default=os.cpu_count() or 1, help="local processes"
+    )
+    ex.add_argument("--out", metavar="DIR", help="results directory (None: results/NAME)")
     ex.add_argument("--resume", action="store_true", help="skip the runs DIR already holds")
     ex.add_argument("--dask-scheduler", metavar="ADDRESS", help="run on this Dask cluster")
-    ex.add_argument("--seed", type=int, default=0, help="base seed of the run seeds")
+    ex.add_argument("--seed", type=seed, default=0, help="base seed of the run seeds")
     ex.add_argument("--quiet", action="store_true", help="no progress bar or progress lines")
+    ex.add_argument(
+        "--progress-every",
+        type=bounded_int(1, 100_000),
+        default=None,
+        metavar="N",
+        help="when output is not a terminal, a progress line every N runs (None: ~every 5%%)",
+    )
+    _em_init_arg(ex)
     rp = sub.add_parser("report", help="figures and DIR/report.md from an experiment's results")
     rp.add_argument("dir", metavar="DIR", help="an experiment's results directory (or parent)")
 
@@ -222,18 +200,22 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
         "for a pose CSV, renames a robot of the file",
     )
     g.add_argument(
-        "--step-seconds", type=_positive_float, default=None, metavar="S", help="default 2"
+        "--step-seconds",
+        type=positive_float,
+        default=None,
+        metavar="S",
+        help="seconds per time step (None: 2, the paper's)",
     )
     g.add_argument(
         "--start-time",
-        type=float,
+        type=finite_float,
         default=None,
         metavar="SECONDS",
         help="time of step 0 (default: the earliest pose read)",
     )
     g.add_argument(
         "--tolerance",
-        type=_non_negative_float,
+        type=non_negative_float,
         default=None,
         metavar="SECONDS",
         help="a step takes the nearest pose within this (default: half a step)",
@@ -252,24 +234,108 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
     )
 
 
-def _float_at_least(low: float, *, strict: bool):
-    """An argparse type: a finite number > ``low`` (``strict``) or >= ``low``."""
+def _em_init_arg(sp: argparse.ArgumentParser) -> None:
+    from mirl.learning.dbn_em import EM_INITS
 
-    def parse(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
-        if not (v < float("inf") and (v > low if strict else v >= low)):
-            what = "positive" if strict else "non-negative"
-            raise argparse.ArgumentTypeError(f"must be a {what} number, got {text}")
-        return v
-
-    return parse
+    sp.add_argument(
+        "--em-init",
+        choices=EM_INITS,
+        default=None,
+        help="DBN-EM's initial transitions: uniform over the intended states of all actions, or "
+        "over all states (None: intended)",
+    )
 
 
-_positive_float = _float_at_least(0.0, strict=True)
-_non_negative_float = _float_at_least(0.0, strict=False)
+def _show_map_parser(sub) -> None:
+    """``mirl show-map``."""
+    sm = sub.add_parser("show-map", help="print a map (and draw it with --png)")
+    sm.add_argument(
+        "map", metavar="NAME_OR_PATH", help="shipped name, office-RxC[-sK], text map or ROS YAML"
+    )
+    _observability_arg(sm, "shade the cells visible to L at degree D")
+    sm.add_argument("--png", metavar="FILE", help="also draw the map to a PNG file")
+    sm.add_argument(
+        "--cell-size",
+        type=positive_float,
+        default=None,
+        help="cell size in metres for ROS map_server maps (None: the YAML's resolution)",
+    )
+
+
+def _simulate_parser(sub) -> None:
+    """``mirl simulate``."""
+    si = sub.add_parser("simulate", help="simulate the patrollers and record what L sees")
+    _scenario_args(si)
+    _world_arg(si)
+    si.add_argument(
+        "--steps", type=bounded_int(1, MAX_STEPS), default=300, help="time steps (2 s each)"
+    )
+    si.add_argument("--seed", type=seed, default=0, help="seed of the simulation")
+    _observability_arg(si, "share of the patrollers' cells L sees (None: the scenario's)")
+    si.add_argument(
+        "--heading-noise",
+        type=fraction,
+        default=0.0,
+        metavar="EPS",
+        help="probability that an observed heading is misread",
+    )
+    si.add_argument(
+        "--random-starts",
+        action="store_true",
+        help="start each patroller at a random state of its patrol cycle",
+    )
+    si.add_argument("--observations", metavar="FILE.csv", help="write L's observations")
+    si.add_argument("--truth", metavar="FILE.csv", help="write the true trajectories")
+    si.add_argument(
+        "--poses",
+        metavar="OUT",
+        help="also write L's observations as continuous poses: a pose CSV (.csv), or an MCAP "
+        "file (.mcap) / ROS 2 bag directory with a PoseStamped topic /ROBOT/pose per robot",
+    )
+    si.add_argument(
+        "--pose-rate", type=positive_float, default=10.0, metavar="HZ", help="poses per second"
+    )
+    si.add_argument(
+        "--pose-noise",
+        type=non_negative_float,
+        nargs=2,
+        metavar=("SIGMA_M", "SIGMA_DEG"),
+        help="Gaussian noise on the poses: metres per axis and degrees of yaw",
+    )
+    si.add_argument(
+        "--step-seconds",
+        type=positive_float,
+        default=2.0,
+        metavar="S",
+        help="seconds per time step of the written poses",
+    )
+
+
+def _data_parsers(sub) -> None:
+    """``mirl learn-transitions`` and ``mirl convert``."""
+    lt = sub.add_parser(
+        "learn-transitions", help="learn transition-feature probabilities (mIRL*/T) from a CSV"
+    )
+    _scenario_args(lt)
+    _observation_args(lt)
+    lt.add_argument(
+        "--labels",
+        choices=("true-policy", "perception"),
+        default="true-policy",
+        help="label observed steps with the true policy (Known R/T) or by perception",
+    )
+    lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
+    cv = sub.add_parser(
+        "convert",
+        help="pose data (bag, MCAP, pose CSV) -> grid observations CSV, with per-robot counts",
+        description="Discretise robot poses onto the scenario's map and steps and write them as "
+        "t,robot,row,col,heading; prints per robot how many poses were read, binned, snapped "
+        "and dropped, and how many steps are observed.",
+    )
+    cv.add_argument("input", metavar="IN", help="a .bag, ROS 2 bag directory, .mcap or CSV")
+    cv.add_argument("output", metavar="OUT.csv", help="grid observations CSV to write")
+    _scenario_args(cv)
+    _observation_args(cv, with_file=False)
 
 
 def _world_arg(sp: argparse.ArgumentParser) -> None:
@@ -283,21 +349,5 @@ def _world_arg(sp: argparse.ArgumentParser) -> None:
     )
 
 
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not an integer") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {v}")
-    return v
-
-
-def _degree(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
-    if not 0.0 <= v <= 1.0:
-        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {v}")
-    return v
+def _observability_arg(sp: argparse.ArgumentParser, help: str) -> None:
+    sp.add_argument("--observability", type=fraction, default=None, metavar="D", help=help)

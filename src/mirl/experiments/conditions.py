@@ -58,14 +58,18 @@ class Condition:
     obs_steps: int = DEFAULT_OBS_STEPS
     p: float | None = None
     world: str = "grid"  # or "physics" (mirl.physics, MuJoCo)
+    em_init: str | None = None  # DBN-EM's initial T; None: the default ("intended")
 
     @property
     def key(self) -> str:
         """Stable identity: JSON of the sorted fields (part of the database's primary key);
-        ``world`` only when it is not the grid, so grid keys stored before it existed match."""
-        fields = asdict(self)
-        if self.world == "grid":
-            del fields["world"]
+        ``world`` only when it is not the grid and ``em_init`` only when set, so databases
+        written before they existed keep their keys."""
+        fields = {
+            k: v
+            for k, v in asdict(self).items()
+            if not (k == "em_init" and v is None) and not (k == "world" and v == "grid")
+        }
         return json.dumps(fields, sort_keys=True, separators=(",", ":"))
 
     @classmethod
@@ -74,7 +78,8 @@ class Condition:
 
     @property
     def label(self) -> str:
-        return self.method if self.p is None else f"{self.method} (p={self.p:g})"
+        label = self.method if self.p is None else f"{self.method} (p={self.p:g})"
+        return label if self.em_init is None else f"{label} ({self.em_init} init)"
 
 
 def in_world(experiment: Experiment, world: str) -> Experiment:
@@ -146,6 +151,8 @@ def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
     kwargs: dict[str, Any] = {}
     if condition.p is not None:
         kwargs["p"] = condition.p
+    if condition.em_init is not None:
+        kwargs["learn_options"] = {"em_init": condition.em_init}
     result = run_episode(
         _scenario(condition.scenario),
         condition.method,
@@ -304,3 +311,15 @@ def get_experiment(name: str) -> Experiment:
 
 class StoreError(ValueError):
     """A problem with an experiment's request or its results directory (one-line message)."""
+
+
+def with_em_init(exp: Experiment, init: str | None) -> Experiment:
+    """``exp`` with DBN-EM's initialisation set on its dbn-em conditions (None: unchanged)."""
+    if init is None:
+        return exp
+    if not any(c.method == "dbn-em" for c in exp.conditions):
+        raise StoreError(f"--em-init: experiment {exp.name} has no dbn-em runs to initialise")
+    conditions = tuple(
+        replace(c, em_init=init) if c.method == "dbn-em" else c for c in exp.conditions
+    )
+    return replace(exp, conditions=conditions)

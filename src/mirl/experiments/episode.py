@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -53,6 +53,7 @@ from mirl.experiments.records import (
     LEARNED_METHODS,
     MAX_WAIT,
     METHODS,
+    WATCH_LIMIT,
     Detection,
     PlanAttempt,
     RunResult,
@@ -115,12 +116,18 @@ def run_episode(
     negative_evidence: bool = True,
     learn_options: dict[str, Any] | None = None,
     learned: LearnResult | None = None,
+    watch_until_seen: int | None = None,
+    max_obs_steps: int = WATCH_LIMIT,
     world_kind: str = "grid",
 ) -> RunResult:
     """Run one penetration (module doc). ``learned`` overrides learning (for tests and
     experiments with hand-made models). ``travel_steps`` is the part of the planning horizon
     after the last go time (default: 3 × L's shortest path, at least 20). ``world_kind``
     ``"physics"`` runs the same protocol in MuJoCo (:mod:`mirl.experiments.physical`).
+
+    ``watch_until_seen=K`` (``mirl run``'s default; None here, so experiments keep the paper's
+    fixed observation time): L observes at least ``obs_steps`` steps and then keeps watching
+    until it has seen every patroller on K steps, or ``max_obs_steps`` have passed.
 
     Long because its keyword arguments are the run protocol's knobs, each documented in the
     module docstring; the body is the four phases in order, each a call.
@@ -129,6 +136,8 @@ def run_episode(
         raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
     if obs_steps < 1:
         raise ValueError(f"obs_steps must be at least 1, got {obs_steps}")
+    if watch_until_seen is not None and not 1 <= watch_until_seen <= max_obs_steps:
+        raise ValueError(f"watch_until_seen must be in [1, {max_obs_steps}]")
     if max_wait < 0 or window < 0 or replan_every < 1:
         raise ValueError("max_wait and window must be >= 0 and replan_every >= 1")
     degree = scenario.observability if observability is None else float(observability)
@@ -150,8 +159,7 @@ def run_episode(
         world = RunWorld(scenario, degree, int(sim_seed.generate_state(1)[0]))
     else:
         raise ValueError(f"unknown world '{world_kind}' (known: grid, physics)")
-    for _ in range(obs_steps - 1):
-        world.step()
+    _observe(world, obs_steps, watch_until_seen, max_obs_steps)
     t_obs = world.t  # last step of the observation phase
     timings["observe"] += time.perf_counter() - clock
 
@@ -209,10 +217,23 @@ def run_episode(
         timings["execute"] += time.perf_counter() - clock
     timings["total"] = time.perf_counter() - t_start
     timings["cpu"] = time.process_time() - cpu_start  # this process's CPU time (busy machines)
-    return _run_result(
-        scenario, method, int(seed), degree, obs_steps, world, t_obs, learned, going,
+    result = _run_result(
+        scenario, method, int(seed), degree, t_obs + 1, world, t_obs, learned, going,
         (outcome, path, detections, plan), timings,
     )  # fmt: skip
+    return replace(result, watch_until_seen=watch_until_seen)
+
+
+def _observe(world: RunWorld, obs_steps: int, until_seen: int | None, limit: int) -> None:
+    """The observation phase: ``obs_steps`` steps, then (``until_seen``) on until every
+    patroller was seen on ``until_seen`` steps or ``limit`` steps have passed."""
+    for _ in range(obs_steps - 1):
+        world.step()
+    if until_seen is None:
+        return
+    counts = (np.asarray(world.seen) >= 0).sum(axis=0)
+    while counts.min() < until_seen and world.t + 1 < limit:
+        counts += world.step_seen() >= 0
 
 
 def _random_going(

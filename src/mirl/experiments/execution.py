@@ -44,6 +44,11 @@ class RunWorld:
         self.seen.append(self._seen(obs))
         return self.true[-1]
 
+    def step_seen(self) -> np.ndarray:
+        """Step, and return what L saw (state index per robot, -1 unseen)."""
+        self.step()
+        return self.seen[-1]
+
     def observations(self, names: tuple[str, ...], until: int) -> Trajectories:
         return Trajectories.from_states(self.domain, names, np.asarray(self.seen[: until + 1]))
 

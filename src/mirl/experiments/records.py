@@ -16,7 +16,10 @@ __all__ = [
     "METHODS",
     "LEARNED_METHODS",
     "OUTCOMES",
+    "METHOD_NAMES",
     "MAX_WAIT",
+    "WATCH_UNTIL_SEEN",
+    "WATCH_LIMIT",
     "Detection",
     "PlanAttempt",
     "RunResult",
@@ -25,9 +28,29 @@ __all__ = [
 METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "random", "oracle")
 LEARNED_METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em")
 OUTCOMES = ("success", "detected", "timeout")
+# CLI method name -> (the paper's name, what it does in plain words); README and reports use it
+METHOD_NAMES = {
+    "mirl-t": (
+        "mIRL*/T+Int",
+        "learns each patroller's transition-feature probabilities "
+        "(mIRL*/T), its reward by IRL under occlusion and their interaction, relabelling "
+        "observed steps until they settle",
+    ),
+    "mirl": ("mIRL*+Int", "learns rewards and interaction; every action succeeds with a fixed p"),
+    "known-r-t": ("Known R/T", "true rewards and interaction, learned transitions (upper bound)"),
+    "known-r": ("Known R", "true rewards and interaction, fixed success p"),
+    "dbn-em": ("DBN-EM", "transitions learned by EM over a two-slice DBN, learned rewards"),
+    "random": ("Random", "waits, then goes at a random time along a shortest path"),
+    "oracle": ("Oracle", "the true models (a ceiling; not in the paper)"),
+}
 # L may wait 450 steps (15 min) after observing: with the default 300 observation steps a run
 # lasts at most 25 min of robot time, the paper's limit for its physical runs
 MAX_WAIT = 450
+# `mirl run`'s default observation rule (issue 13): after the 300 steps, L keeps watching until
+# it has seen every patroller on WATCH_UNTIL_SEEN steps, for at most WATCH_LIMIT steps in all
+# (60 min of robot time: on boyd2 at 0.14, seed 19's J first enters L's view at t=1555)
+WATCH_UNTIL_SEEN = 40
+WATCH_LIMIT = 1800
 
 
 @dataclass(frozen=True)
@@ -77,6 +100,7 @@ class RunResult:
     plan: ObserverPlan | None = None  # the executed (or last) plan
     seen_steps: dict[str, int] = field(default_factory=dict)  # observation-phase sightings
     physical: Any = None  # the mirl.physics PhysicalWorld of a --world physics run (poses, cones)
+    watch_until_seen: int | None = None  # the observation rule of `mirl run` (None: fixed)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -85,6 +109,7 @@ class RunResult:
             "seed": self.seed,
             "observability": self.observability,
             "obs_steps": self.obs_steps,
+            **_if_set(watch_until_seen=self.watch_until_seen),
             "outcome": self.outcome,
             "go_time": self.go_time,
             "plan_value": self.plan_value,
@@ -110,4 +135,9 @@ class RunResult:
             **({"world": "physics", "contacts": self.physical.contacts,
                 "wall_contacts": self.physical.wall_contacts}
                if self.physical is not None else {}),
-        }  # fmt: skip
+        }
+
+
+def _if_set(**values: Any) -> dict[str, Any]:
+    """The entries whose value is not None (optional JSON keys stay absent by default)."""
+    return {k: v for k, v in values.items() if v is not None}

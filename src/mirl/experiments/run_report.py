@@ -5,8 +5,51 @@ from __future__ import annotations
 
 import numpy as np
 
-from mirl.experiments.records import RunResult
+from mirl.experiments.records import METHOD_NAMES, RunResult
 from mirl.world.scenario import Scenario
+
+HEADING_NAMES = ("east", "north", "west", "south")  # heading 0-3 (the map's x east, y north)
+
+
+def state_text(state) -> str:
+    """A patroller state (row, col, heading) in words: ``(16, 8) facing west``."""
+    r, c, h = (int(x) for x in state)
+    return f"({r}, {c}) facing {HEADING_NAMES[h]}"
+
+
+def _observed_line(result: RunResult) -> str:
+    seen = "; ".join(f"saw {n} on {k} steps" for n, k in result.seen_steps.items())
+    minutes = result.obs_steps * 2 / 60
+    line = f"observed  {result.obs_steps} steps ({minutes:.0f} min of robot time): {seen}"
+    k = result.watch_until_seen
+    if k is None:
+        return line
+    if min(result.seen_steps.values(), default=0) >= k and result.obs_steps > 300:
+        why = f"L watched past 300 steps until it had seen every patroller on {k} steps"
+    elif min(result.seen_steps.values(), default=0) >= k:
+        why = f"every patroller was seen on {k} steps within the first 300"
+    else:
+        why = f"L stopped at its watching limit before seeing every patroller on {k} steps"
+    return f"{line}\n          ({why})"
+
+
+def _wrapped(text: str) -> str:
+    import textwrap
+
+    return textwrap.fill(text, 96, initial_indent=" " * 10, subsequent_indent=" " * 10)
+
+
+def _equilibrium_text(label: str) -> str:
+    """What the learned interaction equilibrium means for two robots meeting head-on."""
+    parts = label.split("/")
+    if len(parts) != 2 or any(p.startswith("(") for p in parts):
+        return "a mixed strategy: each robot randomises between go, stop and turn"
+    i, j = parts
+    if i == "stop" and j == "go":
+        return "when I and J meet, I yields (stops) and J goes on"
+    if i == "go" and j == "stop":
+        return "when I and J meet, J yields (stops) and I goes on"
+    return f"when I and J meet, I plays {i} and J plays {j}"
 
 
 # ---- the readable report of `mirl run` -------------------------------------------------------
@@ -41,6 +84,7 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
     Long because it is one printed page, written line by line in the order it reads.
     """
     dom = scenario.domain
+    paper, meaning = METHOD_NAMES.get(result.method, (result.method, ""))
     n_vis = int(scenario.map.visible_mask(result.observability).sum())
     damaged = [
         f"{r.name}:{f}={p:g}"
@@ -52,9 +96,13 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         f"mirl run: scenario {scenario.name} (truth: {', '.join(damaged) or 'no damage'}), "
         f"method {result.method}, observability {result.observability:g} "
         f"({n_vis}/{scenario.map.n_patroller_cells} cells), seed {result.seed}",
+        _wrapped(
+            f"{result.method} ({paper} in the paper's figures): {meaning}. L hides in its room at "
+            f"{scenario.map.observer_start} and wants to reach {scenario.goal} unseen; cells "
+            "are (row, col), a patroller's state is its cell and the way it faces; a step is 2 s."
+        ),
         "",
-        f"observed  {result.obs_steps} steps ({result.obs_steps * 2 / 60:.0f} min of robot time):"
-        + "".join(f" saw {n} on {k} steps;" for n, k in result.seen_steps.items()).rstrip(";"),
+        _observed_line(result),
     ]
     learned = result.learned
     has_features = any(result.feature_probabilities.values())
@@ -79,6 +127,10 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
             )
         else:
             lines.append(f"            no single lowest feature ({ranked[0][0]:.3f} is shared)")
+        lines.append(
+            "            (each is how often an action that relies on the part does what was "
+            "intended)"
+        )
     if learned is not None:
         acc = ", ".join(f"{n} {a:.2f}" for n, a in result.behavior_accuracy_per_robot.items())
         lines.append(f"          behaviour accuracy: {acc} (mean {result.behavior_accuracy:.2f})")
@@ -87,11 +139,13 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
             cyc = policy_cycle(dom, r.policy, int(start))
             true = set(policy_cycle(dom, scenario.true_policy(i), int(start)).tolist())
             same = "the true patrol" if set(cyc.tolist()) == true else "differs from the truth"
-            ends = " and ".join(str(c) for c in _turn_cells(dom, cyc)) or "nowhere"
-            lines.append(
-                f"          patrol of {r.name}: a {len(cyc)}-step loop turning at {ends} ({same})"
-            )
-        lines.append(f"          interaction equilibrium (I/J): {learned.equilibrium.label()}")
+            ends = " and ".join(str(c) for c in _turn_cells(dom, cyc))
+            where = f"turning around at {ends}" if ends else "without turning around"
+            lines.append(f"          patrol of {r.name}: a {len(cyc)}-step loop {where} ({same})")
+        label = learned.equilibrium.label()
+        lines.append(
+            f"          interaction equilibrium (I/J): {label} — {_equilibrium_text(label)}"
+        )
     if result.go_time is None:
         lines.append(
             f"planned   {len(result.attempts)} rounds, no go time with a positive value "
@@ -104,14 +158,18 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
     else:
         lines.append(
             f"went      at t={result.go_time}, {result.go_time - (result.obs_steps - 1)} steps "
-            f"after observing, value {result.plan_value:.2f} ({len(result.attempts)} planning "
+            f"after observing, plan value {result.plan_value:.2f} ({len(result.attempts)} planning "
             "rounds)"
+        )
+        lines.append(
+            "          (value = predicted P(goal reached unseen) - 0.5 x P(seen first); "
+            "L goes when > 0)"
         )
     outcome = {
         "success": f"success — reached the goal {scenario.goal} unseen at t={result.end_time}",
         "detected": "detected — "
         + "; ".join(
-            f"{d.robot} at {d.robot_state} saw L on {d.observer_cell} at t={d.t}"
+            f"{d.robot} at {state_text(d.robot_state)} saw L on {d.observer_cell} at t={d.t}"
             for d in result.detections
         ),
         "timeout": f"timeout — no safe go time before t={result.end_time}",

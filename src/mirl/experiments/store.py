@@ -20,7 +20,7 @@ from mirl.experiments.conditions import (
     StoreError,
 )
 
-__all__ = ["RunRecord", "ResultStore", "open_store", "load_results"]
+__all__ = ["RunRecord", "ResultStore", "check_store", "open_store", "load_results"]
 
 # ---------------------------------------------------------------------------------------------
 # The SQLite store
@@ -90,8 +90,11 @@ class ResultStore:
     ``INSERT OR IGNORE`` on the primary key, so a kill leaves the database consistent and a
     re-delivered result can never duplicate a row."""
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, read_only: bool = False) -> None:
         self.path = Path(path)
+        if read_only:  # `mirl report`: reading results never changes them
+            self.con = _read_only(self.path)
+            return
         self.con = sqlite3.connect(self.path, isolation_level=None, timeout=60)
         self.con.execute("PRAGMA journal_mode=WAL")
         # WAL + NORMAL: a committed run survives a killed process (only an OS crash could
@@ -181,7 +184,7 @@ class ResultStore:
             columns.update(dict.fromkeys(r))
         tmp = Path(f"{path}.tmp")
         with tmp.open("w", newline="", encoding="utf-8") as f:
-            w = csv.DictWriter(f, fieldnames=list(columns), restval="")
+            w = csv.DictWriter(f, fieldnames=list(columns), restval="", lineterminator="\n")
             w.writeheader()
             w.writerows(rows)
         os.replace(tmp, path)
@@ -202,10 +205,51 @@ def _now() -> str:
     return time.strftime("%Y-%m-%dT%H:%M:%S")
 
 
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+
+
+def _read_only(path: Path) -> sqlite3.Connection:
+    """A connection that cannot change ``path``; ``immutable`` (no -wal/-shm files created)
+    unless a write-ahead log already holds committed runs that must be read too."""
+    mode = "mode=ro" if Path(f"{path}-wal").exists() else "immutable=1"
+    return sqlite3.connect(f"{path.resolve().as_uri()}?{mode}", uri=True)
+
+
+def check_store(path: str | Path) -> None:
+    """Refuse (StoreError, one line) an existing ``results.sqlite`` that is empty, not SQLite,
+    truncated, corrupt or not mirl's — reading it only, so the file stays byte for byte as it
+    was (connecting read-write would turn an empty file into a database)."""
+    p = Path(path)
+    if not p.exists():
+        return
+    if not p.is_file():
+        raise StoreError(f"{p}: not a file")
+    with p.open("rb") as fh:
+        head = fh.read(100)
+    if not head:
+        raise StoreError(f"{p}: empty file, not a results database (left as it is)")
+    if not head.startswith(_SQLITE_MAGIC):
+        raise StoreError(f"{p}: not an SQLite results database (left as it is)")
+    try:
+        con = _read_only(p)
+        try:
+            check = con.execute("PRAGMA quick_check").fetchone()[0]
+            tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master")}
+        finally:
+            con.close()
+    except sqlite3.DatabaseError as exc:
+        raise StoreError(f"{p}: corrupt or truncated database ({exc}; left as it is)") from None
+    if check != "ok":
+        raise StoreError(f"{p}: corrupt database ({check}; left as it is)")
+    if not {"runs", "meta"} <= tables:
+        raise StoreError(f"{p}: an SQLite database but not mirl's results (no runs table)")
+
+
 def open_store(path: str | Path, experiment: str, base_seed: int, *, resume: bool) -> ResultStore:
     """Open (creating) an experiment's store, refusing to mix it with other results: without
     ``resume`` a database that already holds runs is an error, and with it the experiment and
     base seed must be the ones it was started with."""
+    check_store(path)
     store = ResultStore(path)
     try:
         n, meta = store.count(), store.meta()
@@ -233,7 +277,8 @@ def load_results(path: str | Path) -> tuple[dict[str, str], list[dict[str, Any]]
     db = p / "results.sqlite" if p.is_dir() else p
     if not db.exists():
         raise StoreError(f"{db}: no such results database")
-    store = ResultStore(db)
+    check_store(db)
+    store = ResultStore(db, read_only=True)
     try:
         return store.meta(), store.rows(), store.sessions()
     finally:

@@ -102,6 +102,7 @@ def run_experiment(
     base_seed: int = 0,
     progress: bool = True,
     log: Callable[[str], None] | None = None,
+    progress_every: int | None = None,
 ) -> Summary:
     """Run every pending (condition, run) of ``experiment``, storing each result as it arrives
     in ``out_dir/results.sqlite``; export ``out_dir/results.csv`` at the end.
@@ -109,6 +110,8 @@ def run_experiment(
     Without ``resume`` an existing non-empty database is refused (StoreError) rather than
     silently mixed; with it, finished runs are skipped, ``error`` runs retried, and a larger
     ``runs`` extends the sweep. ``dask_scheduler`` runs the same tasks on a Dask cluster.
+    ``progress_every``: when stderr is not a terminal, a progress line every this many runs
+    (default: about every 5 % of the sweep).
     """
     exp = get_experiment(experiment) if isinstance(experiment, str) else experiment
     runs = exp.default_runs if runs is None else runs
@@ -143,7 +146,8 @@ def run_experiment(
         )
         session = store.begin_session(n_workers, "dask" if dask_scheduler else "joblib")
         start = time.perf_counter()
-        with _ProgressLog(out / "progress.log", len(tasks), exp.name, progress) as bar:
+        every = progress_every or max(1, len(tasks) // 20)
+        with _ProgressLog(out / "progress.log", len(tasks), exp.name, progress, every) as bar:
             for rec in _results(exp, tasks, workers, dask_scheduler):
                 summary.finished += 1
                 # committed before anything else happens
@@ -195,10 +199,11 @@ def _dask_threads(client: Any) -> int:
 
 
 class _ProgressLog:
-    """tqdm bar with ETA on a terminal; otherwise, and always in ``progress.log``, one line per
-    run with the count, the run and the ETA, so a detached sweep can be followed with tail."""
+    """tqdm bar with ETA on a terminal; otherwise a line on stderr every ``every`` runs; and
+    always in ``progress.log`` one line per run with the count, the run and the ETA, so a
+    detached sweep can be followed with tail."""
 
-    def __init__(self, path: Path, total: int, name: str, show: bool) -> None:
+    def __init__(self, path: Path, total: int, name: str, show: bool, every: int = 1) -> None:
         from tqdm import tqdm
 
         self.total, self.name, self.start, self.n = total, name, time.perf_counter(), 0
@@ -208,7 +213,7 @@ class _ProgressLog:
             total=total, desc=name, unit="run", file=sys.stderr, disable=not tty, smoothing=0.05
         )
         self.echo = show and not tty
-        self.last_echo = 0.0
+        self.every = every
 
     def update(self, rec: RunRecord) -> None:
         self.n += 1
@@ -223,9 +228,8 @@ class _ProgressLog:
         )
         self.file.write(line + "\n")
         self.file.flush()
-        if self.echo and (elapsed - self.last_echo > 30 or self.n == self.total):
-            self.last_echo = elapsed
-            print(line, file=sys.stderr)
+        if self.echo and (self.n % self.every == 0 or self.n == self.total):
+            print(line, file=sys.stderr, flush=True)
 
     def __enter__(self) -> _ProgressLog:
         return self

@@ -31,7 +31,7 @@ import scipy.sparse as sp
 
 from mirl.world.domain import PatrolDomain
 
-__all__ = ["EMResult", "em_fit", "em_transition_model", "expected_counts"]
+__all__ = ["EM_INITS", "EMResult", "em_fit", "em_transition_model", "expected_counts"]
 
 
 @dataclass(frozen=True)
@@ -45,6 +45,9 @@ class EMResult:
     def transition_matrix(self) -> sp.csr_array:
         S, A, _ = self.transitions.shape
         return sp.csr_array(self.transitions.reshape(S * A, S))
+
+
+EM_INITS = ("intended", "uniform")
 
 
 def initial_transitions(domain: PatrolDomain, init: str = "intended") -> np.ndarray:

@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.dbn_em import em_transition_model
+from mirl.learning.dbn_em import EM_INITS, em_transition_model
 from mirl.learning.equilibria import (
     EquilibriumWeights,
     meeting_log_likelihood,
@@ -108,6 +108,7 @@ class _Setup:
     clock: _Clock
     irl_options: dict
     random_state: int | None
+    em_init: str = "intended"
 
     @property
     def domain(self):
@@ -134,6 +135,7 @@ def learn(
     random_state: int | None = 0,
     score: bool = True,
     trace: LoopTrace | None = None,
+    em_init: str = "intended",
 ) -> LearnResult:
     """Learn models of the scenario's patrollers from L's ``observations`` with ``method``.
 
@@ -147,6 +149,7 @@ def learn(
     optimum) and 3 for Nelder–Mead. ``irl_options``: further keyword arguments of the
     estimator (e.g. ``anchor``, ``l2``, ``max_evaluations``).
     ``trace``: an empty :class:`LoopTrace` to receive the labels of every round.
+    ``em_init``: DBN-EM's initial T (``intended`` or ``uniform``, see :mod:`mirl.learning.dbn_em`).
     ``random_state`` seeds every random choice (IRL restarts); ``None`` counts as 0, so learning
     is deterministic.
 
@@ -157,6 +160,8 @@ def learn(
         raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
     if not 0.0 <= p <= 1.0:
         raise ValueError(f"p must be in [0, 1], got {p}")
+    if em_init not in EM_INITS:
+        raise ValueError(f"unknown EM initialisation '{em_init}' (known: {', '.join(EM_INITS)})")
     if max_iterations < 1:
         raise ValueError(f"max_iterations must be at least 1, got {max_iterations}")
     if tuple(observations.robot_names) != tuple(scenario.robot_names):
@@ -194,6 +199,7 @@ def learn(
             **(irl_options or {}),
         },
         random_state,
+        em_init,
     )
     trace = LoopTrace() if trace is None else trace
     weights, transitions, probs, eq, message = _method_models(
@@ -360,7 +366,10 @@ def _fixed_transitions(setup: _Setup, p: float):
 
 def _em_transitions(setup: _Setup):
     with setup.clock("transitions"):
-        T = [sp.csr_array(em_transition_model(setup.domain, [x])) for x in setup.series]
+        T = [
+            sp.csr_array(em_transition_model(setup.domain, [x], init=setup.em_init))
+            for x in setup.series
+        ]
     return T, [{} for _ in setup.series]
 
 

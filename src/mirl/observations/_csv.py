@@ -13,8 +13,8 @@ BLOCK_BYTES = 1 << 22
 def csv_header(path: Path, error) -> list[str]:
     """The stripped, unquoted header names; ``error`` for a missing, unreadable or empty file."""
     try:
-        with open(path, newline="") as fh:
-            first = fh.readline()
+        with open(path, newline="", encoding="utf-8-sig") as fh:  # a UTF-8 BOM is accepted
+            first = fh.readline(1 << 16)
     except FileNotFoundError:
         raise error(f"{path}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:

@@ -15,6 +15,10 @@ from mirl.world.domain import PatrolDomain
 __all__ = ["Trajectories", "TrajectoryError", "read_csv", "HEADER"]
 
 HEADER = ("t", "robot", "row", "col", "heading")
+# a time step at or beyond this is refused, not allocated: L's per-step arrays span the horizon
+# (1 M steps = 23 days of robot time at 2 s a step; 8 MB per robot per array)
+MAX_TIME = 1_000_000
+_MAX_CELL = 2**62  # larger values are refused before numpy could overflow on them
 
 
 class TrajectoryError(ValueError):
@@ -141,25 +145,38 @@ def read_csv(
 
     # per-row checks in the row-by-row reader's order: robot, negative time, state
     state = domain.state_index(row, col, heading) if len(t) else t
-    bad_robot, bad_t, bad_state = robot < 0, t < 0, np.asarray(state) < 0
+    bad_robot, bad_t, bad_state = robot < 0, (t < 0) | (t >= MAX_TIME), np.asarray(state) < 0
     bad = bad_robot | bad_t | bad_state
     if bad.any():
         i = int(np.argmax(bad))
         line = int(data_line_numbers(path)[i])
         if bad_robot[i]:
-            name = names[int(np.asarray(robot_col.indices)[i])]
+            name = _shown(names[int(np.asarray(robot_col.indices)[i])])
             known = ", ".join(robot_names)
             raise TrajectoryError(
                 f"{path}: line {line}: robot '{name}' is not in the scenario ({known})"
             )
         if bad_t[i]:
-            raise TrajectoryError(f"{path}: line {line}: negative time {t[i]}")
+            raise TrajectoryError(f"{path}: line {line}: {_time_problem(int(t[i]))}")
         what = _state_problem(domain, int(row[i]), int(col[i]), int(heading[i]))
         raise TrajectoryError(f"{path}: line {line}: {what}")
     arr = np.column_stack([t, robot, row, col, heading])
     return _sorted_checked(
         path, arr, lambda i: int(data_line_numbers(path)[i]), robot_names, horizon
     )
+
+
+def _shown(text: str, limit: int = 40) -> str:
+    """A cell's text as quoted in a one-line message: at most ``limit`` characters, control
+    characters escaped."""
+    shown = text[:limit].encode("unicode_escape").decode("ascii")
+    return shown if len(text) <= limit else f"{shown}... ({len(text)} characters)"
+
+
+def _time_problem(t: int) -> str:
+    if t < 0:
+        return f"negative time {t}"
+    return f"time {t} is beyond the limit of {MAX_TIME} steps (t must be < {MAX_TIME})"
 
 
 def _state_problem(domain: PatrolDomain, r: int, c: int, h: int) -> str:
@@ -198,45 +215,62 @@ def _read_csv_python(
     its fallback for any file pyarrow will not parse (non-integers, short rows, spaces...)."""
     path = Path(path)
     try:
-        fh = open(path, newline="")
+        fh = open(path, newline="", encoding="utf-8-sig")  # a UTF-8 BOM is accepted
     except OSError as exc:
         raise TrajectoryError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    with fh:
-        reader = csv.reader(fh)
-        header = next(reader, None)
-        if header is None:
-            raise TrajectoryError(f"{path}: file is empty (expected header {','.join(HEADER)})")
-        header = [h.strip() for h in header]
-        missing = [h for h in HEADER if h not in header]
-        if missing:
-            raise TrajectoryError(f"{path}: line 1: missing column '{missing[0]}'")
-        idx = [header.index(h) for h in HEADER]
-        rows: list[tuple[int, int, int, int, int]] = []
-        lines: list[int] = []
-        for lineno, rec in enumerate(reader, start=2):
-            if not rec or all(not x.strip() for x in rec):
-                continue
-            if len(rec) < len(header):
-                raise TrajectoryError(f"{path}: line {lineno}: expected {len(header)} cells")
-            vals = [rec[i].strip() for i in idx]
-            name = vals[1]
-            if name not in robot_names:
-                known = ", ".join(robot_names)
-                raise TrajectoryError(
-                    f"{path}: line {lineno}: robot '{name}' is not in the scenario ({known})"
-                )
-            try:
-                t, r, c, h = (int(vals[i]) for i in (0, 2, 3, 4))
-            except ValueError:
-                bad = next(v for v in (vals[0], *vals[2:]) if not _is_int(v))
-                raise TrajectoryError(f"{path}: line {lineno}: '{bad}' is not an integer") from None
-            if t < 0:
-                raise TrajectoryError(f"{path}: line {lineno}: negative time {t}")
-            if domain.state_index(r, c, h) < 0:
-                what = _state_problem(domain, r, c, h)
-                raise TrajectoryError(f"{path}: line {lineno}: {what}")
-            rows.append((t, robot_names.index(name), r, c, h))
-            lines.append(lineno)
+    reader = csv.reader(fh)
+    try:
+        with fh:
+            return _parse_rows(path, reader, domain, robot_names, horizon)
+    except UnicodeDecodeError as exc:
+        raise TrajectoryError(
+            f"{path}: not UTF-8 text (byte 0x{exc.object[exc.start]:02x} cannot be decoded)"
+        ) from None
+    except csv.Error as exc:
+        raise TrajectoryError(f"{path}: line {reader.line_num}: {exc}") from None
+
+
+def _parse_rows(path: Path, reader, domain, robot_names, horizon) -> Trajectories:
+    """The row-by-row checks of :func:`_read_csv_python` on an open ``csv.reader``."""
+    header = next(reader, None)
+    if header is None:
+        raise TrajectoryError(f"{path}: file is empty (expected header {','.join(HEADER)})")
+    header = [h.strip() for h in header]
+    missing = [h for h in HEADER if h not in header]
+    if missing:
+        raise TrajectoryError(f"{path}: line 1: missing column '{missing[0]}'")
+    idx = [header.index(h) for h in HEADER]
+    rows: list[tuple[int, int, int, int, int]] = []
+    lines: list[int] = []
+    for lineno, rec in enumerate(reader, start=2):
+        if not rec or all(not x.strip() for x in rec):
+            continue
+        if len(rec) < len(header):
+            raise TrajectoryError(f"{path}: line {lineno}: expected {len(header)} cells")
+        vals = [rec[i].strip() for i in idx]
+        name = vals[1]
+        if name not in robot_names:
+            known = ", ".join(robot_names)
+            raise TrajectoryError(
+                f"{path}: line {lineno}: robot '{_shown(name)}' is not in the scenario ({known})"
+            )
+        try:
+            t, r, c, h = (int(vals[i]) for i in (0, 2, 3, 4))
+        except ValueError:
+            bad = next(v for v in (vals[0], *vals[2:]) if not _is_int(v))
+            raise TrajectoryError(
+                f"{path}: line {lineno}: '{_shown(bad)}' is not an integer"
+            ) from None
+        big = next((v for v in (r, c, h) if abs(v) >= _MAX_CELL), None)
+        if big is not None:
+            raise TrajectoryError(f"{path}: line {lineno}: {_shown(str(big))} is too large")
+        if not 0 <= t < MAX_TIME:
+            raise TrajectoryError(f"{path}: line {lineno}: {_time_problem(t)}")
+        if domain.state_index(r, c, h) < 0:
+            what = _state_problem(domain, r, c, h)
+            raise TrajectoryError(f"{path}: line {lineno}: {what}")
+        rows.append((t, robot_names.index(name), r, c, h))
+        lines.append(lineno)
     arr = np.asarray(rows, dtype=int).reshape(-1, 5)
     return _sorted_checked(path, arr, lines.__getitem__, robot_names, horizon)
 

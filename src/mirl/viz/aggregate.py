@@ -10,21 +10,14 @@ from typing import Any
 import numpy as np
 
 from mirl.experiments.conditions import Condition
+from mirl.experiments.records import METHOD_NAMES
 
 __all__ = ["PAPER", "method_name"]
 
 
 Row = dict[str, Any]  # one stored run, as read from the store
 
-PAPER_NAMES = {
-    "mirl-t": "mIRL*/T+Int",
-    "mirl": "mIRL*+Int",
-    "known-r-t": "Known R/T",
-    "known-r": "Known R",
-    "dbn-em": "DBN-EM",
-    "random": "Random",
-    "oracle": "Oracle",
-}
+PAPER_NAMES = {k: v[0] for k, v in METHOD_NAMES.items()}
 
 # What the paper reports (Bogert & Doshi, Sec. 4), as text beside each of our results.
 PAPER = {
@@ -63,7 +56,8 @@ FIG4A_PAPER = {
 
 def method_name(c: Condition) -> str:
     name = PAPER_NAMES.get(c.method, c.method)
-    return name if c.p is None else f"{name} (p={c.p:g})"
+    name = name if c.p is None else f"{name} (p={c.p:g})"
+    return name if c.em_init is None else f"{name} ({c.em_init} init)"
 
 
 # ---------------------------------------------------------------------------------------------

@@ -159,22 +159,19 @@ def fig4a_markdown(gs: list[Group], figdir: Path) -> str:
     for ax, d in zip(axes, degrees, strict=True):
         sel = [g for g in gs if g.condition.observability == d]
         x = np.arange(len(sel))
-        for k, (outcome, label) in enumerate((("success", "success"), ("timeout", "timed out"))):
-            ax.bar(
-                x + (k - 0.5) * 0.38,
-                [g.rate(outcome) for g in sel],
-                0.38,
-                yerr=[g.rate_se(outcome) for g in sel],
-                capsize=2,
-                label=label,
-            )
+        outcomes = (("success", "success"), ("detected", "detected"), ("timeout", "timed out"))
+        for k, (outcome, label) in enumerate(outcomes):
+            rates = [g.rate(outcome) for g in sel]
+            xs = x + (k - 1) * 0.27
+            ax.bar(xs, rates, 0.27, yerr=[g.rate_se(outcome) for g in sel], capsize=2, label=label)
+            _mark_zeros(ax, xs, rates)
         ax.set_xticks(
             x, [method_name(g.condition) for g in sel], rotation=25, ha="right", fontsize=8
         )
-        ax.set_ylim(0, 1.05)
+        ax.set_ylim(0, 1.2)  # room for the legend above the bars
         ax.set_ylabel("rate")
         ax.set_title(f"J's left wheel damaged, observability {d:g} (bars: ±1 s.e.)")
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, ncol=3, loc="upper center")
     png = _save(fig, figdir, "fig4a")
     lines = [
         f"![Fig. 4a]({png})",
@@ -192,6 +189,20 @@ def fig4a_markdown(gs: list[Group], figdir: Path) -> str:
             f"{_fmt(g.rate('timeout'))} | {_paired(ref, g)} | {FIG4A_PAPER.get(c.method, '')} |"
         )
     return "\n".join(lines + ["", PAIRED_NOTE])
+
+
+def _mark_zeros(ax, xs, values) -> None:
+    """Write "0" where a bar has zero height, so an empty slot reads as a measured zero."""
+    for x, v in zip(xs, values, strict=True):
+        if v == 0:
+            ax.text(x, 0.01, "0", ha="center", va="bottom", fontsize=7, color="dimgray")
+
+
+def _p_text(p: float, n: int) -> str:
+    """A t-test's p for a table or title; says why when there is none (never 'p = nan')."""
+    if p == p:
+        return f"p = {p:.2g}"
+    return "no test (fewer than 2 runs)" if n < 2 else "no test (no spread in the values)"
 
 
 PAIRED_NOTE = (
@@ -294,12 +305,14 @@ def fig4bc_markdown(gs: list[Group], figdir: Path, stem: str) -> str:
         t, p, n = ttest(g, "J", "left_wheel", "right_wheel")
         tests.append(
             f"- {method_name(c)}, d = {c.observability:g}: J left vs right wheel "
-            f"t = {_fmt(t)}, p = {p:.2g} (n = {n})"
+            + (f"t = {_fmt(t)}, " if t == t else "")
+            + f"{_p_text(p, n)} (n = {n})"
         )
         ax.set_xticks(x, [f.replace("_", " ") for f in feats], rotation=20, fontsize=8)
         ax.set_ylim(0.4, 1.02)
         ax.set_title(
-            f"{method_name(c)}, d = {c.observability:g}\nJ left vs right: p = {p:.2g}", fontsize=9
+            f"{method_name(c)}, d = {c.observability:g}\nJ left vs right: {_p_text(p, n)}",
+            fontsize=9,
         )
         ax.legend(fontsize=7, loc="lower left")
     for ax in grid[::cols]:
@@ -312,20 +325,46 @@ def fig4bc_markdown(gs: list[Group], figdir: Path, stem: str) -> str:
 # Table 1
 
 
+TABLE1_ROWS = (("mirl-t", "mIRL*/T+Int"), ("mirl", "mIRL*+Int (p=0.9)"), ("random", "Random"))
+TABLE1_SCENARIOS = (("boyd2", "J's left wheel damaged"), ("boyd2-healthy", "no damaged wheels"))
+
+
+def table1_figure(gs: list[Group], figdir: Path) -> str:
+    """Table 1 as bars: success rate (± 1 s.e.) per method and scenario, the paper's as marks."""
+    by = {(g.condition.method, g.condition.scenario): g for g in gs}
+    fig = Figure(figsize=(7.5, 3.8), layout="constrained")
+    ax = fig.subplots()
+    x = np.arange(len(TABLE1_ROWS))
+    for k, (s, label) in enumerate(TABLE1_SCENARIOS):
+        groups = [by.get((m, s)) for m, _ in TABLE1_ROWS]
+        rates = [np.nan if g is None else g.rate("success") for g in groups]
+        ses = [0.0 if g is None else g.rate_se("success") for g in groups]
+        xs = x + (k - 0.5) * 0.38
+        ax.bar(xs, rates, 0.38, yerr=ses, capsize=2, label=f"ours: {label}", color=f"C{k}")
+        _mark_zeros(ax, xs, rates)
+        paper = [TABLE1_PAPER[(m, s)] for m, _ in TABLE1_ROWS]
+        ax.scatter(xs, paper, marker="D", s=24, color="red", zorder=5,
+                   label="paper (10 physical runs)" if k == 0 else None)  # fmt: skip
+    ax.set_xticks(x, [label for _, label in TABLE1_ROWS])
+    ax.set_ylim(0, 1.2)
+    ax.set_ylabel("success rate")
+    ax.set_title("Table 1: success with and without J's damaged wheel (bars: ±1 s.e.)")
+    ax.legend(fontsize=8, ncol=3, loc="upper center")
+    return _save(fig, figdir, "table1")
+
+
 def table1_markdown(gs: list[Group], figdir: Path) -> str:
-    del figdir  # a table only
+    png = table1_figure(gs, figdir)
     by = {(g.condition.method, g.condition.scenario): g for g in gs}
     lines = [
+        f"![Table 1]({png})",
+        "",
         "| method | J's left wheel damaged: ours | paper | no damaged wheels: ours | paper |",
         "| --- | --- | --- | --- | --- |",
     ]
-    for m, label in (
-        ("mirl-t", "mIRL*/T+Int"),
-        ("mirl", "mIRL*+Int (p=0.9)"),
-        ("random", "Random"),
-    ):
+    for m, label in TABLE1_ROWS:
         cells = []
-        for s in ("boyd2", "boyd2-healthy"):
+        for s, _ in TABLE1_SCENARIOS:
             g = by.get((m, s))
             ours = (
                 "–" if g is None else f"{_fmt(g.rate('success'), g.rate_se('success'))} (n={g.n})"

@@ -7,6 +7,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from mirl.experiments.conditions import EXPERIMENTS, StoreError, experiment_names
+from mirl.experiments.records import METHOD_NAMES
 from mirl.experiments.store import load_results
 from mirl.viz.aggregate import PAPER, Row, groups
 from mirl.viz.figures import SECTIONS, outcomes_markdown
@@ -90,6 +91,15 @@ def write_report(directory: str | Path) -> Path:
         "",
         "Each result beside the paper's (Bogert & Doshi, Sec. 4). Rates are shares of "
         "finished runs; ± is one standard error unless marked std.",
+        "",
+        "Methods — the paper's name, the CLI's `--method`, and what each does:",
+        "",
+        "| paper | CLI | what it does |",
+        "| --- | --- | --- |",
+        *(
+            f"| {paper} | `{cli}` | {what} |".replace("*", "\\*")
+            for cli, (paper, what) in METHOD_NAMES.items()
+        ),
         "",
     ]
     for db in dbs:

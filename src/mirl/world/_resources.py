@@ -5,6 +5,8 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
+MAX_FILE_BYTES = 64 * 2**20  # a map or scenario file larger than this is refused unread
+
 
 def shipped_names(folder: str, suffix: str) -> list[str]:
     root = resources.files("mirl") / "data" / folder
@@ -23,7 +25,10 @@ def read_shipped_or_file(
         return res.read_text(), f"{name} (shipped)", None
     path = Path(name_or_path)
     try:
-        return path.read_text(), str(path), path
+        if path.is_file() and path.stat().st_size > MAX_FILE_BYTES:
+            size = path.stat().st_size / 2**20
+            raise error(f"{path}: {size:.0f} MB is larger than the limit of 64 MB for a {kind}")
+        return path.read_text(encoding="utf-8"), str(path), path
     except FileNotFoundError:
         raise error(f"{path}: no such file (shipped {kind}s: {', '.join(shipped)})") from None
     except (OSError, UnicodeDecodeError) as exc:

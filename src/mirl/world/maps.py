@@ -12,7 +12,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["GridMap", "MapError", "MapFrame", "parse_map", "HEADING_DELTAS", "HEADING_YAWS"]
+__all__ = [
+    "MAX_MAP_SIDE",
+    "GridMap",
+    "MapError",
+    "MapFrame",
+    "parse_map",
+    "HEADING_DELTAS",
+    "HEADING_YAWS",
+]
 
 # heading 0 = east (col+1), 1 = north (row-1), 2 = west, 3 = south
 HEADING_DELTAS = np.array([[0, 1], [-1, 0], [0, -1], [1, 0]])
@@ -20,6 +28,11 @@ HEADING_DELTAS = np.array([[0, 1], [-1, 0], [0, -1], [1, 0]])
 HEADING_YAWS = np.array([0.0, np.pi / 2, np.pi, -np.pi / 2])
 
 _LEGEND = set(".#LGg")
+
+
+# the largest map mirl plans on: its per-state arrays grow with 4 x cells (the office generator
+# has the same limit)
+MAX_MAP_SIDE = 1000
 
 
 class MapError(ValueError):
@@ -74,6 +87,12 @@ class GridMap:
     frame: MapFrame = field(default_factory=MapFrame)  # metric placement (poses, physics)
 
     def __post_init__(self) -> None:
+        rows, cols = self.patroller.shape
+        if rows > MAX_MAP_SIDE or cols > MAX_MAP_SIDE:
+            raise MapError(
+                f"{self.source}: map of {rows}x{cols} cells is larger than the limit of "
+                f"{MAX_MAP_SIDE}x{MAX_MAP_SIDE}"
+            )
         if self.visibility_order is None:
             order = default_visibility_order(self.patroller, self.observer_start)
             object.__setattr__(self, "visibility_order", order)
@@ -169,6 +188,11 @@ def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> Grid
     if not lines:
         raise MapError(f"{source}: map is empty")
     width = len(lines[0])
+    if len(lines) > MAX_MAP_SIDE or width > MAX_MAP_SIDE:
+        raise MapError(
+            f"{source}: map of {len(lines)}x{width} cells is larger than the limit of "
+            f"{MAX_MAP_SIDE}x{MAX_MAP_SIDE}"
+        )
     for i, ln in enumerate(lines, 1):
         if len(ln) != width:
             raise MapError(f"{source}: line {i} has {len(ln)} cells, expected {width}")

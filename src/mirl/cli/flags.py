@@ -1,0 +1,110 @@
+"""Validation of command-line flags where they enter: argparse types with stated limits, and a
+parser whose every refusal is one line naming the flag (``mirl run: error: argument --seed:
+must be an integer >= 0, got -1``), exit 2 and no usage dump."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import NoReturn
+
+__all__ = [
+    "OneLineParser",
+    "bounded_int",
+    "fraction",
+    "float_at_least",
+    "positive_float",
+    "finite_float",
+    "non_negative_float",
+    "seed",
+    "MAX_STEPS",
+    "MAX_OBS_STEPS",
+    "MAX_WAIT_STEPS",
+]
+
+# sizes that cannot work are refused at the flag, with the limit in the message:
+MAX_STEPS = 1_000_000  # `simulate --steps`: the record is 2 x 3 int64 per step (48 MB at the cap)
+# `run --obs-steps`: L's filter and learning are O(steps); 10 000 steps = 5.5 h of robot time
+MAX_OBS_STEPS = 10_000
+MAX_WAIT_STEPS = 10_000  # `run --max-wait`: L re-plans every 10 steps while waiting
+MAX_SEED = 2**63 - 1
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An ArgumentParser that shows defaults in help and reports a bad flag in one line."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        kwargs.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        super().__init__(*args, **kwargs)
+
+    def error(self, message: str) -> NoReturn:
+        msg = " ".join(message.split())
+        self.exit(2, f"{self.prog}: error: {msg} (see {self.prog} --help)\n")
+
+    def exit(self, status: int = 0, message: str | None = None) -> NoReturn:
+        if message:
+            sys.stderr.write(message)
+        raise SystemExit(status)
+
+
+def _int(text: str) -> int:
+    try:
+        return int(text.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not an integer") from None
+
+
+def bounded_int(low: int, high: int):
+    """An argparse type: an integer in [low, high]."""
+
+    def parse(text: str) -> int:
+        v = _int(text)
+        if not low <= v <= high:
+            raise argparse.ArgumentTypeError(f"must be an integer in [{low}, {high}], got {v}")
+        return v
+
+    parse.__name__ = f"integer in [{low}, {high}]"
+    return parse
+
+
+def seed(text: str) -> int:
+    v = _int(text)
+    if not 0 <= v <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be an integer in [0, 2^63 - 1], got {v}")
+    return v
+
+
+def _float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
+    if v != v:
+        raise argparse.ArgumentTypeError("must be a number, got nan")
+    return v
+
+
+def fraction(text: str) -> float:
+    """An argparse type: a number in [0, 1] (a degree or a probability)."""
+    v = _float(text)
+    if not 0.0 <= v <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in [0, 1], got {text}")
+    return v
+
+
+def float_at_least(low: float, *, strict: bool):
+    """An argparse type: a finite number > ``low`` (``strict``) or >= ``low``."""
+
+    def parse(text: str) -> float:
+        v = _float(text)
+        if not (v < float("inf") and (v > low if strict else v >= low)):
+            what = "non-negative" if not strict else "positive" if low == 0.0 else "finite"
+            raise argparse.ArgumentTypeError(f"must be a finite {what} number, got {text}")
+        return v
+
+    return parse
+
+
+positive_float = float_at_least(0.0, strict=True)
+finite_float = float_at_least(float("-inf"), strict=True)
+non_negative_float = float_at_least(0.0, strict=False)
