@@ -174,7 +174,7 @@ VALUES = st.one_of(
 
 
 @settings(
-    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
 @given(data=st.binary(max_size=300))
 def test_any_bytes_give_a_scenario_or_a_scenario_error(tmp_path, data):
@@ -187,7 +187,7 @@ def test_any_bytes_give_a_scenario_or_a_scenario_error(tmp_path, data):
 
 
 @settings(
-    max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
 @given(
     field=st.sampled_from(["start", "goal", "weights", "cells", "headings", "played", "top"]),

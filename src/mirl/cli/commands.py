@@ -36,10 +36,27 @@ def _load_scenario(args: argparse.Namespace):
     from mirl.world.scenario import load_scenario, parse_damage
 
     scenario = load_scenario(args.scenario)
+    physics = getattr(args, "world", "grid") == "physics"
+    if physics:
+        _need_physics()
+        from mirl.physics.config import with_motor_strength
     for text in getattr(args, "damage", None) or []:
         robot, feature, p = parse_damage(text)
-        scenario = scenario.with_damage(robot, feature, p)
+        if physics:  # in the physical world the value is the wheel motor's strength
+            scenario = with_motor_strength(scenario, robot, feature, p)
+        else:
+            scenario = scenario.with_damage(robot, feature, p)
     return scenario
+
+
+def _need_physics() -> None:
+    """One line naming the extra when MuJoCo is missing (exit 2)."""
+    from mirl.physics import require_mujoco
+
+    try:
+        require_mujoco()
+    except ImportError as exc:
+        raise UsageError(str(exc)) from None
 
 
 @command("show-map")
@@ -71,6 +88,10 @@ def _simulate(args: argparse.Namespace) -> int:
         if path:
             check_output(path, flag)
     scenario = _load_scenario(args)
+    if args.world == "physics":
+        from mirl.cli.physical import simulate_physics
+
+        return simulate_physics(args, scenario)
     start = time.perf_counter()
     result = simulate(
         scenario,
@@ -221,11 +242,14 @@ def _learn_transitions(args: argparse.Namespace) -> int:
 
 @command("experiment")
 def _experiment(args: argparse.Namespace) -> int:
-    from mirl.experiments.conditions import get_experiment, with_em_init
+    from mirl.experiments.conditions import get_experiment, in_world, with_em_init
     from mirl.experiments.sweep import run_experiment
 
     exp = with_em_init(get_experiment(args.name), args.em_init)  # unknown: one line, exit 2
-    out = args.out or f"results/{exp.name}"
+    if args.world == "physics":
+        _need_physics()
+    exp = in_world(exp, args.world)
+    out = args.out or f"results/{exp.name}" + ("-physics" if args.world == "physics" else "")
     summary = run_experiment(
         exp,
         out,
@@ -279,6 +303,7 @@ def _run(args: argparse.Namespace) -> int:
         p=args.p,
         max_wait=args.max_wait,
         learn_options={"em_init": args.em_init} if args.em_init else None,
+        world_kind=args.world,
     )
     if args.json:
         print_json(result.to_dict())
@@ -348,6 +373,7 @@ def _learn(args: argparse.Namespace) -> int:
         },
         "iterations": result.iterations,
         "label_changes": list(result.label_changes),
+        **_pair_labels(result, scenario),
         "message": result.message,
         "timings": {k: round(v, 4) for k, v in result.timings.items()},
     }
@@ -358,6 +384,18 @@ def _learn(args: argparse.Namespace) -> int:
             print(f"{args.observations}: " + loaded.discretised.summary())
         _print_learn(out, result, scenario.name)
     return 0
+
+
+def _pair_labels(result, scenario) -> dict:
+    """Teams of three or more: the equilibrium learned for each pair L saw meet."""
+    if len(scenario.robots) <= 2:
+        return {}
+    names = scenario.robot_names
+    return {
+        "pair_equilibria": {
+            f"{names[i]}/{names[j]}": e.label() for (i, j), e in result.pair_equilibria.items()
+        }
+    }
 
 
 def _print_learn(out: dict, result, scenario_name: str) -> None:

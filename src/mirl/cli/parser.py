@@ -94,6 +94,7 @@ def _run_parser(sub) -> None:
         "for its goal; prints what it saw, learned and did, and the outcome.",
     )
     _scenario_args(ru, default="boyd2")
+    _world_arg(ru)
     ru.add_argument(
         "--method",
         choices=RUN_METHODS,
@@ -159,6 +160,7 @@ def _experiment_parsers(sub) -> None:
         "run to DIR/results.sqlite; --resume continues an interrupted (or extends a) sweep.",
     )
     ex.add_argument("name", metavar="NAME", help="fig3, fig4a, fig4b, fig4c or table1")
+    _world_arg(ex)
     ex.add_argument(
         "--runs",
         type=bounded_int(1, 100_000),
@@ -283,6 +285,7 @@ def _simulate_parser(sub) -> None:
     """``mirl simulate``."""
     si = sub.add_parser("simulate", help="simulate the patrollers and record what L sees")
     _scenario_args(si)
+    _world_arg(si)
     si.add_argument(
         "--steps", type=bounded_int(1, MAX_STEPS), default=300, help="time steps (2 s each)"
     )
@@ -352,6 +355,17 @@ def _data_parsers(sub) -> None:
     cv.add_argument("output", metavar="OUT.csv", help="grid observations CSV to write")
     _scenario_args(cv)
     _observation_args(cv, with_file=False)
+
+
+def _world_arg(sp: argparse.ArgumentParser) -> None:
+    sp.add_argument(
+        "--world",
+        choices=("grid", "physics"),
+        default="grid",
+        help="grid simulator (default) or the physical world: differential-drive robots in "
+        'MuJoCo seen through cameras (pip install "mirl[physics]"); there --damage '
+        "ROBOT:left_wheel=S sets a wheel motor's strength S",
+    )
 
 
 def _observability_arg(sp: argparse.ArgumentParser, help: str) -> None:

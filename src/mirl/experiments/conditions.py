@@ -33,6 +33,7 @@ __all__ = [
     "EXPERIMENTS",
     "experiment_names",
     "get_experiment",
+    "in_world",
     "run_seed",
     "code_version",
     "episode_run",
@@ -56,13 +57,19 @@ class Condition:
     observability: float = 0.14
     obs_steps: int = DEFAULT_OBS_STEPS
     p: float | None = None
+    world: str = "grid"  # or "physics" (mirl.physics, MuJoCo)
     em_init: str | None = None  # DBN-EM's initial T; None: the default ("intended")
 
     @property
     def key(self) -> str:
         """Stable identity: JSON of the sorted fields (part of the database's primary key);
-        ``em_init`` only when set, so databases written before it existed keep their keys."""
-        fields = {k: v for k, v in asdict(self).items() if not (k == "em_init" and v is None)}
+        ``world`` only when it is not the grid and ``em_init`` only when set, so databases
+        written before they existed keep their keys."""
+        fields = {
+            k: v
+            for k, v in asdict(self).items()
+            if not (k == "em_init" and v is None) and not (k == "world" and v == "grid")
+        }
         return json.dumps(fields, sort_keys=True, separators=(",", ":"))
 
     @classmethod
@@ -73,6 +80,19 @@ class Condition:
     def label(self) -> str:
         label = self.method if self.p is None else f"{self.method} (p={self.p:g})"
         return label if self.em_init is None else f"{label} ({self.em_init} init)"
+
+
+def in_world(experiment: Experiment, world: str) -> Experiment:
+    """The same grid of conditions run in another world (``mirl experiment --world``)."""
+    if world == "grid":
+        return experiment
+    if world != "physics":
+        raise StoreError(f"unknown world '{world}' (known: grid, physics)")
+    if experiment.run_function is not episode_run:
+        raise StoreError(f"experiment '{experiment.name}' has no physical version")
+    conds = tuple(replace(c, world=world) for c in experiment.conditions)
+    desc = experiment.description.replace("on the grid simulator", "in the physical world")
+    return replace(experiment, conditions=conds, description=f"{desc} ({world} world)")
 
 
 RunFunction = Callable[[Condition, int], Mapping[str, Any]]
@@ -139,6 +159,7 @@ def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
         observability=condition.observability,
         obs_steps=condition.obs_steps,
         seed=seed,
+        world_kind=condition.world,
         **kwargs,
     )
     return _flatten_run_result(result)
@@ -162,6 +183,10 @@ def _flatten_run_result(result: Any) -> dict[str, Any]:
         out[f"seen_steps_{robot}"] = int(n)
     out["plan_value"] = _maybe_float(getattr(result, "plan_value", None))
     out["plan_attempts"] = len(getattr(result, "attempts", ()) or ())
+    physical = getattr(result, "physical", None)
+    if physical is not None:  # robot-robot and robot-wall contact events of a physical run
+        out["contacts"] = int(physical.contacts)
+        out["wall_contacts"] = int(physical.wall_contacts)
     return out
 
 

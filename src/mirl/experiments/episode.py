@@ -118,10 +118,12 @@ def run_episode(
     learned: LearnResult | None = None,
     watch_until_seen: int | None = None,
     max_obs_steps: int = WATCH_LIMIT,
+    world_kind: str = "grid",
 ) -> RunResult:
     """Run one penetration (module doc). ``learned`` overrides learning (for tests and
     experiments with hand-made models). ``travel_steps`` is the part of the planning horizon
-    after the last go time (default: 3 × L's shortest path, at least 20).
+    after the last go time (default: 3 × L's shortest path, at least 20). ``world_kind``
+    ``"physics"`` runs the same protocol in MuJoCo (:mod:`mirl.experiments.physical`).
 
     ``watch_until_seen=K`` (``mirl run``'s default; None here, so experiments keep the paper's
     fixed observation time): L observes at least ``obs_steps`` steps and then keeps watching
@@ -144,7 +146,19 @@ def run_episode(
     t_start, cpu_start = time.perf_counter(), time.process_time()
 
     clock = time.perf_counter()
-    world = RunWorld(scenario, degree, int(sim_seed.generate_state(1)[0]))
+    model = observer_model(scenario)
+    world: RunWorld  # or the physical world's stand-in with the same interface
+    if world_kind == "physics":
+        from mirl.experiments.physical import PhysicalRunWorld, execute_physical
+
+        start_heading = int(model.domain.states[model.start_state][2])
+        world = PhysicalRunWorld(  # type: ignore[assignment]
+            scenario, degree, int(sim_seed.generate_state(1)[0]), observer_heading=start_heading
+        )
+    elif world_kind == "grid":
+        world = RunWorld(scenario, degree, int(sim_seed.generate_state(1)[0]))
+    else:
+        raise ValueError(f"unknown world '{world_kind}' (known: grid, physics)")
     _observe(world, obs_steps, watch_until_seen, max_obs_steps)
     t_obs = world.t  # last step of the observation phase
     timings["observe"] += time.perf_counter() - clock
@@ -162,7 +176,6 @@ def run_episode(
         learned = learn(observations, scenario, **kwargs)
     timings["learn"] += time.perf_counter() - clock
 
-    model = observer_model(scenario)
     path_len = int(model.distance_to_goal[model.start_state])
     planning = _Planning(
         window=window,
@@ -189,8 +202,9 @@ def run_episode(
             world.step()
         timings["observe"] += time.perf_counter() - clock
         clock = time.perf_counter()
-        outcome, path, detections, plan = execute(
-            world,
+        run = execute_physical if world_kind == "physics" else execute
+        outcome, path, detections, plan = run(
+            world,  # type: ignore[arg-type]
             model,
             going.policy,
             going.plan,
@@ -326,4 +340,5 @@ def _run_result(
         learned=learned,
         plan=plan,
         seen_steps={n: int((seen_arr[:, i] >= 0).sum()) for i, n in enumerate(names)},
+        physical=getattr(world, "physics", None),
     )

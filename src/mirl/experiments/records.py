@@ -99,6 +99,7 @@ class RunResult:
     learned: LearnResult | None = None
     plan: ObserverPlan | None = None  # the executed (or last) plan
     seen_steps: dict[str, int] = field(default_factory=dict)  # observation-phase sightings
+    physical: Any = None  # the mirl.physics PhysicalWorld of a --world physics run (poses, cones)
     watch_until_seen: int | None = None  # the observation rule of `mirl run` (None: fixed)
 
     def to_dict(self) -> dict[str, Any]:
@@ -131,6 +132,15 @@ class RunResult:
             ],
             "observer_path": self.observer_path.tolist(),
             "end_time": self.end_time,
+            **(
+                {
+                    "world": "physics",
+                    "contacts": self.physical.contacts,
+                    "wall_contacts": self.physical.wall_contacts,
+                }
+                if self.physical is not None
+                else {}
+            ),
         }
 
 

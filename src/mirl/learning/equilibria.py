@@ -229,6 +229,15 @@ class EquilibriumWeights:
     def equilibrium(self) -> Equilibrium:
         return self.candidates[self.best]
 
+    @classmethod
+    def from_log_likelihoods(
+        cls, candidates, ll: np.ndarray, meeting_ll: np.ndarray, n_meetings: int
+    ) -> EquilibriumWeights:
+        """Posterior weights (uniform prior) and the best candidate (ties: the earlier)."""
+        w = np.exp(ll - ll.max())
+        best = int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])
+        return cls(tuple(candidates), ll, w / w.sum(), meeting_ll, n_meetings, best)
+
 
 def weigh_equilibria(
     domain: PatrolDomain,
@@ -310,10 +319,13 @@ def weigh_team_equilibria(
     visible: np.ndarray,
     *,
     epsilon: float = 1e-3,
+    max_joint_states: int | None = MAX_JOINT_STATES,
 ) -> TeamEquilibria:
     """:func:`weigh_equilibria` on every pair of :func:`meeting_pairs` (each pair's joint
     filter ignores the other robots), combined by summing log-likelihoods. With two robots this
-    is exactly :func:`weigh_equilibria`."""
+    is exactly :func:`weigh_equilibria`. A pair whose joint has more than ``max_joint_states``
+    states is filtered factored, coupled at meetings (:mod:`mirl.learning.factored_pair`).
+    """
     per_pair = {
         (i, j): weigh_equilibria(
             domain,
@@ -323,20 +335,16 @@ def weigh_team_equilibria(
             candidates,
             visible,
             epsilon=epsilon,
+            max_joint_states=max_joint_states,
         )
         for i, j in meeting_pairs(domain, series)
     }
     if len(per_pair) == 1:
         return TeamEquilibria(next(iter(per_pair.values())), per_pair)
-    ll = np.sum([w.log_likelihoods for w in per_pair.values()], axis=0)
-    w = np.exp(ll - ll.max())
-    w /= w.sum()
-    shared = EquilibriumWeights(
-        tuple(candidates),
-        ll,
-        w,
+    shared = EquilibriumWeights.from_log_likelihoods(
+        candidates,
+        np.sum([w.log_likelihoods for w in per_pair.values()], axis=0),
         np.sum([p.meeting_log_likelihoods for p in per_pair.values()], axis=0),
         sum(p.n_meetings for p in per_pair.values()),
-        int(np.flatnonzero(ll >= ll.max() - 1e-9)[0]),
     )
     return TeamEquilibria(shared, per_pair)

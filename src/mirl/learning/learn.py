@@ -37,7 +37,6 @@ import time
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from itertools import combinations
 from typing import Any
 
 import numpy as np
@@ -319,12 +318,10 @@ def _equilibrium_for_labels(setup: _Setup, policies, transitions) -> Equilibrium
     depend on it; the full joint-filter weighing is done once, for the final models."""
     candidates = setup.scenario.game.equilibria()
     ll = np.zeros(len(candidates))
-    for i, j in combinations(range(len(setup.series)), 2):
-        pair = ([setup.series[i], setup.series[j]], [policies[i], policies[j]])
-        ll += [
-            meeting_log_likelihood(setup.domain, *pair, [transitions[i], transitions[j]], e)[0]
-            for e in candidates
-        ]
+    for pair in setup.scenario.pairs:  # summed over every pair (one game for the team)
+        sub = [(setup.series[k], policies[k], transitions[k]) for k in pair]
+        x, pol, T = (list(v) for v in zip(*sub, strict=True))
+        ll += [meeting_log_likelihood(setup.domain, x, pol, T, e)[0] for e in candidates]
     return candidates[int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])]
 
 

@@ -25,7 +25,7 @@ import scipy.sparse as sp
 from mirl.learning.models import LearnResult
 from mirl.mdp import csr_matmul, policy_matrix
 from mirl.planning.observer import ObserverModel
-from mirl.planning.team_filter import ExactTeam, FactoredTeam, TeamParts
+from mirl.planning.team_filter import ExactTeam, FactoredTeam, TeamParts, factored_detection
 from mirl.world.domain import N_HEADINGS, STOP, TURN_LEFT, PatrolDomain
 from mirl.world.game import Equilibrium, meeting
 
@@ -231,6 +231,13 @@ class BeliefFilter:
         """
         if self.belief is None:
             raise ValueError("predict() before any update(): the filter has no belief yet")
+        if self.mode == "factored":
+            occ = np.empty((steps + 1, *self.belief.shape))
+            occ[0] = self.belief
+            for k in range(steps):
+                occ[k + 1] = self._propagate(occ[k])
+            det, haz = factored_detection(occ, model.detection, self._step_T, model.cell_pairs)
+            return Prediction(self.t, occ, np.clip(det, 0, 1), np.clip(haz, 0, 1), model.cell_pairs)
         Dd, G, PGs = self._detection_parts(model)
         if self.mode == "team":
             occ, none = self._predict_team(steps, G)

@@ -180,3 +180,34 @@ def _mode_products(x: np.ndarray, mats_T: list[sp.csr_array]) -> np.ndarray:
         y = M @ moved.reshape(shape[0], -1)
         x = np.moveaxis(y.reshape(shape), 0, axis)
     return x
+
+
+def factored_detection(
+    occ: np.ndarray, detection: sp.csr_array, step_T: list[sp.csr_array], cell_pairs: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Detection d_k(c) = 1 − ∏ᵢ (1 − P(i sees c)) and the first-order hazards of
+    :meth:`~mirl.planning.belief.BeliefFilter.predict` from per-robot occupancies ``occ``
+    (K+1, N, S), with the detection matrix D kept sparse: with G = 1 − D and P G = 1 − P D,
+    occ · (G[:, c'] ∘ (P G)[:, c]) = Σocc − occ·D[:, c'] − occ·(P D)[:, c] + occ·(D[:, c'] ∘
+    (P D)[:, c]). On the 60 × 60 office (S = 3 804, ~4 000 cell pairs, 390 steps) this takes
+    well under a second where the dense (S, pairs) products took ~60 s."""
+    K1, N, S = occ.shape
+    D = sp.csc_array(detection)
+    seen = (D.T @ occ.reshape(K1 * N, S).T).T.reshape(K1, N, -1)  # P(robot i sees c)
+    det = 1.0 - np.prod(1.0 - seen, axis=1)
+    prev, nxt = np.asarray(cell_pairs).T
+    Dp = sp.csc_array(D[:, prev])
+    surv = np.ones((K1 - 1, len(prev)))
+    for i, PT in enumerate(step_T):
+        PDn = sp.csc_array(sp.csr_array(PT.T) @ D)[:, nxt]  # P(sees c one step later | s)
+        both = sp.csc_array(Dp.multiply(PDn))
+        o = occ[:-1, i]
+        total = o.sum(axis=1, keepdims=True)
+        o_prev = (Dp.T @ o.T).T
+        joint_ok = total - o_prev - (PDn.T @ o.T).T + (both.T @ o.T).T
+        before = total - o_prev
+        ok = before > 1e-12
+        ratio = joint_ok / np.where(ok, before, 1.0)
+        surv *= np.where(ok, ratio, 1.0 - seen[1:, i, nxt])
+    haz = np.concatenate([det[:1, nxt], 1.0 - surv])
+    return det, haz

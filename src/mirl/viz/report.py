@@ -3,6 +3,7 @@ tables, and the sweep's throughput."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from mirl.experiments.conditions import EXPERIMENTS, StoreError, experiment_names
@@ -37,7 +38,8 @@ def report_markdown(
     gs = groups(rows)
     if name in EXPERIMENTS:  # the experiment's own order: methods as the paper lists them
         rank = {c.key: k for k, c in enumerate(EXPERIMENTS[name].conditions)}
-        gs.sort(key=lambda g: rank.get(g.condition.key, len(rank)))
+        # physical-world runs rank as their grid twins
+        gs.sort(key=lambda g: rank.get(replace(g.condition, world="grid").key, len(rank)))
     errors = sum(r["outcome"] == "error" for r in rows)
     ns = [g.n for g in gs] or [0]
     versions = sorted({str(r["version"]) for r in rows})

@@ -13,6 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
+from mirl.world import schema
 from mirl.world.maps import HEADING_DELTAS, GridMap
 from mirl.world.rewards import RewardFeature, RewardSpec
 
@@ -106,24 +107,42 @@ class FeatureMap:
         return table, tuple(distinct)
 
     @classmethod
-    def from_dict(cls, data: Mapping, *, where: str = "transition_features") -> FeatureMap:
-        try:
-            features = tuple(data["features"])
-            actions = {a: tuple(v) for a, v in data["actions"].items()}
-        except KeyError as exc:
-            raise ValueError(f"{where}: missing key {exc.args[0]!r}") from None
+    def from_dict(
+        cls, data: Mapping, *, where: str = "transition_features", shape=None
+    ) -> FeatureMap:
+        """ξ from a ``[transition_features]`` table (``features``, ``actions``, optional
+        ``override`` list), every value type-checked (:mod:`mirl.world.schema`; override cells
+        on a map of ``shape`` if given); problems are ``FieldError`` naming the field path."""
+        data = schema.table(
+            data, where, ("features", "actions", "override"), ("features", "actions")
+        )
+        features = _names(data["features"], f"{where}.features")
+        acts = schema.table(data["actions"], f"{where}.actions", data["actions"].keys())
+        actions = {a: _names(v, f"{where}.actions.{a}") for a, v in acts.items()}
         overrides = []
-        for ov in data.get("override", []):
-            cells = ov.get("cells")
+        for i, ov in enumerate(schema.array(data.get("override", []), f"{where}.override")):
+            p = f"{where}.override[{i}]"
+            ov = schema.table(ov, p, ("cells", "actions", "add", "remove"))
+            cells = None
+            if "cells" in ov:
+                items = schema.array(ov["cells"], f"{p}.cells")
+                cells = tuple(schema.cell(c, f"{p}.cells[{k}]", shape) for k, c in enumerate(items))
             overrides.append(
                 FeatureOverride(
-                    cells=None if cells is None else tuple((int(c[0]), int(c[1])) for c in cells),
-                    actions=tuple(ov["actions"]) if "actions" in ov else None,
-                    add=tuple(ov.get("add", ())),
-                    remove=tuple(ov.get("remove", ())),
+                    cells=cells,
+                    actions=_names(ov["actions"], f"{p}.actions") if "actions" in ov else None,
+                    add=_names(ov.get("add", []), f"{p}.add"),
+                    remove=_names(ov.get("remove", []), f"{p}.remove"),
                 )
             )
-        return cls(features, actions, tuple(overrides))
+        try:
+            return cls(features, actions, tuple(overrides))
+        except ValueError as exc:
+            raise schema.FieldError(where, str(exc)) from None
+
+
+def _names(value, path: str) -> tuple[str, ...]:
+    return tuple(schema.string(v, f"{path}[{i}]") for i, v in enumerate(schema.array(value, path)))
 
 
 DEFAULT_FEATURE_MAP = FeatureMap(

@@ -70,6 +70,7 @@ class Scenario:
     discount: float = 0.95
     error_model: str = "uniform"
     source: str = "<memory>"
+    physics: Mapping[str, Any] = field(default_factory=dict)  # [physics] table (mirl.physics)
 
     def __post_init__(self) -> None:
         if self.observer_start is None:
@@ -200,6 +201,7 @@ _TOP_KEYS = (
     "game",
     "robots",
     "frame",
+    "physics",
 )
 
 
@@ -228,6 +230,7 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
     schema.table(data, "", _TOP_KEYS)
     gridmap = read_map(data, base)
     shape = gridmap.shape
+    physics = data.get("physics", {})
     feature_map = DEFAULT_FEATURE_MAP
     if "transition_features" in data:
         feature_map = read_feature_map(data["transition_features"], shape)
@@ -276,4 +279,6 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         ),  # fmt: skip
         error_model=schema.string(data.get("error_model", "uniform"), "error_model", ERROR_MODELS),
         source=source,
+        # the physical world's parameters, checked by mirl.physics.config where they are used
+        physics=schema.table(physics, "physics", physics if isinstance(physics, dict) else ()),
     )

@@ -14,7 +14,7 @@ import numpy as np
 
 from mirl.world import schema
 from mirl.world.catalog import load_map
-from mirl.world.domain import FeatureMap, FeatureOverride, PatrolDomain
+from mirl.world.domain import FeatureMap, PatrolDomain
 from mirl.world.game import GAME_ACTIONS, InteractionGame
 from mirl.world.maps import GridMap, MapError, MapFrame
 from mirl.world.rewards import RewardSpec, read_weights
@@ -75,39 +75,9 @@ def read_map(data: dict, base: Path | None) -> GridMap:
     return replace(gridmap, frame=placed)
 
 
-def _names(value: Any, path: str) -> tuple[str, ...]:
-    return tuple(schema.string(v, f"{path}[{i}]") for i, v in enumerate(schema.array(value, path)))
-
-
 def read_feature_map(data: Any, shape: tuple[int, int]) -> FeatureMap:
     """The ``[transition_features]`` table (ξ as data, :class:`~mirl.world.domain.FeatureMap`)."""
-    where = "transition_features"
-    data = schema.table(data, where, ("features", "actions", "override"), ("features", "actions"))
-    features = _names(data["features"], f"{where}.features")
-    acts = schema.table(data["actions"], f"{where}.actions", data["actions"].keys())
-    actions = {a: _names(v, f"{where}.actions.{a}") for a, v in acts.items()}
-    overrides = []
-    for i, ov in enumerate(schema.array(data.get("override", []), f"{where}.override")):
-        p = f"{where}.override[{i}]"
-        ov = schema.table(ov, p, ("cells", "actions", "add", "remove"))
-        cells = ov.get("cells")
-        overrides.append(
-            FeatureOverride(
-                cells=None
-                if cells is None
-                else tuple(
-                    schema.cell(c, f"{p}.cells[{k}]", shape)
-                    for k, c in enumerate(schema.array(cells, f"{p}.cells"))
-                ),
-                actions=_names(ov["actions"], f"{p}.actions") if "actions" in ov else None,
-                add=_names(ov.get("add", []), f"{p}.add"),
-                remove=_names(ov.get("remove", []), f"{p}.remove"),
-            )
-        )
-    try:
-        return FeatureMap(features, actions, tuple(overrides))
-    except ValueError as exc:
-        raise FieldError(where, str(exc)) from None
+    return FeatureMap.from_dict(data, shape=shape)
 
 
 def _probabilities(value: Any, where: str, features: tuple[str, ...]) -> dict[str, float]:

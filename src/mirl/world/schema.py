@@ -100,8 +100,9 @@ def string(value: Any, path: str, choices: Iterable[str] | None = None) -> str:
 
 
 def array(value: Any, path: str, *, length: int | None = None, min_length: int = 0) -> list:
-    if not isinstance(value, list):
+    if not isinstance(value, list | tuple):  # TOML gives lists; Python callers may pass tuples
         raise FieldError(path, f"expected a list, got {_show(value)}")
+    value = list(value)
     if length is not None and len(value) != length:
         raise FieldError(path, f"expected {length} entries, got {len(value)}")
     if len(value) < min_length:

@@ -1,0 +1,35 @@
+"""The physical world: differential-drive robots in MuJoCo, seen through cameras (issue 11).
+
+What it holds:
+
+- :mod:`~mirl.physics.robot` — a TurtleBot 2 (Kobuki) sized robot as MJCF; damaged wheels are
+  weaker motors (gain and torque limit), never a coded failure probability;
+- :mod:`~mirl.physics.world` — the MJCF of any grid map (walls as merged boxes) and the map frame;
+- :mod:`~mirl.physics.control` — the ``move_base`` analogue (pursuit + heading feedback, pivots);
+- :mod:`~mirl.physics.camera` — view cones with ``mujoco.mj_ray`` lines of sight;
+- :mod:`~mirl.physics.patrol` — :class:`PhysicalWorld`: patrollers deciding on the grid from a
+  noisy pose estimate and driving in physics, L's camera, the patrollers' cameras, contacts;
+- :mod:`~mirl.physics.config` — the ``[physics]`` scenario table and its defaults;
+- :mod:`~mirl.physics.calibration` — effective per-action success rates of the physics.
+
+Layer rule: this package may import only :mod:`mirl.world`, :mod:`mirl.observations` and
+:mod:`mirl.mdp` — never learning, planning, experiments
+or the grid simulator. The learner gets only the discretised observations L's camera makes.
+
+MuJoCo is optional: ``pip install "mirl[physics]"``. :func:`require_mujoco` gives the one-line
+message the command line prints when it is missing.
+"""
+
+from __future__ import annotations
+
+__all__ = ["MISSING_MESSAGE", "require_mujoco"]
+
+MISSING_MESSAGE = 'the physics world needs MuJoCo: pip install "mirl[physics]"'
+
+
+def require_mujoco() -> None:
+    """Raise ImportError with :data:`MISSING_MESSAGE` when ``mujoco`` cannot be imported."""
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        raise ImportError(MISSING_MESSAGE) from None

@@ -1,0 +1,133 @@
+"""What the physics makes of the grid's actions: effective success rates, speeds, turn rates.
+
+The physical world has no success probabilities; :func:`calibrate` measures them. Patrollers
+patrol with the ground-truth actions known (those their controllers executed), and a step
+(s_t, a_t → s_{t+1}) succeeds when the robot's true pose at t+1 discretises to ψ(s_t, a_t),
+s_t being the discretised true pose at t. Rates are reported for every step and for steps with
+no other robot within ``alone`` cells (the robot's own physics, without waiting and slow
+passing). Speeds are the true distance per forward step; turn rates the peak yaw rate over the
+control ticks of a turn step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mirl.physics.patrol import PhysicalWorld
+from mirl.world.domain import ACTIONS
+
+__all__ = ["Calibration", "calibrate", "open_loop"]
+
+
+@dataclass
+class Calibration:
+    robot_names: tuple[str, ...]
+    # [robot][action] -> [trials, successes] (all steps) and (steps alone)
+    counts: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 2), dtype=int))
+    counts_alone: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 2), dtype=int))
+    forward_speed: list[list[float]] = field(default_factory=list)  # m/s, alone forward steps
+    turn_rate: list[dict[str, list[float]]] = field(default_factory=list)  # deg/s peak per turn
+    contacts: int = 0
+    wall_contacts: int = 0
+    steps: int = 0
+    sim_seconds: float = 0.0
+    cpu_seconds: float = 0.0
+    # what a learner with the true actions gets: (t, robot, s, a, s') of every step
+    transitions: list[np.ndarray] = field(default_factory=list)
+
+    def rate(self, robot: int, action: str, *, alone: bool = False) -> tuple[float, int]:
+        c = (self.counts_alone if alone else self.counts)[robot, ACTIONS.index(action)]
+        return (c[1] / c[0] if c[0] else float("nan")), int(c[0])
+
+
+def calibrate(scenario, *, steps: int = 750, seeds=range(4), alone: int = 2, config=None,
+              observability: float = 1.0) -> Calibration:  # fmt: skip
+    """Run ``len(seeds)`` patrols of ``steps`` steps (random starts) and count."""
+    import time
+
+    n = len(scenario.robots)
+    dom = scenario.domain
+    cal = Calibration(scenario.robot_names)
+    cal.counts = np.zeros((n, len(ACTIONS), 2), dtype=int)
+    cal.counts_alone = np.zeros_like(cal.counts)
+    cal.forward_speed = [[] for _ in range(n)]
+    cal.turn_rate = [{"turn_left": [], "turn_right": []} for _ in range(n)]
+    for seed in seeds:
+        cpu = time.process_time()
+        w = PhysicalWorld(scenario, config=config, seed=seed, random_starts=True,
+                          observability=observability)  # fmt: skip
+        for _ in range(steps - 1):
+            w.step()
+        cal.cpu_seconds += time.process_time() - cpu
+        cal.sim_seconds += (steps - 1) * w.cfg.step_seconds
+        cal.steps += steps - 1
+        cal.contacts += w.contacts
+        cal.wall_contacts += w.wall_contacts
+        T = w.true_states()
+        A = np.asarray(w.actions)
+        ok = dom.intended[T[:-1], A] == T[1:]
+        cells = dom.states[T][:, :, :2]
+        times, poses = w.tick_poses()
+        k = w.cfg.ticks_per_step
+        for i in range(n):
+            cal.transitions.append(np.column_stack([T[:-1, i], A[:, i], T[1:, i]]))
+            others = [j for j in range(n) if j != i]
+            d = np.min([np.abs(cells[:, i] - cells[:, j]).sum(-1) for j in others], axis=0)
+            lonely = np.minimum(d[:-1], d[1:]) > alone
+            for a in range(len(ACTIONS)):
+                m = A[:, i] == a
+                cal.counts[i, a] += [m.sum(), ok[m, i].sum()]
+                cal.counts_alone[i, a] += [(m & lonely).sum(), ok[m & lonely, i].sum()]
+            # ticks of step t: t*k .. (t+1)*k - 1 (tick j ends at (j + 1) / control_hz)
+            P = poses[:, i].reshape(-1, k, 3)
+            start = np.concatenate([poses[:1, i], poses[k - 1 :: k, i][:-1]])
+            for t in np.flatnonzero(lonely):
+                act = ACTIONS[A[t, i]]
+                if act == "forward":
+                    dist = np.hypot(*(P[t, -1, :2] - start[t, :2]))
+                    cal.forward_speed[i].append(dist / w.cfg.step_seconds)
+                elif act in ("turn_left", "turn_right"):
+                    yaw = np.unwrap(np.concatenate([[start[t, 2]], P[t, :, 2]]))
+                    rate = np.abs(np.diff(yaw)).max() * w.cfg.control_hz
+                    cal.turn_rate[i][act].append(np.degrees(rate))
+    return cal
+
+
+def open_loop(scenario, robot: str, *, config=None) -> dict[str, float]:
+    """A robot's physical abilities at full command (20 rad/s), after 1 s: pivoting with only
+    the left wheel driving (a right turn) and only the right one (a left turn), the driving
+    wheel's rim speed (m/s) and the turn rate (deg/s)."""
+    import mujoco
+
+    from mirl.physics.robot import KOBUKI
+
+    i = scenario.robot_index(robot)
+    out = {}
+    for what, cmd in (("left", (1, 0)), ("right", (0, 1))):
+        w = PhysicalWorld(scenario, config=config, seed=0, observer=False)
+        # a clear stretch: the long hallway's middle, facing south
+        a = w._qadr[i]
+        w.data.qpos[a : a + 7] = [1.0, -3.0, KOBUKI.wheel_radius, np.sqrt(0.5), 0, 0,
+                                  -np.sqrt(0.5)]  # fmt: skip
+        for j in range(len(scenario.robots)):
+            if j != i:
+                b = w._qadr[j]
+                w.data.qpos[b : b + 2] = [6.0 + j, -16.0]
+        mujoco.mj_forward(w.model, w.data)
+        w.data.ctrl[:] = 0
+        w.data.ctrl[2 * i : 2 * i + 2] = np.asarray(cmd, float) * KOBUKI.max_wheel_speed
+        n = int(round(1.0 / w.cfg.timestep))
+        mujoco.mj_step(w.model, w.data, nstep=n)  # 1 s to reach steady state
+        p0 = w.poses()[i]
+        yaws = []
+        for _ in range(10):
+            mujoco.mj_step(w.model, w.data, nstep=n // 10)
+            yaws.append(w.poses()[i, 2])
+        d = w._dadr[i] + 6 + (what == "right")  # the wheel hinges follow the free joint
+        out[f"{what}_wheel_speed"] = float(w.data.qvel[d] * KOBUKI.wheel_radius)
+        yaw = np.unwrap(np.concatenate([[p0[2]], yaws]))
+        turn = "turn_right" if what == "left" else "turn_left"
+        out[f"{turn}_rate"] = float(np.degrees(abs(yaw[-1] - yaw[0])))
+    return out

@@ -1,0 +1,128 @@
+"""Physics parameters as scenario data: the ``[physics]`` table of a scenario TOML.
+
+Every field has a documented default (:class:`PhysicsConfig`); an unknown key is an error
+naming the scenario file and the key. Motor strengths per robot per wheel live in
+``[physics.motor_strength]``, e.g. ``J = { left_wheel = 0.6 }``: 1.0 is a healthy motor, 0.6 a
+motor with 60 % of a healthy one's gain and torque limit. This is what ``--damage
+ROBOT:left_wheel=0.6`` sets in the physics world (in the grid world the same flag sets a
+success probability). The learner never sees any of these numbers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+
+__all__ = ["PhysicsConfig", "physics_config", "scenario_physics", "with_motor_strength", "WHEELS"]
+
+WHEELS = ("left_wheel", "right_wheel")
+
+
+@dataclass(frozen=True)
+class PhysicsConfig:
+    timestep: float = 0.01  # s, MuJoCo integration step
+    control_hz: float = 10.0  # controller, localisation and detection checks per second
+    step_seconds: float = 2.0  # one decision step
+    localisation_sigma: float = 0.05  # m, AMCL-like pose error (temporally correlated)
+    localisation_sigma_deg: float = 3.0  # degrees
+    localisation_tau: float = 1.0  # s, correlation time of the localisation error
+    measurement_sigma: float = 0.05  # m, noise on the poses L's camera reports
+    measurement_sigma_deg: float = 5.0
+    camera_fov_deg: float = 57.0  # L's camera (Kinect)
+    camera_range: float | None = None  # m; None: reaches the scenario's visible cells (see camera)
+    camera_pose: tuple[float, float, float] | None = None  # x, y (m), yaw (deg); None: at L's door
+    patroller_fov_deg: float = 57.0
+    patroller_range: float | None = None  # m; None: detect_distance cells
+    max_speed: float = 0.7  # m/s cruise of the patrol controller
+    max_accel: float = 1.0  # m/s^2
+    turn_speed: float = 1.2  # rad/s, pivot turns
+    lane_offset: float = 0.23  # cells to the right of the hallway's centre line (keep right)
+    pass_distance: float = 1.2  # cells: another robot this close ahead -> pass slowly
+    pass_speed: float = 0.2  # m/s (per 1 m cell) while passing
+    motor_strength: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+
+    def strength(self, robot: str, wheel: str) -> float:
+        return float(self.motor_strength.get(robot, {}).get(wheel, 1.0))
+
+    def with_strength(self, robot: str, wheel: str, value: float) -> PhysicsConfig:
+        if wheel not in WHEELS:
+            raise ValueError(
+                f"in the physics world --damage sets a wheel motor's strength: '{wheel}' is "
+                f"not one of {', '.join(WHEELS)}"
+            )
+        if not 0.0 <= value <= 1.0:
+            raise ValueError(f"motor strength for {robot}:{wheel} must be in [0, 1]")
+        ms = {k: dict(v) for k, v in self.motor_strength.items()}
+        ms.setdefault(robot, {})[wheel] = float(value)
+        return replace(self, motor_strength=ms)
+
+    @property
+    def ticks_per_step(self) -> int:
+        return int(round(self.step_seconds * self.control_hz))
+
+    @property
+    def substeps(self) -> int:
+        return max(1, int(round(1.0 / (self.control_hz * self.timestep))))
+
+
+_FIELDS = {f.name for f in fields(PhysicsConfig)}
+
+
+def physics_config(
+    data: Mapping[str, Any] | None, source: str = "<memory>", robots: tuple[str, ...] = ()
+) -> PhysicsConfig:
+    """Validate a ``[physics]`` table; errors name ``source`` and the field."""
+    data = dict(data or {})
+    for k in data:
+        if k not in _FIELDS:
+            raise ValueError(
+                f"{source}: physics.{k}: unknown field (known: {', '.join(sorted(_FIELDS))})"
+            )
+    ms = data.pop("motor_strength", {})
+    if not isinstance(ms, Mapping):
+        raise ValueError(f"{source}: physics.motor_strength: expected a table of robots")
+    strengths: dict[str, dict[str, float]] = {}
+    for robot, wheels in ms.items():
+        if robots and robot not in robots:
+            raise ValueError(f"{source}: physics.motor_strength.{robot}: unknown robot")
+        if not isinstance(wheels, Mapping):
+            raise ValueError(f"{source}: physics.motor_strength.{robot}: expected a table")
+        for w, v in wheels.items():
+            if w not in WHEELS or not isinstance(v, int | float) or not 0 <= v <= 1:
+                raise ValueError(
+                    f"{source}: physics.motor_strength.{robot}.{w}: expected left_wheel or "
+                    "right_wheel = a strength in [0, 1]"
+                )
+        strengths[robot] = {w: float(v) for w, v in wheels.items()}
+    out: dict[str, Any] = {}
+    for k, v in data.items():
+        if k == "camera_pose":
+            if v is not None and (not isinstance(v, list | tuple) or len(v) != 3):
+                raise ValueError(f"{source}: physics.camera_pose: expected [x, y, yaw_deg]")
+            out[k] = None if v is None else tuple(float(x) for x in v)
+            continue
+        if not isinstance(v, int | float) or isinstance(v, bool) or v < 0:
+            raise ValueError(f"{source}: physics.{k}: expected a non-negative number, got {v!r}")
+        out[k] = float(v)
+    return PhysicsConfig(**out, motor_strength=strengths)
+
+
+def with_motor_strength(scenario, robot: str, wheel: str, strength: float):
+    """A copy of ``scenario`` whose ``[physics]`` table gives ``robot``'s ``wheel`` motor this
+    strength (what ``--damage ROBOT:WHEEL=S`` means in the physics world)."""
+    from dataclasses import replace as _replace
+
+    scenario.robot_index(robot)  # unknown robot: ValueError naming the robots
+    cfg = physics_config(scenario.physics, scenario.source, scenario.robot_names)
+    cfg = cfg.with_strength(robot, wheel, strength)
+    table = dict(scenario.physics)
+    table["motor_strength"] = {r: dict(w) for r, w in cfg.motor_strength.items()}
+    return _replace(scenario, physics=table)
+
+
+def scenario_physics(scenario) -> PhysicsConfig:
+    """The scenario's ``[physics]`` table as a validated :class:`PhysicsConfig`."""
+    return physics_config(
+        getattr(scenario, "physics", None) or {}, scenario.source, scenario.robot_names
+    )

@@ -1,0 +1,99 @@
+"""The ``move_base`` analogue: a feedback controller from a pose estimate to wheel speeds.
+
+Vectorised over robots. Per robot a *mode* and a target, set once per decision step:
+
+- ``DRIVE`` (forward): pursue a target point (the intended cell's centre moved ``lane_offset``
+  to the right of the heading — keep right, so robots meeting head-on pass side by side). The
+  speed is the lesser of the cruise speed and what still lets the robot stop on the point
+  (v = √(2·a·d)), times cos of the bearing error (turn in place while it exceeds 60°); the turn
+  rate is proportional to the bearing error. Within ``arrive`` of the point the robot aligns its
+  heading with the target heading.
+- ``PIVOT`` (turn_left / turn_right): rotate towards the target heading by pivoting on the
+  inner wheel (turning left the left wheel stands still and the right wheel drives), as the
+  paper's ξ has it (turn_left uses the right wheel, turn_right the left).
+- ``HOLD`` (stop): both wheels commanded to zero.
+
+The forward speed is acceleration-limited (``max_accel``) like move_base's velocity smoother.
+Nothing here knows a motor's strength: a weak wheel shows up only through the pose feedback.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["DRIVE", "PIVOT", "HOLD", "Controller", "wrap"]
+
+DRIVE, PIVOT, HOLD = 0, 1, 2
+
+
+def wrap(a):
+    return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
+
+
+class Controller:
+    def __init__(
+        self,
+        n: int,
+        *,
+        separation: float,
+        wheel_radius: float,
+        max_speed: float,
+        max_accel: float,
+        turn_speed: float,
+        max_wheel_speed: float,
+        dt: float,
+        arrive: float = 0.06,
+        k_heading: float = 2.5,
+        pass_speed: float = 0.2,
+        turn_first: float = np.radians(20),
+    ) -> None:
+        self.turn_first = turn_first
+        self.pass_speed = pass_speed
+        self.n = n
+        self.sep, self.r = separation, wheel_radius
+        self.vmax, self.amax, self.wturn = max_speed, max_accel, turn_speed
+        self.wheel_max = max_wheel_speed * wheel_radius  # m/s at the rim
+        self.dt, self.arrive, self.kh = dt, arrive, k_heading
+        self.mode = np.full(n, HOLD)
+        self.tx = np.zeros(n)
+        self.ty = np.zeros(n)
+        self.tyaw = np.zeros(n)
+        self.v = np.zeros(n)  # commanded forward speed (acceleration-limited)
+
+    def set_targets(self, idx, mode, tx, ty, tyaw) -> None:
+        self.mode[idx], self.tx[idx], self.ty[idx], self.tyaw[idx] = mode, tx, ty, tyaw
+
+    def wheel_speeds(self, x, y, yaw, slow=None) -> np.ndarray:
+        """(n, 2) wheel angular velocities (rad/s) for the estimated poses; ``slow`` (bool per
+        robot) caps the forward speed at ``pass_speed`` (another robot close ahead)."""
+        dx, dy = self.tx - x, self.ty - y
+        d = np.hypot(dx, dy)
+        bearing = wrap(np.arctan2(dy, dx) - yaw)
+        arrived = d < self.arrive
+        e = np.where(arrived, wrap(self.tyaw - yaw), bearing)
+        drive = self.mode == DRIVE
+        v_des = np.minimum(self.vmax, np.sqrt(2 * self.amax * np.maximum(d - 0.02, 0.0)))
+        # heading first: slow down in proportion to the bearing error, turn in place beyond
+        # ``turn_first`` (20 degrees) (a robot whose wheel cannot follow is slowed, not sent astray)
+        v_des = np.where(
+            drive & ~arrived, v_des * np.clip(1.0 - (bearing / self.turn_first) ** 2, 0.0, 1.0), 0.0
+        )
+        if slow is not None:
+            v_des = np.where(slow, np.minimum(v_des, self.pass_speed), v_des)
+        # accelerate gently, brake as hard as needed
+        self.v = np.where(v_des > self.v, np.minimum(v_des, self.v + self.amax * self.dt), v_des)
+        w_drive = np.clip(self.kh * e, -2.0, 2.0)
+        w_drive = np.where(arrived & (np.abs(e) < 0.05), 0.0, w_drive)
+        pivot = self.mode == PIVOT
+        e_turn = wrap(self.tyaw - yaw)
+        w_turn = np.clip(self.kh * e_turn, -self.wturn, self.wturn)
+        w_turn = np.where(np.abs(e_turn) < 0.03, 0.0, w_turn)
+        half = self.sep / 2
+        vl = np.where(drive, self.v - w_drive * half, 0.0)
+        vr = np.where(drive, self.v + w_drive * half, 0.0)
+        # pivot on the inner wheel: left turn -> right wheel drives, right turn -> left wheel
+        vl = np.where(pivot, np.where(w_turn < 0, -w_turn * self.sep, 0.0), vl)
+        vr = np.where(pivot, np.where(w_turn > 0, w_turn * self.sep, 0.0), vr)
+        self.v = np.where(drive, self.v, 0.0)
+        big = np.maximum(np.maximum(np.abs(vl), np.abs(vr)) / self.wheel_max, 1.0)
+        return np.column_stack([vl / big, vr / big]) / self.r

@@ -1,0 +1,427 @@
+"""Patrollers (and L) driving in MuJoCo: decisions on the grid, motion in physics.
+
+Every decision step (``step_seconds``, default 2 s) each patroller discretises its *estimated*
+pose (true pose + a temporally correlated, AMCL-like error), takes its true grid policy's action
+there (``scenario.true_policy``), with the scenario's played equilibrium where two patrollers'
+intended moves meet (:func:`mirl.world.game.meeting`), and the
+:class:`~mirl.physics.control.Controller` drives towards the intended cell and heading. A step
+that does not get there in time is simply where the robot is at the next decision. L's camera
+records the patrollers it sees once per decision step (true pose + measurement noise): that
+pose track is all the learner gets. While L is out of its room the patrollers' cameras look for
+it at every control tick (10 Hz). Contacts between robots (and with walls) are counted as
+events (a pair touching after not touching).
+
+Every random number comes from ``seed`` through independent streams (localisation, camera
+measurement, game draws, start draws), so a run is a function of its arguments.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from mirl.observations.discretise import discretise
+from mirl.observations.poses import PoseTracks
+from mirl.physics.camera import Cone, Sighting, line_of_sight, observer_camera
+from mirl.physics.config import PhysicsConfig, scenario_physics
+from mirl.physics.control import DRIVE, HOLD, PIVOT, Controller, wrap
+from mirl.physics.records import OBSERVER, Records
+from mirl.physics.robot import KOBUKI
+from mirl.physics.world import YAW, Frame, world_mjcf
+from mirl.world.domain import ACTIONS
+from mirl.world.game import game_action_to_action, meeting
+
+__all__ = [
+    "PhysicalWorld",
+    "Sighting",
+    "scenario_physics",
+    "observer_camera",
+    "OBSERVER",
+]
+
+FORWARD, TURN_LEFT, TURN_RIGHT, STOP = (
+    ACTIONS.index(a) for a in ("forward", "turn_left", "turn_right", "stop")
+)
+Pose = tuple[float, float, float]  # x, y (m), yaw (rad)
+HEADING_DELTAS = np.array([[0, 1], [-1, 0], [0, -1], [1, 0]])
+
+
+class PhysicalWorld(Records):
+    """N patrollers (and L, unless ``observer=False``) in one MuJoCo model."""
+
+    def __init__(
+        self,
+        scenario,
+        *,
+        config: PhysicsConfig | None = None,
+        observability: float | None = None,
+        seed: int = 0,
+        starts: list[tuple[int, int, int]] | None = None,
+        random_starts: bool = False,
+        observer: bool = True,
+        policies: np.ndarray | None = None,
+        record_ticks: bool = True,
+        observer_heading: int | None = None,
+    ) -> None:
+        self.scenario = scenario
+        self.cfg = cfg = config or scenario_physics(scenario)
+        self.domain = dom = scenario.domain
+        self.map = scenario.map
+        self.frame = Frame.of(scenario.map)
+        self.n = len(scenario.robots)
+        self.names = scenario.robot_names
+        self.degree = scenario.observability if observability is None else float(observability)
+        self.visible = dom.visible_states(self.degree)
+        self.policies = (
+            np.stack([scenario.true_policy(i) for i in range(self.n)])
+            if policies is None
+            else np.asarray(policies)
+        )
+        eq = scenario.played_equilibrium
+        self._eq = (np.asarray(eq.row, float), np.asarray(eq.col, float))
+        loc, meas, game, start = np.random.SeedSequence(int(seed)).spawn(4)
+        self._loc_rng = np.random.default_rng(loc)
+        self._meas_rng = np.random.default_rng(meas)
+        self._game_rng = np.random.default_rng(game)
+        if starts is None:
+            starts = [tuple(r.start) for r in scenario.robots]
+            if random_starts:
+                start_rng = np.random.default_rng(start)
+                starts = [
+                    tuple(dom.states[c[start_rng.integers(len(c))]])
+                    for c in (self._cycle(i, dom.state_index(*starts[i])) for i in range(self.n))
+                ]
+        self.has_observer = observer
+        self.m = self.n + int(observer)
+        self._lane = cfg.lane_offset * self.frame.cell_size
+        self._build(self._start_poses(starts, observer_heading))
+        self._init_noise_and_control()
+        self._nearest = self._nearest_cells()
+        self._visible_cells = self.map.visible_mask(self.degree)
+        self._init_records(record_ticks)
+        self._record_decision_time()
+
+    def _start_poses(
+        self, starts, observer_heading: int | None
+    ) -> list[tuple[float, float, float]]:
+        """Patrollers on their start cells in their lanes; L at its start cell's centre."""
+        poses = []
+        for r, c, h in starts:
+            x, y = self.frame.cell_centre(r, c)
+            x, y = x + self._lane * np.sin(YAW[h]), y - self._lane * np.cos(YAW[h])
+            poses.append((float(x), float(y), float(YAW[h])))
+        if self.has_observer:
+            x, y = self.frame.cell_centre(*self.scenario.observer_start)
+            self._cam, self._cone, self._overhead = observer_camera(
+                self.scenario, self.cfg, self.frame, self.degree
+            )
+            oyaw = self._cam[2] if self._cam else 0.0
+            if observer_heading is not None:
+                oyaw = float(YAW[observer_heading])
+            poses.append((float(x), float(y), float(oyaw)))
+        else:
+            self._cam, self._cone, self._overhead = None, None, np.zeros(self.map.shape, bool)
+        return poses
+
+    def _build(self, poses) -> None:
+        """The MuJoCo model and the index arrays every control tick uses."""
+        cfg = self.cfg
+        names = list(self.names) + ([OBSERVER] if self.has_observer else [])
+        specs = [
+            (nm, *poses[i], cfg.strength(nm, "left_wheel"), cfg.strength(nm, "right_wheel"))
+            for i, nm in enumerate(names)
+        ]
+        xml = world_mjcf(self.map.free, self.frame, specs, timestep=cfg.timestep)
+        self.model = model = mujoco.MjModel.from_xml_string(xml)
+        self.data = mujoco.MjData(model)
+        mujoco.mj_forward(model, self.data)
+        roots = [model.joint(f"{nm}_root").id for nm in names]
+        self._qadr = np.array([model.jnt_qposadr[j] for j in roots])
+        self._pose_idx = self._qadr[:, None] + np.array([0, 1, 3, 4, 5, 6])
+        self._dadr = np.array([model.jnt_dofadr[j] for j in roots])
+        self._geom_robot = np.full(model.ngeom, -1)
+        self._geom_robot[[model.geom(f"{nm}_base").id for nm in names]] = np.arange(self.m)
+        self._is_wall = np.array(
+            [model.geom(g).name.startswith("wall") for g in range(model.ngeom)]
+        )
+
+    def _init_noise_and_control(self) -> None:
+        cfg, cs = self.cfg, self.frame.cell_size
+        self.ctrl = Controller(
+            self.m,
+            separation=KOBUKI.wheel_separation,
+            wheel_radius=KOBUKI.wheel_radius,
+            max_speed=cfg.max_speed * cs,
+            max_accel=cfg.max_accel,
+            turn_speed=cfg.turn_speed,
+            pass_speed=cfg.pass_speed * cs,
+            max_wheel_speed=KOBUKI.max_wheel_speed,
+            dt=1.0 / cfg.control_hz,
+        )
+        sd_xy = cfg.localisation_sigma * cs
+        self._noise_sd = np.array([sd_xy, sd_xy, np.radians(cfg.localisation_sigma_deg)])
+        self._noise_a = float(np.exp(-1.0 / (cfg.control_hz * max(cfg.localisation_tau, 1e-9))))
+        self._noise = self._loc_rng.normal(size=(self.m, 3)) * self._noise_sd
+        rng = cfg.patroller_range
+        self._patrol_cone = Cone(
+            cfg.patroller_fov_deg, rng if rng is not None else self.scenario.detect_distance * cs
+        )
+
+    def _init_records(self, record_ticks: bool) -> None:
+        self.t = 0  # decision steps so far
+        self.contacts = 0  # robot-robot contact events
+        self.wall_contacts = 0
+        self.contact_pairs: list[tuple[int, int, int]] = []  # (step, i, j)
+        self._touching: set[tuple[int, int]] = set()
+        self.sightings: list[Sighting] = []
+        self.observer_out = False
+        self.observer_moved = False
+        self.record_ticks = record_ticks
+        self._tick_t: list[float] = []
+        self._tick_pose: list[np.ndarray] = []
+        self.true: list[np.ndarray] = []  # per decision time: (N,) true state indices
+        self.believed: list[np.ndarray] = []  # (N,) states the patrollers decided from
+        self.actions: list[np.ndarray] = []  # (N,) actions taken at each decision
+        self.seen: list[np.ndarray] = []  # (N,) L's discretised observation (-1 unseen)
+        self._obs_rows: list[tuple[float, int, float, float, float]] = []
+
+    # ---- geometry helpers ---------------------------------------------------------------
+    def _cycle(self, i: int, s: int) -> np.ndarray:
+        pol, psi = self.policies[i], self.domain.intended
+        for _ in range(2 * self.domain.n_states):
+            s = psi[s, pol[s]]
+        cyc = [int(s)]
+        s = psi[s, pol[s]]
+        while s != cyc[0]:
+            cyc.append(int(s))
+            s = psi[s, pol[s]]
+        return np.asarray(cyc)
+
+    def _nearest_cells(self) -> np.ndarray:
+        """(rows, cols) index of the nearest patroller cell of every map cell."""
+        rows, cols = self.map.shape
+        rr, cc = np.mgrid[0:rows, 0:cols]
+        cells = self.domain.cells
+        d = (rr.ravel()[:, None] - cells[None, :, 0]) ** 2 + (
+            cc.ravel()[:, None] - cells[None, :, 1]
+        ) ** 2
+        return np.argmin(d, axis=1).reshape(rows, cols)
+
+    def poses(self) -> np.ndarray:
+        """(m, 3) true x, y, yaw of every robot (patrollers first, L last)."""
+        q = self.data.qpos[self._pose_idx]  # (m, 6): x, y, qw, qx, qy, qz
+        w, x, y, z = q[:, 2], q[:, 3], q[:, 4], q[:, 5]
+        out = q[:, :3].copy()
+        out[:, 2] = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        return out
+
+    def estimated_poses(self) -> np.ndarray:
+        p = self.poses()
+        p[:, :2] += self._noise[:, :2]
+        p[:, 2] = wrap(p[:, 2] + self._noise[:, 2])
+        return p
+
+    def discretise(self, poses: np.ndarray, *, snap: bool = True) -> np.ndarray:
+        """Patroller states of poses: nearest cell and nearest heading. Off the hallway:
+        the nearest hallway cell if ``snap``, else -1."""
+        rows, cols = self.map.shape
+        r, c = self.frame.cell_of(poses[:, 0], poses[:, 1])
+        h = np.rint(wrap(poses[:, 2]) / (np.pi / 2)).astype(int) % 4
+        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+        rc, cc = np.clip(r, 0, rows - 1), np.clip(c, 0, cols - 1)
+        s = self.domain.state_index(np.where(inside, r, -1), np.where(inside, c, -1), h)
+        if snap:
+            cell = self._nearest[rc, cc]
+            s = np.where(s >= 0, s, cell * 4 + h)
+        return s
+
+    def observer_cell_heading(self, estimated: bool = True) -> tuple[int, int, int]:
+        p = (self.estimated_poses() if estimated else self.poses())[self.n]
+        r, c = self.frame.cell_of(p[0], p[1])
+        h = int(np.rint(wrap(p[2]) / (np.pi / 2))) % 4
+        return int(r), int(c), h
+
+    # ---- one decision step --------------------------------------------------------------
+    def _record_decision_time(self) -> None:
+        p = self.poses()
+        self.true.append(self.discretise(p[: self.n]))
+        self.seen.append(self._observe(p))
+
+    def _observe(self, p: np.ndarray) -> np.ndarray:
+        """L's camera now: a noisy pose for every patroller it sees, discretised."""
+        out = np.full(self.n, -1, dtype=int)
+        if not self.has_observer:
+            return out
+        px, py = p[: self.n, 0], p[: self.n, 1]
+        r, c = self.frame.cell_of(px, py)
+        rows, cols = self.map.shape
+        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+        seen = inside & self._overhead[np.clip(r, 0, rows - 1), np.clip(c, 0, cols - 1)]
+        if self._cone is not None:
+            cx, cy, cyaw = self._cam
+            cand = self._cone.inside(cx, cy, cyaw, px, py) & ~seen
+            for i in np.flatnonzero(cand):
+                seen[i] = line_of_sight(self.model, self.data, cx, cy, px[i], py[i])
+        idx = np.flatnonzero(seen)
+        if len(idx) == 0:
+            return out
+        cs = self.frame.cell_size
+        z = self._meas_rng.normal(size=(len(idx), 3))
+        meas = p[idx].copy()
+        meas[:, :2] += z[:, :2] * self.cfg.measurement_sigma * cs
+        meas[:, 2] = wrap(meas[:, 2] + z[:, 2] * np.radians(self.cfg.measurement_sigma_deg))
+        tsec = self.t * self.cfg.step_seconds
+        rows = [(tsec, int(i), *map(float, meas[k])) for k, i in enumerate(idx)]
+        self._obs_rows.extend(rows)
+        # the robot-data discretisation (mirl.observations.discretise), one step at a time:
+        # nearest cell (snapped onto the hallway within its tolerance) and nearest heading
+        a = np.asarray(rows)
+        step = PoseTracks(self.names, a[:, 0], a[:, 1].astype(int), a[:, 2], a[:, 3], a[:, 4],
+                          source="L's camera")  # fmt: skip
+        d = discretise(
+            step, self.scenario, step_seconds=self.cfg.step_seconds, start_time=tsec, n_steps=1,
+            drop_off_map=True, visible=self._visible_cells,
+        ).trajectories  # fmt: skip
+        out[d.robot] = self.domain.state_index(d.row, d.col, d.heading)
+        return out
+
+    def decide(self) -> tuple[np.ndarray, np.ndarray]:
+        """The patrollers' believed states and actions now (equilibrium at meetings)."""
+        est = self.estimated_poses()
+        s = self.discretise(est[: self.n])
+        own = self.policies[np.arange(self.n), s]
+        acts = own.copy()
+        for i in range(self.n):
+            for j in range(i + 1, self.n):
+                if meeting(self.domain, s[i], s[j], own[i], own[j]):
+                    gi = self._draw(self._eq[0])
+                    gj = self._draw(self._eq[1])
+                    acts[i] = game_action_to_action(gi, own[i])
+                    acts[j] = game_action_to_action(gj, own[j])
+        return s, acts
+
+    def _draw(self, probs: np.ndarray) -> int:
+        """A game action drawn from a (possibly mixed) equilibrium strategy."""
+        k = int(np.searchsorted(np.cumsum(probs), self._game_rng.random(), "right"))
+        return min(k, 2)
+
+    def _set_targets(self, idx, states_rch, acts, lane) -> None:
+        """Targets for robots ``idx`` from their intended (row, col, heading) and actions."""
+        r, c, h = states_rch.T
+        x, y = self.frame.cell_centre(r, c)
+        yaw = YAW[h]
+        x = x + lane * np.sin(yaw)
+        y = y - lane * np.cos(yaw)
+        mode = np.select(
+            [acts == FORWARD, (acts == TURN_LEFT) | (acts == TURN_RIGHT)], [DRIVE, PIVOT], HOLD
+        )
+        self.ctrl.set_targets(idx, mode, x, y, yaw)
+
+    def _observer_intended(self, action: int) -> tuple[np.ndarray, int]:
+        r, c, h = self.observer_cell_heading()
+        if action == FORWARD:
+            dr, dc = HEADING_DELTAS[h]
+            rr, cc = r + dr, c + dc
+            rows, cols = self.map.shape
+            if 0 <= rr < rows and 0 <= cc < cols and self.map.free[rr, cc]:
+                r, c = rr, cc
+        elif action == TURN_LEFT:
+            h = (h + 1) % 4
+        elif action == TURN_RIGHT:
+            h = (h + 3) % 4
+        return np.array([[r, c, h]]), action
+
+    def step(self, observer_action: int | None = None) -> np.ndarray:
+        """Advance one decision step; returns the patrollers' true states at the new time.
+        ``observer_action`` (an index into ACTIONS) drives L; None leaves it standing."""
+        s, acts = self.decide()
+        self.believed.append(s)
+        self.actions.append(acts)
+        nxt = self.domain.intended[s, acts]
+        self._set_targets(np.arange(self.n), self.domain.states[nxt], acts, self._lane)
+        if self.has_observer and observer_action is not None:
+            rch, a = self._observer_intended(int(observer_action))
+            self._set_targets(np.array([self.n]), rch, np.array([a]), 0.0)
+            self.observer_moved = True
+        self._run_ticks(self.cfg.ticks_per_step)
+        self.t += 1
+        self._record_decision_time()
+        return self.true[-1]
+
+    def _run_ticks(self, k: int) -> None:
+        m, d, cfg = self.model, self.data, self.cfg
+        dt = 1.0 / cfg.control_hz
+        a = self._noise_a
+        b = np.sqrt(1 - a * a) * self._noise_sd
+        p = self.poses()
+        for _ in range(k):
+            self._noise = a * self._noise + b * self._loc_rng.normal(size=(self.m, 3))
+            est = p + self._noise
+            d.ctrl[:] = self.ctrl.wheel_speeds(
+                est[:, 0], est[:, 1], est[:, 2], self._crowded(p)
+            ).ravel()
+            mujoco.mj_step(m, d, nstep=cfg.substeps)
+            p = self.poses()
+            self._contacts()
+            if self.record_ticks:
+                self._tick_t.append(d.time)
+                self._tick_pose.append(p)
+            if self.has_observer and self.observer_moved:
+                self._detect(dt, p)
+
+    def _crowded(self, p: np.ndarray) -> np.ndarray:
+        """Robots that must go slowly: another robot coming the other way within
+        ``pass_distance`` ahead (±70°: pass slowly), or one going the same way less than 0.8
+        cell ahead (do not run into it). True poses: a real robot's bumper and laser see the
+        other robot directly."""
+        dx = p[None, :, 0] - p[:, None, 0]
+        dy = p[None, :, 1] - p[:, None, 1]
+        dist = np.hypot(dx, dy) / self.frame.cell_size
+        np.fill_diagonal(dist, np.inf)
+        ahead = np.abs(wrap(np.arctan2(dy, dx) - p[:, None, 2])) < np.radians(70)
+        oncoming = np.abs(wrap(p[None, :, 2] - p[:, None, 2])) > np.pi / 2
+        slow = ahead & np.where(oncoming, dist < self.cfg.pass_distance, dist < 0.8)
+        return slow.any(axis=1)
+
+    def _contacts(self) -> None:
+        d = self.data
+        if d.ncon == 0:
+            self._touching = set()
+            return
+        g = d.contact.geom[: d.ncon]
+        ra, rb = self._geom_robot[g[:, 0]], self._geom_robot[g[:, 1]]
+        if not self._touching and (ra < 0).all() and (rb < 0).all():
+            return  # the usual case: wheels and casters on the floor only
+        now = set()
+        both = (ra >= 0) & (rb >= 0)
+        for i, j in zip(ra[both], rb[both], strict=True):
+            now.add((int(min(i, j)), int(max(i, j))))
+        wall = ((ra >= 0) & self._is_wall[g[:, 1]]) | ((rb >= 0) & self._is_wall[g[:, 0]])
+        for i in np.where(ra >= 0, ra, rb)[wall]:
+            now.add((int(i), -1))
+        for pair in now - self._touching:
+            if pair[1] >= 0:
+                self.contacts += 1
+                self.contact_pairs.append((self.t, *pair))
+            else:
+                self.wall_contacts += 1
+        self._touching = now
+
+    def _detect(self, dt: float, p: np.ndarray | None = None) -> None:
+        p = self.poses() if p is None else p
+        L = p[self.n]
+        r, c = self.frame.cell_of(L[0], L[1])
+        rows, cols = self.map.shape
+        in_room = not (0 <= r < rows and 0 <= c < cols) or bool(self.map.observer_only[r, c])
+        self.observer_out = not in_room
+        if in_room:
+            return
+        P = p[: self.n]
+        cand = self._patrol_cone.inside(P[:, 0], P[:, 1], P[:, 2], L[0], L[1])
+        for i in np.flatnonzero(cand):
+            if line_of_sight(self.model, self.data, P[i, 0], P[i, 1], L[0], L[1]):
+                rx, ry, ryaw = map(float, P[i])
+                lx, ly, lyaw = map(float, L)
+                self.sightings.append(
+                    Sighting(float(self.data.time), self.t, int(i), (rx, ry, ryaw), (lx, ly, lyaw))
+                )

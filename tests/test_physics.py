@@ -1,0 +1,203 @@
+"""The physical world (issue 11): robots, cameras, determinism, meetings."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+from mirl.physics.camera import Cone, line_of_sight  # noqa: E402
+from mirl.physics.config import PhysicsConfig, physics_config  # noqa: E402
+from mirl.physics.patrol import PhysicalWorld, observer_camera  # noqa: E402
+from mirl.physics.robot import KOBUKI  # noqa: E402
+from mirl.physics.world import Frame, wall_rectangles  # noqa: E402
+from mirl.world.scenario import load_scenario  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def healthy():
+    return load_scenario("boyd2-healthy")
+
+
+def _place(world: PhysicalWorld, i: int, x: float, y: float, yaw: float) -> None:
+    a = world._qadr[i]
+    world.data.qpos[a : a + 3] = [x, y, KOBUKI.wheel_radius]
+    world.data.qpos[a + 3 : a + 7] = [np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)]
+    world.data.qvel[world._dadr[i] : world._dadr[i] + 6] = 0
+    mujoco.mj_forward(world.model, world.data)
+
+
+def _open_loop(world: PhysicalWorld, i: int, left: float, right: float, seconds: float):
+    """Command robot i's wheels (rad/s) for ``seconds``; the others stand still."""
+    world.data.ctrl[:] = 0
+    world.data.ctrl[2 * i : 2 * i + 2] = [left, right]
+    mujoco.mj_step(world.model, world.data, nstep=int(round(seconds / world.cfg.timestep)))
+    return world.poses()[i]
+
+
+def test_straight_drive_covers_expected_distance(healthy):
+    w = PhysicalWorld(healthy, seed=0, observer=False)
+    _place(w, 0, 1.0, -1.0, -np.pi / 2)  # top of the long hallway, facing south
+    _place(w, 1, 8.0, -16.0, 0.0)
+    omega = 10.0  # rad/s: 0.35 m/s
+    end = _open_loop(w, 0, omega, omega, 10.0)
+    travelled = np.hypot(end[0] - 1.0, end[1] + 1.0)
+    expected = omega * KOBUKI.wheel_radius * 10.0
+    assert travelled == pytest.approx(expected, rel=0.05)
+    assert abs(end[0] - 1.0) < 0.05  # straight
+
+
+@pytest.mark.parametrize(("wheel", "sign"), [("left_wheel", 1), ("right_wheel", -1)])
+def test_weak_wheel_veers_to_its_side(healthy, wheel, sign):
+    cfg = PhysicsConfig().with_strength("I", wheel, 0.6)
+    w = PhysicalWorld(healthy, config=cfg, seed=0, observer=False)
+    _place(w, 0, 1.0, -4.0, -np.pi / 2)
+    _place(w, 1, 8.0, -16.0, 0.0)
+    end = _open_loop(w, 0, 15.0, 15.0, 1.5)
+    turned = float(np.angle(np.exp(1j * (end[2] + np.pi / 2))))
+    assert sign * turned > np.radians(10)  # left wheel weak: turns left (counter-clockwise)
+
+
+def test_walls_block_line_of_sight(healthy):
+    w = PhysicalWorld(healthy, seed=0, observer=False)
+    # along the upper hallway: clear; from the upper hallway into the long one across walls
+    assert line_of_sight(w.model, w.data, 1.0, 0.0, 7.0, 0.0)
+    assert line_of_sight(w.model, w.data, 1.0, 0.0, 1.0, -12.0)
+    assert not line_of_sight(w.model, w.data, 4.0, 0.0, 1.0, -4.0)
+    assert not line_of_sight(w.model, w.data, 1.0, -3.0, 5.0, -16.0)
+
+
+def test_patroller_facing_away_does_not_see_observer(healthy):
+    w = PhysicalWorld(healthy, seed=0)
+    w.observer_moved = True
+    _place(w, 1, 8.0, -16.0, 0.0)
+    _place(w, 2, 1.0, -5.0, -np.pi / 2)  # L out in the long hallway
+    _place(w, 0, 1.0, -8.0, -np.pi / 2)  # I three cells south of L, facing south: away
+    w._detect(0.1)
+    assert w.observer_out and not w.sightings
+    _place(w, 0, 1.0, -8.0, np.pi / 2)  # facing north: L is 3 m ahead
+    w._detect(0.1)
+    assert [s.robot for s in w.sightings] == [0]
+
+
+def test_patroller_camera_range_and_walls(healthy):
+    w = PhysicalWorld(healthy, seed=0)
+    w.observer_moved = True
+    _place(w, 1, 8.0, -16.0, 0.0)
+    _place(w, 2, 1.0, -2.0, -np.pi / 2)
+    _place(w, 0, 1.0, -9.0, np.pi / 2)  # 7 m away: beyond the 6 m range
+    w._detect(0.1)
+    assert not w.sightings
+    _place(w, 0, 4.0, 0.0, np.pi)  # upper hallway facing west: the corner wall is in between
+    w._detect(0.1)
+    assert not w.sightings
+
+
+def test_default_camera_sees_the_first_four_upper_cells():
+    sc = load_scenario("boyd2")
+    cfg = physics_config(sc.physics, sc.source, sc.robot_names)
+    frame = Frame.of(sc.map)
+    (cx, cy, cyaw), cone, overhead = observer_camera(sc, cfg, frame, 0.14)
+    assert cone.fov_deg == 57 and cone.range == pytest.approx(4.5)
+    assert not overhead.any()
+    w = PhysicalWorld(sc, seed=0, observer=False)
+    cells = sc.map.patroller_cells
+    px, py = frame.cell_centre(cells[:, 0], cells[:, 1])
+    seen = [
+        tuple(map(int, cells[k]))
+        for k in np.flatnonzero(cone.inside(cx, cy, cyaw, px, py))
+        if line_of_sight(w.model, w.data, cx, cy, px[k], py[k])
+    ]
+    assert seen == [(0, 1), (0, 2), (0, 3), (0, 4)]
+    assert len(seen) == round(0.14 * len(cells))  # the grid's 14 % (4 of 31 cells)
+    _, none, everything = observer_camera(sc, cfg, frame, 1.0)
+    assert none is None and everything.sum() == len(cells)
+
+
+def test_same_seed_same_pose_tracks(healthy):
+    def run(seed):
+        w = PhysicalWorld(healthy, seed=seed, random_starts=True)
+        for _ in range(15):
+            w.step()
+        return w.tick_poses()[1], w.observed_rows(), w.true_states()
+
+    a, b, c = run(3), run(3), run(4)
+    for x, y in zip(a, b, strict=True):
+        np.testing.assert_array_equal(x, y)
+    assert not np.array_equal(a[0], c[0])
+
+
+def _meeting(scenario, seed: int) -> int:
+    """I going south and J going north in the long hallway until they have passed."""
+    w = PhysicalWorld(
+        scenario, seed=seed, starts=[(4, 1, 3), (12, 1, 1)], observer=False, record_ticks=False
+    )
+    for _ in range(10):
+        w.step()
+    ys = w.poses()[:2, 1]
+    assert ys[0] < ys[1]  # they got past each other
+    return w.contacts
+
+
+def test_head_on_meetings_pass_without_contact(healthy):
+    assert sum(_meeting(healthy, s) > 0 for s in range(8)) == 0
+
+
+@pytest.mark.slow
+def test_head_on_meetings_pass_without_contact_95_of_100(healthy):
+    touched = sum(_meeting(healthy, s) > 0 for s in range(100))
+    assert touched <= 5
+
+
+def test_walls_are_merged_rectangles_covering_exactly_the_walls():
+    sc = load_scenario("boyd2")
+    wall = np.pad(~sc.map.free, 1, constant_values=True)
+    rects = wall_rectangles(wall)
+    cover = np.zeros_like(wall, dtype=int)
+    for r0, c0, r1, c1 in rects:
+        cover[r0 : r1 + 1, c0 : c1 + 1] += 1
+    np.testing.assert_array_equal(cover, wall.astype(int))
+    assert len(rects) <= 8
+
+
+def test_physics_table_is_validated():
+    with pytest.raises(ValueError, match="physics.bogus: unknown field"):
+        physics_config({"bogus": 1}, "x.toml")
+    with pytest.raises(ValueError, match="motor_strength.J.left_wheel"):
+        physics_config({"motor_strength": {"J": {"left_wheel": 1.5}}}, "x.toml", ("I", "J"))
+    cfg = physics_config({"motor_strength": {"J": {"left_wheel": 0.6}}}, "x.toml", ("I", "J"))
+    assert cfg.strength("J", "left_wheel") == 0.6 and cfg.strength("I", "left_wheel") == 1.0
+    with pytest.raises(ValueError, match="motor's strength"):
+        cfg.with_strength("J", "navigation", 0.5)
+
+
+def test_camera_cone_geometry():
+    cone = Cone(57.0, 6.0)
+    assert cone.inside(0, 0, 0, 5.9, 0) and not cone.inside(0, 0, 0, 6.1, 0)
+    assert cone.inside(0, 0, 0, 1.0, np.tan(np.radians(28))) and not cone.inside(0, 0, 0, 1, 0.6)
+    assert not cone.inside(0, 0, np.pi, 3.0, 0.0)
+
+
+def test_any_map_compiles_with_few_wall_boxes():
+    from mirl.world.office_maps import office_map_from_name
+
+    office = office_map_from_name("office")
+    wall = np.pad(~office.free, 1, constant_values=True)
+    rects = wall_rectangles(wall)
+    assert len(rects) < wall.sum() / 4  # merged: far fewer boxes than wall cells
+    from mirl.physics.world import world_mjcf
+
+    model = mujoco.MjModel.from_xml_string(world_mjcf(office.free, Frame.of(office), []))
+    assert model.ngeom == len(rects) + 1  # the walls and the floor
+
+
+def test_boydright_patrols_with_its_own_door_camera():
+    sc = load_scenario("boydright")
+    w = PhysicalWorld(sc, seed=0)
+    for _ in range(5):
+        w.step()
+    (cx, cy, _), cone = w._cam, w._cone
+    assert (cx, cy) == Frame.of(sc.map).cell_centre(*sc.observer_start)
+    assert cone.range > 0 and len(w.true) == 6

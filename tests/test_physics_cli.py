@@ -1,0 +1,65 @@
+"""``--world physics`` on the command line (issue 11)."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import pytest
+
+pytest.importorskip("mujoco")
+
+from mirl.cli import main  # noqa: E402
+from mirl.observations.poses import read_pose_csv  # noqa: E402
+
+
+def test_simulate_physics_writes_true_and_observed_pose_tracks(tmp_path, capsys):
+    out = tmp_path / "poses.csv"
+    obs = tmp_path / "obs.csv"
+    code = main(["simulate", "--scenario", "boyd2", "--world", "physics", "--steps", "40",
+                 "--random-starts", "--poses", str(out), "--observations", str(obs)])  # fmt: skip
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "J:left_wheel=0.6" in text and "real-time factor" in text
+    observed, truth = read_pose_csv(out), read_pose_csv(tmp_path / "poses.true.csv")
+    assert set(truth.robot_names) == {"I", "J", "L"}
+    assert len(truth) == 3 * 39 * 20  # every robot at 10 Hz over 39 steps of 2 s
+    assert len(observed) == sum(1 for _ in open(obs)) - 1  # one measurement per grid observation
+
+
+def test_run_physics_json_and_plot(tmp_path, capsys):
+    png = tmp_path / "run.png"
+    code = main(["run", "--world", "physics", "--scenario", "boyd2", "--obs-steps", "40",
+                 "--max-wait", "15", "--method", "random", "--json",
+                 "--plot", str(png)])  # fmt: skip
+    assert code == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["world"] == "physics" and out["outcome"] in ("success", "detected", "timeout")
+    assert "contacts" in out and png.stat().st_size > 10_000
+
+
+def test_damage_in_physics_is_motor_strength(capsys):
+    code = main(["simulate", "--scenario", "boyd2-healthy", "--world", "physics", "--steps", "3",
+                 "--damage", "I:right_wheel=0.5"])  # fmt: skip
+    assert code == 0 and "I:right_wheel=0.5" in capsys.readouterr().out
+    code = main(["simulate", "--scenario", "boyd2", "--world", "physics", "--steps", "3",
+                 "--damage", "J:floor=0.5"])  # fmt: skip
+    assert code == 2 and "motor's strength" in capsys.readouterr().err
+
+
+def test_missing_mujoco_names_the_extra(monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "mujoco", None)  # import mujoco -> ImportError
+    code = main(["simulate", "--scenario", "boyd2", "--world", "physics", "--steps", "3"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and 'pip install "mirl[physics]"' in err[0]
+
+
+def test_experiment_in_physics_world():
+    from mirl.experiments.conditions import Condition, get_experiment, in_world
+
+    exp = in_world(get_experiment("table1"), "physics")
+    assert {c.world for c in exp.conditions} == {"physics"}
+    assert "physical world" in exp.description
+    grid = Condition("mirl-t")
+    assert "world" not in grid.key  # grid keys unchanged: old result stores still resume
+    assert Condition.from_key(exp.conditions[0].key).world == "physics"
