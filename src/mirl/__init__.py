@@ -12,13 +12,7 @@ stage imports only the stages before it (checked by import-linter).
 from __future__ import annotations
 
 from importlib import import_module
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
-
-try:
-    __version__ = version("mirl")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0.0.0+unknown"
 
 # public name -> module that defines it
 _EXPORTS = {
@@ -75,8 +69,20 @@ __all__ = [
 ]
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version  # ~20-80 ms: only when asked
+
+    try:
+        return version("mirl")
+    except PackageNotFoundError:  # running from a source tree without installation
+        return "0.0.0+unknown"
+
+
 def __getattr__(name: str) -> Any:
     # PEP 562: import the defining module on first use (keeps `mirl --version` fast)
+    if name == "__version__":
+        globals()[name] = value = _version()
+        return value
     if name in _EXPORTS:
         value = getattr(import_module(_EXPORTS[name]), name)
         globals()[name] = value
@@ -89,6 +95,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
+    __version__: str
     from mirl.experiments.episode import run_episode
     from mirl.experiments.records import RunResult
     from mirl.learning.feature_solver import solve_feature_probabilities

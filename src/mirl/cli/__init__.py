@@ -7,6 +7,7 @@ import sqlite3
 import sys
 from collections.abc import Sequence
 
+from mirl._blas import one_blas_thread
 from mirl.cli.checks import UsageError
 from mirl.cli.commands import COMMANDS
 from mirl.cli.parser import build_parser
@@ -15,6 +16,7 @@ __all__ = ["main"]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    one_blas_thread()  # before any sub-command loads numpy (docs/design.md, "BLAS threads")
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:

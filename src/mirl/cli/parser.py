@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import os
 
-from mirl import __version__
 from mirl.cli.flags import (
     MAX_OBS_STEPS,
     MAX_STEPS,
@@ -21,11 +20,32 @@ from mirl.cli.flags import (
 
 __all__ = ["build_parser"]
 
+# Literal copies of the learning and run modules' tuples, so that building the parser imports
+# none of them (issue 12); tests/test_startup.py checks that they match their sources.
+LEARN_METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "oracle")  # learning.learn
+IRL_OBJECTIVES = ("counts", "likelihood", "both", "sequence")  # learning.irl.OBJECTIVES
+IRL_OPTIMIZERS = ("nelder-mead", "lbfgs")  # learning.irl.OPTIMIZERS
+RUN_METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "random", "oracle")  # records
+RUN_MAX_WAIT = 450  # experiments.records.MAX_WAIT
+RUN_WATCH_UNTIL_SEEN = 40  # experiments.records.WATCH_UNTIL_SEEN
+RUN_WATCH_LIMIT = 1800  # experiments.records.WATCH_LIMIT
+EM_INITS = ("intended", "uniform")  # learning.dbn_em.EM_INITS
+
+
+class _VersionAction(argparse.Action):
+    """``--version``, with the installed version looked up only when asked for."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, **kwargs) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        from mirl import __version__
+
+        print(f"mirl {__version__}")
+        parser.exit()
+
 
 def _learn_parser(sub) -> None:
-    from mirl.learning.irl import OBJECTIVES, OPTIMIZERS
-    from mirl.learning.learn import METHODS
-
     le = sub.add_parser(
         "learn",
         help="learn the patrollers' rewards, policies and transitions from a CSV (mIRL*/T+Int)",
@@ -36,7 +56,7 @@ def _learn_parser(sub) -> None:
     _observation_args(le)
     le.add_argument(
         "--method",
-        choices=[m for m in METHODS if m != "oracle"],
+        choices=[m for m in LEARN_METHODS if m != "oracle"],
         default="mirl-t",
         help="learning method (mirl-t is the paper's mIRL*/T+Int; see README 'Methods')",
     )
@@ -50,11 +70,14 @@ def _learn_parser(sub) -> None:
         help="relabelling rounds of mirl-t / known-r-t",
     )
     le.add_argument(
-        "--objective", choices=OBJECTIVES, default="sequence", help="IRL objective (paper: counts)"
+        "--objective",
+        choices=IRL_OBJECTIVES,
+        default="sequence",
+        help="IRL objective (paper: counts)",
     )
     le.add_argument(
         "--optimizer",
-        choices=OPTIMIZERS,
+        choices=IRL_OPTIMIZERS,
         default="lbfgs",
         help="IRL optimiser (paper: nelder-mead)",
     )
@@ -64,8 +87,6 @@ def _learn_parser(sub) -> None:
 
 
 def _run_parser(sub) -> None:
-    from mirl.experiments.records import MAX_WAIT, METHODS, WATCH_LIMIT, WATCH_UNTIL_SEEN
-
     ru = sub.add_parser(
         "run",
         help="one penetration run: observe, learn, plan, go (default: boyd2, mirl-t, 0.14)",
@@ -76,7 +97,7 @@ def _run_parser(sub) -> None:
     _world_arg(ru)
     ru.add_argument(
         "--method",
-        choices=METHODS,
+        choices=RUN_METHODS,
         default="mirl-t",
         help="how L models the patrollers (mirl-t is the paper's mIRL*/T+Int; see README)",
     )
@@ -93,19 +114,19 @@ def _run_parser(sub) -> None:
     )
     ru.add_argument(
         "--watch-until-seen",
-        type=bounded_int(1, WATCH_LIMIT),
+        type=bounded_int(1, RUN_WATCH_LIMIT),
         default=None,
         metavar="K",
         help=f"without --obs-steps: after 300 steps L keeps watching until it has seen every "
-        f"patroller on K steps, for at most {WATCH_LIMIT} steps ({WATCH_LIMIT * 2 // 60} min) "
-        f"(None: {WATCH_UNTIL_SEEN})",
+        f"patroller on K steps, for at most {RUN_WATCH_LIMIT} steps "
+        f"({RUN_WATCH_LIMIT * 2 // 60} min) (None: {RUN_WATCH_UNTIL_SEEN})",
     )
     ru.add_argument("--seed", type=seed, default=0, help="seed of the whole run")
     ru.add_argument("--p", type=fraction, default=0.9, help="fixed success p of mirl / known-r")
     ru.add_argument(
         "--max-wait",
         type=bounded_int(0, MAX_WAIT_STEPS),
-        default=MAX_WAIT,
+        default=RUN_MAX_WAIT,
         metavar="N",
         help="steps L may wait after observing (450: 25 min in all with 300 observed)",
     )
@@ -119,7 +140,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="mirl",
         description="Learn other robots' rewards, policies and faulty motion under occlusion.",
     )
-    p.add_argument("--version", action="version", version=f"mirl {__version__}")
+    p.add_argument("--version", action=_VersionAction, help="show the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
     _show_map_parser(sub)
@@ -235,8 +256,6 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
 
 
 def _em_init_arg(sp: argparse.ArgumentParser) -> None:
-    from mirl.learning.dbn_em import EM_INITS
-
     sp.add_argument(
         "--em-init",
         choices=EM_INITS,

@@ -132,9 +132,15 @@ class RunResult:
             ],
             "observer_path": self.observer_path.tolist(),
             "end_time": self.end_time,
-            **({"world": "physics", "contacts": self.physical.contacts,
-                "wall_contacts": self.physical.wall_contacts}
-               if self.physical is not None else {}),
+            **(
+                {
+                    "world": "physics",
+                    "contacts": self.physical.contacts,
+                    "wall_contacts": self.physical.wall_contacts,
+                }
+                if self.physical is not None
+                else {}
+            ),
         }
 
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mirl._blas import one_blas_thread
 from mirl.experiments.conditions import (
     OUTCOMES,
     Condition,
@@ -39,6 +40,7 @@ __all__ = ["Summary", "run_experiment", "conditions_of"]
 def _execute(fn: RunFunction, experiment: str, cond: Condition, run: int, seed: int) -> RunRecord:
     """Worker side: one run, never raising — a failing run becomes an ``error`` record so one
     bad condition does not take the sweep down (resume retries error rows)."""
+    one_blas_thread()  # workers of any backend (loky, Dask, in-process) use one BLAS thread
     start = time.perf_counter()
     try:
         res = dict(fn(cond, seed))

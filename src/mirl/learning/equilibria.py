@@ -21,9 +21,15 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from mirl.learning.factored_pair import factored_log_likelihood, meeting_matrix
 from mirl.learning.soft_policy import _Dynamics
+from mirl.mdp import csr_matmul
 from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
 from mirl.world.game import Equilibrium, meeting
+
+# pair states up to which the weighing filters the exact joint (as the planner's BeliefFilter);
+# above, the factored filter coupled at meetings (issue 12; error measured in docs/design.md)
+MAX_JOINT_STATES = 60_000
 
 __all__ = [
     "potential_meetings",
@@ -87,12 +93,15 @@ class _JointModel:
         the meeting part factorises like the rest."""
         at = np.where(self.meet, M, 0.0)
         off = M - at
-        return self.PT[0] @ (self.PT[1] @ off.T).T + self.GT[0] @ (self.GT[1] @ at.T).T
+        P, G = self.PT, self.GT
+        return csr_matmul(P[0], csr_matmul(P[1], off.T).T) + csr_matmul(
+            G[0], csr_matmul(G[1], at.T).T
+        )
 
 
-def _joint_model(domain, policies, transitions, equilibrium, epsilon) -> _JointModel:
+def _robot_steps(domain, pol, transitions, equilibrium, epsilon):
+    """Per robot the transposed ε-greedy policy step Pᵀ and game-move step Gᵀ, (S, S) CSR."""
     S, A = domain.n_states, domain.n_actions
-    pol = [np.asarray(p, dtype=int) for p in policies]
     PT, GT = [], []
     for p, t, side in zip(pol, transitions, (equilibrium.row, equilibrium.col), strict=True):
         dyn = _Dynamics(sp.csr_array(t), A)
@@ -101,6 +110,13 @@ def _joint_model(domain, policies, transitions, equilibrium, epsilon) -> _JointM
         PT.append(dyn.transposed_policy((1 - epsilon) * own + epsilon / A))
         game = _game_actions(side, p, A)
         GT.append(dyn.transposed_policy((1 - epsilon) * game + epsilon / A))
+    return PT, GT
+
+
+def _joint_model(domain, policies, transitions, equilibrium, epsilon) -> _JointModel:
+    S = domain.n_states
+    pol = [np.asarray(p, dtype=int) for p in policies]
+    PT, GT = _robot_steps(domain, pol, transitions, equilibrium, epsilon)
     si, sj = np.divmod(np.arange(S * S), S)
     meet = meeting(domain, si, sj, pol[0][si], pol[1][sj]).reshape(S, S)
     return _JointModel((PT[0], PT[1]), (GT[0], GT[1]), meet)
@@ -126,6 +142,7 @@ def joint_log_likelihood(
     visible: np.ndarray,
     *,
     epsilon: float = 1e-3,
+    max_joint_states: int | None = MAX_JOINT_STATES,
 ) -> float:
     """log P(observations of both robots | policies, T, equilibrium), exactly.
 
@@ -133,12 +150,19 @@ def joint_log_likelihood(
     matrix M ← P_Iᵀ (M off meetings) P_J + the equilibrium's joint moves at meeting states, then
     conditioned on what L saw (the observed state, or "somewhere not visible"). Policies are the
     greedy ones mixed with ε of uniform actions so that no observation has probability 0.
+    Above ``max_joint_states`` pair states (None: never) the robots are filtered on their own
+    and coupled at meetings (:mod:`mirl.learning.factored_pair`), an approximation.
     """
     x, y = (np.asarray(s, dtype=int) for s in series)
     S = domain.n_states
     vis = np.asarray(visible, dtype=bool).copy()
     vis[x[x >= 0]] = True
     vis[y[y >= 0]] = True
+    if max_joint_states is not None and S * S > max_joint_states:
+        pol = [np.asarray(p, dtype=int) for p in policies]
+        PT, GT = _robot_steps(domain, pol, transitions, equilibrium, epsilon)
+        meet = meeting_matrix(domain, pol[0], pol[1])
+        return factored_log_likelihood((x, y), PT, GT, meet, vis)
     jm = _joint_model(domain, policies, transitions, equilibrium, epsilon)
     M = np.full((S, S), 1.0 / (S * S))
     total = 0.0
@@ -224,14 +248,20 @@ def weigh_equilibria(
     visible: np.ndarray,
     *,
     epsilon: float = 1e-3,
+    max_joint_states: int | None = MAX_JOINT_STATES,
 ) -> EquilibriumWeights:
     """Weight each candidate equilibrium by the likelihood of everything L saw of both robots
-    (:func:`joint_log_likelihood`); ties go to the earlier candidate."""
+    (:func:`joint_log_likelihood`, exact up to ``max_joint_states`` pair states); ties go to
+    the earlier candidate."""
     if len(series) != 2:
         raise ValueError("equilibrium weighting is defined for two robots")
     ll = np.array(
         [
-            joint_log_likelihood(domain, series, policies, transitions, e, visible, epsilon=epsilon)
+            joint_log_likelihood(
+                *(domain, series, policies, transitions, e, visible),
+                epsilon=epsilon,
+                max_joint_states=max_joint_states,
+            )
             for e in candidates
         ]
     )
@@ -289,19 +319,15 @@ def weigh_team_equilibria(
     visible: np.ndarray,
     *,
     epsilon: float = 1e-3,
-    max_joint_states: int = 250_000,
+    max_joint_states: int | None = MAX_JOINT_STATES,
 ) -> TeamEquilibria:
     """:func:`weigh_equilibria` on every pair of :func:`meeting_pairs` (each pair's joint
     filter ignores the other robots), combined by summing log-likelihoods. With two robots this
-    is exactly :func:`weigh_equilibria`. Where the pair's joint has more than
-    ``max_joint_states`` states (S² = 14.5 M on the 60 × 60 office, ~0.3 s per step and
-    candidate) a pair is weighed by its evident meetings alone (:func:`meeting_log_likelihood`).
+    is exactly :func:`weigh_equilibria`. A pair whose joint has more than ``max_joint_states``
+    states is filtered factored, coupled at meetings (:mod:`mirl.learning.factored_pair`).
     """
-    weigh = weigh_equilibria
-    if domain.n_states**2 > max_joint_states:
-        weigh = _weigh_by_evident_meetings
     per_pair = {
-        (i, j): weigh(
+        (i, j): weigh_equilibria(
             domain,
             [series[i], series[j]],
             [policies[i], policies[j]],
@@ -309,6 +335,7 @@ def weigh_team_equilibria(
             candidates,
             visible,
             epsilon=epsilon,
+            max_joint_states=max_joint_states,
         )
         for i, j in meeting_pairs(domain, series)
     }
@@ -321,24 +348,3 @@ def weigh_team_equilibria(
         sum(p.n_meetings for p in per_pair.values()),
     )
     return TeamEquilibria(shared, per_pair)
-
-
-def _weigh_by_evident_meetings(
-    domain: PatrolDomain,
-    series: Sequence[np.ndarray],
-    policies: Sequence[np.ndarray],
-    transitions: Sequence[sp.csr_array],
-    candidates: Sequence[Equilibrium],
-    visible: np.ndarray,
-    *,
-    epsilon: float = 1e-3,
-) -> EquilibriumWeights:
-    """:class:`EquilibriumWeights` from the evident meetings only (large maps)."""
-    meet = [
-        meeting_log_likelihood(domain, series, policies, transitions, e, epsilon=epsilon)
-        for e in candidates
-    ]
-    ll = np.array([m[0] for m in meet])
-    return EquilibriumWeights.from_log_likelihoods(
-        candidates, ll, ll.copy(), meet[0][1] if meet else 0
-    )

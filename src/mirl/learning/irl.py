@@ -54,6 +54,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import OptimizeResult, minimize
 
+from mirl.learning.sequence import ObservedSequence
 from mirl.learning.soft_policy import _Dynamics, soft_policy_iteration
 from mirl.mdp import TabularMDP, value_iteration
 
@@ -117,6 +118,7 @@ class OccludedMaxEntIRL:
         self._V_warm: np.ndarray | None = None  # soft values of the last evaluation (warm start)
         if self.features.ndim != 3:
             raise ValueError(f"features must be (S, A, K), got shape {self.features.shape}")
+        self.transitions_source = transitions  # as given (learn() reuses policy_ for it)
         self.transitions = sp.csr_array(transitions)
         S, A, _ = self.features.shape
         if self.transitions.shape != (S * A, S):
@@ -181,91 +183,13 @@ class OccludedMaxEntIRL:
         self._prepare_sequence(x, counted | ~seen)
 
     def _prepare_sequence(self, x: np.ndarray, own: np.ndarray) -> None:
-        """Pieces of log P(observed series): steps between two observations, and occluded gaps
-        (propagated as columns, masked to the occluded states, ending on the next observation).
+        """Pieces of log P(observed series) (:class:`~mirl.learning.sequence.ObservedSequence`).
         Steps leaving an excluded time (``own`` False) are not the robot's own choice: skipped."""
-        S = self.features.shape[0]
-        H = len(x)
-        seen = x >= 0
-        pairs = np.flatnonzero(seen[:-1] & seen[1:] & own[:-1])
-        self._pair = (x[pairs], x[pairs + 1])
-        self._Tab = self._dyn.transition_values(x[pairs], x[pairs + 1])
-        starts, steps, ends = [], [], []
-        t = int(np.flatnonzero(seen)[0])  # condition on the first observation
-        while t < H:
-            if seen[t]:
-                t += 1
-                continue
-            u = t
-            while t < H and not seen[t]:
-                t += 1
-            # occluded run u .. t-1, entered from the observed x[u-1]
-            e = np.zeros(S)
-            e[x[u - 1]] = 1.0
-            starts.append(e)
-            steps.append(t - u + 1)
-            ends.append(x[t] if t < H else -1)
-            if t >= H:  # trailing gap: the last prediction is still occluded, no end state
-                steps[-1] -= 1
-        self._gap_U0 = np.array(starts).T if starts else np.zeros((S, 0))
-        self._gap_steps = np.array(steps, dtype=int)
-        self._gap_ends = np.array(ends, dtype=int)
-        # per step n: (gaps re-entering view, their states, gaps still unseen at the end)
-        self._gap_events = {}
-        for n in np.unique(self._gap_steps):
-            g = np.flatnonzero(self._gap_steps == n)
-            e = self._gap_ends[g]
-            self._gap_events[int(n)] = (g[e >= 0], e[e >= 0], g[e < 0])
-        self._gap_max = int(self._gap_steps.max(initial=0))
-        self._n_steps = max(H - 1, 1)
+        self._sequence = ObservedSequence(x, own, self._dyn, self.features.shape[0])
+        self._n_steps = max(len(x) - 1, 1)
 
     def _sequence_loglik(self, pi, B, dpi=None):
-        """log P(observed series | first observation, π, T), occlusion included; with ``dpi``
-        (S, A, K) = dπ/dθ also its gradient. ``B`` is :meth:`_forward_operator`'s matrix."""
-        K = 0 if dpi is None else dpi.shape[2]
-        a, b = self._pair
-        p_ab = np.maximum((pi[a] * self._Tab).sum(axis=1), 1e-300)
-        total = float(np.log(p_ab).sum())
-        grad = np.zeros(K)
-        if K:
-            grad += ((dpi[a] * self._Tab[:, :, None]).sum(axis=1) / p_ab[:, None]).sum(axis=0)
-        G = self._gap_U0.shape[1]
-        if G == 0:
-            return total, grad
-        S = self._gap_U0.shape[0]
-        hidden = np.tile(~self._vis, K + 1).astype(float)[:, None]
-        # rows [k·S, (k+1)·S) of Z: the gaps' state distributions (k = 0, one column per gap)
-        # and their derivatives wrt θ_k; columns are rescaled as a whole, so ratios stay exact
-        Z = np.zeros(((K + 1) * S, G))
-        Z[:S] = self._gap_U0
-        log_scale = np.zeros(G)
-        alive = np.ones(G)
-        for n in range(1, self._gap_max + 1):
-            Z = B @ Z
-            event = self._gap_events.get(n)
-            if event is None:
-                Z *= hidden
-            else:
-                hit, ends, tail = event
-                if hit.size:  # re-entry into view at the observed state
-                    v = np.maximum(Z[ends, hit], 1e-300)
-                    total += float((np.log(v) + log_scale[hit]).sum())
-                    if K:
-                        grad += (Z.reshape(K + 1, S, G)[1:, ends, hit] / v).sum(axis=1)
-                Z *= hidden
-                if tail.size:  # still unseen at the end of the record
-                    m = np.maximum(Z[:S, tail].sum(axis=0), 1e-300)
-                    total += float((np.log(m) + log_scale[tail]).sum())
-                    if K:
-                        grad += (Z.reshape(K + 1, S, G)[1:, :, tail].sum(axis=1) / m).sum(axis=1)
-                alive[hit] = 0.0
-                alive[tail] = 0.0
-            if n % 8 == 0:  # rescale against underflow
-                mass = Z[:S].sum(axis=0)
-                mass = np.where(mass > 0, mass, 1.0)
-                Z /= mass
-                log_scale += alive * np.log(mass)
-        return total, grad
+        return self._sequence.loglik(pi, B, self._vis, dpi)
 
     # -- objective --
     def _soft(self, theta: np.ndarray):

@@ -78,10 +78,8 @@ class _Clock:
     @contextmanager
     def __call__(self, phase: str) -> Iterator[None]:
         start = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.timings[phase] = self.timings.get(phase, 0.0) + time.perf_counter() - start
+        yield  # a phase that raises ends learning: its time is not needed
+        self.timings[phase] = self.timings.get(phase, 0.0) + time.perf_counter() - start
 
 
 @dataclass
@@ -211,7 +209,7 @@ def learn(
         policies = trace.policies
     else:
         with clock("policies"):
-            policies = [_greedy(setup, transitions[i], weights[i]) for i in range(n)]
+            policies = _policies(setup, transitions, weights, trace)
     if eq is None:
         with clock("equilibria"):
             trace.equilibria = _weigh(setup, policies, transitions, trace)
@@ -283,7 +281,7 @@ def relabel_loop(
 
     The loop ends when a relabelling changes nothing (converged), when it reproduces the labels
     of an earlier round (a cycle: the labels will never fixate), or after ``max_iterations``."""
-    clock, n = setup.clock, len(setup.series)
+    clock = setup.clock
     with clock("labels"):
         labels = _perception(setup)
     weights: list[np.ndarray] | None = None  # previous round's, for warm starts
@@ -293,7 +291,7 @@ def relabel_loop(
         transitions, probs = _learn_transitions(setup, labels)
         weights = _irl_round(setup, transitions, labels, weights, round_, trace)
         with clock("policies"):
-            policies = [_greedy(setup, transitions[i], weights[i]) for i in range(n)]
+            policies = _policies(setup, transitions, weights, trace)
         trace.policies = policies
         with clock("equilibria"):
             eq = _equilibrium_for_labels(setup, policies, transitions)
@@ -364,8 +362,7 @@ def _learn_transitions(setup: _Setup, labels: list[np.ndarray]):
 def _fixed_transitions(setup: _Setup, p: float):
     with setup.clock("transitions"):
         T = transition_matrix_from_success(setup.domain, p, setup.scenario.error_model)
-    n = len(setup.series)
-    return [T] * n, [{} for _ in range(n)]
+    return [T] * len(setup.series), [{} for _ in setup.series]
 
 
 def _em_transitions(setup: _Setup):
@@ -413,9 +410,16 @@ def _irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.n
     return [fill.copy() if w is None else w for w in weights]
 
 
-def _greedy(setup: _Setup, T: sp.csr_array, weights: np.ndarray) -> np.ndarray:
-    mdp = TabularMDP(T, setup.domain.rewards(weights), setup.scenario.discount)
-    return value_iteration(mdp).policy
+def _policies(setup: _Setup, transitions, weights, trace: LoopTrace) -> list[np.ndarray]:
+    """Greedy policies of hard value iteration with each robot's weights and T: the IRL's own
+    where it fits (its last step is this very value iteration), else solved here."""
+    irl = trace.irl + [None] * (len(weights) - len(trace.irl))  # none before the first IRL
+    return [
+        e.policy_
+        if e is not None and e.weights_ is w and e.transitions_source is T
+        else value_iteration(TabularMDP(T, setup.domain.rewards(w), setup.scenario.discount)).policy
+        for e, T, w in zip(irl, transitions, weights, strict=True)
+    ]
 
 
 def _weigh(setup: _Setup, policies, transitions, trace: LoopTrace) -> EquilibriumWeights:

@@ -10,7 +10,7 @@ import scipy.sparse.linalg as spla
 
 __all__ = ["soft_policy_iteration"]
 
-_DENSE_LIMIT = 600  # states up to which linear solves are dense
+_DENSE_LIMIT = 200  # states up to which linear solves are dense (sparse LU: 2.4x faster at 428)
 
 
 # ---- soft values -------------------------------------------------------------------------------

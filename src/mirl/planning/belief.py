@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from mirl.learning.models import LearnResult
-from mirl.mdp import policy_matrix
+from mirl.mdp import csr_matmul, policy_matrix
 from mirl.planning.observer import ObserverModel
 from mirl.planning.team_filter import ExactTeam, FactoredTeam, TeamParts, factored_detection
 from mirl.world.domain import N_HEADINGS, STOP, TURN_LEFT, PatrolDomain
@@ -111,6 +111,7 @@ class BeliefFilter:
         self.t = -1
         self.belief: np.ndarray | None = None  # pair: (S·S,), team: (S,)*N, factored: (N, S)
         self.fallbacks = 0  # steps whose evidence had probability ~0 under the learned model
+        self._static: dict[int, tuple] = {}  # per L model: predict()'s fixed matrices
 
     # evidence of one robot: likelihood of each state given what L saw
     def _evidence(self, observed: int) -> np.ndarray:
@@ -133,12 +134,12 @@ class BeliefFilter:
             S = self.n_states
             B = belief.reshape(S, S)
             met = B * self._meet
-            out = self._step_T[0] @ (B - met)  # P_Iᵀ X
-            out = (self._step_T[1] @ out.T).T  # … P_J
+            out = csr_matmul(self._step_T[0], B - met)  # P_Iᵀ X
+            out = csr_matmul(self._step_T[1], out.T).T  # … P_J
             if met.any():
-                out += (self._mixed_T[1] @ (self._mixed_T[0] @ met).T).T
+                out += csr_matmul(self._mixed_T[1], csr_matmul(self._mixed_T[0], met).T).T
             return out.ravel()
-        return np.stack([F @ b for F, b in zip(self._step_T, belief, strict=True)])
+        return np.stack([csr_matmul(F, b) for F, b in zip(self._step_T, belief, strict=True)])
 
     def marginals(self, belief: np.ndarray | None = None) -> np.ndarray:
         """(N, S) per-robot marginals of ``belief`` (default: the current one)."""
@@ -211,6 +212,17 @@ class BeliefFilter:
                 post, z = np.ones_like(prior), float(len(prior))
         return post / z
 
+    def _detection_parts(self, model: ObserverModel):
+        """Dense D (S, C), G = 1 − D and per robot P G (P(not seeing c one step later | s)):
+        fixed for a filter and L's model, so computed once, not at every re-plan."""
+        cached = self._static.get(id(model))
+        if cached is None or cached[0] is not model:
+            Dd = sp.csr_array(model.detection).toarray()
+            G = 1.0 - Dd  # (S, C): a robot in state s does not see cell c
+            PGs = [step_T.T @ G for step_T in self._step_T]
+            cached = self._static[id(model)] = (model, Dd, G, PGs)
+        return cached[1:]
+
     def predict(self, steps: int, model: ObserverModel) -> Prediction:
         """Occupancies, detection probabilities and hazards for t = now … now + ``steps``.
 
@@ -226,8 +238,7 @@ class BeliefFilter:
                 occ[k + 1] = self._propagate(occ[k])
             det, haz = factored_detection(occ, model.detection, self._step_T, model.cell_pairs)
             return Prediction(self.t, occ, np.clip(det, 0, 1), np.clip(haz, 0, 1), model.cell_pairs)
-        Dd = sp.csr_array(model.detection).toarray()
-        G = 1.0 - Dd  # (S, C): a robot in state s does not see cell c
+        Dd, G, PGs = self._detection_parts(model)
         if self.mode == "team":
             occ, none = self._predict_team(steps, G)
             seen = occ @ Dd  # (K+1, N, C): P(robot i sees cell c)
@@ -238,8 +249,7 @@ class BeliefFilter:
         # per robot: P(not seen on c' at k−1 and not seen on c at k) / P(not seen on c' at k−1)
         # = occ_{k−1} · (G[:, c'] ∘ (P G)[:, c]) / occ_{k−1} · G[:, c'], one (S, pairs) matrix
         surv = np.ones((steps, len(prev)))
-        for i, step_T in enumerate(self._step_T):
-            PG = step_T.T @ G  # (S, C): P(not seeing c one step later | s)
+        for i, PG in enumerate(PGs):
             joint_ok = occ[:-1, i] @ (G[:, prev] * PG[:, nxt])
             before = occ[:-1, i] @ G[:, prev]
             ok = before > 1e-12

@@ -95,7 +95,7 @@ def solve_observer_mdp(
     dom = model.domain
     S, A = dom.n_states, dom.n_actions
     rows, cols, probs, pair = model._transition_entries
-    mask = _start_cell_mask(model)
+    mask = _start_cell_mask(model)  # cached per model: re-plans do not rebuild it
     V = np.zeros((K + 1, S))
     V[K, model.goal] = goal_reward
     policy = np.empty((K, S), dtype=np.int8)
@@ -115,7 +115,19 @@ def solve_observer_mdp(
     return ObserverPlan(prediction.t0, V, policy, go_values, go_time)
 
 
+_MASKS: dict[int, tuple[ObserverModel, np.ndarray]] = {}
+
+
 def _start_cell_mask(model: ObserverModel) -> np.ndarray:
+    cached = _MASKS.get(id(model))
+    if cached is None or cached[0] is not model:
+        if len(_MASKS) > 32:
+            _MASKS.clear()
+        cached = _MASKS[id(model)] = (model, _build_start_cell_mask(model))
+    return cached[1]
+
+
+def _build_start_cell_mask(model: ObserverModel) -> np.ndarray:
     """(S, A) additive mask: in L's start cell only actions that leave it (or, facing a wall,
     turns) are allowed — waiting there is the outer choice of the go time."""
     dom = model.domain

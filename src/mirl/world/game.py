@@ -90,15 +90,21 @@ class InteractionGame:
         return _nash_equilibria(A.tobytes(), B.tobytes(), A.shape)
 
     def pure(self, row_action: str, col_action: str) -> Equilibrium:
-        """The pure profile (row_action, col_action), which must be an equilibrium."""
+        """The pure profile (row_action, col_action), which must be an equilibrium.
+
+        Checked by best responses (no player gains by deviating alone), without enumerating
+        the game's equilibria, so loading a scenario never imports nashpy."""
         for a in (row_action, col_action):
             if a not in GAME_ACTIONS:
                 raise ValueError(f"unknown game action '{a}' (known: {', '.join(GAME_ACTIONS)})")
         i, j = GAME_ACTIONS.index(row_action), GAME_ACTIONS.index(col_action)
-        for e in self.equilibria():
-            if e.is_pure and e.row[i] > 0.5 and e.col[j] > 0.5:
-                return e
-        raise ValueError(f"({row_action}, {col_action}) is not a Nash equilibrium of the game")
+        A, B = self.row_payoffs, self.col_payoffs
+        if A[i, j] < A[:, j].max() or B[i, j] < B[i, :].max():
+            raise ValueError(f"({row_action}, {col_action}) is not a Nash equilibrium of the game")
+        n = len(GAME_ACTIONS)
+        return Equilibrium(
+            tuple(float(k == i) for k in range(n)), tuple(float(k == j) for k in range(n))
+        )
 
 
 def game_action_to_action(game_action: ArrayLike, own_action: ArrayLike) -> np.ndarray:

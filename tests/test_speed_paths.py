@@ -1,0 +1,112 @@
+"""The fast paths of issue 12 compute what the plain ones do: sparse products without scipy's
+dispatch, actions-first value iteration, shared gap columns, the sparse meeting matrix, and the
+factored equilibrium weighing (exact when no meeting is possible)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from mirl.learning.equilibria import _robot_steps, joint_log_likelihood
+from mirl.learning.factored_pair import factored_log_likelihood, meeting_matrix
+from mirl.learning.sequence import ObservedSequence
+from mirl.learning.soft_policy import _Dynamics
+from mirl.mdp import TabularMDP, csr_matmul, greedy_policy, value_iteration
+from mirl.simulation.grid import simulate
+from mirl.world.game import meeting
+from mirl.world.scenario import load_scenario
+
+
+@pytest.fixture(scope="module")
+def boyd2():
+    return load_scenario("boyd2")
+
+
+def test_csr_matmul_is_bitwise_the_sparse_product():
+    rng = np.random.default_rng(0)
+    A = sp.random_array((50, 40), density=0.1, random_state=1, format="csr")
+    for X in (rng.random(40), rng.random((40, 3)), rng.random((3, 40)).T):
+        assert np.array_equal(csr_matmul(A, X), A @ X)
+
+
+def test_actions_first_value_iteration_is_bitwise_the_plain_one(boyd2):
+    T = boyd2.true_transitions(1)
+    R = boyd2.domain.rewards(boyd2.robots[1].weights)
+    mdp = TabularMDP(T, R, 0.95)
+    V = np.zeros(mdp.n_states)
+    for _ in range(10_000):  # the textbook loop over the (S, A) layout
+        Q = mdp.rewards + mdp.discount * (mdp.transitions @ V).reshape(R.shape)
+        V_new = Q.max(axis=1)
+        done = np.abs(V_new - V).max() < 1e-8
+        V = V_new
+        if done:
+            break
+    res = value_iteration(mdp)
+    assert np.array_equal(res.values, V)
+    assert np.array_equal(res.q_values, Q)
+    assert np.array_equal(res.policy, greedy_policy(Q))
+
+
+def test_shared_gap_columns_give_the_per_gap_likelihood(boyd2):
+    d = boyd2.domain
+    obs = simulate(boyd2, 300, seed=3, observability=0.14, random_starts=True).observations
+    x = obs.state_series(d, 0)
+    vis = d.visible_states(0.14) | np.isin(np.arange(d.n_states), x[x >= 0])
+    T = boyd2.true_transitions(0)
+    dyn = _Dynamics(T, d.n_actions)
+    seq = ObservedSequence(x, np.ones(len(x), bool), dyn, d.n_states)
+    assert len(seq._col_need) < seq._gap_U0.shape[1]  # columns were shared
+    pi = np.full((d.n_states, d.n_actions), 1.0 / d.n_actions)
+    PT = dyn.transposed_policy(pi)
+    ll, _ = seq.loglik(pi, PT, vis)
+    # reference: every gap on its own, dense, no rescaling
+    P = PT.toarray()
+    ref = float(np.log((pi[seq._pair[0]] * seq._Tab).sum(axis=1)).sum())
+    for g in range(seq._gap_U0.shape[1]):
+        z = seq._gap_U0[:, g].copy()
+        for _ in range(seq._gap_steps[g]):
+            z = P @ z
+            if seq._gap_ends[g] < 0 or _ + 1 < seq._gap_steps[g]:
+                z = z * ~vis
+        ref += np.log(z[seq._gap_ends[g]] if seq._gap_ends[g] >= 0 else z.sum())
+    assert ll == pytest.approx(ref, rel=1e-9)
+
+
+def test_sparse_meeting_matrix_is_the_dense_rule(boyd2):
+    d = boyd2.domain
+    pol = [boyd2.true_policy(0), boyd2.true_policy(1)]
+    S = d.n_states
+    si, sj = np.divmod(np.arange(S * S), S)
+    dense = meeting(d, si, sj, pol[0][si], pol[1][sj]).reshape(S, S)
+    assert dense.any()
+    assert np.array_equal(meeting_matrix(d, pol[0], pol[1]).toarray() > 0, dense)
+
+
+def test_factored_weighing_is_exact_without_meetings_and_close_with_them(boyd2):
+    d = boyd2.domain
+    obs = simulate(boyd2, 300, seed=1, observability=0.14, random_starts=True).observations
+    series = [obs.state_series(d, i) for i in range(2)]
+    pol = [boyd2.true_policy(0), boyd2.true_policy(1)]
+    T = [boyd2.true_transitions(0), boyd2.true_transitions(1)]
+    vis = d.visible_states(0.14).copy()
+    for s in series:
+        vis[s[s >= 0]] = True
+    eqs = boyd2.game.equilibria()
+    PT, GT = _robot_steps(d, pol, T, eqs[0], 1e-3)
+    # no meeting matrix: two independent filters, whose likelihoods multiply
+    none = factored_log_likelihood(series, PT, GT, sp.csr_array((d.n_states, d.n_states)), vis)
+    single = 0.0
+    for k, s in enumerate(series):
+        b = np.full(d.n_states, 1.0 / d.n_states)
+        for t in range(len(s)):
+            if t:
+                b = PT[k] @ b
+            b = np.where(np.arange(d.n_states) == s[t], b, 0) if s[t] >= 0 else b * ~vis
+            single += np.log(b.sum())
+            b /= b.sum()
+    assert none == pytest.approx(single, rel=1e-10)
+    exact = [joint_log_likelihood(d, series, pol, T, e, vis, max_joint_states=None) for e in eqs]
+    approx = [joint_log_likelihood(d, series, pol, T, e, vis, max_joint_states=0) for e in eqs]
+    assert int(np.argmax(exact)) == int(np.argmax(approx))
+    assert np.abs(np.subtract(exact, approx)).max() < 3.0  # measured 0.2-1.4 (docs/design.md)

@@ -1,0 +1,99 @@
+"""Start-up stays at the floor: building the parser and light sub-commands import no learner,
+no planner, no optimiser, no game solver and no plotting library (issue 12)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+HEAVY = ("scipy.optimize", "nashpy", "networkx", "matplotlib", "joblib", "dask", "scipy.ndimage")
+
+_PROBE = """
+import json, sys
+from mirl.cli import main
+try:
+    main({argv!r})
+except SystemExit:
+    pass
+print(json.dumps(sorted(m for m in sys.modules if m.split('.')[0] in
+      ('scipy', 'nashpy', 'networkx', 'matplotlib', 'joblib', 'dask', 'mirl'))))
+"""
+
+
+def _modules_after(argv: list[str]) -> set[str]:
+    out = subprocess.run(
+        [sys.executable, "-c", _PROBE.format(argv=argv)],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    return set(json.loads(out.strip().splitlines()[-1]))
+
+
+@pytest.mark.parametrize("argv", [["--version"], ["show-map", "boyd2"]])
+def test_light_commands_import_nothing_heavy(argv):
+    loaded = _modules_after(argv)
+    heavy = sorted(m for m in loaded if any(m == h or m.startswith(h + ".") for h in HEAVY))
+    assert heavy == [], heavy
+    stages = ("mirl.learning", "mirl.planning", "mirl.experiments")
+    assert not any(m.startswith(stages) for m in loaded)
+
+
+def test_loading_a_scenario_does_not_enumerate_equilibria():
+    code = (
+        "import sys; from mirl.world.scenario import load_scenario; "
+        "s = load_scenario('boyd2'); s.played_equilibrium; print('nashpy' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+def test_parser_choices_match_their_sources():
+    from mirl.cli import parser
+    from mirl.experiments import records
+    from mirl.learning import dbn_em, irl, learn
+
+    assert parser.LEARN_METHODS == learn.METHODS
+    assert parser.IRL_OBJECTIVES == irl.OBJECTIVES
+    assert parser.IRL_OPTIMIZERS == irl.OPTIMIZERS
+    assert parser.RUN_METHODS == records.METHODS
+    assert parser.RUN_MAX_WAIT == records.MAX_WAIT
+    assert parser.RUN_WATCH_UNTIL_SEEN == records.WATCH_UNTIL_SEEN
+    assert parser.RUN_WATCH_LIMIT == records.WATCH_LIMIT
+    assert parser.EM_INITS == dbn_em.EM_INITS
+
+
+def test_pure_equilibrium_by_best_response_is_the_enumerated_one():
+    from mirl.world.game import GAME_ACTIONS, InteractionGame
+
+    game = InteractionGame()
+    enumerated = [e for e in game.equilibria() if e.is_pure]
+    found = []
+    for a in GAME_ACTIONS:
+        for b in GAME_ACTIONS:
+            try:
+                found.append(game.pure(a, b))
+            except ValueError:
+                pass
+    assert sorted(found, key=lambda e: (e.row, e.col)) == sorted(
+        enumerated, key=lambda e: (e.row, e.col)
+    )
+    assert len(found) >= 2
+
+
+def test_cli_limits_blas_threads_before_numpy_loads():
+    code = (
+        "import os, sys\n"
+        "for v in ('OPENBLAS_NUM_THREADS', 'OMP_NUM_THREADS', 'MKL_NUM_THREADS', "
+        "'BLIS_NUM_THREADS'): os.environ.pop(v, None)\n"
+        "from mirl.cli import main\n"
+        "try:\n    main(['--version'])\nexcept SystemExit:\n    pass\n"
+        "import numpy, scipy.linalg\n"
+        "from threadpoolctl import threadpool_info\n"
+        "print(max(i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas'))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "1"
