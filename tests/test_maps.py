@@ -18,7 +18,8 @@ from mirl.world.maps import GridMap, MapError, parse_map
 from mirl.world.office_maps import generate_office_map, office_map_from_name
 from mirl.world.ros_maps import load_ros_map
 
-SHARED_MAPS = Path("/work/shared/maps")
+# the reference maps in ../shared beside the checkout (where CI and the developers have them)
+SHARED_MAPS = Path(__file__).resolve().parents[2] / "shared" / "maps"
 
 
 def cells(*rc):
