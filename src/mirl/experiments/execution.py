@@ -18,7 +18,7 @@ from mirl.planning.observer import ObserverModel
 from mirl.simulation.grid import PatrolSimulator
 from mirl.world.scenario import Scenario
 
-__all__ = ["RunWorld", "wait_for_go", "execute"]
+__all__ = ["RunWorld", "wait_for_go", "execute", "PlanFollower", "propagate_blind"]
 
 
 class RunWorld:
@@ -111,26 +111,15 @@ def execute(
     the detections and the plan finally followed. More than ``max_steps`` steps: timeout."""
     dom = model.domain
     s = model.start_state
-    k = 0 if plan is None else world.t - plan.t0
+    follower = PlanFollower(policy, plan, replan, world.t)
     path = [(world.t, *map(int, dom.states[s]))]
-    if belief is not None:  # L stopped watching when it left: propagate the belief blind
-        while belief.t < world.t:
-            belief.update(np.full(belief.n_robots, NOT_WATCHING))
+    propagate_blind(belief, world.t)  # L stopped watching when it left its room
     for _ in range(max_steps):
-        if plan is not None and k >= plan.horizon:  # outlived the plan: re-plan from here
-            assert replan is not None
-            plan = replan()
-            k = 0
-
-            def policy(kk: int, ss: int, _p=plan) -> int:
-                return int(_p.policy[kk, ss])
-
-        a = policy(k, s)
+        a = follower.action(s)
         nxt = s if rng.random() < model.failure else int(dom.intended[s, a])
         truth = world.step()
-        if belief is not None:
-            belief.update(np.full(belief.n_robots, NOT_WATCHING))
-        s, k = nxt, k + 1
+        propagate_blind(belief, world.t)
+        s = nxt
         path.append((world.t, *map(int, dom.states[s])))
         seen = model.seen_by(truth, s)
         if seen.any():
@@ -146,7 +135,39 @@ def execute(
                 for i in np.flatnonzero(seen)
                 for r, c, h in [patrol_states[truth[i]]]
             ]
-            return "detected", path, dets, plan
+            return "detected", path, dets, follower.plan
         if model.goal[s]:
-            return "success", path, [], plan
-    return "timeout", path, [], plan
+            return "success", path, [], follower.plan
+    return "timeout", path, [], follower.plan
+
+
+class PlanFollower:
+    """L's step policy along its time-indexed plan; when L outlives the plan it re-plans from
+    where it stands (``replan``) and follows the new one. Shared by the grid and physical worlds."""
+
+    def __init__(
+        self,
+        policy: Callable[[int, int], int],
+        plan: ObserverPlan | None,
+        replan: Callable[[], ObserverPlan] | None,
+        t: int,
+    ) -> None:
+        self.policy, self.plan, self.replan = policy, plan, replan
+        self.k = 0 if plan is None else t - plan.t0  # steps into the plan
+
+    def action(self, state: int) -> int:
+        if self.plan is not None and self.k >= self.plan.horizon:  # outlived it: re-plan
+            assert self.replan is not None
+            new_plan = self.replan()
+            self.plan, self.k = new_plan, 0
+            self.policy = lambda kk, ss: int(new_plan.policy[kk, ss])
+        a = self.policy(self.k, state)
+        self.k += 1
+        return a
+
+
+def propagate_blind(belief: BeliefFilter | None, t: int) -> None:
+    """Advance the belief to step ``t`` without evidence (L no longer watches)."""
+    if belief is not None:
+        while belief.t < t:
+            belief.update(np.full(belief.n_robots, NOT_WATCHING))

@@ -16,10 +16,11 @@ from collections.abc import Callable
 
 import numpy as np
 
+from mirl.experiments.execution import PlanFollower, propagate_blind
 from mirl.experiments.records import Detection
 from mirl.observations.trajectories import Trajectories
 from mirl.physics.patrol import PhysicalWorld
-from mirl.planning.belief import NOT_WATCHING, BeliefFilter
+from mirl.planning.belief import BeliefFilter
 from mirl.planning.go import ObserverPlan
 from mirl.planning.observer import ObserverModel
 from mirl.world.scenario import Scenario
@@ -79,27 +80,15 @@ def execute_physical(
     phys = world.physics
     dom = model.domain
     s = model.start_state
-    k = 0 if plan is None else world.t - plan.t0
+    follower = PlanFollower(policy, plan, replan, world.t)
     path = [(world.t, *map(int, dom.states[s]))]
-    if belief is not None:
-        while belief.t < world.t:
-            belief.update(np.full(belief.n_robots, NOT_WATCHING))
+    propagate_blind(belief, world.t)
     goal = {tuple(map(int, dom.states[g][:2])) for g in np.flatnonzero(model.goal)}
     for _ in range(max_steps):
-        if plan is not None and k >= plan.horizon:
-            assert replan is not None
-            plan = replan()
-            k = 0
-
-            def policy(kk: int, ss: int, _p=plan) -> int:
-                return int(_p.policy[kk, ss])
-
-        a = policy(k, s)
+        a = follower.action(s)
         n_seen = len(phys.sightings)
         world.step(observer_action=a)
-        if belief is not None:
-            belief.update(np.full(belief.n_robots, NOT_WATCHING))
-        k += 1
+        propagate_blind(belief, world.t)
         r, c, h = phys.observer_cell_heading(estimated=True)
         est = int(dom.state_index(r, c, h))
         s = est if est >= 0 else int(dom.intended[s, a])  # off L's map: where it meant to be
@@ -110,8 +99,8 @@ def execute_physical(
             lr, lc, _ = phys.observer_cell_heading(estimated=False)
             rr, rc, rh = map(int, world.domain.states[truth[sg.robot]])
             dets = [Detection(world.t, names[sg.robot], (rr, rc, rh), (int(lr), int(lc)))]
-            return "detected", path, dets, plan
+            return "detected", path, dets, follower.plan
         true_cell = phys.observer_cell_heading(estimated=False)[:2]
         if tuple(map(int, true_cell)) in goal:
-            return "success", path, [], plan
-    return "timeout", path, [], plan
+            return "success", path, [], follower.plan
+    return "timeout", path, [], follower.plan
