@@ -110,3 +110,45 @@ def test_factored_weighing_is_exact_without_meetings_and_close_with_them(boyd2):
     approx = [joint_log_likelihood(d, series, pol, T, e, vis, max_joint_states=0) for e in eqs]
     assert int(np.argmax(exact)) == int(np.argmax(approx))
     assert np.abs(np.subtract(exact, approx)).max() < 3.0  # measured 0.2-1.4 (docs/design.md)
+
+
+def test_meeting_part_of_the_joint_step_is_bitwise_the_dense_product(boyd2):
+    from mirl.learning.equilibria import _joint_model
+
+    d = boyd2.domain
+    pol = [boyd2.true_policy(0), boyd2.true_policy(1)]
+    T = [boyd2.true_transitions(0), boyd2.true_transitions(1)]
+    for eq in boyd2.game.equilibria():
+        jm = _joint_model(d, pol, T, eq, 1e-3)
+        M = np.random.default_rng(0).random((d.n_states, d.n_states))
+        at = np.where(jm.meet, M, 0.0)
+        dense = csr_matmul(jm.PT[0], csr_matmul(jm.PT[1], (M - at).T).T) + csr_matmul(
+            jm.GT[0], csr_matmul(jm.GT[1], at.T).T
+        )
+        assert jm.meet.any()
+        assert np.array_equal(jm.step(M), dense)
+
+
+def test_forward_operator_pattern_reuse_and_direct_lapack_solve_are_bitwise(boyd2):
+    import scipy.linalg as sla
+
+    from mirl.learning.irl import OccludedMaxEntIRL, _block_operator
+    from mirl.learning.soft_policy import _dense_solve
+
+    d = boyd2.domain
+    T = boyd2.true_transitions(1)
+    irl = OccludedMaxEntIRL(d.reward_features, T)
+    dyn = _Dynamics(T, d.n_actions)
+    rng = np.random.default_rng(1)
+    for _ in range(2):  # the second call reuses the pattern built by the first
+        pi = rng.dirichlet(np.ones(d.n_actions), size=d.n_states)
+        dpi = rng.normal(size=(d.n_states, d.n_actions, 3))
+        PT, dPT = dyn.transposed_policy(pi), dyn.transposed_policy(dpi)
+        got, ref = irl._forward_operator(PT, dPT), _block_operator(PT, dPT)
+        assert np.array_equal(got.indptr, ref.indptr)
+        assert np.array_equal(got.indices, ref.indices)
+        assert np.array_equal(got.data, ref.data)
+        M = np.eye(d.n_states) - 0.95 * dyn.policy_matrix(pi)
+        b = rng.normal(size=(d.n_states, 3))
+        assert np.array_equal(_dense_solve(M, b), sla.solve(M, b, check_finite=False))
+        assert np.array_equal(_dense_solve(M, b[:, 0]), sla.solve(M, b[:, 0], check_finite=False))

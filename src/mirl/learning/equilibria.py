@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse import _sparsetools
 
 from mirl.learning.factored_pair import factored_log_likelihood, meeting_matrix
 from mirl.learning.soft_policy import _Dynamics
@@ -77,26 +78,58 @@ def _game_actions(equilibrium_side: Sequence[float], own: np.ndarray, n_actions:
     return out
 
 
-@dataclass(frozen=True)
 class _JointModel:
     """Per robot: ε-greedy P_πᵀ and the equilibrium's game-move matrix Gᵀ (both (S, S) CSR);
     ``meet`` (S, S) bool marks the joint states where the robots' intended moves meet."""
 
-    PT: tuple[sp.csr_array, sp.csr_array]
-    GT: tuple[sp.csr_array, sp.csr_array]
-    meet: np.ndarray
+    def __init__(self, PT, GT, meet: np.ndarray) -> None:
+        self.PT, self.GT, self.meet = PT, GT, meet
+        self._at = meet.astype(float)  # masks as factors: M·1 = M, M·0 = +0 (as np.where)
+        self._off = (~meet).astype(float)
+        self._meeting = _MeetingPart(GT[0], GT[1], meet)
 
     def step(self, M: np.ndarray) -> np.ndarray:
         """Joint distribution one step on: Pᵢᵀ (M off meetings) Pⱼ + Gᵢᵀ (M at meetings) Gⱼ.
 
         A robot's game move depends only on its own state (its policy action, stop or turn), so
         the meeting part factorises like the rest."""
-        at = np.where(self.meet, M, 0.0)
-        off = M - at
-        P, G = self.PT, self.GT
-        return csr_matmul(P[0], csr_matmul(P[1], off.T).T) + csr_matmul(
-            G[0], csr_matmul(G[1], at.T).T
-        )
+        P = self.PT
+        out = csr_matmul(P[0], csr_matmul(P[1], (M * self._off).T).T)
+        self._meeting.add_to(out, M)
+        return out
+
+
+class _MeetingPart:
+    """Gᵢᵀ (M at meetings) Gⱼ added into a dense (S, S) array, by two sparse-sparse products.
+
+    M at meetings is sparse (hundreds of the S² joint states), but a dense product pays for all
+    S². scipy's ``@`` on sparse operands costs more in dispatch than the products themselves,
+    so its kernels (Gustavson's, in scipy.sparse._sparsetools) are called directly on fixed
+    buffers. Each sum gets the terms of the dense product in the same order, less its exact
+    zeros, so the result is bitwise the dense one (tests/test_speed_paths.py)."""
+
+    def __init__(self, GT_i: sp.csr_array, GT_j: sp.csr_array, meet: np.ndarray) -> None:
+        S = meet.shape[0]
+        idx = GT_i.indptr.dtype
+        self._S = S
+        self._mi, self._mj = (a.astype(np.intp) for a in np.nonzero(meet))  # row-major
+        self._at = (np.searchsorted(self._mi, np.arange(S + 1)).astype(idx), self._mj.astype(idx))
+        gj = sp.csr_array(GT_j.T)  # Gⱼ (= (Gⱼᵀ)ᵀ) as CSR
+        gj.sort_indices()
+        self._gi = (GT_i.indptr.astype(idx), GT_i.indices.astype(idx), GT_i.data)
+        self._gj = (gj.indptr.astype(idx), gj.indices.astype(idx), gj.data)
+        n1 = _sparsetools.csr_matmat_maxnnz(S, S, *self._at, *self._gj[:2])
+        self._y = (np.zeros(S + 1, idx), np.zeros(n1, idx), np.zeros(n1))
+        self._c = (np.zeros(S + 1, idx), np.zeros(S * S, idx), np.zeros(S * S))
+
+    def add_to(self, out: np.ndarray, M: np.ndarray) -> None:
+        S, kernel = self._S, _sparsetools.csr_matmat
+        if len(self._mi) == 0:
+            return
+        values = M[self._mi, self._mj]
+        kernel(S, S, *self._at, values, *self._gj, *self._y)  # Y = (M at meetings) Gⱼ
+        kernel(S, S, *self._gi, *self._y, *self._c)  # Gᵢᵀ Y
+        _sparsetools.csr_todense(S, S, *self._c, out)  # out += Gᵢᵀ Y (adds, as its name hides)
 
 
 def _robot_steps(domain, pol, transitions, equilibrium, epsilon):

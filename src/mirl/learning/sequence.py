@@ -76,6 +76,12 @@ class ObservedSequence:
         self._gap_max = int(self._gap_steps.max(initial=0))
         # columns still needed at step n (a leading block), never fewer than _min_cols
         self._live = [max(int((need >= n).sum()), self._min_cols) for n in range(self._gap_max + 1)]
+        # quiet steps only multiply (no event, no fewer columns, no rescaling, not the first):
+        # _quiet_end[n] is the first step from n on that is not quiet
+        self._quiet_end = list(range(self._gap_max + 2))
+        for n in range(self._gap_max - 1, 1, -1):
+            if n not in self._gap_events and self._live[n] == self._live[n - 1] and n % 8:
+                self._quiet_end[n] = self._quiet_end[n + 1]
 
     def loglik(self, pi, B, visible, dpi=None):
         """log P(observed series | first observation, π, T), occlusion included; with ``dpi``
@@ -97,10 +103,15 @@ class ObservedSequence:
             return total, grad
         S = self._gap_U0.shape[0]
         hidden = np.tile(~visible, K + 1).astype(float)[:, None]
+        hidden_s = hidden[:S]
+        masked = _without_columns(B, hidden[:, 0] == 0.0)
         col, need = self._gap_col, self._col_need
         n_cols = max(len(need), self._min_cols)
         # rows [k·S, (k+1)·S) of Z: the columns' state distributions (k = 0) and their
-        # derivatives wrt θ_k; columns are rescaled as a whole, so ratios stay exact
+        # derivatives wrt θ_k; columns are rescaled as a whole, so ratios stay exact. After the
+        # first step (from the observed exit state) Z holds B · (masked Z of the step before):
+        # the mask to the occluded states is folded into B's columns, so Z is masked only where
+        # it is read (tails, rescaling).
         Z = np.zeros(((K + 1) * S, n_cols))
         Z[self._col_start, np.arange(len(need))] = 1.0
         if n_cols > len(need):  # a copy of column 0, only so that sums reduce as before
@@ -109,18 +120,32 @@ class ObservedSequence:
         alive = np.ones(G)
         R, kernel = Z.shape[0], _sparsetools.csr_matvecs
         out = np.empty_like(Z)  # two buffers in turn: the step writes one from the other
-        for n in range(1, self._gap_max + 1):
+        z_flat, out_flat = Z.ravel(), out.ravel()
+        ip, ix, dt = masked
+        n = 1
+        while n <= self._gap_max:
+            quiet_end = self._quiet_end[n]
+            if quiet_end > n:  # a run of steps that only multiply, in a tight loop
+                live = Z.shape[1]
+                for _ in range(quiet_end - n):
+                    out_flat.fill(0.0)
+                    kernel(R, R, live, ip, ix, dt, z_flat, out_flat)
+                    z_flat, out_flat = out_flat, z_flat
+                if (quiet_end - n) % 2:
+                    Z, out = out, Z
+                n = quiet_end
+                continue
             live = self._live[n]
             if live < Z.shape[1]:
                 Z = np.ascontiguousarray(Z[:, :live])
                 out = np.empty_like(Z)
+                z_flat, out_flat = Z.ravel(), out.ravel()
             out.fill(0.0)  # Z ← B Z by the kernel behind `B @ Z` (mirl.mdp.csr_matmul)
-            kernel(R, R, live, B.indptr, B.indices, B.data, Z.ravel(), out.ravel())
-            Z, out = out, Z
+            indptr, indices, data = masked if n > 1 else (B.indptr, B.indices, B.data)
+            kernel(R, R, live, indptr, indices, data, z_flat, out_flat)
+            Z, out, z_flat, out_flat = out, Z, out_flat, z_flat
             event = self._gap_events.get(n)
-            if event is None:
-                Z *= hidden
-            else:
+            if event is not None:
                 hit, ends, tail = event
                 if hit.size:  # re-entry into view at the observed state
                     v = np.maximum(Z[ends, col[hit]], 1e-300)
@@ -128,19 +153,28 @@ class ObservedSequence:
                     if K:
                         Zk = Z.reshape(K + 1, S, Z.shape[1])
                         grad += (Zk[1:, ends, col[hit]] / v).sum(axis=1)
-                Z *= hidden
                 if tail.size:  # still unseen at the end of the record
-                    m = np.maximum(Z[:S, col[tail]].sum(axis=0), 1e-300)
+                    Zt = Z[:, col[tail]] * hidden
+                    m = np.maximum(Zt[:S].sum(axis=0), 1e-300)
                     total += float((np.log(m) + log_scale[tail]).sum())
                     if K:
-                        Zk = Z.reshape(K + 1, S, Z.shape[1])
-                        grad += (Zk[1:, :, col[tail]].sum(axis=1) / m).sum(axis=1)
+                        grad += (Zt.reshape(K + 1, S, len(tail))[1:].sum(axis=1) / m).sum(axis=1)
                 alive[hit] = 0.0
                 alive[tail] = 0.0
             if n % 8 == 0:  # rescale against underflow
-                mass = Z[:S].sum(axis=0)
+                mass = (Z[:S] * hidden_s).sum(axis=0)
                 mass = np.where(mass > 0, mass, 1.0)
                 Z /= mass
                 on = alive > 0
                 log_scale[on] += np.log(mass[col[on]])
+            n += 1
         return total, grad
+
+
+def _without_columns(B, drop: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """CSR arrays of B with the columns ``drop`` removed: B·diag(1 − drop) without its zeros.
+    A product with it adds the same terms in the same order as B times the masked vector, less
+    exact zeros, so the sums are bitwise those of masking first."""
+    keep = ~drop[B.indices]
+    indptr = np.concatenate(([0], np.cumsum(keep)))[B.indptr]
+    return indptr.astype(B.indptr.dtype), B.indices[keep], B.data[keep]

@@ -4,12 +4,13 @@ Bellman equation) over T held as dense (S, A, S) for small models and sparse oth
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
+import scipy.linalg.lapack as lapack
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 __all__ = ["soft_policy_iteration"]
 
+_gesv = lapack.get_lapack_funcs("gesv", dtype=np.float64)
 _DENSE_LIMIT = 200  # states up to which linear solves are dense (sparse LU: 2.4x faster at 428)
 
 
@@ -59,8 +60,9 @@ class _Dynamics:
 
     def next_values(self, V: np.ndarray) -> np.ndarray:
         """E[V(s') | s, a] as (S, A) (or (S, A, K) for V of shape (S, K))."""
-        if self.dense is not None:
-            return np.tensordot(self.dense, V, axes=(2, 0))
+        if self.dense is not None:  # np.tensordot's own product, without its set-up costs
+            flat = self.dense.reshape(self.S * self.A, self.S)
+            return np.dot(flat, V.reshape(self.S, -1)).reshape(self.S, self.A, *V.shape[1:])
         return (self.T @ V).reshape(self.S, self.A, *V.shape[1:])
 
     def policy_matrix(self, pi: np.ndarray):
@@ -72,9 +74,19 @@ class _Dynamics:
     def solve(self, P, discount: float, b: np.ndarray) -> np.ndarray:
         """Solve (I − γ P) x = b for one or several right-hand sides."""
         if self.dense is not None:
-            return sla.solve(np.eye(self.S) - discount * P, b, check_finite=False)
+            return _dense_solve(np.eye(self.S) - discount * P, np.asarray(b, dtype=float))
         A = sp.csc_array(sp.eye_array(self.S) - discount * P)
         return spla.splu(A).solve(np.asarray(b, dtype=float))
+
+
+def _dense_solve(M: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``scipy.linalg.solve(M, b)`` by LAPACK's gesv directly: the same LU and solve (bitwise the
+    same result), without solve's condition estimate and checks, which cost as much as the solve
+    itself at these sizes (0.21 vs 0.10 ms for 124 states)."""
+    x, info = _gesv(M, b)[2:]
+    if info != 0:
+        raise np.linalg.LinAlgError(f"singular matrix (gesv info {info})")
+    return x
 
 
 def _policy_matrix(T: sp.csr_array, rows: np.ndarray, pi: np.ndarray, n_states: int):
