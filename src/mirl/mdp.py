@@ -253,8 +253,8 @@ def backward_induction(
     for t in range(horizon - 1, -1, -1):
         np.max(q_step(t, Q), axis=0, out=V[t])
         _first_max(Q, V[t], policy[t], neq, acc)
-    for t in np.flatnonzero(np.isnan(V[:horizon]).any(axis=1)):  # argmax takes the first NaN
-        policy[t] = q_step(t, Q).argmax(axis=0)
+    for t_nan in np.flatnonzero(np.isnan(V[:horizon]).any(axis=1)):  # argmax: the first NaN
+        policy[t_nan] = q_step(int(t_nan), Q).argmax(axis=0)
     V.flags.writeable = False  # q_values are recomputed from V
 
     def q_all() -> np.ndarray:
