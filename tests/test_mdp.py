@@ -398,6 +398,74 @@ def test_backward_induction_hand_made():
     np.testing.assert_array_equal(res.policy, [[0, 0], [1, 0]])
 
 
+def reference_bi_skipping_zeros(T3, R, H, terminal, gamma):
+    """Plain loops, summing T(s, a, s') V(s') over the s' with T > 0 only (as a sparse product
+    does, so a NaN stays where it was put), actions chosen by numpy's argmax (first maximiser,
+    or first NaN)."""
+    S, A = T3.shape[:2]
+    V, Q = np.zeros((H + 1, S)), np.zeros((H, S, A))
+    V[H] = terminal
+    for t in range(H - 1, -1, -1):
+        for s, a in itertools.product(range(S), range(A)):
+            nxt = np.flatnonzero(T3[s, a])
+            ev = sum((T3[s, a, s2] * V[t + 1, s2] for s2 in nxt), 0.0)
+            Q[t, s, a] = (R[t, s, a] if R.ndim == 3 else R[s, a]) + gamma * ev
+        V[t] = Q[t].max(axis=1)
+    return V, Q, Q.argmax(axis=2)
+
+
+@FAST
+@given(st.integers(0, 2**32 - 1), st.integers(1, 9), st.sampled_from([1.0, 0.5, 0.0]))
+def test_backward_induction_equals_reference_bit_for_bit_with_exact_ties(seed, A, gamma):
+    # Probabilities in quarters, integer rewards, γ a power of two: every sum is exact, so the
+    # reference and the sweeps agree bit for bit and ties among up to 9 actions are exact ties.
+    rng = np.random.default_rng(seed)
+    S, H = 5, 4
+    T3 = rng.multinomial(4, np.ones(S) / S, size=(S, A)) / 4.0
+    R = rng.integers(-1, 2, size=(H, S, A) if rng.random() < 0.5 else (S, A)).astype(float)
+    terminal = rng.integers(-1, 2, size=S).astype(float)
+    res = backward_induction(sp.csr_array(T3.reshape(S * A, S)), R, H,
+                             terminal_values=terminal, discount=gamma)  # fmt: skip
+    V_ref, Q_ref, pol_ref = reference_bi_skipping_zeros(T3, R, H, terminal, gamma)
+    np.testing.assert_array_equal(res.values, V_ref)
+    np.testing.assert_array_equal(res.policy, pol_ref)
+    np.testing.assert_array_equal(res.q_values, Q_ref)
+    assert res.q_values is res.q_values  # computed once
+
+
+def test_backward_induction_nan_rewards_pick_the_first_nan_as_argmax_does():
+    rng = np.random.default_rng(3)
+    S, A, H = 4, 3, 3
+    T3 = rng.multinomial(4, np.ones(S) / S, size=(S, A)) / 4.0
+    R = rng.integers(-1, 2, size=(S, A)).astype(float)
+    R[1, 2] = R[2, 1] = np.nan
+    res = backward_induction(sp.csr_array(T3.reshape(S * A, S)), R, H, discount=0.5)
+    V_ref, Q_ref, pol_ref = reference_bi_skipping_zeros(T3, R, H, np.zeros(S), 0.5)
+    assert np.isnan(res.values[0]).any()
+    np.testing.assert_array_equal(res.values, V_ref)
+    np.testing.assert_array_equal(res.policy, pol_ref)
+
+
+def test_backward_induction_values_are_read_only_and_policy_compact():
+    res = backward_induction(sp.csr_array(np.eye(2)), np.zeros((2, 1)), 2)
+    with pytest.raises(ValueError, match="read-only"):
+        res.values[0, 0] = 1.0  # the lazily computed q_values derive from them
+    assert res.policy.dtype == np.uint8
+    assert backward_induction(sp.csr_array(np.eye(2)), np.zeros((2, 1)), 0).q_values.shape == (
+        0, 2, 1,
+    )  # fmt: skip
+
+
+def test_value_iteration_leaves_initial_values_untouched():
+    rng = np.random.default_rng(0)
+    m = Tiny(make_transitions(rng, 4, 2), rng.uniform(-1, 1, (4, 2)), 0.9, rng)
+    init = rng.normal(size=4)
+    kept = init.copy()
+    res = vi(m.mdp, initial_values=init)  # the sweeps reuse two value buffers
+    np.testing.assert_array_equal(init, kept)
+    assert res.values is not init
+
+
 def test_backward_induction_rejects_wrong_number_of_reward_slices():
     with pytest.raises(ValueError, match="3 slices, got 2"):
         backward_induction(sp.csr_array(np.eye(2)), np.zeros((2, 2, 1)), 3)

@@ -7,7 +7,9 @@ solver is vectorised over states: one sparse mat-vec per sweep, no Python loop o
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -128,23 +130,39 @@ def value_iteration(
 
     The sweeps run on an actions-first copy of T (row a·S + s) so that Q is (A, S) and the max
     over actions runs along the long axis (3× faster than over the short axis of (S, A), same
-    values bit for bit); ``q_values`` is handed back as (S, A)."""
+    values bit for bit), in preallocated buffers; ``q_values`` is handed back as (S, A)."""
     S, A = mdp.n_states, mdp.n_actions
     T_as = actions_first(mdp.transitions, A)
     R_as = np.ascontiguousarray(mdp.rewards.T)
-    V = np.zeros(S) if initial_values is None else np.asarray(initial_values, float)
+    # a copy: the sweeps below write into V's buffer
+    V = np.zeros(S) if initial_values is None else np.array(initial_values, dtype=float)
+    Q, V_new, diff = np.empty((A, S)), np.empty(S), np.empty(S)
     for it in range(1, max_iter + 1):
-        Q = R_as + mdp.discount * csr_matmul(T_as, V).reshape(A, S)
-        V_new = Q.max(axis=0)
-        delta = np.abs(V_new - V).max(initial=0.0)
-        V = V_new
+        _bellman(T_as, R_as, mdp.discount, V, Q)
+        np.max(Q, axis=0, out=V_new)
+        delta = np.abs(np.subtract(V_new, V, out=diff), out=diff).max(initial=0.0)
+        V, V_new = V_new, V
         if delta < tol:
             Q_sa = Q.T
             return SolveResult(
                 V, Q_sa, greedy_policy(Q_sa), it, True, f"converged, delta={delta:.2e}"
             )
-    Q_sa = (R_as + mdp.discount * csr_matmul(T_as, V).reshape(A, S)).T
+    Q_sa = _bellman(T_as, R_as, mdp.discount, V, Q).T
     return SolveResult(V, Q_sa, greedy_policy(Q_sa), max_iter, False, "max_iter reached")
+
+
+def _bellman(
+    T_as: sp.csr_array, R_as: np.ndarray, discount: float, V: np.ndarray, out: np.ndarray
+) -> np.ndarray:
+    """``out[:] = R_as + discount * (T_as @ V).reshape(A, S)`` in place, bit for bit the same
+    (the same kernel as ``@``; x·1.0 = x, and + and · commute exactly); returns ``out``."""
+    out.fill(0.0)  # the kernel adds into its output, as scipy's ``@`` does into fresh zeros
+    M, N = T_as.shape
+    _sparsetools.csr_matvec(M, N, T_as.indptr, T_as.indices, T_as.data, V, out.reshape(-1))
+    if discount != 1.0:
+        out *= discount
+    out += R_as
+    return out
 
 
 def actions_first(transitions: sp.csr_array, n_actions: int) -> sp.csr_array:
@@ -189,9 +207,18 @@ def soft_value_iteration(
 
 @dataclass(frozen=True)
 class FiniteHorizonResult:
-    values: np.ndarray  # (H+1, S); values[H] are the terminal values
-    q_values: np.ndarray  # (H, S, A)
-    policy: np.ndarray  # (H, S) greedy actions
+    """``values`` (H+1, S), values[H] the terminal ones, read-only; ``policy`` (H, S) greedy
+    actions, the lowest-index maximiser, as the smallest unsigned integer type that holds A.
+    The (H, S, A) ``q_values`` are recomputed from ``values`` on first access (bit for bit those
+    of the sweeps), so that the sweeps need not write H·S·A floats most callers never read."""
+
+    values: np.ndarray
+    policy: np.ndarray
+    _q_all: Callable[[], np.ndarray] = field(repr=False, compare=False)  # (H, A, S)
+
+    @cached_property
+    def q_values(self) -> np.ndarray:  # (H, S, A)
+        return self._q_all().transpose(0, 2, 1)
 
 
 def backward_induction(
@@ -205,24 +232,53 @@ def backward_induction(
     """Finite-horizon dynamic programming.
 
     ``rewards`` is (S, A) for stationary rewards or (H, S, A) for time-indexed ones; ``transitions``
-    is (S*A, S) for stationary dynamics. One sparse mat-vec per time step.
+    is (S*A, S) for stationary dynamics. One sparse mat-vec per time step, into one (A, S) buffer
+    (actions first, as in value_iteration, so the max and argmax run along the long axis).
     """
     rewards = np.asarray(rewards, dtype=float)
-    n_states, n_actions = rewards.shape[-2:]
+    S, A = rewards.shape[-2:]
     if rewards.ndim == 3 and rewards.shape[0] != horizon:
         raise ValueError(f"time-indexed rewards must have {horizon} slices, got {rewards.shape[0]}")
-    # actions first, as in value_iteration: Q[t] is (A, S), its max runs along the long axis
-    T_as = actions_first(sp.csr_array(transitions), n_actions)
-    R_as = np.swapaxes(rewards, -1, -2)
-    V = np.zeros((horizon + 1, n_states))
+    T_as = actions_first(sp.csr_array(transitions), A)
+    R_as = np.swapaxes(rewards, -1, -2) if rewards.ndim == 3 else np.ascontiguousarray(rewards.T)
+    V = np.zeros((horizon + 1, S))
     if terminal_values is not None:
         V[horizon] = terminal_values
-    Q = np.empty((horizon, n_actions, n_states))
+
+    def q_step(t: int, out: np.ndarray) -> np.ndarray:
+        return _bellman(T_as, R_as[t] if rewards.ndim == 3 else R_as, discount, V[t + 1], out)
+
+    policy = np.empty((horizon, S), dtype=np.min_scalar_type(A))
+    Q, neq, acc = np.empty((A, S)), np.empty((A, S), dtype=bool), np.empty(S, dtype=bool)
     for t in range(horizon - 1, -1, -1):
-        R_t = R_as[t] if rewards.ndim == 3 else R_as
-        Q[t] = R_t + discount * csr_matmul(T_as, V[t + 1]).reshape(n_actions, n_states)
-        V[t] = Q[t].max(axis=0)
-    return FiniteHorizonResult(V, Q.transpose(0, 2, 1), Q.argmax(axis=1))
+        np.max(q_step(t, Q), axis=0, out=V[t])
+        _first_max(Q, V[t], policy[t], neq, acc)
+    for t_nan in np.flatnonzero(np.isnan(V[:horizon]).any(axis=1)):  # argmax: the first NaN
+        policy[t_nan] = q_step(int(t_nan), Q).argmax(axis=0)
+    V.flags.writeable = False  # q_values are recomputed from V
+
+    def q_all() -> np.ndarray:
+        Q_all = np.empty((horizon, A, S))
+        for t in range(horizon):
+            q_step(t, Q_all[t])
+        return Q_all
+
+    return FiniteHorizonResult(V, policy, q_all)
+
+
+def _first_max(
+    Q: np.ndarray, best: np.ndarray, out: np.ndarray, neq: np.ndarray, acc: np.ndarray
+) -> np.ndarray:
+    """``out[s]`` = the first a with Q[a, s] == best[s], i.e. ``Q.argmax(axis=0)`` when ``best``
+    is Q's column max (A where it is NaN): counts the leading actions below the max in 2A passes
+    along the long axis, 10× faster than argmax over axis 0, which copies Q to (S, A) first."""
+    np.not_equal(Q, best, out=neq)
+    np.copyto(acc, neq[0])
+    np.copyto(out, acc)
+    for a in range(1, len(Q)):
+        np.logical_and(acc, neq[a], out=acc)  # below the max in every action up to a
+        np.add(out, acc, out=out)
+    return out
 
 
 def optimal_action_mask(q_values: np.ndarray, *, rtol: float = 1e-9, atol: float = 1e-9):
