@@ -16,10 +16,12 @@ from mirl.world.game import (
     GAME_ACTIONS,
     Equilibrium,
     InteractionGame,
+    _nash_equilibria,
+    _stored_equilibria,
     game_action_to_action,
     meeting,
 )
-from mirl.world.scenario import load_scenario
+from mirl.world.scenario import load_scenario, shipped_scenarios
 
 # SPEC §2 payoffs, typed out from the prose: (I's action, J's action) -> (I's payoff, J's payoff)
 SPEC_PAYOFFS = {
@@ -93,6 +95,29 @@ def test_default_equilibria_by_brute_force():
     np.testing.assert_allclose(mixed[0].col, [1 / 6, 5 / 6, 0], atol=1e-9)
     # pure ones come first
     assert [e.is_pure for e in eqs] == sorted((e.is_pure for e in eqs), reverse=True)
+
+
+@pytest.mark.parametrize("name", shipped_scenarios())
+def test_stored_equilibria_are_a_fresh_enumeration(name):
+    """Every shipped scenario's game has its equilibria stored (no nashpy import in a run);
+    they are exactly what nashpy enumerates now: values, numpy types and order."""
+    game = load_scenario(name).game
+    A, B = game.row_payoffs, game.col_payoffs
+    stored = _stored_equilibria(A.tobytes(), B.tobytes())
+    assert stored is not None
+    fresh = _nash_equilibria.__wrapped__(A.tobytes(), B.tobytes(), A.shape)  # no cache
+    assert len(stored) == len(fresh) == 3
+    for s, f in zip(stored, fresh, strict=True):
+        assert s.row == f.row and s.col == f.col
+        assert [type(x) for x in s.row + s.col] == [type(x) for x in f.row + f.col]
+    assert game.equilibria() == stored
+
+
+def test_other_games_are_enumerated():
+    A = np.array([[3.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 2.0]])
+    assert _stored_equilibria(A.tobytes(), A.tobytes()) is None
+    pure = {pure_label(e) for e in InteractionGame(A, A).equilibria() if e.is_pure}
+    assert pure == {("go", "go"), ("stop", "stop"), ("turn", "turn")}
 
 
 payoff = st.integers(-3, 3)  # small range: many ties and degenerate games

@@ -42,6 +42,16 @@ def test_light_commands_import_nothing_heavy(argv):
     assert not any(m.startswith(stages) for m in loaded)
 
 
+def test_a_run_on_a_shipped_scenario_imports_no_game_solver_or_plotting():
+    """Learning weighs the game's equilibria; a shipped scenario's are stored, so `mirl run`
+    needs neither nashpy (nor its networkx) nor, without --plot, matplotlib."""
+    loaded = _modules_after(["run", "--obs-steps", "100", "--seed", "1", "--json"])
+    assert "mirl.learning.equilibria" in loaded  # the run did weigh equilibria
+    unwanted = ("nashpy", "networkx", "matplotlib", "joblib", "dask", "scipy.ndimage")
+    heavy = sorted(m for m in loaded if any(m == h or m.startswith(h + ".") for h in unwanted))
+    assert heavy == [], heavy
+
+
 def test_loading_a_scenario_does_not_enumerate_equilibria():
     code = (
         "import sys; from mirl.world.scenario import load_scenario; "

@@ -3,7 +3,6 @@ user error into one line on stderr with exit code 2. It may import every other s
 
 from __future__ import annotations
 
-import sqlite3
 import sys
 from collections.abc import Sequence
 
@@ -24,7 +23,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         return COMMANDS[args.command](args)
-    except (ValueError, OSError, sqlite3.Error, UsageError) as exc:
+    except Exception as exc:
+        if not isinstance(exc, (ValueError, OSError, UsageError, *_sqlite_errors())):
+            raise
         # domain errors (MapError, ScenarioError, TrajectoryError, ...) already name the file
         msg = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
         print(f"mirl: error: {msg}", file=sys.stderr)
@@ -32,3 +33,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("mirl: interrupted", file=sys.stderr)
         return 130
+
+
+def _sqlite_errors() -> tuple[type[Exception], ...]:
+    """sqlite3's errors, if a sub-command loaded it (the run store): only then can one be raised,
+    so `mirl run` does not import it."""
+    sqlite3 = sys.modules.get("sqlite3")
+    return (sqlite3.Error,) if sqlite3 is not None else ()

@@ -25,8 +25,6 @@ from typing import Any
 
 import numpy as np
 
-from mirl import __version__
-
 __all__ = [
     "Condition",
     "Experiment",
@@ -117,6 +115,8 @@ def code_version() -> str:
     """The library version plus a hash of the package's source and shipped data, so rows that
     different code computed are told apart even between releases (work in progress, a
     resumed sweep after an edit)."""
+    from mirl import __version__  # importlib.metadata (~20-80 ms): not for `mirl run`
+
     root = Path(__file__).parent
     h = hashlib.sha256()
     for p in sorted(root.rglob("*")):

@@ -25,6 +25,7 @@ import scipy.sparse as sp
 from mirl.learning.models import LearnResult
 from mirl.mdp import csr_matmul, policy_matrix
 from mirl.planning.observer import ObserverModel
+from mirl.planning.pair_sums import MeetingStep, PairSightings
 from mirl.planning.team_filter import ExactTeam, FactoredTeam, TeamParts, factored_detection
 from mirl.world.domain import N_HEADINGS, STOP, TURN_LEFT, PatrolDomain
 from mirl.world.game import Equilibrium, meeting
@@ -106,6 +107,7 @@ class BeliefFilter:
             # B' = P_Iᵀ (B∘(1 − m)) P_J + M_Iᵀ (B∘m) M_J — O(S²) memory, no S² × S² matrix
             self._meet, mixed = _pair_parts(domain, learned, steps)
             self._mixed_T = [sp.csr_array(M.T) for M in mixed]
+            self._meeting = MeetingStep(self._meet, self._mixed_T)
         unseen = (~self.visible).astype(float)
         self._both_unseen = np.outer(unseen, unseen).ravel() if self.mode == "pair" else None
         self.t = -1
@@ -132,13 +134,14 @@ class BeliefFilter:
             return self._team.propagate(belief)
         if self.joint:
             S = self.n_states
-            B = belief.reshape(S, S)
-            met = B * self._meet
-            out = csr_matmul(self._step_T[0], B - met)  # P_Iᵀ X
-            out = csr_matmul(self._step_T[1], out.T).T  # … P_J
+            away = belief.reshape(S, S).copy()  # B∘(1 − m): m is 0/1, so B off meetings, 0 on
+            met = away.flat[self._meeting.at]  # B∘m, at the meeting states only
+            away.flat[self._meeting.at] = 0.0
+            out = csr_matmul(self._step_T[0], away)  # P_Iᵀ X
+            out_t = csr_matmul(self._step_T[1], out.T)  # (… P_J)ᵀ
             if met.any():
-                out += csr_matmul(self._mixed_T[1], csr_matmul(self._mixed_T[0], met).T).T
-            return out.ravel()
+                self._meeting.add_to(out_t.ravel(), met)  # + (M_Iᵀ (B∘m) M_J)ᵀ
+            return out_t.T.ravel()
         return np.stack([csr_matmul(F, b) for F, b in zip(self._step_T, belief, strict=True)])
 
     def marginals(self, belief: np.ndarray | None = None) -> np.ndarray:
@@ -213,14 +216,17 @@ class BeliefFilter:
         return post / z
 
     def _detection_parts(self, model: ObserverModel):
-        """Dense D (S, C), G = 1 − D and per robot P G (P(not seeing c one step later | s)):
-        fixed for a filter and L's model, so computed once, not at every re-plan."""
+        """Dense D (S, C), G = 1 − D, per robot G[:, c'] ∘ (P G)[:, c] over L's moves c' → c
+        (P G: P(not seeing c one step later | s)) and G[:, c'], and the pair's sightings
+        index: fixed for a filter and L's model, so computed once, not at every re-plan."""
         cached = self._static.get(id(model))
         if cached is None or cached[0] is not model:
             Dd = sp.csr_array(model.detection).toarray()
             G = 1.0 - Dd  # (S, C): a robot in state s does not see cell c
-            PGs = [step_T.T @ G for step_T in self._step_T]
-            cached = self._static[id(model)] = (model, Dd, G, PGs)
+            prev, nxt = model.cell_pairs.T
+            moves = [G[:, prev] * (step_T.T @ G)[:, nxt] for step_T in self._step_T]
+            pair = PairSightings(Dd) if self.mode == "pair" else None
+            cached = self._static[id(model)] = (model, Dd, G, moves, G[:, prev], pair)
         return cached[1:]
 
     def predict(self, steps: int, model: ObserverModel) -> Prediction:
@@ -238,20 +244,20 @@ class BeliefFilter:
                 occ[k + 1] = self._propagate(occ[k])
             det, haz = factored_detection(occ, model.detection, self._step_T, model.cell_pairs)
             return Prediction(self.t, occ, np.clip(det, 0, 1), np.clip(haz, 0, 1), model.cell_pairs)
-        Dd, G, PGs = self._detection_parts(model)
+        Dd, G, moves, G_prev, pair = self._detection_parts(model)
         if self.mode == "team":
             occ, none = self._predict_team(steps, G)
             seen = occ @ Dd  # (K+1, N, C): P(robot i sees cell c)
             det = 1.0 - none
         else:
-            occ, seen, det = self._predict_pair_or_factored(steps, Dd)
-        prev, nxt = model.cell_pairs.T
+            occ, seen, det = self._predict_pair(steps, Dd, pair)
+        nxt = model.cell_pairs[:, 1]
         # per robot: P(not seen on c' at k−1 and not seen on c at k) / P(not seen on c' at k−1)
         # = occ_{k−1} · (G[:, c'] ∘ (P G)[:, c]) / occ_{k−1} · G[:, c'], one (S, pairs) matrix
-        surv = np.ones((steps, len(prev)))
-        for i, PG in enumerate(PGs):
-            joint_ok = occ[:-1, i] @ (G[:, prev] * PG[:, nxt])
-            before = occ[:-1, i] @ G[:, prev]
+        surv = np.ones((steps, len(nxt)))
+        for i, move in enumerate(moves):
+            joint_ok = occ[:-1, i] @ move
+            before = occ[:-1, i] @ G_prev
             ok = before > 1e-12
             ratio = joint_ok / np.where(ok, before, 1.0)
             surv *= np.where(ok, ratio, 1.0 - seen[1:, i, nxt])
@@ -271,26 +277,25 @@ class BeliefFilter:
                 b = self._team.propagate(b)
         return np.stack(occ), np.stack(none)
 
-    def _predict_pair_or_factored(self, steps: int, Dd: np.ndarray):
+    def _predict_pair(self, steps: int, Dd: np.ndarray, sightings: PairSightings):
         """Occupancies, per-robot sightings and detection from the pair's joint (inclusion–
-        exclusion) or from independent marginals."""
+        exclusion)."""
         assert self.belief is not None
         S, K1 = self.n_states, steps + 1
-        beliefs = np.empty((K1, *self.belief.shape))
+        beliefs = np.empty((K1, S * S))
+        both = np.empty((K1, Dd.shape[1]))
         b = self.belief
         for k in range(K1):
             beliefs[k] = b
+            both[k] = sightings.both(b)  # while b is in cache
             if k < steps:
                 b = self._propagate(b)
-        occ = np.stack([self.marginals(x) for x in beliefs]) if self.joint else beliefs
+        joint = beliefs.reshape(K1, S, S)
+        occ = np.stack([joint.sum(axis=2), joint.sum(axis=1)], axis=1)  # (K+1, 2, S) marginals
         seen = occ @ Dd  # (K+1, N, C): P(robot i sees cell c)
-        if self.joint:
-            # inclusion–exclusion with the joint: P(I or J) = P(I) + P(J) − P(I and J),
-            # P(I and J)[c] = Σ p[sI, sJ]·D[sI, c]·D[sJ, c]
-            both = (beliefs.reshape(K1, S, S) @ Dd * Dd).sum(axis=1)
-            det = seen[:, 0] + seen[:, 1] - both
-        else:
-            det = 1.0 - np.prod(1.0 - seen, axis=1)
+        # inclusion–exclusion with the joint: P(I or J) = P(I) + P(J) − P(I and J),
+        # P(I and J)[c] = Σ p[sI, sJ]·D[sI, c]·D[sJ, c]
+        det = seen[:, 0] + seen[:, 1] - both
         return occ, seen, det
 
 

@@ -1,5 +1,6 @@
 """The patrollers' interaction game: a bimatrix game over {go, stop, turn} played when two
-patrollers meet head-on, its Nash equilibria (by nashpy), and the meeting rule."""
+patrollers meet head-on, its Nash equilibria (by nashpy; the paper's game's are stored), and the
+meeting rule."""
 
 from __future__ import annotations
 
@@ -37,6 +38,33 @@ class Equilibrium:
         return f"{one(self.row)}/{one(self.col)}"
 
 
+# The paper's game (SPEC §2; every shipped scenario plays it).
+_PAPER_ROW = ((-10.0, 2.0, 2.0), (0.0, 0.0, 0.0), (-1.0, -1.0, -1.0))
+_PAPER_COL = ((-10.0, 0.0, -1.0), (2.0, 0.0, -1.0), (2.0, 0.0, -1.0))
+
+# Its equilibria as :func:`_nash_equilibria` enumerates them with nashpy (the same values and
+# order; tests/test_game.py re-enumerates and compares exactly), so learning on it never imports
+# nashpy, networkx and scipy.integrate (~0.2 s of a ~1.5 s `mirl run`). Other games enumerate.
+_STORED_EQUILIBRIA: dict[tuple[bytes, bytes], tuple[tuple[float, ...], ...]] = {
+    (np.array(_PAPER_ROW).tobytes(), np.array(_PAPER_COL).tobytes()): (
+        (1.0, 0.0, 0.0, 0.0, 1.0, 0.0),  # go/stop: row strategy, then column strategy
+        (0.0, 1.0, 0.0, 1.0, 0.0, 0.0),  # stop/go
+        (0.166666666667, 0.833333333333, 0.0, 0.166666666667, 0.833333333333, 0.0),  # mixed
+    )
+}
+
+
+@lru_cache(maxsize=8)
+def _stored_equilibria(row_bytes: bytes, col_bytes: bytes) -> tuple[Equilibrium, ...] | None:
+    stored = _STORED_EQUILIBRIA.get((row_bytes, col_bytes))
+    if stored is None:
+        return None
+    # numpy floats, as the enumeration returns them
+    return tuple(
+        Equilibrium(tuple(map(np.float64, p[:3])), tuple(map(np.float64, p[3:]))) for p in stored
+    )
+
+
 @lru_cache(maxsize=64)
 def _nash_equilibria(row_bytes: bytes, col_bytes: bytes, shape: tuple[int, int]):
     import warnings
@@ -69,12 +97,8 @@ def _nash_equilibria(row_bytes: bytes, col_bytes: bytes, shape: tuple[int, int])
 class InteractionGame:
     """2-player game at a head-on meeting; rows are the first patroller's actions."""
 
-    row_payoffs: np.ndarray = field(
-        default_factory=lambda: np.array([[-10, 2, 2], [0, 0, 0], [-1, -1, -1]], dtype=float)
-    )
-    col_payoffs: np.ndarray = field(
-        default_factory=lambda: np.array([[-10, 0, -1], [2, 0, -1], [2, 0, -1]], dtype=float)
-    )
+    row_payoffs: np.ndarray = field(default_factory=lambda: np.array(_PAPER_ROW, dtype=float))
+    col_payoffs: np.ndarray = field(default_factory=lambda: np.array(_PAPER_COL, dtype=float))
 
     def __post_init__(self) -> None:
         for name in ("row_payoffs", "col_payoffs"):
@@ -84,10 +108,12 @@ class InteractionGame:
             object.__setattr__(self, name, m)
 
     def equilibria(self) -> tuple[Equilibrium, ...]:
-        """All Nash equilibria (extreme points) by nashpy's vertex enumeration, cached."""
+        """All Nash equilibria (extreme points) by nashpy's vertex enumeration, cached; the
+        paper's game's are stored (no nashpy import)."""
         A = np.ascontiguousarray(self.row_payoffs, dtype=float)
         B = np.ascontiguousarray(self.col_payoffs, dtype=float)
-        return _nash_equilibria(A.tobytes(), B.tobytes(), A.shape)
+        stored = _stored_equilibria(A.tobytes(), B.tobytes())
+        return stored if stored is not None else _nash_equilibria(A.tobytes(), B.tobytes(), A.shape)
 
     def pure(self, row_action: str, col_action: str) -> Equilibrium:
         """The pure profile (row_action, col_action), which must be an equilibrium.
