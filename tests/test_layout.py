@@ -88,3 +88,19 @@ def test_readme_python_runs_as_written(tmp_path, monkeypatch):
     for block in blocks:
         assert re.search(r"from mirl(\.envs)? import", block), "README examples use the public face"
         exec(compile(block, "README.md", "exec"), {})
+
+
+def test_code_version_hashes_the_whole_package(tmp_path, monkeypatch):
+    """A sweep row's fingerprint must change when any stage's source changes (learning,
+    planning, ...), not only the experiments stage that computes it."""
+    import shutil
+
+    import mirl
+    from mirl.experiments import conditions
+
+    copy = tmp_path / "mirl"
+    shutil.copytree(Path(mirl.__file__).parent, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(conditions, "__file__", str(copy / "experiments" / "conditions.py"))
+    before = conditions.code_version.__wrapped__()
+    (copy / "learning" / "irl.py").write_text((copy / "learning" / "irl.py").read_text() + "\n#")
+    assert conditions.code_version.__wrapped__() != before

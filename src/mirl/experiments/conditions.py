@@ -117,7 +117,7 @@ def code_version() -> str:
     resumed sweep after an edit)."""
     from mirl import __version__  # importlib.metadata (~20-80 ms): not for `mirl run`
 
-    root = Path(__file__).parent
+    root = Path(__file__).parents[1]  # the whole mirl package, not just this stage
     h = hashlib.sha256()
     for p in sorted(root.rglob("*")):
         if p.is_file() and p.suffix in {".py", ".txt", ".toml"}:
