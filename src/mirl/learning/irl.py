@@ -56,7 +56,7 @@ from scipy.optimize import OptimizeResult, minimize
 
 from mirl.learning.sequence import ObservedSequence
 from mirl.learning.soft_policy import _Dynamics, soft_policy_iteration
-from mirl.mdp import TabularMDP, value_iteration
+from mirl.mdp import TabularMDP, csr_matmul, value_iteration
 
 __all__ = ["OBJECTIVES", "ANCHORS", "OPTIMIZERS", "OccludedMaxEntIRL"]
 
@@ -238,7 +238,7 @@ class OccludedMaxEntIRL:
         Z[:S] = self._U0
         out = Z @ self._W[0]
         for n in range(1, len(self._W)):
-            Z = B @ Z
+            Z = csr_matmul(B, Z)  # B @ Z without scipy's dispatch, bit for bit
             out += Z @ self._W[n]
         out = out.reshape(K + 1, S)
         return out[0], out[1:].T
