@@ -140,7 +140,7 @@ class ExactTeam:
         for r in range(p.n):
             code = code * (len(p.pairs) + 1) + choice[r]
         self.free = (code == 0).astype(float)
-        self.chains = []  # one per meeting assignment
+        groups = []  # (flat joint states, per robot transposed matrix) per meeting assignment
         flat_code = code.ravel()
         for value in np.unique(flat_code[flat_code != 0]):
             idx = np.flatnonzero(flat_code == value)
@@ -148,18 +148,23 @@ class ExactTeam:
             for r in range(p.n):
                 k = int(choice[r].flat[idx[0]]) - 1
                 mats.append(p.step_T[r] if k < 0 else p.game_T[k][0 if p.pairs[k][0] == r else 1])
-            self.chains.append(_SparseChain(idx, mats, p.S))
+            groups.append((idx, mats))
+        self.meetings = _SparseChain(groups, p.S, p.n)
 
     def propagate(self, belief: np.ndarray) -> np.ndarray:
         out = _mode_products(belief * self.free, self.parts.step_T)
-        flat_in, flat_out = belief.reshape(-1), out.reshape(-1)
-        for chain in self.chains:
-            chain.add_to(flat_in, flat_out)
+        self.meetings.add_to(belief.reshape(-1), out.reshape(-1))
         return out
 
     def marginals(self, belief: np.ndarray) -> np.ndarray:
-        n = self.parts.n
-        return np.stack([belief.sum(axis=tuple(a for a in range(n) if a != i)) for i in range(n)])
+        """(N, S) per-robot marginals; summing out one axis at a time, so only the first two
+        sums read the whole tensor."""
+        out = []
+        x = belief
+        while x.ndim > 1:
+            out.append(x.reshape(x.shape[0], -1).sum(axis=1))
+            x = x.sum(axis=0)
+        return np.stack([*out, x])
 
     def none_sees(self, belief: np.ndarray, G: np.ndarray) -> np.ndarray:
         """(C,) P(no patroller sees cell c) = Σ_s B[s] ∏ᵢ G[sᵢ, c]."""
@@ -170,27 +175,44 @@ class ExactTeam:
 
 
 class _SparseChain:
-    """The joint states ``idx`` (flat, in S^N) of one meeting assignment pushed through one
-    transposed step matrix per axis, as a chain of N fixed sparse matrices: stage r maps the
-    support reached so far to the support after moving axis r (each state has ~3 successors,
-    so the supports stay small, unlike a single S^N × |idx| Khatri–Rao matrix)."""
+    """The joint states of the meeting assignments, each pushed through its own transposed step
+    matrix per axis, as a chain of N fixed sparse matrices: stage r maps the support reached so
+    far to the support after moving axis r (each state has ~3 successors, so the supports stay
+    small, unlike one S^N × |states| Khatri–Rao matrix). Supports are keyed by
+    (assignment, joint state) until the last stage, which merges the assignments, so one
+    scatter adds them all."""
 
-    def __init__(self, idx: np.ndarray, mats_T: list[sp.csr_array], S: int) -> None:
-        n = len(mats_T)
-        self.idx = support = idx
+    def __init__(self, groups: list[tuple[np.ndarray, list[sp.csr_array]]], S: int, n: int) -> None:
+        size = S**n
+        self.idx = np.concatenate([idx for idx, _ in groups])
+        support = np.concatenate([g * size + idx for g, (idx, _) in enumerate(groups)])
         self.stages = []
-        for axis, MT in enumerate(mats_T):
+        for axis in range(n):
             stride = S ** (n - 1 - axis)
-            a = (support // stride) % S
-            M = sp.csc_array(MT)  # column a: the successors of state a and their probabilities
-            counts = np.diff(M.indptr)[a]
-            src = np.repeat(np.arange(len(support)), counts)
-            first = np.repeat(M.indptr[a] - (np.cumsum(counts) - counts), counts)
-            nz = first + np.arange(len(src))
-            target = support[src] + (M.indices[nz] - a[src]) * stride
+            gid, flat = np.divmod(support, size)
+            a = (flat // stride) % S
+            targets, srcs, vals = [], [], []
+            for g, (_, mats) in enumerate(groups):
+                pos = np.flatnonzero(gid == g)  # support is sorted, so one block per group
+                M = sp.csc_array(mats[axis])  # column a: the successors of a, their probability
+                counts = np.diff(M.indptr)[a[pos]]
+                src = np.repeat(pos, counts)
+                nz = np.repeat(M.indptr[a[pos]] - (np.cumsum(counts) - counts), counts)
+                nz = nz + np.arange(len(src))
+                targets.append(support[src] + (M.indices[nz] - a[src]) * stride)
+                srcs.append(src)
+                vals.append(M.data[nz])
+            target = np.concatenate(targets)
+            if axis == n - 1:
+                target = target % size  # the last stage sums the assignments' contributions
             n_in = len(support)
             support, row = np.unique(target, return_inverse=True)
-            self.stages.append(sp.csr_array((M.data[nz], (row, src)), shape=(len(support), n_in)))
+            data = (np.concatenate(vals), (row, np.concatenate(srcs)))
+            stage = sp.csr_array(data, shape=(len(support), n_in))
+            if stage.nnz < 2**31 - 1:  # 32-bit indices: the product reads ~2× less memory
+                stage.indices = stage.indices.astype(np.int32)
+                stage.indptr = stage.indptr.astype(np.int32)
+            self.stages.append(stage)
         self.out = support
 
     def add_to(self, flat_in: np.ndarray, flat_out: np.ndarray) -> None:
