@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.planning.team_filter import TeamParts
+from mirl.planning.team_filter import ExactTeam, TeamParts
 
 
-class ReferenceExactTeam:
+class ReferenceExactTeam(ExactTeam):  # a subclass only so BeliefFilter accepts it
     """The first version: every meeting assignment pushed through dense mode products."""
 
     def __init__(self, parts: TeamParts) -> None:
