@@ -104,9 +104,7 @@ def test_factored_filter_is_closer_to_exact_than_independent_marginals(tmp_path)
     independent marginals (meetings ignored) get."""
     from mirl.planning.team_filter import FactoredTeam, TeamParts
 
-    (tmp_path / "ring.txt").write_text(RING)
-    (tmp_path / "ring3.toml").write_text(RING_SCENARIO)
-    sc = load_scenario(tmp_path / "ring3.toml")
+    sc = _ring3(tmp_path)
     learned = oracle_models(sc)
     model = observer_model(sc)
     vis = sc.domain.visible_states(sc.observability)
@@ -129,6 +127,76 @@ def test_factored_filter_is_closer_to_exact_than_independent_marginals(tmp_path)
     err_fact = np.abs(a.detection - b.detection).mean()
     err_indep = np.abs(a.detection - c.detection).mean()
     assert err_fact < err_indep
+
+
+def _ring3(tmp_path):
+    (tmp_path / "ring.txt").write_text(RING)
+    (tmp_path / "ring3.toml").write_text(RING_SCENARIO)
+    return load_scenario(tmp_path / "ring3.toml")
+
+
+def _reference_filter(sc, learned, vis):
+    """A joint filter whose tensor steps are the first implementation's."""
+    from team_filter_reference import ReferenceExactTeam
+
+    from mirl.planning.team_filter import TeamParts
+
+    f = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
+    f._team = ReferenceExactTeam(TeamParts(sc.domain, learned))
+    return f
+
+
+def test_exact_team_propagation_equals_the_first_implementation(tmp_path):
+    """The sparse meeting chains and rotated mode products give the first version's step: on
+    a random joint belief (every meeting assignment populated) and along a filtered run."""
+    sc = _ring3(tmp_path)
+    learned = oracle_models(sc)
+    vis = sc.domain.visible_states(sc.observability)
+    new = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
+    ref = _reference_filter(sc, learned, vis)
+    b = np.random.default_rng(0).random((sc.domain.n_states,) * 3)
+    b /= b.sum()
+    assert len(new._team.meetings.idx) > 0
+    np.testing.assert_allclose(new._team.propagate(b), ref._team.propagate(b), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(new._team.marginals(b), ref._team.marginals(b), rtol=1e-12)
+    res = simulate(sc, 25, seed=3, random_starts=True)
+    assert res.interactions > 0
+    seen = np.stack([res.observations.state_series(sc.domain, i) for i in range(3)], axis=1)
+    for row in seen:
+        new.update(row)
+        ref.update(row)
+    np.testing.assert_allclose(new.belief, ref.belief, rtol=1e-10, atol=1e-15)
+    model = observer_model(sc)
+    a, c = new.predict(10, model), ref.predict(10, model)
+    np.testing.assert_allclose(a.detection, c.detection, atol=1e-12)
+    np.testing.assert_allclose(a.hazard, c.hazard, atol=1e-12)
+
+
+def test_exact_team_on_boyd2_with_three_robots_matches_the_first_implementation():
+    """boyd2 with a third robot (124³ joint states): a few filtered steps, then predicted
+    detection, against the first implementation."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from bench_team import boyd2_three
+
+    sc = boyd2_three()
+    learned = oracle_models(sc)
+    vis = sc.domain.visible_states(sc.observability)
+    new = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
+    ref = _reference_filter(sc, learned, vis)
+    assert new.mode == "team"
+    res = simulate(sc, 6, seed=0, random_starts=True)
+    seen = np.stack([res.observations.state_series(sc.domain, i) for i in range(3)], axis=1)
+    for row in seen:
+        new.update(row)
+        ref.update(row)
+    model = observer_model(sc)
+    a, c = new.predict(4, model), ref.predict(4, model)
+    np.testing.assert_allclose(a.occupancy, c.occupancy, atol=1e-13)
+    np.testing.assert_allclose(a.detection, c.detection, atol=1e-13)
+    assert a.detection.max() > 0.05  # something to compare
 
 
 def test_default_filter_for_three_on_boyd2_is_factored():

@@ -117,7 +117,15 @@ class FactoredTeam:
 
 
 class ExactTeam:
-    """The joint belief over S^N states as an N-dimensional tensor (module doc)."""
+    """The joint belief over S^N states as an N-dimensional tensor (module doc).
+
+    A step is the free part — the belief where nobody meets, pushed through the policies' steps
+    as dense mode products (:func:`_mode_products`) — plus the meeting assignments through one
+    precomputed sparse chain (:class:`_SparseChain`): meetings cover ~8 % of the joint states
+    on boyd2 with three robots, so pushing each assignment through dense mode products over the
+    whole tensor (as the first version did, ~0.3 s per step there) cost several times the
+    free part for nothing.
+    """
 
     def __init__(self, parts: TeamParts) -> None:
         self.parts = p = parts
@@ -132,31 +140,32 @@ class ExactTeam:
         code = np.zeros(shape, dtype=np.int64)
         for r in range(p.n):
             code = code * (len(p.pairs) + 1) + choice[r]
-        self.free = code == 0
-        self.groups = []  # (mask, per robot transposed matrix) for each meeting assignment
-        for value in np.unique(code[~self.free]):
-            mask = code == value
+        self.free = (code == 0).astype(float)
+        groups = []  # (flat joint states, per robot transposed matrix) per meeting assignment
+        flat_code = code.ravel()
+        for value in np.unique(flat_code[flat_code != 0]):
+            idx = np.flatnonzero(flat_code == value)
             mats = []
             for r in range(p.n):
-                k = int(choice[r][mask].flat[0]) - 1
-                if k < 0:
-                    mats.append(p.step_T[r])
-                else:
-                    mats.append(p.game_T[k][0 if p.pairs[k][0] == r else 1])
-            self.groups.append((mask, mats))
+                k = int(choice[r].flat[idx[0]]) - 1
+                mats.append(p.step_T[r] if k < 0 else p.game_T[k][0 if p.pairs[k][0] == r else 1])
+            groups.append((idx, mats))
+        self.meetings = _SparseChain(groups, p.S, p.n)
 
     def propagate(self, belief: np.ndarray) -> np.ndarray:
-        p = self.parts
-        out = _mode_products(np.where(self.free, belief, 0.0), p.step_T)
-        for mask, mats in self.groups:
-            part = np.where(mask, belief, 0.0)
-            if part.any():
-                out += _mode_products(part, mats)
+        out = np.ascontiguousarray(_mode_products(belief * self.free, self.parts.step_T))
+        self.meetings.add_to(belief.reshape(-1), out.reshape(-1))  # a view: out is contiguous
         return out
 
     def marginals(self, belief: np.ndarray) -> np.ndarray:
-        n = self.parts.n
-        return np.stack([belief.sum(axis=tuple(a for a in range(n) if a != i)) for i in range(n)])
+        """(N, S) per-robot marginals; summing out one axis at a time, so only the first two
+        sums read the whole tensor."""
+        out = []
+        x = belief
+        while x.ndim > 1:
+            out.append(x.reshape(x.shape[0], -1).sum(axis=1))
+            x = x.sum(axis=0)
+        return np.stack([*out, x])
 
     def none_sees(self, belief: np.ndarray, G: np.ndarray) -> np.ndarray:
         """(C,) P(no patroller sees cell c) = Σ_s B[s] ∏ᵢ G[sᵢ, c]."""
@@ -166,6 +175,54 @@ class ExactTeam:
         return np.einsum("sc,sc->c", x, G)
 
 
+class _SparseChain:
+    """The joint states of the meeting assignments, each pushed through its own transposed step
+    matrix per axis, as a chain of N fixed sparse matrices: stage r maps the support reached so
+    far to the support after moving axis r (each state has ~3 successors, so the supports stay
+    small, unlike one S^N × |states| Khatri–Rao matrix). Supports are keyed by
+    (assignment, joint state) until the last stage, which merges the assignments, so one
+    scatter adds them all."""
+
+    def __init__(self, groups: list[tuple[np.ndarray, list[sp.csr_array]]], S: int, n: int) -> None:
+        size = S**n
+        self.idx = np.concatenate([idx for idx, _ in groups])
+        support = np.concatenate([g * size + idx for g, (idx, _) in enumerate(groups)])
+        self.stages = []
+        for axis in range(n):
+            stride = S ** (n - 1 - axis)
+            gid, flat = np.divmod(support, size)
+            a = (flat // stride) % S
+            targets, srcs, vals = [], [], []
+            for g, (_, mats) in enumerate(groups):
+                pos = np.flatnonzero(gid == g)  # support is sorted, so one block per group
+                M = sp.csc_array(mats[axis])  # column a: the successors of a, their probability
+                counts = np.diff(M.indptr)[a[pos]]
+                src = np.repeat(pos, counts)
+                nz = np.repeat(M.indptr[a[pos]] - (np.cumsum(counts) - counts), counts)
+                nz = nz + np.arange(len(src))
+                targets.append(support[src] + (M.indices[nz] - a[src]) * stride)
+                srcs.append(src)
+                vals.append(M.data[nz])
+            target = np.concatenate(targets)
+            if axis == n - 1:
+                target = target % size  # the last stage sums the assignments' contributions
+            n_in = len(support)
+            support, row = np.unique(target, return_inverse=True)
+            data = (np.concatenate(vals), (row, np.concatenate(srcs)))
+            stage = sp.csr_array(data, shape=(len(support), n_in))
+            if stage.nnz < 2**31 - 1:  # 32-bit indices: the product reads ~2× less memory
+                stage.indices = stage.indices.astype(np.int32)
+                stage.indptr = stage.indptr.astype(np.int32)
+            self.stages.append(stage)
+        self.out = support
+
+    def add_to(self, flat_in: np.ndarray, flat_out: np.ndarray) -> None:
+        v = flat_in[self.idx]
+        for stage in self.stages:
+            v = stage @ v
+        flat_out[self.out] += v  # self.out is unique, so += is a plain scatter-add
+
+
 def _broadcast(mask2: np.ndarray, i: int, j: int, n: int) -> np.ndarray:
     shape = [1] * n
     shape[i] = shape[j] = mask2.shape[0]
@@ -173,13 +230,21 @@ def _broadcast(mask2: np.ndarray, i: int, j: int, n: int) -> np.ndarray:
 
 
 def _mode_products(x: np.ndarray, mats_T: list[sp.csr_array]) -> np.ndarray:
-    """x ×₀ M₀ᵀ ×₁ M₁ᵀ …: apply each (transposed) one-step matrix along its axis."""
-    for axis, M in enumerate(mats_T):
-        moved = np.moveaxis(x, axis, 0)
-        shape = moved.shape
-        y = M @ moved.reshape(shape[0], -1)
-        x = np.moveaxis(y.reshape(shape), 0, axis)
-    return x
+    """x ×₀ M₀ᵀ ×₁ M₁ᵀ …: apply each (transposed) one-step matrix along its axis. Axis 0 is one
+    product with the contiguous (S, S^(N−1)) view; the other axes slice by slice (each slice
+    contiguous and, at S² entries, in cache), which avoids transposing copies of the whole
+    tensor — half the time of moving each axis to the front on boyd2 with three robots."""
+    M = mats_T[0]
+    y = M @ x.reshape(x.shape[0], -1)
+    if len(mats_T) == 1:
+        return y.reshape(M.shape[0], *x.shape[1:])
+    if x.ndim == 2:
+        return (mats_T[1] @ y.T).T  # the last axis of a slice: a small transposed product
+    y = y.reshape(M.shape[0], *x.shape[1:])
+    out = np.empty(tuple(m.shape[0] for m in mats_T))
+    for i, part in enumerate(y):
+        out[i] = _mode_products(part, mats_T[1:])
+    return out
 
 
 def factored_detection(
