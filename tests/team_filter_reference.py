@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.planning.team_filter import ExactTeam, TeamParts
+from mirl.planning.team_filter import ExactTeam, TeamParts, meeting_assignments
 
 
 class ReferenceExactTeam(ExactTeam):  # a subclass only so BeliefFilter accepts it
@@ -15,17 +15,7 @@ class ReferenceExactTeam(ExactTeam):  # a subclass only so BeliefFilter accepts 
 
     def __init__(self, parts: TeamParts) -> None:
         self.parts = p = parts
-        shape = (p.S,) * p.n
-        # per robot, which of its options it takes in each joint state: 0 = policy, 1 + k =
-        # the game of its k-th pair (first meeting in robot order)
-        choice = np.zeros((p.n, *shape), dtype=np.int8)
-        for k, (i, j) in enumerate(p.pairs):
-            met = _broadcast(p.meet[k].toarray() > 0, i, j, p.n)
-            for r in (i, j):
-                choice[r] = np.where((choice[r] == 0) & met, 1 + k, choice[r])
-        code = np.zeros(shape, dtype=np.int64)
-        for r in range(p.n):
-            code = code * (len(p.pairs) + 1) + choice[r]
+        choice, code = meeting_assignments(p)  # the same assignments, shared
         self.free = code == 0
         self.groups = []  # (mask, per robot transposed matrix) for each meeting assignment
         for value in np.unique(code[~self.free]):
@@ -58,12 +48,6 @@ class ReferenceExactTeam(ExactTeam):  # a subclass only so BeliefFilter accepts 
         while x.ndim > 2:
             x = np.einsum("...sc,sc->...c", x, G)
         return np.einsum("sc,sc->c", x, G)
-
-
-def _broadcast(mask2: np.ndarray, i: int, j: int, n: int) -> np.ndarray:
-    shape = [1] * n
-    shape[i] = shape[j] = mask2.shape[0]
-    return mask2.reshape(shape)
 
 
 def _mode_products(x: np.ndarray, mats_T: list[sp.csr_array]) -> np.ndarray:

@@ -129,17 +129,7 @@ class ExactTeam:
 
     def __init__(self, parts: TeamParts) -> None:
         self.parts = p = parts
-        shape = (p.S,) * p.n
-        # per robot, which of its options it takes in each joint state: 0 = policy, 1 + k =
-        # the game of its k-th pair (first meeting in robot order)
-        choice = np.zeros((p.n, *shape), dtype=np.int8)
-        for k, (i, j) in enumerate(p.pairs):
-            met = _broadcast(p.meet[k].toarray() > 0, i, j, p.n)
-            for r in (i, j):
-                choice[r] = np.where((choice[r] == 0) & met, 1 + k, choice[r])
-        code = np.zeros(shape, dtype=np.int64)
-        for r in range(p.n):
-            code = code * (len(p.pairs) + 1) + choice[r]
+        choice, code = meeting_assignments(p)
         self.free = (code == 0).astype(float)
         groups = []  # (flat joint states, per robot transposed matrix) per meeting assignment
         flat_code = code.ravel()
@@ -221,6 +211,22 @@ class _SparseChain:
         for stage in self.stages:
             v = stage @ v
         flat_out[self.out] += v  # self.out is unique, so += is a plain scatter-add
+
+
+def meeting_assignments(p: TeamParts) -> tuple[np.ndarray, np.ndarray]:
+    """Per robot and joint state, which of its options it takes — 0 = its policy, 1 + k = the
+    game of its k-th pair (first meeting in robot order) — as (n, S, …, S) ``choice``, and the
+    joint states' assignment codes (0 = nobody meets), (S, …, S)."""
+    shape = (p.S,) * p.n
+    choice = np.zeros((p.n, *shape), dtype=np.int8)
+    for k, (i, j) in enumerate(p.pairs):
+        met = _broadcast(p.meet[k].toarray() > 0, i, j, p.n)
+        for r in (i, j):
+            choice[r] = np.where((choice[r] == 0) & met, 1 + k, choice[r])
+    code = np.zeros(shape, dtype=np.int64)
+    for r in range(p.n):
+        code = code * (len(p.pairs) + 1) + choice[r]
+    return choice, code
 
 
 def _broadcast(mask2: np.ndarray, i: int, j: int, n: int) -> np.ndarray:
