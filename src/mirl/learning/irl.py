@@ -63,6 +63,11 @@ __all__ = ["OBJECTIVES", "ANCHORS", "OPTIMIZERS", "OccludedMaxEntIRL"]
 OBJECTIVES = ("counts", "likelihood", "both", "sequence")
 ANCHORS = ("first", "reentry")
 OPTIMIZERS = ("nelder-mead", "lbfgs")
+GRADIENTS = ("auto", "forward", "reverse")
+# "auto" takes the sequence gradient in reverse mode from this many nonzeros of the forward
+# operator on ((2K + 1)·nnz(P_πᵀ)); below it forward mode's fewer, larger steps are cheaper
+# (benchmarks/bench_learning.py --gradients)
+_REVERSE_FROM = 6_000
 
 
 # ---- the estimator -----------------------------------------------------------------------------
@@ -82,6 +87,10 @@ class OccludedMaxEntIRL:
     l2 : weight of the L2 penalty on θ.
     n_restarts : optimiser starts: ``initial_weights`` (or θ = 0) first, then seeded N(0, 1) draws.
     max_evaluations : objective evaluations allowed per start.
+    gradient : how the sequence objective's gradient is taken, both exact: ``"forward"`` (the
+        K derivatives propagated with the distributions), ``"reverse"`` (an adjoint pass,
+        :mod:`mirl.learning.gap_adjoint`), or ``"auto"``: reverse on large models, where it is
+        several times faster, forward on small ones (boyd2), where it is not.
     random_state : seed for the restarts.
 
     Attributes after ``fit``: ``weights_`` (K,), ``policy_`` (S,) greedy policy of hard value
@@ -105,12 +114,14 @@ class OccludedMaxEntIRL:
         l2: float = 1e-4,
         n_restarts: int = 1,
         max_evaluations: int = 300,
+        gradient: str = "auto",
         random_state: int | np.random.Generator | None = None,
     ) -> None:
         for name, value, allowed in (
             ("objective", objective, OBJECTIVES),
             ("anchor", anchor, ANCHORS),
             ("optimizer", optimizer, OPTIMIZERS),
+            ("gradient", gradient, GRADIENTS),
         ):
             if value not in allowed:
                 raise ValueError(f"unknown {name} '{value}' (known: {', '.join(allowed)})")
@@ -133,6 +144,7 @@ class OccludedMaxEntIRL:
         self.l2 = l2
         self.n_restarts = n_restarts
         self.max_evaluations = max_evaluations
+        self.gradient = gradient
         self.random_state = random_state
 
     # -- data preparation --
@@ -191,6 +203,12 @@ class OccludedMaxEntIRL:
 
     def _sequence_loglik(self, pi, B, dpi=None):
         return self._sequence.loglik(pi, B, self._vis, dpi)
+
+    def _reverse_mode(self) -> bool:
+        if self.gradient != "auto":
+            return self.gradient == "reverse"
+        K = self.features.shape[2]
+        return (2 * K + 1) * len(self._dyn._pt_indices) >= _REVERSE_FROM
 
     # -- objective --
     def _soft(self, theta: np.ndarray):
@@ -267,8 +285,9 @@ class OccludedMaxEntIRL:
             # dπ(a|s)/dθ = π (dQ(s,a) − Σ_b π dQ(s,b)) / τ
             dQ_c = dQ - np.einsum("sa,sak->sk", pi, dQ)[:, None, :]
             dpi = pi[:, :, None] * dQ_c / self.temperature  # (S, A, K)
-            if counts or self.objective == "sequence":
-                dPT = self._dyn.transposed_policy(dpi)
+        reverse = grad and self.objective == "sequence" and self._reverse_mode()
+        if dpi is not None and (counts or not reverse):  # forward mode needs dP_πᵀ/dθ itself
+            dPT = self._dyn.transposed_policy(dpi)
         B = self._forward_operator(PT, dPT)
         if counts:
             phi_pi = np.einsum("sa,sak->sk", pi, self.features)
@@ -285,7 +304,10 @@ class OccludedMaxEntIRL:
                 expert_g = dphi_pi[self._unl_s].sum(axis=0)
                 g = g + 2 * (diff @ (expected_g - expert_g)) / self._n_obs
         if self.objective == "sequence":
-            ll, g_ll = self._sequence_loglik(pi, B, dpi)
+            if reverse:
+                ll, g_ll = self._sequence.loglik_reverse(pi, PT, self._vis, dpi)
+            else:
+                ll, g_ll = self._sequence_loglik(pi, B, dpi)
             loss -= ll / self._n_steps
             if grad:
                 g = g - g_ll / self._n_steps

@@ -4,9 +4,20 @@ distributions, masked to the occluded states, until it re-enters view at the obs
 
 Gaps entered from the same state share one column (they are the same distribution until each
 re-enters view), so a record of G gaps from U exit states costs U columns, not G (issue 12).
+
+The gradient wrt the K reward weights is taken in one of two ways, both exact:
+
+* forward mode (:meth:`ObservedSequence.loglik` with the block operator): the K derivatives of
+  every distribution are propagated alongside it, (2K + 1) products with P_πᵀ per step;
+* reverse mode (:meth:`ObservedSequence.loglik_reverse`, :mod:`mirl.learning.gap_adjoint`): the
+  filter keeps its history, one adjoint pass runs back, and one contraction with dπ/dθ ends it,
+  about 3 products per step whatever K, plus per-step bookkeeping that costs more than it saves
+  on small maps. ``OccludedMaxEntIRL(gradient="auto")`` picks by size (see there).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.sparse import _sparsetools
@@ -23,6 +34,9 @@ class ObservedSequence:
     def __init__(self, x: np.ndarray, own: np.ndarray, dyn: _Dynamics, n_states: int) -> None:
         S = n_states
         H = len(x)
+        self._dyn = dyn
+        self._scratch: dict[tuple, tuple] = {}
+        self._scratch_index: dict[tuple, np.ndarray] = {}
         seen = x >= 0
         pairs = np.flatnonzero(seen[:-1] & seen[1:] & own[:-1])
         self._pair = (x[pairs], x[pairs + 1])
@@ -76,99 +90,189 @@ class ObservedSequence:
         self._gap_max = int(self._gap_steps.max(initial=0))
         # columns still needed at step n (a leading block), never fewer than _min_cols
         self._live = [max(int((need >= n).sum()), self._min_cols) for n in range(self._gap_max + 1)]
-        # quiet steps only multiply (no event, no fewer columns, no rescaling, not the first):
-        # _quiet_end[n] is the first step from n on that is not quiet
-        self._quiet_end = list(range(self._gap_max + 2))
-        for n in range(self._gap_max - 1, 1, -1):
-            if n not in self._gap_events and self._live[n] == self._live[n - 1] and n % 8:
+        # step n multiplies an (S, live[n]) block; the blocks of all steps lie one after another
+        # in one buffer (the filter's history, which the reverse pass reads back)
+        self._block_start = np.concatenate(([0], np.cumsum(self._live[1:]))).tolist()  # columns
+        # quiet steps only multiply (no event, no rescaling, not the first or last, and they
+        # keep every column, so they write straight into the next step's input); both passes
+        # run each stretch of them in a tight loop: quiet_end[n] is the first step from n on
+        # that is not quiet, quiet_start[n] the first of the stretch that ends at n
+        top, live = self._gap_max, self._live
+        quiet = [
+            1 < n < top and n not in self._gap_events and n % 8 > 0 and live[n + 1] == live[n]
+            for n in range(top + 2)
+        ]  # fmt: skip
+        self._quiet_end = list(range(top + 2))
+        self._quiet_start = list(range(top + 2))
+        for n in range(top - 1, 0, -1):
+            if quiet[n]:
                 self._quiet_end[n] = self._quiet_end[n + 1]
+        for n in range(2, top + 1):
+            if quiet[n]:
+                self._quiet_start[n] = self._quiet_start[n - 1] if quiet[n - 1] else n
 
     def loglik(self, pi, B, visible, dpi=None):
         """log P(observed series | first observation, π, T), occlusion included; with ``dpi``
-        (S, A, K) = dπ/dθ also its gradient. ``B`` moves a distribution and its derivatives one
-        step on (``OccludedMaxEntIRL._forward_operator``); ``visible``: the observable states.
+        (S, A, K) = dπ/dθ also its gradient, in forward mode. ``B`` moves a distribution and its
+        derivatives one step on (P_πᵀ, or ``OccludedMaxEntIRL._forward_operator``'s block
+        operator when ``dpi`` is given); ``visible``: the observable states."""
+        total, grad = self._pairs_loglik(pi, dpi)
+        if self._gap_U0.shape[1]:
+            K = len(grad)
+            hidden = np.tile(~visible, K + 1).astype(float)
+            total = self._filter(B, hidden, total, K, grad).loglik
+        return total, grad
 
-        Long because the occluded gaps are one filter loop with its events inline: each gap is a
-        column of state distributions (and their K derivatives) propagated until it re-enters
-        view (or the record ends), rescaled every 8 steps against underflow."""
+    def loglik_reverse(self, pi, PT, visible, dpi):
+        """:meth:`loglik` and its gradient in reverse mode: ``PT`` is P_πᵀ alone."""
+        from mirl.learning.gap_adjoint import gap_gradient
+
+        total, grad = self._pairs_loglik(pi, dpi)
+        if self._gap_U0.shape[1]:
+            hidden = (~visible).astype(float)
+            filtered = self._filter(PT, hidden, total, 0, grad, history=True)
+            total = filtered.loglik
+            grad += gap_gradient(self, filtered, PT, hidden, dpi)
+        return total, grad
+
+    def _pairs_loglik(self, pi, dpi):
+        """The steps between two observations: Σ log P(s_{t+1} | s_t) and its gradient."""
         K = 0 if dpi is None else dpi.shape[2]
-        a, b = self._pair
+        a, _ = self._pair
         p_ab = np.maximum((pi[a] * self._Tab).sum(axis=1), 1e-300)
         total = float(np.log(p_ab).sum())
         grad = np.zeros(K)
         if K:
             grad += ((dpi[a] * self._Tab[:, :, None]).sum(axis=1) / p_ab[:, None]).sum(axis=0)
-        G = self._gap_U0.shape[1]
-        if G == 0:
-            return total, grad
-        S = self._gap_U0.shape[0]
-        hidden = np.tile(~visible, K + 1).astype(float)[:, None]
-        hidden_s = hidden[:S]
-        masked = _without_columns(B, hidden[:, 0] == 0.0)
-        col, need = self._gap_col, self._col_need
-        n_cols = max(len(need), self._min_cols)
-        # rows [k·S, (k+1)·S) of Z: the columns' state distributions (k = 0) and their
-        # derivatives wrt θ_k; columns are rescaled as a whole, so ratios stay exact. After the
-        # first step (from the observed exit state) Z holds B · (masked Z of the step before):
-        # the mask to the occluded states is folded into B's columns, so Z is masked only where
-        # it is read (tails, rescaling).
-        Z = np.zeros(((K + 1) * S, n_cols))
+        return total, grad
+
+    def _workspace(self, R: int, history: bool, name: str = "filter") -> tuple:
+        """(buffer, blocks, flats): per step n, the (R, live[n]) block it multiplies and the same
+        as a flat view (index 0 unused). With ``history`` the blocks lie one after another in
+        one zeroed buffer (the reverse pass reads them back); without, two buffers take turns
+        (each step zeroes its output). Kept between calls: allocating them anew costs more
+        than the filter itself on boyd2."""
+        key = (name, R, history)
+        if key not in self._scratch:
+            live, start, top = self._live, self._block_start, self._gap_max
+            if history:
+                buffer = np.zeros(R * start[-1])
+                flats = [buffer[R * start[n - 1] : R * start[n]] for n in range(1, top + 1)]
+            else:
+                buffer = np.zeros((2, R * max(live)))
+                flats = [buffer[n % 2, : R * live[n]] for n in range(1, top + 1)]
+            flats = [flats[0][:0]] + flats
+            blocks = [flats[0]] + [f.reshape(R, -1) for f in flats[1:]]
+            self._scratch[key] = (buffer, blocks, flats)
+        buffer, blocks, flats = self._scratch[key]
+        (buffer if history else flats[1]).fill(0.0)
+        return buffer, blocks, flats
+
+    def _history_index(self, S: int, n: int, m: int) -> np.ndarray:
+        """(S, columns) positions in the filter's history of the columns of steps n .. m-1
+        (column c of step k, state s, sits at S·start[k-1] + s·live[k] + c), less the copy of
+        column 0 that some steps carry (nothing is read from it, so its adjoint is zero); kept
+        when they fit in one chunk, as the same ones are asked at every evaluation."""
+        key = (S, n, m)
+        index = self._scratch_index.get(key)
+        if index is None:
+            start, live, real = self._block_start, self._live, len(self._col_need)
+            widths = [min(live[k], real) for k in range(n, m)]
+            first = np.repeat(np.asarray(start[n - 1 : m - 1]), widths)
+            column = np.arange(sum(widths)) - np.repeat(np.cumsum([0] + widths[:-1]), widths)
+            stride = np.repeat(np.asarray([live[k] for k in range(n, m)]), widths)
+            index = S * first + column + np.arange(S)[:, None] * stride
+            if n == 2 and m == self._gap_max + 1:  # all in one chunk: small enough to keep
+                self._scratch_index[key] = index
+        return index
+
+    def _filter(self, B, hidden, total: float, K: int, grad, history: bool = False) -> Filtered:
+        """The gaps' forward filter over (K + 1)·S rows (the distributions, then their K
+        derivatives, forward mode; ``hidden`` is the occlusion mask tiled to as many rows). Its
+        log-likelihood is added to ``total`` and its gradient to ``grad`` term by term, in the
+        order of the first implementation so that sums round as they did; what each step
+        multiplied is kept (``inputs[n]``) for the reverse pass.
+
+        Long because the occluded gaps are one filter loop with its events inline: each gap is a
+        column of state distributions propagated until it re-enters view (or the record ends),
+        rescaled every 8 steps against underflow."""
+        S = B.shape[0] // (K + 1)
+        R = B.shape[0]
+        col, need, live, top = self._gap_col, self._col_need, self._live, self._gap_max
+        buffer, inputs, flats = self._workspace(R, history)
+        # columns are rescaled as a whole, so ratios stay exact. After the first step (from the
+        # observed exit state) a step multiplies by B·diag(occluded): the mask is folded into
+        # the operator's columns, so the distributions are masked only where read.
+        Z = inputs[1]
         Z[self._col_start, np.arange(len(need))] = 1.0
-        if n_cols > len(need):  # a copy of column 0, only so that sums reduce as before
+        if Z.shape[1] > len(need):  # a copy of column 0, only so that sums reduce as before
             Z[:, len(need)] = Z[:, 0]
-        log_scale = np.zeros(G)
-        alive = np.ones(G)
-        R, kernel = Z.shape[0], _sparsetools.csr_matvecs
-        out = np.empty_like(Z)  # two buffers in turn: the step writes one from the other
-        z_flat, out_flat = Z.ravel(), out.ravel()
-        ip, ix, dt = masked
+        log_scale = np.zeros(len(self._gap_steps))
+        alive = np.ones(len(self._gap_steps))
+        kept = Filtered(inputs=inputs, history=buffer, reads={}, masses={})
+        kernel = _sparsetools.csr_matvecs
+        kept.masked = ip, ix, dt = _without_columns(B, hidden == 0.0)
         n = 1
-        while n <= self._gap_max:
-            quiet_end = self._quiet_end[n]
-            if quiet_end > n:  # a run of steps that only multiply, in a tight loop
-                live = Z.shape[1]
-                for _ in range(quiet_end - n):
-                    out_flat.fill(0.0)
-                    kernel(R, R, live, ip, ix, dt, z_flat, out_flat)
-                    z_flat, out_flat = out_flat, z_flat
-                if (quiet_end - n) % 2:
-                    Z, out = out, Z
-                n = quiet_end
+        while n <= top:
+            if self._quiet_end[n] > n:  # a stretch of steps that only multiply
+                width = live[n]
+                for k in range(n, self._quiet_end[n]):
+                    if not history:
+                        flats[k + 1].fill(0.0)
+                    kernel(R, R, width, ip, ix, dt, flats[k], flats[k + 1])
+                n = self._quiet_end[n]
                 continue
-            live = self._live[n]
-            if live < Z.shape[1]:
-                Z = np.ascontiguousarray(Z[:, :live])
-                out = np.empty_like(Z)
-                z_flat, out_flat = Z.ravel(), out.ravel()
-            out.fill(0.0)  # Z ← B Z by the kernel behind `B @ Z` (mirl.mdp.csr_matmul)
-            indptr, indices, data = masked if n > 1 else (B.indptr, B.indices, B.data)
-            kernel(R, R, live, indptr, indices, data, z_flat, out_flat)
-            Z, out, z_flat, out_flat = out, Z, out_flat, z_flat
+            # the step writes straight into the next step's input when it keeps every column
+            same = n < top and live[n + 1] == live[n]
+            out = inputs[n + 1] if same else np.zeros((R, live[n]))
+            if same and not history:
+                out.fill(0.0)
+            indptr, indices, data = (ip, ix, dt) if n > 1 else (B.indptr, B.indices, B.data)
+            kernel(R, R, live[n], indptr, indices, data, flats[n], out.ravel())
             event = self._gap_events.get(n)
             if event is not None:
                 hit, ends, tail = event
                 if hit.size:  # re-entry into view at the observed state
-                    v = np.maximum(Z[ends, col[hit]], 1e-300)
+                    v = np.maximum(out[ends, col[hit]], 1e-300)
                     total += float((np.log(v) + log_scale[hit]).sum())
                     if K:
-                        Zk = Z.reshape(K + 1, S, Z.shape[1])
-                        grad += (Zk[1:, ends, col[hit]] / v).sum(axis=1)
+                        grad += (out.reshape(K + 1, S, live[n])[1:, ends, col[hit]] / v).sum(1)
                 if tail.size:  # still unseen at the end of the record
-                    Zt = Z[:, col[tail]] * hidden
+                    Zt = out[:, col[tail]] * hidden[:, None]
                     m = np.maximum(Zt[:S].sum(axis=0), 1e-300)
                     total += float((np.log(m) + log_scale[tail]).sum())
                     if K:
-                        grad += (Zt.reshape(K + 1, S, len(tail))[1:].sum(axis=1) / m).sum(axis=1)
+                        grad += (Zt.reshape(K + 1, S, len(tail))[1:].sum(axis=1) / m).sum(1)
+                kept.reads[n] = (v if hit.size else None, m if tail.size else None)
                 alive[hit] = 0.0
                 alive[tail] = 0.0
             if n % 8 == 0:  # rescale against underflow
-                mass = (Z[:S] * hidden_s).sum(axis=0)
+                mass = (out[:S] * hidden[:S, None]).sum(axis=0)
                 mass = np.where(mass > 0, mass, 1.0)
-                Z /= mass
+                out /= mass
+                kept.masses[n] = mass
                 on = alive > 0
                 log_scale[on] += np.log(mass[col[on]])
+            if n < top and not same:
+                inputs[n + 1][...] = out[:, : live[n + 1]]
             n += 1
-        return total, grad
+        kept.loglik = total
+        return kept
+
+
+@dataclass
+class Filtered:
+    """What the reverse pass needs of a forward filter: ``inputs[n]`` the (S, live) columns step
+    n multiplied (views of the buffer ``history``), ``reads[n]`` the values read at step n's events
+    (re-entries, tails; None where there were none), ``masses[n]`` the rescaling of step n's
+    columns, and ``masked`` the CSR arrays of the operator the steps after the first used."""
+
+    inputs: list
+    history: np.ndarray
+    reads: dict
+    masses: dict
+    masked: tuple = ()
+    loglik: float = 0.0
 
 
 def _without_columns(B, drop: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -50,6 +50,14 @@ class _Dynamics:
         indices = np.tile(self._pt_indices, K)
         return sp.csr_array((data, indices, indptr), shape=(K * S, S))
 
+    def transition_weights(self, W: np.ndarray) -> np.ndarray:
+        """Σ_s' T(s, a, s') W(s', s) as (S, A), for W given on P_πᵀ's pattern (what
+        ``transposed_policy`` puts there): the contraction that turns ∂/∂P_πᵀ into ∂/∂π."""
+        weights = W[self._pt_pos] * self.T.data
+        return np.bincount(self.rows, weights=weights, minlength=self.S * self.A).reshape(
+            self.S, self.A
+        )
+
     def transition_values(self, s: np.ndarray, s_next: np.ndarray) -> np.ndarray:
         """T(s_i, a, s_next_i) for every action, (n, A)."""
         if self.dense is not None:

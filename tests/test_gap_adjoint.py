@@ -1,0 +1,139 @@
+"""The sequence likelihood's two gradients: forward mode (derivatives propagated alongside) and
+reverse mode (the adjoint of the gap filter) agree with each other, with the first forward-mode
+implementation kept in ``tests/sequence_reference.py``, and with finite differences."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sequence_reference import forward_mode_loglik
+
+from mirl.learning.irl import OccludedMaxEntIRL
+from mirl.learning.sequence import ObservedSequence
+from mirl.learning.soft_policy import _Dynamics
+from mirl.simulation.grid import simulate
+from mirl.world.scenario import load_scenario
+
+
+def _case(name: str, seed: int, steps: int = 450, observability: float | None = None):
+    """A simulated record of robot 0, its sequence, and a random π and dπ/dθ to test with."""
+    sc = load_scenario(name)
+    d = sc.domain
+    seen = sc.observability if observability is None else observability
+    obs = simulate(sc, steps, seed=seed, observability=seen, random_starts=True)
+    x = obs.observations.state_series(d, 0)
+    if not (x >= 0).any():
+        return None  # never seen: nothing to filter
+    vis = d.visible_states(seen) | np.isin(np.arange(d.n_states), x[x >= 0])
+    dyn = _Dynamics(sc.true_transitions(0), d.n_actions)
+    seq = ObservedSequence(x, np.ones(len(x), bool), dyn, d.n_states)
+    rng = np.random.default_rng(seed)
+    pi = rng.random((d.n_states, d.n_actions)) ** 4  # uneven, as learned policies are
+    pi /= pi.sum(axis=1, keepdims=True)
+    dpi = rng.normal(size=(d.n_states, d.n_actions, 5))
+    dpi -= dpi.mean(axis=1, keepdims=True)
+    return seq, dyn, pi, dpi, vis
+
+
+def _block(dyn, pi, dpi):
+    irl = OccludedMaxEntIRL.__new__(OccludedMaxEntIRL)
+    irl._blocks = None
+    return irl._forward_operator(dyn.transposed_policy(pi), dyn.transposed_policy(dpi))
+
+
+@pytest.mark.parametrize(("name", "seed"), [("boyd2", 0), ("boyd2", 5), ("boydright-3", 1)])
+def test_both_gradients_match_the_first_implementation(name, seed):
+    seq, dyn, pi, dpi, vis = _case(name, seed)  # type: ignore[misc]
+    assert seq._gap_max > 8 and len(seq._gap_steps) > 2  # rescaling and several gaps happen
+    B = _block(dyn, pi, dpi)
+    ref_ll, ref_g = forward_mode_loglik(seq, pi, B, vis, dpi)
+    ll, g = seq.loglik(pi, B, vis, dpi)  # forward mode: bit for bit the first implementation
+    assert ll == ref_ll
+    assert np.array_equal(g, ref_g)
+    PT = dyn.transposed_policy(pi)
+    rev_ll, rev_g = seq.loglik_reverse(pi, PT, vis, dpi)
+    assert rev_ll == ref_ll  # the value is the same filter
+    np.testing.assert_allclose(rev_g, ref_g, rtol=1e-10, atol=1e-10 * np.abs(ref_g).max())
+    value, _ = seq.loglik(pi, PT, vis)
+    assert value == ref_ll
+
+
+def test_reverse_gradient_on_a_large_map_with_a_trailing_gap():
+    seq, dyn, pi, dpi, vis = _case("office", 2, steps=200)
+    assert seq._gap_max > 8
+    ref_ll, ref_g = forward_mode_loglik(seq, pi, _block(dyn, pi, dpi), vis, dpi)
+    ll, g = seq.loglik_reverse(pi, dyn.transposed_policy(pi), vis, dpi)
+    assert ll == ref_ll
+    np.testing.assert_allclose(g, ref_g, rtol=1e-10, atol=1e-10 * np.abs(ref_g).max())
+
+
+def test_reverse_gradient_equals_finite_differences():
+    """Along a direction δ in π-space, d/dε log L(π + ε δ) = Σ ∂ log L/∂π · δ."""
+    seq, dyn, pi, dpi, vis = _case("boyd2", 3, steps=300)
+    delta = dpi[:, :, 0]
+    eps = 1e-6
+    lo, hi = (
+        seq.loglik(p, dyn.transposed_policy(p), vis)[0]
+        for p in (pi - eps * delta, pi + eps * delta)
+    )
+    _, g = seq.loglik_reverse(pi, dyn.transposed_policy(pi), vis, dpi[:, :, :1])
+    assert g[0] == pytest.approx((hi - lo) / (2 * eps), rel=1e-6)
+
+
+def test_tails_and_shrinking_columns_are_covered():
+    """Views through a random quarter of the states: many exit states, so columns drop out as
+    their gaps end, and a record that ends out of view (a tail read)."""
+    sc = load_scenario("boyd2")
+    d = sc.domain
+    rng = np.random.default_rng(7)
+    vis = rng.random(d.n_states) < 0.25
+    x = simulate(sc, 160, seed=7, observability=1.0).observations.state_series(d, 0)
+    x = np.where(vis[np.maximum(x, 0)], x, -1)
+    x[-1] = -1
+    dyn = _Dynamics(sc.true_transitions(0), d.n_actions)
+    seq = ObservedSequence(x, np.ones(len(x), bool), dyn, d.n_states)
+    assert (seq._gap_ends < 0).any() and len(set(seq._live[1:])) > 2
+    pi = rng.random((d.n_states, d.n_actions)) ** 4
+    pi /= pi.sum(axis=1, keepdims=True)
+    dpi = rng.normal(size=(d.n_states, d.n_actions, 3))
+    vis |= np.isin(np.arange(d.n_states), x[x >= 0])
+    ref_ll, ref_g = forward_mode_loglik(seq, pi, _block(dyn, pi, dpi), vis, dpi)
+    ll, g = seq.loglik_reverse(pi, dyn.transposed_policy(pi), vis, dpi)
+    assert ll == ref_ll
+    np.testing.assert_allclose(g, ref_g, rtol=1e-10, atol=1e-10 * np.abs(ref_g).max())
+
+
+@pytest.mark.parametrize("gradient", ["forward", "reverse"])
+def test_fits_with_either_gradient_reach_the_same_weights(gradient):
+    sc = load_scenario("boyd2")
+    d = sc.domain
+    obs = simulate(sc, 300, seed=4, observability=0.14, random_starts=True).observations
+    x = obs.state_series(d, 1)
+    fits = [
+        OccludedMaxEntIRL(
+            d.reward_features,
+            sc.true_transitions(1),
+            discount=sc.discount,
+            visible=d.visible_states(0.14),
+            gradient=mode,
+        ).fit(x)
+        for mode in ("forward", gradient)
+    ]
+    np.testing.assert_allclose(fits[1].weights_, fits[0].weights_, rtol=1e-6, atol=1e-6)
+    assert np.array_equal(fits[1].policy_, fits[0].policy_)
+
+
+def test_auto_takes_forward_mode_on_boyd2_and_reverse_on_the_office():
+    modes = {}
+    for name in ("boyd2", "office"):
+        sc = load_scenario(name)
+        irl = OccludedMaxEntIRL(sc.domain.reward_features, sc.true_transitions(0))
+        irl._dyn = _Dynamics(irl.transitions, sc.domain.n_actions)
+        modes[name] = irl._reverse_mode()
+    assert modes == {"boyd2": False, "office": True}
+
+
+def test_unknown_gradient_mode_is_refused():
+    sc = load_scenario("boyd2")
+    with pytest.raises(ValueError, match="unknown gradient 'adjoint'"):
+        OccludedMaxEntIRL(sc.domain.reward_features, sc.true_transitions(0), gradient="adjoint")
