@@ -66,7 +66,7 @@ OPTIMIZERS = ("nelder-mead", "lbfgs")
 GRADIENTS = ("auto", "forward", "reverse")
 # "auto" takes the sequence gradient in reverse mode from this many nonzeros of the forward
 # operator on ((2K + 1)·nnz(P_πᵀ)); below it forward mode's fewer, larger steps are cheaper
-# (benchmarks/bench_learning.py --gradients)
+# (benchmarks/bench_gradients.py: boyd2 0.85-0.96x, boydright-3 1.1-1.3x, office 1.9-2.0x)
 _REVERSE_FROM = 6_000
 
 
@@ -367,13 +367,12 @@ class OccludedMaxEntIRL:
                     options={"maxfun": self.max_evaluations, "gtol": 1e-7},
                 )
             results.append(res)
+        self._sequence.free_workspace()  # its filter history (tens of MB on large maps)
         best = min(results, key=lambda r: r.fun)  # the first of equal optima, as before
         theta = np.asarray(best.x, dtype=float)
         self._V_warm = None
         V, Q, pi = self._soft(theta)
-        D, _ = self._occupancy(self._dyn.transposed_policy(pi), 0)
-        phi_pi = np.einsum("sa,sak->sk", pi, self.features)
-        self.expected_counts_, self.expert_counts_ = self._counts(phi_pi, D)
+        self._final_counts: tuple[np.ndarray, np.ndarray] | None = None
         hard = value_iteration(TabularMDP(self.transitions, self.features @ theta, self.discount))
         self.weights_ = theta
         self.soft_policy_ = pi
@@ -388,6 +387,27 @@ class OccludedMaxEntIRL:
             starts=[(np.asarray(r.x), float(r.fun)) for r in results],
         )
         return self
+
+    # the counts are a diagnostic, computed when first read: on a 3 804-state office their
+    # propagation over the whole record cost as much as a tenth of the sequence objective's fit
+    @property
+    def expected_counts_(self) -> np.ndarray:
+        return self._counts_of_fit()[0]
+
+    @property
+    def expert_counts_(self) -> np.ndarray:
+        return self._counts_of_fit()[1]
+
+    def _counts_of_fit(self) -> tuple[np.ndarray, np.ndarray]:
+        if getattr(self, "_final_counts", None) is None:
+            if not hasattr(self, "soft_policy_"):
+                raise AttributeError("expected_counts_ and expert_counts_ exist after fit()")
+            pi = self.soft_policy_
+            D, _ = self._occupancy(self._dyn.transposed_policy(pi), 0)
+            phi_pi = np.einsum("sa,sak->sk", pi, self.features)
+            self._final_counts = self._counts(phi_pi, D)
+        assert self._final_counts is not None
+        return self._final_counts
 
 
 def _block_operator(PT: sp.csr_array, dPT: sp.csr_array, tiled_offsets: int = 0) -> sp.csr_array:

@@ -168,6 +168,11 @@ class ObservedSequence:
         (buffer if history else flats[1]).fill(0.0)
         return buffer, blocks, flats
 
+    def free_workspace(self) -> None:
+        """Drop the buffers kept between calls (they come back at the next call)."""
+        self._scratch.clear()
+        self._scratch_index.clear()
+
     def _history_index(self, S: int, n: int, m: int) -> np.ndarray:
         """(S, columns) positions in the filter's history of the columns of steps n .. m-1
         (column c of step k, state s, sits at S·start[k-1] + s·live[k] + c), less the copy of
