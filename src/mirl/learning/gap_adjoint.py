@@ -41,7 +41,7 @@ def _pattern_weights(seq, fil, PT, hidden: np.ndarray) -> np.ndarray:
     kernel = _sparsetools.csc_matvecs  # B_{n+1}ᵀ μ: the CSR of B_{n+1} read as a CSC matrix
     n = top
     while n >= 1:
-        if seq._quiet_start[n] < n or seq._quiet_end[n] > n:  # quiet: they only multiply
+        if seq._quiet_end[n] > n:  # n is quiet: back down its stretch, only multiplying
             width = live[n]
             for k in range(n, seq._quiet_start[n] - 1, -1):
                 kernel(S, S, width, ip, ix, dt, flats[k + 1], flats[k])

@@ -30,8 +30,9 @@ policy handed on is the greedy policy of *hard* value iteration with θ and T.
 
 **Optimisers.** Nelder–Mead (derivative-free, as in the paper) from seeded restarts, or
 ``"lbfgs"``: L-BFGS-B with the exact gradient — dπ/dθ through the soft successor features
-(I − γP_π)⁻¹ φ_π, and forward-mode propagation of the distributions and their K derivatives in
-one block-sparse step.
+(I − γP_π)⁻¹ φ_π; for the sequence objective the gap filter's gradient in forward mode (the
+distributions and their K derivatives in one block-sparse step) on small models and in reverse
+mode (:mod:`mirl.learning.gap_adjoint`) on large ones (``gradient``).
 
 Soft values come from soft policy iteration (Newton's method on the soft Bellman equation,
 quadratic convergence) warm-started from the previous evaluation.
