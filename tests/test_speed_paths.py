@@ -152,3 +152,19 @@ def test_forward_operator_pattern_reuse_and_direct_lapack_solve_are_bitwise(boyd
         b = rng.normal(size=(d.n_states, 3))
         assert np.array_equal(_dense_solve(M, b), sla.solve(M, b, check_finite=False))
         assert np.array_equal(_dense_solve(M, b[:, 0]), sla.solve(M, b[:, 0], check_finite=False))
+
+
+def test_sparse_transition_lookup_is_the_dense_rows():
+    """On a large model T(s, ·, s') is looked up entry by entry: the values of densified rows."""
+    sc = load_scenario("office")
+    T = sc.true_transitions(1)
+    dyn = _Dynamics(T, sc.domain.n_actions)
+    assert dyn.dense is None  # the sparse path
+    rng = np.random.default_rng(0)
+    pick = rng.choice(T.nnz, 300, replace=False)  # real transitions, so most values are > 0
+    rows = np.repeat(np.arange(T.shape[0]), np.diff(T.indptr))[pick]
+    s, s_next = rows // dyn.A, T.indices[pick]
+    dense = T[(s[:, None] * dyn.A + np.arange(dyn.A)).ravel()].toarray()
+    expected = dense.reshape(len(s), dyn.A, dyn.S)[np.arange(len(s)), :, s_next]
+    assert np.array_equal(dyn.transition_values(s, s_next), expected)
+    assert (expected > 0).sum() >= 300

@@ -63,8 +63,8 @@ class _Dynamics:
         if self.dense is not None:
             return self.dense[s, :, s_next]
         rows = (np.asarray(s)[:, None] * self.A + np.arange(self.A)).ravel()
-        sub = self.T[rows].toarray().reshape(len(s), self.A, self.S)
-        return sub[np.arange(len(s)), :, s_next]
+        cols = np.repeat(np.asarray(s_next), self.A)  # entries looked up, not rows densified
+        return np.asarray(self.T[rows, cols]).reshape(len(s), self.A)
 
     def next_values(self, V: np.ndarray) -> np.ndarray:
         """E[V(s') | s, a] as (S, A) (or (S, A, K) for V of shape (S, K))."""

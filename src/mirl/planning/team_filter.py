@@ -22,9 +22,10 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse import _sparsetools
 
 from mirl.learning.models import LearnResult
-from mirl.mdp import policy_matrix
+from mirl.mdp import csr_matmul, policy_matrix
 from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
 
 __all__ = ["meeting_matrix", "game_step_matrix", "TeamParts", "ExactTeam", "FactoredTeam"]
@@ -96,24 +97,42 @@ class FactoredTeam:
     """Marginals (N, S) with pairwise meeting corrections (module doc)."""
 
     def __init__(self, parts: TeamParts) -> None:
-        self.parts = parts
+        self.parts = p = parts
+        # per robot: (other robot, its meeting mask seen from this robot, this side's game
+        # step), the masks of the column side transposed once here rather than at every step
+        self._meetings = [
+            [(other, p.meet[k] if side == 0 else p.meet[k].T, p.game_T[k][side])
+             for k, other, side in p.robot_pairs(i)]
+            for i in range(p.n)
+        ]  # fmt: skip
 
     def propagate(self, belief: np.ndarray) -> np.ndarray:
+        """One step of every marginal; the products call scipy's kernels without its per-call
+        dispatch (``_matvec``), which cost more than the products on the office's 3 804 states."""
         p = self.parts
         out = np.empty_like(belief)
         for i in range(p.n):
             b = belief[i]
             free = np.ones(p.S)
             parts = []
-            for k, other, side in p.robot_pairs(i):
-                m = p.meet[k] if side == 0 else p.meet[k].T
-                q = np.clip(m @ belief[other], 0.0, 1.0)  # P(i at s meets the other)
+            for other, m, game_T in self._meetings[i]:
+                q = np.clip(_matvec(m, belief[other]), 0.0, 1.0)  # P(i at s meets the other)
                 w = free * q
                 free = free - w
                 if w.any():
-                    parts.append(p.game_T[k][side] @ (b * w))
-            out[i] = p.step_T[i] @ (b * free) + sum(parts, np.zeros(p.S))
+                    parts.append(_matvec(game_T, b * w))
+            out[i] = _matvec(p.step_T[i], b * free) + sum(parts, np.zeros(p.S))
         return out
+
+
+def _matvec(A, x: np.ndarray) -> np.ndarray:
+    """``A @ x`` for a CSR or CSC (a transposed CSR) array: the kernel ``@`` calls, so bit for
+    bit the same, without scipy's dispatch."""
+    if A.format == "csr":
+        return csr_matmul(A, x)
+    out = np.zeros(A.shape[0], dtype=np.result_type(A.dtype, x.dtype))
+    _sparsetools.csc_matvec(A.shape[0], A.shape[1], A.indptr, A.indices, A.data, x, out)
+    return out
 
 
 class ExactTeam:
