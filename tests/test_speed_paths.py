@@ -168,3 +168,54 @@ def test_sparse_transition_lookup_is_the_dense_rows():
     expected = dense.reshape(len(s), dyn.A, dyn.S)[np.arange(len(s)), :, s_next]
     assert np.array_equal(dyn.transition_values(s, s_next), expected)
     assert (expected > 0).sum() >= 300
+
+
+def test_policy_system_is_scipys_matrix_value_for_value():
+    """I − γP_π gathered into a fixed pattern is the CSC array scipy makes of eye − γ·P_π, every
+    value in the same place (office T, smooth and peaked soft policies)."""
+    from mirl.learning.soft_policy import _PolicySystem
+
+    sc = load_scenario("office")
+    rng = np.random.default_rng(5)
+    for robot in (0, 2):
+        dyn = _Dynamics(sc.true_transitions(robot), sc.domain.n_actions)
+        system = _PolicySystem(dyn.T, dyn.rows, dyn.A)
+        for scale in (1.0, 30.0):
+            Q = rng.normal(scale=scale, size=(dyn.S, dyn.A))
+            pi = np.exp(Q - Q.max(axis=1, keepdims=True))
+            pi /= pi.sum(axis=1, keepdims=True)
+            expected = sp.csc_array(sp.eye_array(dyn.S) - 0.95 * dyn.policy_matrix(pi))
+            got = system.matrix(pi, 0.95)
+            assert got is not None
+            for field in ("indptr", "indices", "data"):
+                assert np.array_equal(getattr(got, field), getattr(expected, field))
+        b = rng.random(dyn.S)
+        assert np.array_equal(
+            dyn.solve_policy(pi, 0.95, b), dyn.solve(dyn.policy_matrix(pi), 0.95, b)
+        )
+
+
+def test_policy_system_on_random_models_and_exact_zeros():
+    """Random sparse T (successors differ by action): the same values as scipy's; where an
+    action of probability exactly 0 leaves an entry at 0, scipy drops it and so does the
+    fallback (None)."""
+    from mirl.learning.soft_policy import _policy_matrix, _PolicySystem
+
+    rng = np.random.default_rng(8)
+    S, A = 40, 3
+    T = sp.random_array((S * A, S), density=0.08, random_state=2, format="csr")
+    some = sp.csr_array((np.ones(S * A), (np.arange(S * A), np.arange(S * A) % S)))
+    T = sp.csr_array(T + some)  # every (s, a) goes somewhere
+    T = sp.csr_array(T.multiply(1.0 / T.sum(axis=1)[:, None]))
+    rows = np.repeat(np.arange(S * A), np.diff(T.indptr))
+    system = _PolicySystem(T, rows, A)
+    pi = rng.dirichlet(np.ones(A), size=S)
+    expected = sp.csc_array(sp.eye_array(S) - 0.9 * _policy_matrix(T, rows, pi, S))
+    got = system.matrix(pi, 0.9)
+    assert got is not None
+    for field in ("indptr", "indices", "data"):
+        assert np.array_equal(getattr(got, field), getattr(expected, field))
+    pi[:, 1:] = 0.0
+    pi[:, 0] = 1.0
+    assert sp.csc_array(sp.eye_array(S) - 0.9 * _policy_matrix(T, rows, pi, S)).nnz < got.nnz
+    assert system.matrix(pi, 0.9) is None

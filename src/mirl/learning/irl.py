@@ -281,7 +281,7 @@ class OccludedMaxEntIRL:
         if grad:
             # dQ/dθ = φ + γ T dV/dθ, dV/dθ = Σ_a π dQ/dθ (soft Bellman): successor features
             phi_pi = np.einsum("sa,sak->sk", pi, self.features)
-            dV = self._dyn.solve(self._dyn.policy_matrix(pi), self.discount, phi_pi)
+            dV = self._dyn.solve_policy(pi, self.discount, phi_pi)
             dQ = self.features + self.discount * self._dyn.next_values(dV)
             # dπ(a|s)/dθ = π (dQ(s,a) − Σ_b π dQ(s,b)) / τ
             dQ_c = dQ - np.einsum("sa,sak->sk", pi, dQ)[:, None, :]

@@ -24,6 +24,7 @@ class _Dynamics:
         self.A = n_actions
         self.rows = np.repeat(np.arange(self.S * self.A), np.diff(self.T.indptr))
         self.dense = None
+        self._system: _PolicySystem | None = None  # I − γP_π's pattern (sparse models)
         if self.S <= _DENSE_LIMIT:
             self.dense = self.T.toarray().reshape(self.S, self.A, self.S)
         # fixed sparsity pattern of P_πᵀ: entry (s', s) collects T(s, a, s') over actions a
@@ -86,6 +87,16 @@ class _Dynamics:
         A = sp.csc_array(sp.eye_array(self.S) - discount * P)
         return spla.splu(A).solve(np.asarray(b, dtype=float))
 
+    def solve_policy(self, pi: np.ndarray, discount: float, b: np.ndarray) -> np.ndarray:
+        """Solve (I − γ P_π) x = b: :meth:`solve` with P_π, its sparse matrix built from π."""
+        if self.dense is None:
+            if self._system is None:
+                self._system = _PolicySystem(self.T, self.rows, self.A)
+            A = self._system.matrix(pi, discount)
+            if A is not None:
+                return spla.splu(A).solve(np.asarray(b, dtype=float))
+        return self.solve(self.policy_matrix(pi), discount, b)
+
 
 def _dense_solve(M: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``scipy.linalg.solve(M, b)`` by LAPACK's gesv directly: the same LU and solve (bitwise the
@@ -102,6 +113,43 @@ def _policy_matrix(T: sp.csr_array, rows: np.ndarray, pi: np.ndarray, n_states: 
     n_actions = pi.shape[1]
     data = T.data * pi.ravel()[rows]
     return sp.csr_array((data, (rows // n_actions, T.indices)), shape=(n_states, n_states))
+
+
+class _PolicySystem:
+    """I − γ P_π as the CSC array scipy makes of ``eye − γ·P_π`` (P_π from T and π as
+    :func:`_policy_matrix` builds it), value for value and in the same order (tested), but
+    gathered straight into a pattern fixed by T: the COO sort, the binary operation and the
+    format conversion cost more than the LU itself on the office (3 804 states).
+
+    Each entry of P_π sums its actions in T's order, as scipy's duplicate summing does; scipy
+    then drops exact zeros (an action of probability 0), and so :meth:`matrix` returns None
+    there and the caller takes scipy's way."""
+
+    def __init__(self, T: sp.csr_array, rows: np.ndarray, n_actions: int) -> None:
+        S = T.shape[1]
+        states = rows // n_actions
+        # column-major keys: entry (row s, column s') of I − γP_π; P_π's entries and the diagonal
+        key_T = T.indices.astype(np.int64) * S + states
+        key_diag = np.arange(S, dtype=np.int64) * (S + 1)
+        uniq = np.unique(np.concatenate([key_T, key_diag]))
+        self._at_T = np.searchsorted(uniq, key_T)
+        self._at_diag = np.searchsorted(uniq, key_diag)
+        self._off_diag = np.ones(len(uniq), dtype=bool)
+        self._off_diag[self._at_diag] = False
+        self._indices = (uniq % S).astype(T.indices.dtype)
+        self._indptr = np.searchsorted(uniq // S, np.arange(S + 1)).astype(T.indptr.dtype)
+        self._weights = T.data
+        self._rows = rows
+        self._shape = (S, S)
+
+    def matrix(self, pi: np.ndarray, discount: float) -> sp.csc_array | None:
+        flat = pi.reshape(-1)[self._rows]
+        p = np.bincount(self._at_T, weights=self._weights * flat, minlength=len(self._indices))
+        if not p[self._off_diag].all():
+            return None
+        data = -(discount * p)
+        data[self._at_diag] = 1.0 - discount * p[self._at_diag]
+        return sp.csc_array((data, self._indices, self._indptr), shape=self._shape)
 
 
 def _softmax(Q: np.ndarray, temperature: float) -> tuple[np.ndarray, np.ndarray]:
@@ -135,7 +183,7 @@ def soft_policy_iteration(
         # evaluate π: V = Σ_a π (R − τ log π) + γ P_π V
         log_pi = (Q - V_soft[:, None]) / temperature
         b = (pi * (rewards - temperature * log_pi)).sum(axis=1)
-        V = dyn.solve(dyn.policy_matrix(pi), discount, b)
+        V = dyn.solve_policy(pi, discount, b)
         Q = rewards + discount * dyn.next_values(V)
         pi, V_soft = _softmax(Q, temperature)
         if np.abs(V_soft - V).max() < tol:
