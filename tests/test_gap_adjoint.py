@@ -123,14 +123,14 @@ def test_fits_with_either_gradient_reach_the_same_weights(gradient):
     assert np.array_equal(fits[1].policy_, fits[0].policy_)
 
 
-def test_auto_takes_forward_mode_on_boyd2_and_reverse_on_the_office():
+def test_auto_takes_forward_mode_on_the_small_maps_and_reverse_on_the_office():
     modes = {}
-    for name in ("boyd2", "office"):
+    for name in ("boyd2", "boydright-3", "office"):
         sc = load_scenario(name)
         irl = OccludedMaxEntIRL(sc.domain.reward_features, sc.true_transitions(0))
         irl._dyn = _Dynamics(irl.transitions, sc.domain.n_actions)
         modes[name] = irl._reverse_mode()
-    assert modes == {"boyd2": False, "office": True}
+    assert modes == {"boyd2": False, "boydright-3": False, "office": True}
 
 
 def test_unknown_gradient_mode_is_refused():

@@ -66,9 +66,10 @@ ANCHORS = ("first", "reentry")
 OPTIMIZERS = ("nelder-mead", "lbfgs")
 GRADIENTS = ("auto", "forward", "reverse")
 # "auto" takes the sequence gradient in reverse mode from this many nonzeros of the forward
-# operator on ((2K + 1)·nnz(P_πᵀ)); below it forward mode's fewer, larger steps are cheaper
-# (benchmarks/bench_gradients.py: boyd2 0.85-0.96x, boydright-3 1.1-1.3x, office 1.9-2.0x)
-_REVERSE_FROM = 6_000
+# operator ((2K + 1)·nnz(P_πᵀ)); below it the reverse pass's per-step bookkeeping eats what it
+# saves (benchmarks/bench_gradients.py, forward/reverse per evaluation: boyd2 (3 888) 0.73-0.96,
+# boydright-3 (8 346) 0.5-1.8 on a loaded machine, no clear gain; office (255 056) 2.25-2.29)
+_REVERSE_FROM = 20_000
 
 
 # ---- the estimator -----------------------------------------------------------------------------
