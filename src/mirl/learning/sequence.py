@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.sparse import _sparsetools
 
+from mirl.learning.gap_adjoint import gap_gradient
 from mirl.learning.soft_policy import _Dynamics
 
 __all__ = ["ObservedSequence"]
@@ -124,8 +125,6 @@ class ObservedSequence:
 
     def loglik_reverse(self, pi, PT, visible, dpi):
         """:meth:`loglik` and its gradient in reverse mode: ``PT`` is P_πᵀ alone."""
-        from mirl.learning.gap_adjoint import gap_gradient
-
         total, grad = self._pairs_loglik(pi, dpi)
         if self._gap_U0.shape[1]:
             hidden = (~visible).astype(float)
