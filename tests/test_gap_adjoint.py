@@ -127,10 +127,27 @@ def test_auto_takes_forward_mode_on_the_small_maps_and_reverse_on_the_office():
     modes = {}
     for name in ("boyd2", "boydright-3", "office"):
         sc = load_scenario(name)
-        irl = OccludedMaxEntIRL(sc.domain.reward_features, sc.true_transitions(0))
-        irl._dyn = _Dynamics(irl.transitions, sc.domain.n_actions)
+        d = sc.domain
+        run = simulate(sc, 300, seed=1, observability=1.0)
+        irl = OccludedMaxEntIRL(d.reward_features, sc.true_transitions(0))
+        irl._prepare(run.observations.state_series(d, 0), None, None)
         modes[name] = irl._reverse_mode()
     assert modes == {"boyd2": False, "boydright-3": False, "office": True}
+
+
+def test_auto_falls_back_to_forward_mode_when_the_history_would_not_fit(monkeypatch):
+    from mirl.learning import irl as irl_module
+
+    sc = load_scenario("office")
+    d = sc.domain
+    x = simulate(sc, 200, seed=2, observability=sc.observability).observations.state_series(d, 0)
+    irl = OccludedMaxEntIRL(
+        d.reward_features, sc.true_transitions(0), visible=d.visible_states(0.14)
+    )
+    irl._prepare(x, None, None)
+    assert irl._reverse_mode()
+    monkeypatch.setattr(irl_module, "_HISTORY_BYTES", 16 * irl._sequence.history_size - 1)
+    assert not irl._reverse_mode()
 
 
 def test_unknown_gradient_mode_is_refused():

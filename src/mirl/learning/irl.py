@@ -70,6 +70,7 @@ GRADIENTS = ("auto", "forward", "reverse")
 # saves (benchmarks/bench_gradients.py, forward/reverse per evaluation: boyd2 (3 888) 0.73-0.96,
 # boydright-3 (8 346) 0.5-1.8 on a loaded machine, no clear gain; office (255 056) 2.25-2.29)
 _REVERSE_FROM = 20_000
+_HISTORY_BYTES = 1 << 30  # and while its two history arrays take at most this much memory
 
 
 # ---- the estimator -----------------------------------------------------------------------------
@@ -210,7 +211,12 @@ class OccludedMaxEntIRL:
         if self.gradient != "auto":
             return self.gradient == "reverse"
         K = self.features.shape[2]
-        return (2 * K + 1) * len(self._dyn._pt_indices) >= _REVERSE_FROM
+        # reverse mode keeps the filter's history and its adjoint: two S × (columns over all
+        # steps) arrays, which on a huge map and a long record would not fit in memory
+        history = 2 * 8 * self._sequence.history_size
+        return (2 * K + 1) * len(self._dyn._pt_indices) >= _REVERSE_FROM and (
+            history <= _HISTORY_BYTES
+        )
 
     # -- objective --
     def _soft(self, theta: np.ndarray):

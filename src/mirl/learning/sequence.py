@@ -166,6 +166,11 @@ class ObservedSequence:
         (buffer if history else flats[1]).fill(0.0)
         return buffer, blocks, flats
 
+    @property
+    def history_size(self) -> int:
+        """Entries of the filter's history in reverse mode (S × the columns of all steps)."""
+        return self._gap_U0.shape[0] * self._block_start[-1]
+
     def free_workspace(self) -> None:
         """Drop the buffers kept between calls (they come back at the next call)."""
         self._scratch.clear()
