@@ -1,6 +1,6 @@
 """The sequence likelihood's first implementation, kept as a reference for the tests: its
 gradient in forward mode (the K derivatives propagated alongside the distributions by the block
-operator of ``OccludedMaxEntIRL._forward_operator``). The library now takes the gradient in
+operator of ``mirl.learning.sequence.BlockOperator``). The library now takes the gradient in
 reverse mode (:mod:`mirl.learning.sequence`); both must agree."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from mirl.learning.sequence import _without_columns
 def forward_mode_loglik(self, pi, B, visible, dpi=None):
     """log P(observed series | first observation, π, T), occlusion included; with ``dpi``
     (S, A, K) = dπ/dθ also its gradient. ``B`` moves a distribution and its derivatives one
-    step on (``OccludedMaxEntIRL._forward_operator``); ``visible``: the observable states.
+    step on (``mirl.learning.sequence.BlockOperator``); ``visible``: the observable states.
 
     Long because the occluded gaps are one filter loop with its events inline: each gap is a
     column of state distributions (and their K derivatives) propagated until it re-enters

@@ -9,7 +9,7 @@ import pytest
 from sequence_reference import forward_mode_loglik
 
 from mirl.learning.irl import OccludedMaxEntIRL
-from mirl.learning.sequence import ObservedSequence
+from mirl.learning.sequence import BlockOperator, ObservedSequence
 from mirl.learning.soft_policy import _Dynamics
 from mirl.simulation.grid import simulate
 from mirl.world.scenario import load_scenario
@@ -36,9 +36,7 @@ def _case(name: str, seed: int, steps: int = 450, observability: float | None = 
 
 
 def _block(dyn, pi, dpi):
-    irl = OccludedMaxEntIRL.__new__(OccludedMaxEntIRL)
-    irl._blocks = None
-    return irl._forward_operator(dyn.transposed_policy(pi), dyn.transposed_policy(dpi))
+    return BlockOperator()(dyn.transposed_policy(pi), dyn.transposed_policy(dpi))
 
 
 @pytest.mark.parametrize(("name", "seed"), [("boyd2", 0), ("boyd2", 5), ("boydright-3", 1)])

@@ -132,7 +132,8 @@ def test_meeting_part_of_the_joint_step_is_bitwise_the_dense_product(boyd2):
 def test_forward_operator_pattern_reuse_and_direct_lapack_solve_are_bitwise(boyd2):
     import scipy.linalg as sla
 
-    from mirl.learning.irl import OccludedMaxEntIRL, _block_operator
+    from mirl.learning.irl import OccludedMaxEntIRL
+    from mirl.learning.sequence import _block_operator
     from mirl.learning.soft_policy import _dense_solve
 
     d = boyd2.domain

@@ -55,7 +55,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import OptimizeResult, minimize
 
-from mirl.learning.sequence import ObservedSequence
+from mirl.learning.sequence import BlockOperator, ObservedSequence
 from mirl.learning.soft_policy import _Dynamics, soft_policy_iteration
 from mirl.mdp import TabularMDP, csr_matmul, value_iteration
 
@@ -130,7 +130,7 @@ class OccludedMaxEntIRL:
                 raise ValueError(f"unknown {name} '{value}' (known: {', '.join(allowed)})")
         self.features = np.asarray(features, dtype=float)
         self._V_warm: np.ndarray | None = None  # soft values of the last evaluation (warm start)
-        self._blocks: tuple | None = None  # the forward operator's fixed pattern (see there)
+        self._forward_operator = BlockOperator()  # P_πᵀ with its derivatives, forward mode
         if self.features.ndim != 3:
             raise ValueError(f"features must be (S, A, K), got shape {self.features.shape}")
         self.transitions_source = transitions  # as given (learn() reuses policy_ for it)
@@ -232,30 +232,6 @@ class OccludedMaxEntIRL:
         if np.all(np.isfinite(V)):
             self._V_warm = V
         return V, Q, pi
-
-    def _forward_operator(self, PT: sp.csr_array, dPT: sp.csr_array | None) -> sp.csr_array:
-        """P_πᵀ, or with derivatives the block matrix [[Pᵀ, 0, …], [dPᵀ_1, Pᵀ, 0, …], …] that
-        moves a distribution and its K derivatives one step on together (forward mode).
-
-        The block pattern is the same at every evaluation (P_πᵀ has a fixed pattern), so it is
-        built once and later calls only gather the values into it."""
-        if dPT is None:
-            return PT
-        key = (PT.shape, PT.nnz, dPT.shape, dPT.nnz)
-        if self._blocks is None or self._blocks[0] != key:
-            # the pattern, with each entry's position in [tile(PT.data), dPT.data] as its value
-            n_pt = PT.nnz * (dPT.shape[0] // PT.shape[0] + 1)
-            pt = sp.csr_array((np.arange(1.0, PT.nnz + 1), PT.indices, PT.indptr), PT.shape)
-            dpt = np.arange(1.0, dPT.nnz + 1) + n_pt
-            order = _block_operator(
-                pt, sp.csr_array((dpt, dPT.indices, dPT.indptr), dPT.shape), tiled_offsets=PT.nnz
-            )
-            self._blocks = (key, order.data.astype(np.int64) - 1, order.indices, order.indptr)
-        _, position, indices, indptr = self._blocks
-        K = dPT.shape[0] // PT.shape[0]
-        data = np.concatenate([np.tile(PT.data, K + 1), dPT.data])[position]
-        n = (K + 1) * PT.shape[0]
-        return sp.csr_array((data, indices, indptr), shape=(n, n))
 
     def _occupancy(self, B: sp.csr_array, K: int) -> tuple[np.ndarray, np.ndarray]:
         """Σ_t w_t μ_t over all segments, (S,), and its derivative (S, K) (empty if K = 0)."""
@@ -416,18 +392,3 @@ class OccludedMaxEntIRL:
             self._final_counts = self._counts(phi_pi, D)
         assert self._final_counts is not None
         return self._final_counts
-
-
-def _block_operator(PT: sp.csr_array, dPT: sp.csr_array, tiled_offsets: int = 0) -> sp.csr_array:
-    """[[Pᵀ, 0, …], [dPᵀ_1, Pᵀ, 0, …], …] as CSR. With ``tiled_offsets`` = PT.nnz, the k-th
-    copy of Pᵀ has its values raised by k·PT.nnz (used to number the entries' positions)."""
-    S = PT.shape[0]
-    K = dPT.shape[0] // S
-    pt, d = PT.tocoo(), dPT.tocoo()
-    off = np.repeat(np.arange(K + 1) * S, pt.nnz)
-    rows = np.concatenate([np.tile(pt.row, K + 1) + off, d.row + S])
-    cols = np.concatenate([np.tile(pt.col, K + 1) + off, d.col])
-    shift = np.repeat(np.arange(K + 1) * float(tiled_offsets), pt.nnz)
-    data = np.concatenate([np.tile(pt.data, K + 1) + shift, d.data])
-    n = (K + 1) * S
-    return sp.csr_array(sp.coo_array((data, (rows, cols)), shape=(n, n)).tocsr())

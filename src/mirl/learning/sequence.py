@@ -20,12 +20,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.sparse import _sparsetools
 
 from mirl.learning.gap_adjoint import gap_gradient
 from mirl.learning.soft_policy import _Dynamics
 
-__all__ = ["ObservedSequence"]
+__all__ = ["ObservedSequence", "BlockOperator"]
 
 
 class ObservedSequence:
@@ -114,8 +115,8 @@ class ObservedSequence:
     def loglik(self, pi, B, visible, dpi=None):
         """log P(observed series | first observation, π, T), occlusion included; with ``dpi``
         (S, A, K) = dπ/dθ also its gradient, in forward mode. ``B`` moves a distribution and its
-        derivatives one step on (P_πᵀ, or ``OccludedMaxEntIRL._forward_operator``'s block
-        operator when ``dpi`` is given); ``visible``: the observable states."""
+        derivatives one step on (P_πᵀ, or the :class:`BlockOperator`
+        block operator when ``dpi`` is given); ``visible``: the observable states."""
         total, grad = self._pairs_loglik(pi, dpi)
         if self._gap_U0.shape[1]:
             K = len(grad)
@@ -270,3 +271,50 @@ def _without_columns(B, drop: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
     keep = ~drop[B.indices]
     indptr = np.concatenate(([0], np.cumsum(keep)))[B.indptr]
     return indptr.astype(B.indptr.dtype), B.indices[keep], B.data[keep]
+
+
+class BlockOperator:
+    """Forward mode's one-step operator for a distribution and its K derivatives, with the
+    block pattern kept between calls (``OccludedMaxEntIRL`` holds one per fit)."""
+
+    def __init__(self) -> None:
+        self._blocks: tuple | None = None
+
+    def __call__(self, PT: sp.csr_array, dPT: sp.csr_array | None) -> sp.csr_array:
+        """P_πᵀ, or with derivatives the block matrix [[Pᵀ, 0, …], [dPᵀ_1, Pᵀ, 0, …], …] that
+        moves a distribution and its K derivatives one step on together (forward mode).
+
+        The block pattern is the same at every evaluation (P_πᵀ has a fixed pattern), so it is
+        built once and later calls only gather the values into it."""
+        if dPT is None:
+            return PT
+        key = (PT.shape, PT.nnz, dPT.shape, dPT.nnz)
+        if self._blocks is None or self._blocks[0] != key:
+            # the pattern, with each entry's position in [tile(PT.data), dPT.data] as its value
+            n_pt = PT.nnz * (dPT.shape[0] // PT.shape[0] + 1)
+            pt = sp.csr_array((np.arange(1.0, PT.nnz + 1), PT.indices, PT.indptr), PT.shape)
+            dpt = np.arange(1.0, dPT.nnz + 1) + n_pt
+            order = _block_operator(
+                pt, sp.csr_array((dpt, dPT.indices, dPT.indptr), dPT.shape), tiled_offsets=PT.nnz
+            )
+            self._blocks = (key, order.data.astype(np.int64) - 1, order.indices, order.indptr)
+        _, position, indices, indptr = self._blocks
+        K = dPT.shape[0] // PT.shape[0]
+        data = np.concatenate([np.tile(PT.data, K + 1), dPT.data])[position]
+        n = (K + 1) * PT.shape[0]
+        return sp.csr_array((data, indices, indptr), shape=(n, n))
+
+
+def _block_operator(PT: sp.csr_array, dPT: sp.csr_array, tiled_offsets: int = 0) -> sp.csr_array:
+    """[[Pᵀ, 0, …], [dPᵀ_1, Pᵀ, 0, …], …] as CSR. With ``tiled_offsets`` = PT.nnz, the k-th
+    copy of Pᵀ has its values raised by k·PT.nnz (used to number the entries' positions)."""
+    S = PT.shape[0]
+    K = dPT.shape[0] // S
+    pt, d = PT.tocoo(), dPT.tocoo()
+    off = np.repeat(np.arange(K + 1) * S, pt.nnz)
+    rows = np.concatenate([np.tile(pt.row, K + 1) + off, d.row + S])
+    cols = np.concatenate([np.tile(pt.col, K + 1) + off, d.col])
+    shift = np.repeat(np.arange(K + 1) * float(tiled_offsets), pt.nnz)
+    data = np.concatenate([np.tile(pt.data, K + 1) + shift, d.data])
+    n = (K + 1) * S
+    return sp.csr_array(sp.coo_array((data, (rows, cols)), shape=(n, n)).tocsr())
