@@ -189,7 +189,7 @@ class ObservedSequence:
         S = B.shape[0] // (K + 1)
         R = B.shape[0]
         col, need, live, top = self._gap_col, self._col_need, self._live, self._gap_max
-        buffer, inputs, flats = self._workspace(R, history)
+        _, inputs, flats = self._workspace(R, history)
         # columns are rescaled as a whole, so ratios stay exact. After the first step (from the
         # observed exit state) a step multiplies by B·diag(occluded): the mask is folded into
         # the operator's columns, so the distributions are masked only where read.
