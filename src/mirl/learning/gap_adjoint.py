@@ -42,9 +42,11 @@ def _pattern_weights(seq, fil, PT, hidden: np.ndarray) -> np.ndarray:
         if seq._quiet_end[n] > n:  # n is quiet: back down its stretch, only multiplying
             width = live[n]
             for k in range(n, seq._quiet_start[n] - 1, -1):
+                flats[k].fill(0.0)
                 kernel(S, S, width, ip, ix, dt, flats[k + 1], flats[k])
             n = seq._quiet_start[n] - 1
             continue
+        mu[n].fill(0.0)
         if n < top:
             same = live[n + 1] == live[n]
             back = mu[n] if same else np.zeros((S, live[n + 1]))

@@ -148,8 +148,9 @@ class ObservedSequence:
     def _workspace(self, R: int, history: bool, name: str = "filter") -> tuple:
         """(buffer, blocks, flats): per step n, the (R, live[n]) block it multiplies and the same
         as a flat view (index 0 unused). With ``history`` the blocks lie one after another in
-        one zeroed buffer (the reverse pass reads them back); without, two buffers take turns
-        (each step zeroes its output). Kept between calls: allocating them anew costs more
+        one buffer (the reverse pass reads them back); without, two buffers take turns. Either
+        way a block is zeroed just before it is written (the kernels add into their output),
+        while it is about to be in cache. Kept between calls: allocating them anew costs more
         than the filter itself on boyd2."""
         key = (name, R, history)
         if key not in self._scratch:
@@ -163,9 +164,7 @@ class ObservedSequence:
             flats = [flats[0][:0]] + flats
             blocks = [flats[0]] + [f.reshape(R, -1) for f in flats[1:]]
             self._scratch[key] = (buffer, blocks, flats)
-        buffer, blocks, flats = self._scratch[key]
-        (buffer if history else flats[1]).fill(0.0)
-        return buffer, blocks, flats
+        return self._scratch[key]
 
     @property
     def history_size(self) -> int:
@@ -194,6 +193,7 @@ class ObservedSequence:
         # observed exit state) a step multiplies by B·diag(occluded): the mask is folded into
         # the operator's columns, so the distributions are masked only where read.
         Z = inputs[1]
+        Z.fill(0.0)
         Z[self._col_start, np.arange(len(need))] = 1.0
         if Z.shape[1] > len(need):  # a copy of column 0, only so that sums reduce as before
             Z[:, len(need)] = Z[:, 0]
@@ -207,15 +207,14 @@ class ObservedSequence:
             if self._quiet_end[n] > n:  # a stretch of steps that only multiply
                 width = live[n]
                 for k in range(n, self._quiet_end[n]):
-                    if not history:
-                        flats[k + 1].fill(0.0)
+                    flats[k + 1].fill(0.0)
                     kernel(R, R, width, ip, ix, dt, flats[k], flats[k + 1])
                 n = self._quiet_end[n]
                 continue
             # the step writes straight into the next step's input when it keeps every column
             same = n < top and live[n + 1] == live[n]
             out = inputs[n + 1] if same else np.zeros((R, live[n]))
-            if same and not history:
+            if same:
                 out.fill(0.0)
             indptr, indices, data = (ip, ix, dt) if n > 1 else (B.indptr, B.indices, B.data)
             kernel(R, R, live[n], indptr, indices, data, flats[n], out.ravel())
