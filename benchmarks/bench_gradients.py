@@ -28,25 +28,28 @@ from mirl.simulation.grid import simulate  # noqa: E402
 from mirl.world.scenario import load_scenario  # noqa: E402
 
 
-def _estimator(name: str, seed: int, mode: str):
+def _estimators(name: str, seed: int):
+    """The same robot-0 record prepared twice, once per gradient mode."""
     sc = load_scenario(name)
     d = sc.domain
     run = simulate(sc, 450, seed=seed, observability=sc.observability, random_starts=True)
     x = run.observations.state_series(d, 0)
-    est = irl_module.OccludedMaxEntIRL(
-        d.reward_features,
-        sc.true_transitions(0),
-        discount=sc.discount,
-        visible=d.visible_states(sc.observability),
-        gradient=mode,
-    )
-    est._prepare(x, None, None)
-    return est, np.asarray(sc.robots[0].weights, dtype=float)
+    out = []
+    for mode in ("forward", "reverse"):
+        est = irl_module.OccludedMaxEntIRL(
+            d.reward_features,
+            sc.true_transitions(0),
+            discount=sc.discount,
+            visible=d.visible_states(sc.observability),
+            gradient=mode,
+        )
+        est._prepare(x, None, None)
+        out.append(est)
+    return out, np.asarray(sc.robots[0].weights, dtype=float)
 
 
 def compare(name: str, repeats: int, seed: int) -> None:
-    fwd, theta = _estimator(name, seed, "forward")
-    rev, _ = _estimator(name, seed, "reverse")
+    (fwd, rev), theta = _estimators(name, seed)
     times: dict[str, list[float]] = {"forward": [], "reverse": []}
     grads = {}
     for _ in range(repeats):

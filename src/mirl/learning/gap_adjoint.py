@@ -35,7 +35,7 @@ def _pattern_weights(seq, fil, PT, hidden: np.ndarray) -> np.ndarray:
     loop, the others with their reads and rescaling."""
     S, live, top = PT.shape[0], seq._live, seq._gap_max
     ip, ix, dt = fil.masked
-    _, mu, flats = seq._workspace(S, True, "adjoint")  # μ_n, laid out as the inputs
+    mu, flats = seq._workspace(S, True, "adjoint")  # μ_n, laid out as the inputs
     kernel = _sparsetools.csc_matvecs  # B_{n+1}ᵀ μ: the CSR of B_{n+1} read as a CSC matrix
     n = top
     while n >= 1:

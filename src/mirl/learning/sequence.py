@@ -37,7 +37,7 @@ class ObservedSequence:
         S = n_states
         H = len(x)
         self._dyn = dyn
-        self._scratch: dict[tuple, tuple] = {}
+        self._scratch: dict[tuple, tuple[list, list]] = {}
         seen = x >= 0
         pairs = np.flatnonzero(seen[:-1] & seen[1:] & own[:-1])
         self._pair = (x[pairs], x[pairs + 1])
@@ -145,8 +145,8 @@ class ObservedSequence:
             grad += ((dpi[a] * self._Tab[:, :, None]).sum(axis=1) / p_ab[:, None]).sum(axis=0)
         return total, grad
 
-    def _workspace(self, R: int, history: bool, name: str = "filter") -> tuple:
-        """(buffer, blocks, flats): per step n, the (R, live[n]) block it multiplies and the same
+    def _workspace(self, R: int, history: bool, name: str = "filter") -> tuple[list, list]:
+        """(blocks, flats): per step n, the (R, live[n]) block it multiplies and the same
         as a flat view (index 0 unused). With ``history`` the blocks lie one after another in
         one buffer (the reverse pass reads them back); without, two buffers take turns. Either
         way a block is zeroed just before it is written (the kernels add into their output),
@@ -163,7 +163,7 @@ class ObservedSequence:
                 flats = [buffer[n % 2, : R * live[n]] for n in range(1, top + 1)]
             flats = [flats[0][:0]] + flats
             blocks = [flats[0]] + [f.reshape(R, -1) for f in flats[1:]]
-            self._scratch[key] = (buffer, blocks, flats)
+            self._scratch[key] = (blocks, flats)
         return self._scratch[key]
 
     @property
@@ -188,7 +188,7 @@ class ObservedSequence:
         S = B.shape[0] // (K + 1)
         R = B.shape[0]
         col, need, live, top = self._gap_col, self._col_need, self._live, self._gap_max
-        _, inputs, flats = self._workspace(R, history)
+        inputs, flats = self._workspace(R, history)
         # columns are rescaled as a whole, so ratios stay exact. After the first step (from the
         # observed exit state) a step multiplies by B·diag(occluded): the mask is folded into
         # the operator's columns, so the distributions are masked only where read.
