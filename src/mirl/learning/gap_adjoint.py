@@ -15,7 +15,8 @@ and ∂P_πᵀ(s', s) / ∂θ = Σ_a T(s, a, s') ∂π(a|s)/∂θ ends it (``_Dy
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import _sparsetools
+
+from mirl.mdp import csc_block_matvec
 
 __all__ = ["gap_gradient"]
 
@@ -36,7 +37,7 @@ def _pattern_weights(seq, fil, PT, hidden: np.ndarray) -> np.ndarray:
     S, live, top = PT.shape[0], seq._live, seq._gap_max
     ip, ix, dt = fil.masked
     mu, flats = seq._workspace(S, True, "adjoint")  # μ_n, laid out as the inputs
-    kernel = _sparsetools.csc_matvecs  # B_{n+1}ᵀ μ: the CSR of B_{n+1} read as a CSC matrix
+    kernel = csc_block_matvec  # B_{n+1}ᵀ μ: the CSR of B_{n+1} read as a CSC matrix
     n = top
     while n >= 1:
         if seq._quiet_end[n] > n:  # n is quiet: back down its stretch, only multiplying

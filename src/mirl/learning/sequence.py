@@ -21,10 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse import _sparsetools
 
 from mirl.learning.gap_adjoint import gap_gradient
 from mirl.learning.soft_policy import _Dynamics
+from mirl.mdp import csr_block_matvec
 
 __all__ = ["ObservedSequence", "BlockOperator"]
 
@@ -200,7 +200,7 @@ class ObservedSequence:
         log_scale = np.zeros(len(self._gap_steps))
         alive = np.ones(len(self._gap_steps))
         kept = Filtered(inputs=inputs, reads={}, masses={})
-        kernel = _sparsetools.csr_matvecs
+        kernel = csr_block_matvec  # one column: scipy's one-vector kernel (2.3x faster there)
         kept.masked = ip, ix, dt = _without_columns(B, hidden == 0.0)
         n = 1
         while n <= top:
