@@ -15,6 +15,7 @@ and ∂P_πᵀ(s', s) / ∂θ = Σ_a T(s, a, s') ∂π(a|s)/∂θ ends it (``_Dy
 from __future__ import annotations
 
 import numpy as np
+from scipy.sparse import _sparsetools
 
 from mirl.mdp import csc_block_matvec
 
@@ -61,7 +62,7 @@ def _pattern_weights(seq, fil, PT, hidden: np.ndarray) -> np.ndarray:
     keep_at = np.flatnonzero(hidden[PT.indices] > 0)  # P_πᵀ's entries leaving occluded states
     W = np.zeros(PT.nnz)
     rows_masked = np.repeat(np.arange(S), np.diff(ip))
-    W[keep_at] = _sampled(seq, rows_masked, ix, mu, fil.inputs)
+    W[keep_at] = _sampled(seq, (ip, ix, rows_masked), mu, fil.inputs)
     rows = np.repeat(np.arange(S), np.diff(PT.indptr))
     W += np.einsum("ij,ij->i", mu[1][rows], fil.inputs[1][PT.indices])
     return W
@@ -81,20 +82,24 @@ def _inject(seq, fil, mu: np.ndarray, n: int, hidden: np.ndarray) -> None:
         mu[:, c] += hidden / mass
 
 
-def _sampled(seq, rows, cols, mu_blocks, input_blocks) -> np.ndarray:
-    """Σ over steps n ≥ 2 and their columns of μ_n[rows] · z_{n-1}[cols]: M Xᵀ sampled at
-    (rows, cols) only (a sampled dense product, which scipy does not provide). One step and
-    column at a time, on buffers that stay in cache: 2.1x faster on the office than gathering
-    all steps at once (memory-bound), the same on boydright-3."""
+def _sampled(seq, pattern, mu_blocks, input_blocks) -> np.ndarray:
+    """Σ over steps n ≥ 2 and their columns of μ_n[rows] · z_{n-1}[cols] at the entries of a
+    CSR ``pattern`` (indptr, cols, rows): M Xᵀ sampled there (a sampled dense product, which
+    scipy does not provide). One step and column at a time, on buffers that stay in cache: 2.1x
+    faster on the office than gathering all steps at once (memory-bound), the same on
+    boydright-3. The second factor is gathered and multiplied in one pass by scipy's
+    ``csr_scale_columns`` (the same products: 25 → 22 µs a step on the office)."""
     live, top = seq._live, seq._gap_max
+    indptr, cols, rows = pattern
+    S = len(indptr) - 1
     out = np.zeros(len(rows))
-    a, b = np.empty(len(rows)), np.empty(len(rows))
+    a = np.empty(len(rows))
     for n in range(2, top + 1):
         for c in range(live[n]):
             # the indices are P_πᵀ's own, always in range: "clip" only skips the bounds check
             # that "raise" makes on every element (a third of each gather's time)
             mu_blocks[n][:, c].take(rows, out=a, mode="clip")
-            input_blocks[n][:, c].take(cols, out=b, mode="clip")
-            a *= b
+            z = np.ascontiguousarray(input_blocks[n][:, c])  # a view when one column
+            _sparsetools.csr_scale_columns(S, S, indptr, cols, a, z)  # a *= z[cols]
             out += a
     return out
