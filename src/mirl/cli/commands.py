@@ -323,6 +323,7 @@ def _run(args: argparse.Namespace) -> int:
 
 @command("learn")
 def _learn(args: argparse.Namespace) -> int:
+    from mirl.cli.learn_report import learn_record, print_learn
     from mirl.learning.learn import learn
 
     scenario = _load_scenario(args)
@@ -344,90 +345,14 @@ def _learn(args: argparse.Namespace) -> int:
         random_state=args.seed,
         em_init=args.em_init or "intended",
     )
-    names = scenario.domain.reward_feature_names
-    robots = {
-        r.name: {
-            "weights": dict(zip(names, map(float, r.weights), strict=True)),
-            "feature_probabilities": {k: float(v) for k, v in r.feature_probabilities.items()},
-            "behavior_accuracy": r.behavior_accuracy,
-        }
-        for r in result.robots
-    }
-    candidates = scenario.game.equilibria()
-    eq_weights = result.equilibrium_weights or (None,) * len(candidates)
-    out = {
-        "method": result.method,
-        "scenario": scenario.name,
-        "observations": str(args.observations),
-        "steps": obs.horizon,
-        "observability": degree,
-        "robots": robots,
-        "equilibrium": {
-            "label": result.equilibrium.label(),
-            "row": list(map(float, result.equilibrium.row)),
-            "col": list(map(float, result.equilibrium.col)),
-            "candidates": [
-                {"label": e.label(), "weight": w}
-                for e, w in zip(candidates, eq_weights, strict=True)
-            ],
-        },
-        "iterations": result.iterations,
-        "label_changes": list(result.label_changes),
-        **_pair_labels(result, scenario),
-        "message": result.message,
-        "timings": {k: round(v, 4) for k, v in result.timings.items()},
-    }
+    out = learn_record(result, scenario, str(args.observations), obs.horizon, degree)
     if args.json:
         print_json(out)
     else:
         if loaded.discretised is not None:
             print(f"{args.observations}: " + loaded.discretised.summary())
-        _print_learn(out, result, scenario.name)
+        print_learn(out, result, scenario.name)
     return 0
-
-
-def _pair_labels(result, scenario) -> dict:
-    """Teams of three or more: the equilibrium learned for each pair L saw meet."""
-    if len(scenario.robots) <= 2:
-        return {}
-    names = scenario.robot_names
-    return {
-        "pair_equilibria": {
-            f"{names[i]}/{names[j]}": e.label() for (i, j), e in result.pair_equilibria.items()
-        }
-    }
-
-
-def _print_learn(out: dict, result, scenario_name: str) -> None:
-    """The text form of ``mirl learn``'s result."""
-    robots = out["robots"]
-    print(
-        f"{result.method} on {scenario_name}: {out['observations']} ({out['steps']} steps, "
-        f"observability {out['observability']:g})"
-    )
-    for name, r in robots.items():
-        print(f"robot {name}")
-        print("  weights       " + "  ".join(f"{k}={v:.3f}" for k, v in r["weights"].items()))
-        probs = r["feature_probabilities"]
-        line = "  ".join(f"{k}={v:.3f}" for k, v in probs.items()) if probs else result.message
-        print(f"  features      {line}")
-        if r["behavior_accuracy"] is not None:
-            print(f"  behaviour accuracy {r['behavior_accuracy']:.3f} (vs the scenario's truth)")
-    weights = ", ".join(
-        f"{c['label']} {c['weight']:.2f}"
-        for c in out["equilibrium"]["candidates"]
-        if c["weight"] is not None
-    )
-    print(
-        f"equilibrium   {out['equilibrium']['label']}"
-        + (f" (weights: {weights})" if weights else "")
-    )
-    changes = ", ".join(map(str, result.label_changes))
-    print(
-        f"iterations    {result.iterations}"
-        + (f" (labels changed: {changes}; {result.message})" if changes else "")
-    )
-    print("timings       " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
 
 
 def _check_em_init(args: argparse.Namespace) -> None:

@@ -34,89 +34,36 @@ that robot's T. ``behavior_accuracy`` (SPEC §6) is filled in from the scenario'
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
-from dataclasses import dataclass, field
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.dbn_em import EM_INITS, em_transition_model
-from mirl.learning.equilibria import (
-    EquilibriumWeights,
-    TeamEquilibria,
-    meeting_log_likelihood,
-    potential_meetings,
-    weigh_team_equilibria,
-)
-from mirl.learning.irl import OccludedMaxEntIRL
+from mirl.learning.dbn_em import EM_INITS
+from mirl.learning.equilibria import meeting_log_likelihood, potential_meetings
 from mirl.learning.models import LearnResult, RobotModel, behavior_accuracy, oracle_models
-from mirl.learning.transitions import (
-    TransitionFeatureLearner,
-    observed_steps,
-    perception_labels,
-    policy_labels,
+from mirl.learning.rounds import (
+    Clock,
+    LoopTrace,
+    RoundSetup,
+    count_changes,
+    em_transitions,
+    fixed_transitions,
+    irl_round,
+    learn_transitions,
+    perception,
+    policies_of,
+    weigh,
 )
-from mirl.mdp import TabularMDP, value_iteration
+from mirl.learning.transitions import policy_labels
 from mirl.observations.trajectories import Trajectories
 from mirl.world.game import Equilibrium
-from mirl.world.motion import transition_matrix_from_success
 from mirl.world.scenario import Scenario
 
 __all__ = ["METHODS", "LoopTrace", "learn", "relabel_loop"]
 
 METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "oracle")
-
-
-class _Clock:
-    """Accumulates wall time per phase."""
-
-    def __init__(self) -> None:
-        self.timings: dict[str, float] = {}
-
-    @contextmanager
-    def __call__(self, phase: str) -> Iterator[None]:
-        start = time.perf_counter()
-        yield  # a phase that raises ends learning: its time is not needed
-        self.timings[phase] = self.timings.get(phase, 0.0) + time.perf_counter() - start
-
-
-@dataclass
-class LoopTrace:
-    """What happened in the learning rounds: labels used per round and per robot ((horizon,)
-    arrays, -1 where unobserved or unlabelled), labels changed by each relabelling, and the
-    IRL estimators and equilibrium weights of the last round."""
-
-    labels: list[list[np.ndarray]] = field(default_factory=list)
-    label_changes: list[int] = field(default_factory=list)
-    irl: list[OccludedMaxEntIRL | None] = field(default_factory=list)
-    equilibria: EquilibriumWeights | None = None
-    team_equilibria: TeamEquilibria | None = None  # per pair L saw meet (N ≥ 2)
-    policies: list[np.ndarray] = field(default_factory=list)
-    converged: bool = False
-    message: str = ""
-    notes: set[str] = field(default_factory=set)
-
-
-@dataclass
-class _Setup:
-    scenario: Scenario
-    series: list[np.ndarray]
-    visible: np.ndarray
-    exclude: np.ndarray  # (horizon,) steps where the robots may be interacting
-    clock: _Clock
-    irl_options: dict
-    random_state: int | None
-    em_init: str = "intended"
-
-    @property
-    def domain(self):
-        return self.scenario.domain
-
-    def robot_seed(self, robot: int, round_: int) -> int:
-        ss = np.random.SeedSequence([self.random_state or 0, robot, round_])
-        return int(ss.generate_state(1)[0])
 
 
 def learn(
@@ -154,7 +101,7 @@ def learn(
     is deterministic.
 
     Long because the signature and the validation of every option come first; the recipes
-    themselves are :func:`_method_models` and the helpers below.
+    themselves are :func:`_method_models` and :mod:`mirl.learning.rounds`.
     """
     if method not in METHODS:
         raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
@@ -169,7 +116,7 @@ def learn(
             f"observations are of robots {list(observations.robot_names)}, "
             f"the scenario has {list(scenario.robot_names)}"
         )
-    clock = _Clock()
+    clock = Clock()
     start = time.perf_counter()
     if method == "oracle":
         res = oracle_models(scenario, method="oracle")
@@ -186,7 +133,7 @@ def learn(
         for i in range(n):
             for j in range(i + 1, n):
                 exclude |= potential_meetings(domain, series[i], series[j])
-    setup = _Setup(
+    setup = RoundSetup(
         scenario,
         series,
         np.asarray(visible, dtype=bool),
@@ -209,10 +156,10 @@ def learn(
         policies = trace.policies
     else:
         with clock("policies"):
-            policies = _policies(setup, transitions, weights, trace)
+            policies = policies_of(setup, transitions, weights, trace)
     if eq is None:
         with clock("equilibria"):
-            trace.equilibria = _weigh(setup, policies, transitions, trace)
+            trace.equilibria = weigh(setup, policies, transitions, trace)
         eq = trace.equilibria.equilibrium
     message = "; ".join(m for m in (message, *sorted(trace.notes)) if m)
     robots = []
@@ -236,7 +183,7 @@ def learn(
     )
 
 
-def _method_models(setup: _Setup, method: str, p: float, max_iterations: int, trace: LoopTrace):
+def _method_models(setup: RoundSetup, method: str, p: float, max_iterations: int, trace: LoopTrace):
     """Weights, transition matrices, feature probabilities, equilibrium (None: to be weighed)
     and a message, by ``method``'s recipe (SPEC §5)."""
     scenario = setup.scenario
@@ -251,30 +198,30 @@ def _method_models(setup: _Setup, method: str, p: float, max_iterations: int, tr
             with setup.clock("labels"):
                 policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
                 labels = policy_labels(setup.domain, setup.series, policies, eq)
-            transitions, probs = _learn_transitions(setup, labels)
+            transitions, probs = learn_transitions(setup, labels)
             trace.labels.append(labels)
         else:
-            transitions, probs = _fixed_transitions(setup, p)
+            transitions, probs = fixed_transitions(setup, p)
             message = f"fixed success probability p={p:g} for every action"
         trace.converged = True
     else:  # mirl, dbn-em: reward learned once against a given T
         with setup.clock("labels"):
-            labels = _perception(setup)
+            labels = perception(setup)
         trace.labels.append(labels)
         if method == "mirl":
-            transitions, probs = _fixed_transitions(setup, p)
+            transitions, probs = fixed_transitions(setup, p)
             message = f"fixed success probability p={p:g} for every action"
         else:
-            transitions, probs = _em_transitions(setup)
+            transitions, probs = em_transitions(setup)
             message = "tabular T from DBN-EM"
-        weights = _irl_round(setup, transitions, labels, None, 1, trace)
+        weights = irl_round(setup, transitions, labels, None, 1, trace)
         eq = None
         trace.converged = True
     return weights, transitions, probs, eq, message
 
 
 def relabel_loop(
-    setup: _Setup, max_iterations: int, trace: LoopTrace
+    setup: RoundSetup, max_iterations: int, trace: LoopTrace
 ) -> tuple[list[np.ndarray], list[sp.csr_array], list[dict[str, float]], Equilibrium]:
     """The mirl-t rounds (module docstring, steps 1–4); returns weights, T, feature
     probabilities and the best equilibrium of the last round.
@@ -283,36 +230,36 @@ def relabel_loop(
     of an earlier round (a cycle: the labels will never fixate), or after ``max_iterations``."""
     clock = setup.clock
     with clock("labels"):
-        labels = _perception(setup)
+        labels = perception(setup)
     weights: list[np.ndarray] | None = None  # previous round's, for warm starts
     trace.message = "stopped at max_iterations"
     for round_ in range(1, max_iterations + 1):
         trace.labels.append(labels)
-        transitions, probs = _learn_transitions(setup, labels)
-        weights = _irl_round(setup, transitions, labels, weights, round_, trace)
+        transitions, probs = learn_transitions(setup, labels)
+        weights = irl_round(setup, transitions, labels, weights, round_, trace)
         with clock("policies"):
-            policies = _policies(setup, transitions, weights, trace)
+            policies = policies_of(setup, transitions, weights, trace)
         trace.policies = policies
         with clock("equilibria"):
             eq = _equilibrium_for_labels(setup, policies, transitions)
         with clock("labels"):
             new = policy_labels(setup.domain, setup.series, policies, eq)
-            changes = _count_changes(setup.series, labels, new)
+            changes = count_changes(setup.series, labels, new)
         trace.label_changes.append(changes)
         if changes == 0:
             trace.converged, trace.message = True, "labels converged"
             break
-        if any(_count_changes(setup.series, old, new) == 0 for old in trace.labels[:-1]):
+        if any(count_changes(setup.series, old, new) == 0 for old in trace.labels[:-1]):
             trace.message = "labels cycle between rounds; stopped"
             break
         if round_ < max_iterations:
             labels = new
     with clock("equilibria"):
-        trace.equilibria = _weigh(setup, trace.policies, transitions, trace)
+        trace.equilibria = weigh(setup, trace.policies, transitions, trace)
     return weights, transitions, probs, trace.equilibria.equilibrium  # type: ignore[return-value]
 
 
-def _equilibrium_for_labels(setup: _Setup, policies, transitions) -> Equilibrium:
+def _equilibrium_for_labels(setup: RoundSetup, policies, transitions) -> Equilibrium:
     """The equilibrium that relabels evident meetings in a round: the candidate under which the
     evident meetings (both robots seen at t and t+1) are most likely. Only those steps' labels
     depend on it; the full joint-filter weighing is done once, for the final models."""
@@ -323,115 +270,3 @@ def _equilibrium_for_labels(setup: _Setup, policies, transitions) -> Equilibrium
         x, pol, T = (list(v) for v in zip(*sub, strict=True))
         ll += [meeting_log_likelihood(setup.domain, x, pol, T, e)[0] for e in candidates]
     return candidates[int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])]
-
-
-# ---- the parts -------------------------------------------------------------------------------
-def _perception(setup: _Setup) -> list[np.ndarray]:
-    """Per robot (horizon,) perception labels of the steps with both ends observed, else -1."""
-    out = []
-    for x in setup.series:
-        lab = np.full(len(x), -1, dtype=int)
-        t, s, s_next = observed_steps(x)
-        lab[t] = perception_labels(setup.domain, s, s_next)
-        out.append(lab)
-    return out
-
-
-def _count_changes(series, old: list[np.ndarray], new: list[np.ndarray]) -> int:
-    """Labels that differ on the steps T is learned from (both ends observed)."""
-    total = 0
-    for x, a, b in zip(series, old, new, strict=True):
-        t = observed_steps(x)[0]
-        total += int((a[t] != b[t]).sum())
-    return total
-
-
-def _learn_transitions(setup: _Setup, labels: list[np.ndarray]):
-    out_T, out_p = [], []
-    with setup.clock("transitions"):
-        for x, lab in zip(setup.series, labels, strict=True):
-            t, s, s_next = observed_steps(x)
-            m = TransitionFeatureLearner(setup.domain, setup.scenario.error_model).fit(
-                s, lab[t], s_next
-            )
-            out_T.append(m.transition_model_)
-            out_p.append({k: float(v) for k, v in m.feature_probabilities_.items()})
-    return out_T, out_p
-
-
-def _fixed_transitions(setup: _Setup, p: float):
-    with setup.clock("transitions"):
-        T = transition_matrix_from_success(setup.domain, p, setup.scenario.error_model)
-    return [T] * len(setup.series), [{} for _ in setup.series]
-
-
-def _em_transitions(setup: _Setup):
-    with setup.clock("transitions"):
-        T = [
-            sp.csr_array(em_transition_model(setup.domain, [x], init=setup.em_init))
-            for x in setup.series
-        ]
-    return T, [{} for _ in setup.series]
-
-
-def _irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.ndarray]:
-    """One IRL per robot; rounds after the first warm-start from the previous weights."""
-    d = setup.domain
-    weights: list[np.ndarray | None] = []
-    estimators: list[OccludedMaxEntIRL | None] = []
-    with setup.clock("irl"):
-        for i, (x, T) in enumerate(zip(setup.series, transitions, strict=True)):
-            if not (x >= 0).any():  # never seen: filled in below
-                weights.append(None)
-                estimators.append(None)
-                continue
-            init = None if previous is None else previous[i]
-            options = dict(setup.irl_options)
-            if init is not None:
-                options["n_restarts"] = 1
-            irl = OccludedMaxEntIRL(
-                d.reward_features,
-                T,
-                discount=setup.scenario.discount,
-                visible=setup.visible,
-                random_state=setup.robot_seed(i, round_),
-                **options,
-            ).fit(x, labels[i], exclude=setup.exclude, initial_weights=init)
-            weights.append(irl.weights_)
-            estimators.append(irl)
-    # A robot L never saw gets the mean reward of those it saw — the patrollers are robots of
-    # one kind on one route (SPEC §2); its T stays at the uninformed maximum-entropy solution.
-    seen = [w for w in weights if w is not None]
-    fill = np.mean(seen, axis=0) if seen else np.zeros(len(d.reward_feature_names))
-    unseen = [setup.scenario.robot_names[i] for i, w in enumerate(weights) if w is None]
-    if unseen:
-        trace.notes.add(f"never observed: {', '.join(unseen)} (reward of the others)")
-    trace.irl = estimators
-    return [fill.copy() if w is None else w for w in weights]
-
-
-def _policies(setup: _Setup, transitions, weights, trace: LoopTrace) -> list[np.ndarray]:
-    """Greedy policies of hard value iteration with each robot's weights and T: the IRL's own
-    where it fits (its last step is this very value iteration), else solved here."""
-    irl = trace.irl + [None] * (len(weights) - len(trace.irl))  # none before the first IRL
-    return [
-        e.policy_
-        if e is not None and e.weights_ is w and e.transitions_source is T
-        else value_iteration(TabularMDP(T, setup.domain.rewards(w), setup.scenario.discount)).policy
-        for e, T, w in zip(irl, transitions, weights, strict=True)
-    ]
-
-
-def _weigh(setup: _Setup, policies, transitions, trace: LoopTrace) -> EquilibriumWeights:
-    """Equilibria weighed on every pair L has seen meet (one game for the team: the pairs'
-    log-likelihoods add up; each pair's own best is kept as well)."""
-    team = weigh_team_equilibria(
-        setup.domain,
-        setup.series,
-        policies,
-        transitions,
-        setup.scenario.game.equilibria(),
-        setup.visible,
-    )
-    trace.team_equilibria = team
-    return team.shared

@@ -1,0 +1,88 @@
+"""What ``mirl learn`` reports: the record of a learned result (its ``--json`` output) and the
+text form printed without ``--json``."""
+
+from __future__ import annotations
+
+__all__ = ["learn_record", "print_learn"]
+
+
+def learn_record(result, scenario, observations: str, steps: int, degree: float) -> dict:
+    """The JSON-ready record of ``result`` (a :class:`~mirl.learning.models.LearnResult`)
+    learned on ``scenario`` from ``observations`` (``steps`` long, at observability ``degree``)."""
+    names = scenario.domain.reward_feature_names
+    robots = {
+        r.name: {
+            "weights": dict(zip(names, map(float, r.weights), strict=True)),
+            "feature_probabilities": {k: float(v) for k, v in r.feature_probabilities.items()},
+            "behavior_accuracy": r.behavior_accuracy,
+        }
+        for r in result.robots
+    }
+    candidates = scenario.game.equilibria()
+    eq_weights = result.equilibrium_weights or (None,) * len(candidates)
+    return {
+        "method": result.method,
+        "scenario": scenario.name,
+        "observations": observations,
+        "steps": steps,
+        "observability": degree,
+        "robots": robots,
+        "equilibrium": {
+            "label": result.equilibrium.label(),
+            "row": list(map(float, result.equilibrium.row)),
+            "col": list(map(float, result.equilibrium.col)),
+            "candidates": [
+                {"label": e.label(), "weight": w}
+                for e, w in zip(candidates, eq_weights, strict=True)
+            ],
+        },
+        "iterations": result.iterations,
+        "label_changes": list(result.label_changes),
+        **_pair_labels(result, scenario),
+        "message": result.message,
+        "timings": {k: round(v, 4) for k, v in result.timings.items()},
+    }
+
+
+def _pair_labels(result, scenario) -> dict:
+    """Teams of three or more: the equilibrium learned for each pair L saw meet."""
+    if len(scenario.robots) <= 2:
+        return {}
+    names = scenario.robot_names
+    return {
+        "pair_equilibria": {
+            f"{names[i]}/{names[j]}": e.label() for (i, j), e in result.pair_equilibria.items()
+        }
+    }
+
+
+def print_learn(out: dict, result, scenario_name: str) -> None:
+    """The text form of ``mirl learn``'s result."""
+    robots = out["robots"]
+    print(
+        f"{result.method} on {scenario_name}: {out['observations']} ({out['steps']} steps, "
+        f"observability {out['observability']:g})"
+    )
+    for name, r in robots.items():
+        print(f"robot {name}")
+        print("  weights       " + "  ".join(f"{k}={v:.3f}" for k, v in r["weights"].items()))
+        probs = r["feature_probabilities"]
+        line = "  ".join(f"{k}={v:.3f}" for k, v in probs.items()) if probs else result.message
+        print(f"  features      {line}")
+        if r["behavior_accuracy"] is not None:
+            print(f"  behaviour accuracy {r['behavior_accuracy']:.3f} (vs the scenario's truth)")
+    weights = ", ".join(
+        f"{c['label']} {c['weight']:.2f}"
+        for c in out["equilibrium"]["candidates"]
+        if c["weight"] is not None
+    )
+    print(
+        f"equilibrium   {out['equilibrium']['label']}"
+        + (f" (weights: {weights})" if weights else "")
+    )
+    changes = ", ".join(map(str, result.label_changes))
+    print(
+        f"iterations    {result.iterations}"
+        + (f" (labels changed: {changes}; {result.message})" if changes else "")
+    )
+    print("timings       " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
