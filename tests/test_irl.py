@@ -166,6 +166,25 @@ def test_restarts_are_seeded(expert):
     assert len(fits[0].result_.starts) == 3
 
 
+def test_a_looser_tol_stops_sooner_near_the_same_weights(expert):
+    """``tol`` (L-BFGS-B's ftol) trades digits of θ that no policy reads for evaluations; the
+    default keeps scipy's, which every published result used."""
+    T, _, phi, policy, x, a = expert
+    visible = np.array([True, True, True, False, False])
+    x_obs = np.where(visible[x], x, -1)
+    fits = {
+        tol: OccludedMaxEntIRL(phi, T, discount=0.9, visible=visible, tol=tol).fit(x_obs, a)
+        for tol in (None, 1e-5)
+    }
+    loose, default = fits[1e-5], fits[None]
+    assert loose.result_.nfev < default.result_.nfev  # measured: 10 against 46
+    assert loose.policy_.tolist() == default.policy_.tolist() == policy.tolist()
+    assert loose.result_.fun <= default.result_.fun * (1 + 1e-5)
+    np.testing.assert_allclose(loose.weights_, default.weights_, rtol=1e-3)
+    with pytest.raises(ValueError, match="tol must be positive"):
+        OccludedMaxEntIRL(phi, T, tol=0.0)
+
+
 def test_bad_inputs_are_rejected(expert):
     T, _, phi, *_ = expert
     with pytest.raises(ValueError, match="objective"):
