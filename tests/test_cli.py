@@ -146,12 +146,18 @@ def test_damage_accepted(tmp_path, monkeypatch, capsys):
 
 @pytest.mark.parametrize(
     "damage, needle",
-    [("J:wheel=0.5", "wheel"), ("K:left_wheel=0.5", "K"), ("J-left", "ROBOT:FEATURE=P")],
+    [
+        ("J:wheel=0.5", "wheel"),
+        ("K:left_wheel=0.5", "K"),
+        ("J:left_wheel=1.2", "must be in [0, 1]"),
+        ("J-left", "ROBOT:FEATURE=P"),
+    ],
 )
 def test_bad_damage(capsys, damage, needle):
     rc = main(["simulate", "--scenario", "boyd2", "--steps", "5", "--damage", damage])
     assert rc == 2
-    one_error_line(capsys.readouterr().err, needle)
+    # one line naming the flag, the value it objects to and the problem
+    one_error_line(capsys.readouterr().err, needle, f"--damage '{damage}'")
 
 
 # --------------------------------------------------------------------------- one-line errors

@@ -42,10 +42,13 @@ def _load_scenario(args: argparse.Namespace):
         from mirl.physics.config import with_motor_strength
     for text in getattr(args, "damage", None) or []:
         robot, feature, p = parse_damage(text)
-        if physics:  # in the physical world the value is the wheel motor's strength
-            scenario = with_motor_strength(scenario, robot, feature, p)
-        else:
-            scenario = scenario.with_damage(robot, feature, p)
+        try:
+            if physics:  # in the physical world the value is the wheel motor's strength
+                scenario = with_motor_strength(scenario, robot, feature, p)
+            else:
+                scenario = scenario.with_damage(robot, feature, p)
+        except ValueError as exc:  # name the flag, as parse_damage's own errors do
+            raise UsageError(f"--damage '{text}': {exc}") from None
     return scenario
 
 
