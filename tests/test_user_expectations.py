@@ -134,6 +134,31 @@ def test_run_report_explains_its_terms(boyd2):
         assert "P(goal reached unseen)" in text
 
 
+def test_run_report_names_the_scenarios_robots_and_every_pair():
+    """The interaction is told in the scenario's own robot names; a team's report gives each
+    pair L weighed on its own and the equilibrium the other pairs play in L's model."""
+    from types import SimpleNamespace
+
+    from mirl.experiments.run_report import _equilibrium_lines
+    from mirl.world.game import Equilibrium
+
+    stop_go, go_stop = (
+        Equilibrium((0.0, 1.0, 0.0), (1.0, 0.0, 0.0)),
+        Equilibrium((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+    )
+    pair = SimpleNamespace(equilibrium=stop_go, pair_equilibria={(0, 1): stop_go})
+    (line,) = _equilibrium_lines(pair, ["tb1", "tb2"])
+    assert line.strip() == (
+        "interaction equilibrium (tb1/tb2): stop/go — when tb1 and tb2 meet, tb1 yields (stops)"
+        " and tb2 goes on"
+    )
+    team = SimpleNamespace(equilibrium=go_stop, pair_equilibria={(1, 2): stop_go, (0, 2): go_stop})
+    lines = [x.strip() for x in _equilibrium_lines(team, ["I", "J", "K"])]
+    assert lines[0].startswith("interaction equilibrium (I/K): go/stop — when I and K meet, K")
+    assert lines[1].startswith("interaction equilibrium (J/K): stop/go — when J and K meet, J")
+    assert lines[2].startswith("other pairs: the team's equilibrium go/stop (weighed on I/K, J/K")
+
+
 def test_run_json_default_keys_unchanged(capsys):
     assert main(["run", "--method", "random", "--obs-steps", "30", "--json"]) == 0
     keys = list(json.loads(capsys.readouterr().out))

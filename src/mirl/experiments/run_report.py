@@ -39,17 +39,40 @@ def _wrapped(text: str) -> str:
     return textwrap.fill(text, 96, initial_indent=" " * 10, subsequent_indent=" " * 10)
 
 
-def _equilibrium_text(label: str) -> str:
-    """What the learned interaction equilibrium means for two robots meeting head-on."""
+def _equilibrium_text(label: str, a: str = "I", b: str = "J") -> str:
+    """What the learned interaction equilibrium means for robots ``a`` (the row side) and ``b``
+    meeting head-on."""
     parts = label.split("/")
     if len(parts) != 2 or any(p.startswith("(") for p in parts):
         return "a mixed strategy: each robot randomises between go, stop and turn"
     i, j = parts
     if i == "stop" and j == "go":
-        return "when I and J meet, I yields (stops) and J goes on"
+        return f"when {a} and {b} meet, {a} yields (stops) and {b} goes on"
     if i == "go" and j == "stop":
-        return "when I and J meet, J yields (stops) and I goes on"
-    return f"when I and J meet, I plays {i} and J plays {j}"
+        return f"when {a} and {b} meet, {b} yields (stops) and {a} goes on"
+    return f"when {a} and {b} meet, {a} plays {i} and {b} plays {j}"
+
+
+def _equilibrium_lines(learned, names: list[str]) -> list[str]:
+    """The learned interaction, in the scenario's robot names: for a pair its equilibrium; for a
+    team each pair L weighed on its own (the pairs it saw meet) and the team's equilibrium,
+    which L's model lets every other pair play (``LearnResult.pair_equilibrium``)."""
+    pad = "          "
+    if len(names) == 2:
+        label = learned.equilibrium.label()
+        text = _equilibrium_text(label, *names)
+        return [f"{pad}interaction equilibrium ({names[0]}/{names[1]}): {label} — {text}"]
+    lines = []
+    for (i, j), eq in sorted(learned.pair_equilibria.items()):
+        label = eq.label()
+        text = _equilibrium_text(label, names[i], names[j])
+        lines.append(f"{pad}interaction equilibrium ({names[i]}/{names[j]}): {label} — {text}")
+    weighed = ", ".join(f"{names[i]}/{names[j]}" for i, j in sorted(learned.pair_equilibria))
+    lines.append(
+        f"{pad}other pairs: the team's equilibrium {learned.equilibrium.label()} (weighed on "
+        f"{weighed or 'no pair'}; the earlier robot of a pair plays the row side)"
+    )
+    return lines
 
 
 # ---- the readable report of `mirl run` -------------------------------------------------------
@@ -142,10 +165,7 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
             ends = " and ".join(str(c) for c in _turn_cells(dom, cyc))
             where = f"turning around at {ends}" if ends else "without turning around"
             lines.append(f"          patrol of {r.name}: a {len(cyc)}-step loop {where} ({same})")
-        label = learned.equilibrium.label()
-        lines.append(
-            f"          interaction equilibrium (I/J): {label} — {_equilibrium_text(label)}"
-        )
+        lines += _equilibrium_lines(learned, list(scenario.robot_names))
     if result.go_time is None:
         lines.append(
             f"planned   {len(result.attempts)} rounds, no go time with a positive value "
