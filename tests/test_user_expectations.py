@@ -108,6 +108,8 @@ def test_run_plot_has_a_legend(boyd2):
     fig, _ = run_figure(boyd2, result)
     labels = [t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().texts]
     assert labels  # what each mark and colour on the run plot means
+    assert "L's goal (9, 1)" in labels  # the run's goal, apart from the map's other goal rooms
+    assert any(x.startswith("I (t=") for x in labels) and any(x.startswith("J (t=") for x in labels)
 
 
 def test_watching_until_every_patroller_was_seen(boyd2):

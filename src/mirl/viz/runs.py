@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from mirl.experiments.records import RunResult
-from mirl.viz.maps import draw_map
+from mirl.viz.maps import MAP_COLORS, draw_map
 from mirl.world.scenario import Scenario
 
 __all__ = ["ROBOT_COLORS", "draw_run", "run_figure", "save_run_png"]
@@ -36,6 +36,12 @@ def draw_run(ax, scenario: Scenario, result: RunResult, *, context: int = 0):
     t0, t1 = _span(result, context if result.go_time is not None else max(context, 40))
     n = len(result.robot_names)
     handles = []
+    if scenario.goal is not None:  # the run's goal, apart from the map's other goal rooms
+        gr, gc = scenario.goal
+        size = max(10.0, 240.0 / max(gridmap.shape))
+        (goal,) = ax.plot(gc, gr, "*", color=MAP_COLORS["goal"], mec="k", mew=1, ms=size, zorder=6)
+        goal.set_label(f"L's goal {(gr, gc)}")
+        handles.append(goal)
     for i, name in enumerate(result.robot_names):
         states = result.true_states[t0 : t1 + 1, i]
         rc = dom.states[states][:, :2].astype(float)
@@ -123,5 +129,7 @@ def save_run_png(scenario: Scenario, result: RunResult, path: str | Path) -> Pat
     path = Path(path)
     fig, _ = run_figure(scenario, result)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, format=path.suffix.lstrip(".").lower() or "png", dpi=130)
+    # "tight" takes in the legend under the map, which tight_layout leaves out: with a team,
+    # L and detections its last entries fell off the bottom of the image
+    fig.savefig(path, format=path.suffix.lstrip(".").lower() or "png", dpi=130, bbox_inches="tight")
     return path
