@@ -162,6 +162,8 @@ def test_report_from_a_tiny_database(tmp_path, name):
     assert "nan" not in text
     if name == "fig4b":
         assert "J left vs right wheel t =" in text
+    if name in ("fig4b", "fig4c"):  # the report's "±" means s.e. unless it says std: it does
+        assert "mean ± std over runs" in text
 
 
 def test_cli_one_line_errors(tmp_path, capsys):

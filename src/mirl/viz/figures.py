@@ -274,6 +274,8 @@ def fig4bc_markdown(gs: list[Group], figdir: Path, stem: str) -> str:
     lines = [
         f"![Fig. {stem[3:]}](figures/{stem}.png)",
         "",
+        "Learned probabilities, mean ± std over runs (the runs' spread, as the paper's bars):",
+        "",
         "| method | d | n | robot | " + " | ".join(feats) + " |",
         "| --- | --- | --- | --- |" + " --- |" * len(feats),
     ]
