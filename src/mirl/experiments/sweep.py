@@ -88,7 +88,8 @@ class Summary:
         counts = ", ".join(f"{k} {v}" for k, v in sorted(self.outcomes.items()))
         return (
             f"{self.experiment}: {self.finished} runs in {self.wall_seconds / 60:.1f} min on "
-            f"{self.workers} workers ({self.runs_per_minute:.1f} runs/min); "
+            f"{self.workers} worker{'s' * (self.workers != 1)} "
+            f"({self.runs_per_minute:.1f} runs/min); "
             f"{self.already_done + self.finished}/{self.planned} done; this session: {counts}"
         )
 
@@ -143,7 +144,7 @@ def run_experiment(
         summary = Summary(exp.name, out, planned, already, 0, 0.0, n_workers)
         emit(
             f"{exp.name}: {len(exp.conditions)} conditions × {runs} runs; {already} done, "
-            f"{len(tasks)} to run on {n_workers} workers"
+            f"{len(tasks)} to run on {n_workers} worker{'s' * (n_workers != 1)}"
             + (f" via dask at {dask_scheduler}" if dask_scheduler else "")
         )
         session = store.begin_session(n_workers, "dask" if dask_scheduler else "joblib")

@@ -26,7 +26,8 @@ def _throughput(sessions: list[dict]) -> str:
     for w in sorted({s["workers"] for s in done}):
         sel = [s for s in done if s["workers"] == w]
         n, sec = sum(s["finished"] for s in sel), sum(s["seconds"] for s in sel)
-        parts.append(f"{60 * n / sec:.1f} runs/min on {w} workers ({n} runs in {sec / 60:.1f} min)")
+        workers = f"{w} worker" + "s" * (w != 1)
+        parts.append(f"{60 * n / sec:.1f} runs/min on {workers} ({n} runs in {sec / 60:.1f} min)")
     return "; ".join(parts)
 
 
