@@ -41,6 +41,9 @@ METHODS = ["oracle", "known-r-t", "mirl-t", "mirl", "known-r", "random", "dbn-em
 
 
 def _one(scenario_name: str, damage: list[str], method: str, seed: int, kwargs: dict) -> dict:
+    from mirl._blas import one_blas_thread
+
+    one_blas_thread()  # as the CLI and sweep workers do, so CPU times are one core's
     from mirl.experiments.episode import run_episode
     from mirl.world.scenario import load_scenario, parse_damage
 
