@@ -256,6 +256,20 @@ def test_damage_any_robot(br3):
     assert br3.robots[2].feature_probabilities["right_wheel"] == 0.95
 
 
+def test_learn_prints_each_pair_of_a_team(tmp_path, capsys):
+    """`mirl learn` on a team gives, besides the team's equilibrium, each pair L weighed."""
+    from mirl.cli import main
+
+    obs = tmp_path / "br3.csv"
+    argv = ["simulate", "--scenario", "boydright-3", "--steps", "400", "--seed", "2"]
+    assert main([*argv, "--observations", str(obs)]) == 0
+    capsys.readouterr()
+    assert main(["learn", "--scenario", "boydright-3", "--observations", str(obs)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    (pairs,) = [x for x in lines if x.startswith("pairs ")]
+    assert "I/J " in pairs and "(other pairs: the equilibrium above)" in pairs
+
+
 # ---- environments ------------------------------------------------------------------------------
 def test_gymnasium_env_passes_the_checker():
     from gymnasium.utils.env_checker import check_env

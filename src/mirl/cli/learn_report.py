@@ -80,6 +80,9 @@ def print_learn(out: dict, result, scenario_name: str) -> None:
         f"equilibrium   {out['equilibrium']['label']}"
         + (f" (weights: {weights})" if weights else "")
     )
+    if out.get("pair_equilibria"):  # a team: each pair L weighed on its own
+        pairs = ", ".join(f"{p} {label}" for p, label in out["pair_equilibria"].items())
+        print(f"pairs         {pairs} (other pairs: the equilibrium above)")
     changes = ", ".join(map(str, result.label_changes))
     print(
         f"iterations    {result.iterations}"
