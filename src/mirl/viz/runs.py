@@ -97,6 +97,9 @@ def draw_go_values(ax, result: RunResult):
     if result.go_time is not None:
         ax.axvline(result.go_time, color="#2ca02c", lw=1.5, label=f"went at t={result.go_time}")
     ax.set_xlabel("go time t")
+    from matplotlib.ticker import MaxNLocator  # here: drawing is the only user of matplotlib
+
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))  # steps: no 145.5 on short plans
     ax.set_ylabel("value of L's start state")
     ax.set_title(f"plan made at t={plan.t0} ({len(result.attempts)} rounds)", fontsize="medium")
     ax.legend(fontsize="small", frameon=False)
