@@ -161,6 +161,21 @@ def test_run_report_names_the_scenarios_robots_and_every_pair():
     assert lines[2].startswith("other pairs: the team's equilibrium go/stop (weighed on I/K, J/K")
 
 
+def test_run_report_says_which_patroller_never_came_into_view():
+    """At its watching limit the report names the patrollers L never saw (a route may not cross
+    its view, as M's on the office) and how to watch a fixed time instead."""
+    from types import SimpleNamespace
+
+    from mirl.experiments.run_report import _observed_line
+
+    seen = {"I": 1438, "J": 213, "K": 215, "M": 0}
+    line = _observed_line(SimpleNamespace(seen_steps=seen, obs_steps=1800, watch_until_seen=40))
+    assert "watching limit" in line and "M never came into view" in line and "--obs-steps" in line
+    seen["M"] = 3  # seen, if too little: no such note
+    line = _observed_line(SimpleNamespace(seen_steps=seen, obs_steps=1800, watch_until_seen=40))
+    assert "watching limit" in line and "never came into view" not in line
+
+
 def test_run_json_default_keys_unchanged(capsys):
     assert main(["run", "--method", "random", "--obs-steps", "30", "--json"]) == 0
     keys = list(json.loads(capsys.readouterr().out))

@@ -30,6 +30,11 @@ def _observed_line(result: RunResult) -> str:
         why = f"every patroller was seen on {k} steps within the first 300"
     else:
         why = f"L stopped at its watching limit before seeing every patroller on {k} steps"
+        never = [n for n, c in result.seen_steps.items() if c == 0]
+        if never:  # a route that may never cross L's view: say how to avoid the long wait
+            why += (
+                f"; {', '.join(never)} never came into view — `--obs-steps N` watches a fixed time"
+            )
     return f"{line}\n          ({why})"
 
 
