@@ -62,6 +62,37 @@ def test_block_matvecs_are_bitwise_the_block_kernels(width):
         assert np.array_equal(Z, product)
 
 
+@pytest.mark.parametrize("n_actions", [1, 2, 3, 4, 5, 7, 8, 9])
+def test_row_sums_and_softmax_are_bitwise_numpys(n_actions):
+    """Sums and softmax over a few actions, a column at a time, equal numpy's reductions along
+    the short axis bit for bit — on rows built so that the order of a sum or the sign of a zero
+    would show."""
+    from mirl.learning.soft_policy import _row_sum, _softmax
+
+    rng = np.random.default_rng(n_actions)
+    X = rng.normal(size=(500, n_actions)) * 10.0 ** rng.integers(-8, 17, size=(500, n_actions))
+    X[:5, :3] = [1e16, 1.0, -1e16][:n_actions]  # left to right: 0; other groupings are not
+    X[5] = -0.0  # numpy sums from +0.0
+    X[6, :2] = [-0.0, 0.0][:n_actions]
+    X[7] = 0.0
+    X[8] = X[8, 0]  # ties
+    assert np.array_equal(_row_sum(X), X.sum(axis=1))
+    assert np.array_equal(np.signbit(_row_sum(X)), np.signbit(X.sum(axis=1)))
+
+    def softmax_as_before(Q, temperature):
+        m = Q.max(axis=1)
+        z = np.exp((Q - m[:, None]) / temperature)
+        tot = z.sum(axis=1)
+        return z / tot[:, None], m + temperature * np.log(tot)
+
+    Q = np.clip(X, -700, 700)  # no overflow of exp: these are Q values, not arbitrary reals
+    for temperature in (1.0, 0.3):
+        pairs = zip(_softmax(Q, temperature), softmax_as_before(Q, temperature), strict=True)
+        for ours, theirs in pairs:
+            assert np.array_equal(ours, theirs)
+            assert np.array_equal(np.signbit(ours), np.signbit(theirs))
+
+
 def test_actions_first_value_iteration_is_bitwise_the_plain_one(boyd2):
     T = boyd2.true_transitions(1)
     R = boyd2.domain.rewards(boyd2.robots[1].weights)

@@ -190,10 +190,34 @@ def _columns_in(A: sp.csc_array, order: np.ndarray) -> tuple[np.ndarray, np.ndar
     return indptr, A.indices[take], take
 
 
+def _row_sum(X: np.ndarray) -> np.ndarray:
+    """``X.sum(axis=1)`` for (S, A) X, a column at a time. numpy sums a row shorter than 8 from
+    +0.0, left to right, and so does this: the same result bit for bit (tested, signed zeros
+    included; 8 or more are summed pairwise, so they keep numpy's sum). Along the short axis
+    numpy pays a loop per row: 81 against 13 µs on the office's (3 804, 4) tables."""
+    if not 2 <= X.shape[1] < 8:
+        return X.sum(axis=1)
+    out = X[:, 0] + 0.0
+    for a in range(1, X.shape[1]):
+        out += X[:, a]
+    return out
+
+
+def _row_max(X: np.ndarray) -> np.ndarray:
+    """``X.max(axis=1)``, a column at a time (158 against 9 µs on the office). The same values;
+    where the maximum is a zero its sign may differ from numpy's (whose own code paths differ
+    on it with the row length), which no output of :func:`_softmax` can see."""
+    out = X[:, 0].copy()
+    for a in range(1, X.shape[1]):
+        np.maximum(out, X[:, a], out=out)
+    return out
+
+
 def _softmax(Q: np.ndarray, temperature: float) -> tuple[np.ndarray, np.ndarray]:
-    m = Q.max(axis=1)
+    # m's zero sign cannot show: Q − (±0) and ±0 + τ·log(tot) round alike (tot ≥ 1)
+    m = _row_max(Q)
     z = np.exp((Q - m[:, None]) / temperature)
-    tot = z.sum(axis=1)
+    tot = _row_sum(z)
     return z / tot[:, None], m + temperature * np.log(tot)
 
 
@@ -220,7 +244,7 @@ def soft_policy_iteration(
     for it in range(1, max_iter + 1):
         # evaluate π: V = Σ_a π (R − τ log π) + γ P_π V
         log_pi = (Q - V_soft[:, None]) / temperature
-        b = (pi * (rewards - temperature * log_pi)).sum(axis=1)
+        b = _row_sum(pi * (rewards - temperature * log_pi))
         V = dyn.solve_policy(pi, discount, b)
         Q = rewards + discount * dyn.next_values(V)
         pi, V_soft = _softmax(Q, temperature)
