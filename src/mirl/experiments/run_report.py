@@ -44,7 +44,7 @@ def _wrapped(text: str) -> str:
     return textwrap.fill(text, 96, initial_indent=" " * 10, subsequent_indent=" " * 10)
 
 
-def _equilibrium_text(label: str, a: str = "I", b: str = "J") -> str:
+def _equilibrium_text(label: str, a: str, b: str) -> str:
     """What the learned interaction equilibrium means for robots ``a`` (the row side) and ``b``
     meeting head-on."""
     parts = label.split("/")
