@@ -25,7 +25,7 @@ import scipy.sparse as sp
 from scipy.sparse import _sparsetools
 
 from mirl.learning.models import LearnResult
-from mirl.mdp import csr_matmul, policy_matrix
+from mirl.mdp import policy_matrix
 from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
 
 __all__ = ["meeting_matrix", "game_step_matrix", "TeamParts", "ExactTeam", "FactoredTeam"]
@@ -159,16 +159,6 @@ def _csr_product(arrays: tuple, x: np.ndarray) -> np.ndarray:
     indptr, indices, data, (rows, cols) = arrays
     out = np.zeros(rows)
     _sparsetools.csr_matvec(rows, cols, indptr, indices, data, x, out)
-    return out
-
-
-def _matvec(A, x: np.ndarray) -> np.ndarray:
-    """``A @ x`` for a CSR or CSC (a transposed CSR) array: the kernel ``@`` calls, so bit for
-    bit the same, without scipy's dispatch."""
-    if A.format == "csr":
-        return csr_matmul(A, x)
-    out = np.zeros(A.shape[0], dtype=np.result_type(A.dtype, x.dtype))
-    _sparsetools.csc_matvec(A.shape[0], A.shape[1], A.indptr, A.indices, A.data, x, out)
     return out
 
 
