@@ -22,10 +22,9 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse import _sparsetools
 
 from mirl.learning.models import LearnResult
-from mirl.mdp import policy_matrix
+from mirl.mdp import csr_block_matvec, policy_matrix
 from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
 
 __all__ = ["meeting_matrix", "game_step_matrix", "TeamParts", "ExactTeam", "FactoredTeam"]
@@ -158,7 +157,7 @@ def _stacked(blocks, n_cols: int, diagonal: bool = False) -> tuple:
 def _csr_product(arrays: tuple, x: np.ndarray) -> np.ndarray:
     indptr, indices, data, (rows, cols) = arrays
     out = np.zeros(rows)
-    _sparsetools.csr_matvec(rows, cols, indptr, indices, data, x, out)
+    csr_block_matvec(rows, cols, 1, indptr, indices, data, x, out)  # scipy's one-vector kernel
     return out
 
 
