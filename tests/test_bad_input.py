@@ -73,6 +73,7 @@ BAD = [
     (["learn-transitions", *S, "--observations", "{d}/good.csv", "--labels", "x"], "--labels"),
     (["learn", *S, "--observations", "{d}/header.csv"], "no observations"),
     (["learn", *S, "--observations", "{d}/good.csv", "--max-iterations", "0"], "--max-iter"),
+    (["learn", *S, "--observations", "{d}/good.csv", "--label-tol", "1.5"], "--label-tol"),
     (["learn", *S, "--observations", "{d}/good.csv", "--p", "1.5"], "--p"),
     (["learn", *S, "--observations", "{d}/good.csv", "--em-init", "zeros"], "--em-init"),
     (["learn", *S, "--observations", "{d}/good.csv", "--method", "oracle"], "--method"),

@@ -76,6 +76,25 @@ def test_relabelling_turns_a_perceived_turn_into_a_failed_forward(boyd2, full_ru
     assert probs["left_wheel"] < probs["right_wheel"]
 
 
+def test_label_tol_counts_a_round_within_it_as_converged(boyd2, full_run, relabelled):
+    """A relabelling that changes at most ``label_tol`` of the labelled steps ends the loop
+    (converged, and the message says how many changed); one label fewer allowed goes on."""
+    result, _ = relabelled
+    first = result.label_changes[0]
+    series = [full_run.observations.state_series(boyd2.domain, i) for i in range(2)]
+    n = sum(len(observed_steps(x)[0]) for x in series)
+    assert first > 0.01 * n  # the default tolerance did not stop it after one round
+    obs = full_run.observations
+    at = learn(obs, boyd2, "mirl-t", observability=1.0, label_tol=first / n)
+    assert at.iterations == 1 and at.success
+    assert f"labels converged ({first} of {n} changed, within label_tol)" in at.message
+    below = learn(obs, boyd2, "mirl-t", observability=1.0, label_tol=(first - 0.5) / n)
+    assert below.iterations > 1
+    assert below.label_changes == result.label_changes[: below.iterations]  # the same rounds
+    with pytest.raises(ValueError, match="label_tol must be in"):
+        learn(obs, boyd2, "mirl-t", label_tol=1.5)
+
+
 @pytest.mark.parametrize("method", [m for m in METHODS if m != "mirl-t"])
 def test_every_method_returns_models(boyd2, method):
     run = simulate(boyd2, 120, seed=1, observability=0.5, random_starts=True)

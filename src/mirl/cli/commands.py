@@ -343,6 +343,7 @@ def _learn(args: argparse.Namespace) -> int:
         visible=loaded.visible_states(scenario),
         observability=degree,
         max_iterations=args.max_iterations,
+        label_tol=args.label_tol,
         objective=args.objective,
         optimizer=args.optimizer,
         random_state=args.seed,

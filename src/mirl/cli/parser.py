@@ -70,6 +70,14 @@ def _learn_parser(sub) -> None:
         help="relabelling rounds of mirl-t / known-r-t",
     )
     le.add_argument(
+        "--label-tol",
+        type=fraction,
+        default=0.01,
+        metavar="F",
+        help="mirl-t's relabelling has converged when a round changes at most this share of "
+        "the labelled steps (0: none)",
+    )
+    le.add_argument(
         "--objective",
         choices=IRL_OBJECTIVES,
         default="sequence",

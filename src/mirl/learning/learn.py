@@ -12,7 +12,8 @@
    (:func:`mirl.learning.equilibria.weigh_equilibria`);
 4. relabel every observed step with the learned policy's action, or the best equilibrium's at an
    evident meeting (:func:`mirl.learning.transitions.policy_labels`) — a perceived turn where the
-   policy says forward becomes a *failed* forward — and go back to 2, until no label changes or
+   policy says forward becomes a *failed* forward — and go back to 2, until at most
+   ``label_tol`` of the labelled steps change (default 1 %; 0: none may change) or
    ``max_iterations`` rounds have run. Rounds after the first start the IRL from the previous
    weights (one start instead of ``n_restarts``).
 
@@ -56,7 +57,7 @@ from mirl.learning.rounds import (
     policies_of,
     weigh,
 )
-from mirl.learning.transitions import policy_labels
+from mirl.learning.transitions import observed_steps, policy_labels
 from mirl.observations.trajectories import Trajectories
 from mirl.world.game import Equilibrium
 from mirl.world.scenario import Scenario
@@ -75,6 +76,7 @@ def learn(
     visible: np.ndarray | None = None,
     observability: float | None = None,
     max_iterations: int = 5,
+    label_tol: float = 0.01,
     objective: str = "sequence",
     optimizer: str = "lbfgs",
     n_restarts: int | None = None,
@@ -95,7 +97,10 @@ def learn(
     ``n_restarts`` defaults to 1 for L-BFGS (its restarts were measured to land on the same
     optimum) and 3 for Nelder–Mead. ``irl_options``: further keyword arguments of the
     estimator (e.g. ``anchor``, ``l2``, ``max_evaluations``).
-    ``trace``: an empty :class:`LoopTrace` to receive the labels of every round.
+    ``label_tol``: ``mirl-t``'s relabelling has converged when a round changes at most this
+    share of the labelled steps (those T is learned from); on long records a few labels can
+    flip back and forth for rounds, each a full refit (docs/design.md, "A looser stopping
+    rule"). ``trace``: an empty :class:`LoopTrace` to receive the labels of every round.
     ``em_init``: DBN-EM's initial T (``intended`` or ``uniform``, see :mod:`mirl.learning.dbn_em`).
     ``random_state`` seeds every random choice (IRL restarts); ``None`` counts as 0, so learning
     is deterministic.
@@ -111,6 +116,8 @@ def learn(
         raise ValueError(f"unknown EM initialisation '{em_init}' (known: {', '.join(EM_INITS)})")
     if max_iterations < 1:
         raise ValueError(f"max_iterations must be at least 1, got {max_iterations}")
+    if not 0.0 <= label_tol <= 1.0:
+        raise ValueError(f"label_tol must be in [0, 1], got {label_tol}")
     if tuple(observations.robot_names) != tuple(scenario.robot_names):
         raise ValueError(
             f"observations are of robots {list(observations.robot_names)}, "
@@ -150,7 +157,7 @@ def learn(
     )
     trace = LoopTrace() if trace is None else trace
     weights, transitions, probs, eq, message = _method_models(
-        setup, method, p, max_iterations, trace
+        setup, method, p, max_iterations, trace, label_tol
     )
     if method == "mirl-t":
         policies = trace.policies
@@ -183,13 +190,20 @@ def learn(
     )
 
 
-def _method_models(setup: RoundSetup, method: str, p: float, max_iterations: int, trace: LoopTrace):
+def _method_models(
+    setup: RoundSetup,
+    method: str,
+    p: float,
+    max_iterations: int,
+    trace: LoopTrace,
+    label_tol: float = 0.01,
+):
     """Weights, transition matrices, feature probabilities, equilibrium (None: to be weighed)
     and a message, by ``method``'s recipe (SPEC §5)."""
     scenario = setup.scenario
     message = ""
     if method == "mirl-t":
-        weights, transitions, probs, eq = relabel_loop(setup, max_iterations, trace)
+        weights, transitions, probs, eq = relabel_loop(setup, max_iterations, trace, label_tol)
         message = trace.message
     elif method in ("known-r-t", "known-r"):
         weights = [np.asarray(r.weights, dtype=float) for r in scenario.robots]
@@ -221,16 +235,18 @@ def _method_models(setup: RoundSetup, method: str, p: float, max_iterations: int
 
 
 def relabel_loop(
-    setup: RoundSetup, max_iterations: int, trace: LoopTrace
+    setup: RoundSetup, max_iterations: int, trace: LoopTrace, label_tol: float = 0.01
 ) -> tuple[list[np.ndarray], list[sp.csr_array], list[dict[str, float]], Equilibrium]:
     """The mirl-t rounds (module docstring, steps 1–4); returns weights, T, feature
     probabilities and the best equilibrium of the last round.
 
-    The loop ends when a relabelling changes nothing (converged), when it reproduces the labels
-    of an earlier round (a cycle: the labels will never fixate), or after ``max_iterations``."""
+    The loop ends when a relabelling changes at most ``label_tol`` of the labelled steps
+    (converged), when it reproduces the labels of an earlier round (a cycle: the labels will
+    never fixate), or after ``max_iterations``."""
     clock = setup.clock
     with clock("labels"):
         labels = perception(setup)
+    n_labelled = sum(len(observed_steps(x)[0]) for x in setup.series)
     weights: list[np.ndarray] | None = None  # previous round's, for warm starts
     trace.message = "stopped at max_iterations"
     for round_ in range(1, max_iterations + 1):
@@ -246,8 +262,11 @@ def relabel_loop(
             new = policy_labels(setup.domain, setup.series, policies, eq)
             changes = count_changes(setup.series, labels, new)
         trace.label_changes.append(changes)
-        if changes == 0:
-            trace.converged, trace.message = True, "labels converged"
+        if changes <= label_tol * n_labelled:
+            trace.converged = True
+            trace.message = "labels converged" + (
+                f" ({changes} of {n_labelled} changed, within label_tol)" if changes else ""
+            )
             break
         if any(count_changes(setup.series, old, new) == 0 for old in trace.labels[:-1]):
             trace.message = "labels cycle between rounds; stopped"
