@@ -196,7 +196,7 @@ def _method_models(
     p: float,
     max_iterations: int,
     trace: LoopTrace,
-    label_tol: float = 0.01,
+    label_tol: float,
 ):
     """Weights, transition matrices, feature probabilities, equilibrium (None: to be weighed)
     and a message, by ``method``'s recipe (SPEC §5)."""
@@ -235,7 +235,7 @@ def _method_models(
 
 
 def relabel_loop(
-    setup: RoundSetup, max_iterations: int, trace: LoopTrace, label_tol: float = 0.01
+    setup: RoundSetup, max_iterations: int, trace: LoopTrace, label_tol: float
 ) -> tuple[list[np.ndarray], list[sp.csr_array], list[dict[str, float]], Equilibrium]:
     """The mirl-t rounds (module docstring, steps 1–4); returns weights, T, feature
     probabilities and the best equilibrium of the last round.
