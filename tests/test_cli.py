@@ -104,6 +104,21 @@ def test_error_as_a_process(tmp_path):
     one_error_line(proc.stderr, str(bad))
 
 
+def test_a_reader_that_stops_early_is_not_an_error():
+    # `mirl show-map boyd2 | head -0`: the pipe closes before mirl writes; no message, and the
+    # shell's exit code for a writer stopped by SIGPIPE
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mirl.cli", "show-map", "boyd2"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    proc.stdout.close()  # mirl is still importing: its first write meets a closed pipe
+    err = proc.stderr.read()
+    proc.stderr.close()
+    assert proc.wait(timeout=120) == 141
+    assert err == b""
+
+
 def test_version(capsys):
     with pytest.raises(SystemExit) as info:
         main(["--version"])

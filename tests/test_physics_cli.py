@@ -38,6 +38,17 @@ def test_run_physics_json_and_plot(tmp_path, capsys):
     assert "contacts" in out and png.stat().st_size > 10_000
 
 
+def test_run_report_names_the_motor_strengths_physics_drives_with(capsys):
+    # the scenario's grid probability (J:left_wheel=0.7) is not what the physics world runs
+    code = main(["run", "--world", "physics", "--scenario", "boyd2", "--obs-steps", "20",
+                 "--max-wait", "5", "--method", "random",
+                 "--damage", "I:right_wheel=0.8"])  # fmt: skip
+    assert code == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert "physics, motor strength: J:left_wheel=0.6, I:right_wheel=0.8" in header
+    assert "0.7" not in header
+
+
 def test_damage_in_physics_is_motor_strength(capsys):
     code = main(["simulate", "--scenario", "boyd2-healthy", "--world", "physics", "--steps", "3",
                  "--damage", "I:right_wheel=0.5"])  # fmt: skip

@@ -3,6 +3,7 @@ user error into one line on stderr with exit code 2. It may import every other s
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Sequence
 
@@ -23,6 +24,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         return COMMANDS[args.command](args)
+    except BrokenPipeError:
+        return _reader_left()
     except Exception as exc:
         if not isinstance(exc, (ValueError, OSError, UsageError, *_sqlite_errors())):
             raise
@@ -40,3 +43,12 @@ def _sqlite_errors() -> tuple[type[Exception], ...]:
     so `mirl run` does not import it."""
     sqlite3 = sys.modules.get("sqlite3")
     return (sqlite3.Error,) if sqlite3 is not None else ()
+
+
+def _reader_left() -> int:
+    """``mirl run | head``: the reader closed the pipe. Not an error of the user's input, so no
+    message; stdout is pointed at /dev/null so that the interpreter's last flush does not fail
+    again, and the exit code is the shell's for a writer stopped by SIGPIPE (128 + 13)."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    return 141

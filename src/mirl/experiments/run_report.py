@@ -106,6 +106,23 @@ def _turn_cells(domain, cycle: np.ndarray) -> list[tuple[int, int]]:
     return out
 
 
+def _truth(scenario: Scenario, result: RunResult) -> str:
+    """What is really damaged: in the grid world the scenario's success probabilities below 0.9;
+    in the physics world the motor strengths the robots drive with (the grid probabilities are
+    then only what the scenario would mean on the grid, not what L watches)."""
+    if result.physical is not None:
+        strengths = result.physical.cfg.motor_strength
+        weak = [f"{r}:{w}={s:g}" for r, ws in strengths.items() for w, s in ws.items() if s < 1]
+        return f"physics, motor strength: {', '.join(weak) or 'all motors healthy'}"
+    damaged = [
+        f"{r.name}:{f}={p:g}"
+        for r in scenario.robots
+        for f, p in r.feature_probabilities.items()
+        if p < 0.9
+    ]
+    return f"truth: {', '.join(damaged) or 'no damage'}"
+
+
 def format_report(scenario: Scenario, result: RunResult) -> str:
     """The short readable report printed by ``mirl run``.
 
@@ -114,14 +131,8 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
     dom = scenario.domain
     paper, meaning = METHOD_NAMES.get(result.method, (result.method, ""))
     n_vis = int(scenario.map.visible_mask(result.observability).sum())
-    damaged = [
-        f"{r.name}:{f}={p:g}"
-        for r in scenario.robots
-        for f, p in r.feature_probabilities.items()
-        if p < 0.9
-    ]
     lines = [
-        f"mirl run: scenario {scenario.name} (truth: {', '.join(damaged) or 'no damage'}), "
+        f"mirl run: scenario {scenario.name} ({_truth(scenario, result)}), "
         f"method {result.method}, observability {result.observability:g} "
         f"({n_vis}/{scenario.map.n_patroller_cells} cells), seed {result.seed}",
         _wrapped(
