@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-pytest.importorskip("mujoco")
+mujoco = pytest.importorskip("mujoco")
 
 from mirl.cli import main  # noqa: E402
 from mirl.observations.poses import read_pose_csv  # noqa: E402
@@ -35,6 +35,7 @@ def test_run_physics_json_and_plot(tmp_path, capsys):
     assert code == 0
     out = json.loads(capsys.readouterr().out)
     assert out["world"] == "physics" and out["outcome"] in ("success", "detected", "timeout")
+    assert out["mujoco"] == mujoco.__version__  # physics results depend on MuJoCo's release
     assert "contacts" in out and png.stat().st_size > 10_000
 
 
@@ -74,3 +75,12 @@ def test_experiment_in_physics_world():
     grid = Condition("mirl-t")
     assert "world" not in grid.key  # grid keys unchanged: old result stores still resume
     assert Condition.from_key(exp.conditions[0].key).world == "physics"
+
+
+def test_a_physics_run_records_the_mujoco_it_ran_on():
+    from mirl.experiments.conditions import Condition, code_version
+    from mirl.experiments.sweep import run_version
+
+    assert run_version(Condition("mirl-t")) == code_version()  # grid rows: as before
+    physics = run_version(Condition("mirl-t", world="physics"))
+    assert physics == f"{code_version()}+mujoco.{mujoco.__version__}"

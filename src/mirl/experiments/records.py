@@ -10,6 +10,7 @@ import numpy as np
 
 from mirl.learning.models import LearnResult
 from mirl.observations.trajectories import Trajectories
+from mirl.physics import mujoco_version
 from mirl.planning.go import ObserverPlan
 
 __all__ = [
@@ -135,6 +136,7 @@ class RunResult:
             **(
                 {
                     "world": "physics",
+                    "mujoco": mujoco_version(),
                     "contacts": self.physical.contacts,
                     "wall_contacts": self.physical.wall_contacts,
                 }

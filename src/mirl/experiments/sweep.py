@@ -65,8 +65,20 @@ def _execute(fn: RunFunction, experiment: str, cond: Condition, run: int, seed: 
         metrics=res,
         error=error,
         elapsed=elapsed,
-        version=code_version(),
+        version=run_version(cond),
     )
+
+
+def run_version(cond: Condition) -> str:
+    """What computed a run: mirl's fingerprint, and for the physics world MuJoCo's version too
+    (its trajectories differ between MuJoCo releases), so the report flags a store that mixes
+    them."""
+    version = code_version()
+    if cond.world == "physics":
+        from mirl.physics import mujoco_version
+
+        version += f"+mujoco.{mujoco_version()}"
+    return version
 
 
 @dataclass
