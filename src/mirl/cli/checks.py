@@ -5,6 +5,7 @@ user must see. Every refusal is a :class:`UsageError` (one line, exit 2)."""
 from __future__ import annotations
 
 import os
+import re
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -17,6 +18,11 @@ __all__ = [
     "MIN_TRIALS",
     "warn",
     "check_output",
+    "check_distinct",
+    "check_pose_flags",
+    "check_poses_output",
+    "check_fixed_p",
+    "check_experiment_flags",
     "check_observations",
     "feature_trials",
     "unique_lowest",
@@ -25,6 +31,12 @@ __all__ = [
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 # a learned probability resting on fewer observed trials than this is flagged as barely informed
 MIN_TRIALS = 10
+# `simulate --poses`: poses per robot per step (--pose-rate x --step-seconds); 1000 is 500 Hz at
+# the paper's 2 s steps, above any tracker, and keeps a 1 000 000-step record writable
+MAX_POSES_PER_STEP = 1000
+MAX_POSE_NOISE = (100.0, 360.0)  # metres, degrees: beyond, a pose says nothing of its cell
+FIXED_P_METHODS = ("mirl", "known-r")  # the methods whose every action succeeds with --p
+DEFAULT_P = 0.9
 
 
 class UsageError(Exception):
@@ -48,6 +60,102 @@ def check_output(path: str | Path, flag: str, suffixes: tuple[str, ...] | None =
     if not os.access(parent, os.W_OK) or (p.exists() and not os.access(p, os.W_OK)):
         raise UsageError(f"{flag} {p}: not writable")
     return p
+
+
+def check_distinct(*flags: tuple[str, str | None]) -> None:
+    """Refuse two of a command's files that are one file (an output would overwrite an input, or
+    one output another), e.g. ``convert run.csv run.csv`` or ``--observations o.csv --truth
+    o.csv``."""
+    seen: dict[str, str] = {}
+    for flag, path in flags:
+        if not path:
+            continue
+        key = os.path.realpath(path)
+        if key in seen:
+            raise UsageError(f"{flag} {path}: the same file as {seen[key]}; one would overwrite "
+                             "the other")  # fmt: skip
+        seen[key] = f"{flag} {path}"
+
+
+def check_pose_flags(args) -> None:
+    """``simulate``'s pose flags: only with ``--poses`` in the grid world (the physics world
+    writes its own tracks: L's camera measurements and the true poses at the control rate), and
+    within limits; fills in their defaults (10 Hz, 2 s steps)."""
+    given = [
+        flag
+        for flag, value in (
+            ("--pose-rate", args.pose_rate),
+            ("--pose-noise", args.pose_noise),
+            ("--step-seconds", args.step_seconds),
+        )
+        if value is not None
+    ]
+    if given and not args.poses:
+        raise UsageError(f"{given[0]} shapes the poses --poses writes; give --poses OUT too")
+    if given and args.world == "physics":
+        raise UsageError(f"{given[0]}: the physics world writes its own tracks (L's camera, and "
+                         "the true poses at the control rate); leave it out")  # fmt: skip
+    args.pose_rate = 10.0 if args.pose_rate is None else args.pose_rate
+    args.step_seconds = 2.0 if args.step_seconds is None else args.step_seconds
+    per_step = args.pose_rate * args.step_seconds
+    if per_step > MAX_POSES_PER_STEP:
+        raise UsageError(
+            f"--pose-rate {args.pose_rate:g} Hz x --step-seconds {args.step_seconds:g} s is "
+            f"{per_step:g} poses per step; at most {MAX_POSES_PER_STEP}"
+        )
+    for name, value, limit, unit in zip(
+        ("SIGMA_M", "SIGMA_DEG"),
+        args.pose_noise or (0.0, 0.0),
+        MAX_POSE_NOISE,
+        (" m", " deg"),
+        strict=True,
+    ):
+        if value > limit:
+            raise UsageError(f"--pose-noise {name} must be at most {limit:g}{unit}, got {value:g}")
+
+
+def check_poses_output(path: str | None, world: str) -> None:
+    """``--poses OUT`` before the simulation: a pose CSV, an MCAP file or (grid world) a ROS 2
+    bag directory to create, in a directory that exists and can be written."""
+    if not path:
+        return
+    out = Path(path)
+    kinds = (".csv", ".mcap") if world == "physics" else (".csv", ".mcap", "")
+    if out.suffix.lower() not in kinds:
+        raise UsageError(
+            f"--poses {out}: expected a .csv or .mcap file"
+            + (" or a bag directory (no suffix); ROS 1 bags are read, not written" if "" in kinds
+               else "")
+        )  # fmt: skip
+    if out.suffix:
+        check_output(out, "--poses")
+    elif not (out.parent.is_dir() and os.access(out.parent, os.W_OK)) or out.exists():
+        raise UsageError(f"--poses {out}: cannot create a bag directory there")
+
+
+def check_fixed_p(args) -> float:
+    """``--p`` only for the methods that fix every action's success at p; returns the p to use."""
+    if args.p is not None and args.method not in FIXED_P_METHODS:
+        raise UsageError(f"--p applies to --method {' and '.join(FIXED_P_METHODS)} only (they "
+                         f"fix every action's success at p), not {args.method}")  # fmt: skip
+    return DEFAULT_P if args.p is None else args.p
+
+
+def check_experiment_flags(args) -> None:
+    """``experiment --out`` must name a directory (or nothing yet); ``--dask-scheduler`` must
+    look like an address, before a sweep creates anything."""
+    if args.out is not None:
+        if not args.out.strip():
+            raise UsageError("--out: an empty path (leave --out out for results/NAME)")
+        if os.path.exists(args.out) and not os.path.isdir(args.out):
+            raise UsageError(f"--out {args.out}: is a file, not a directory")
+    address = args.dask_scheduler
+    if address is not None:
+        m = re.fullmatch(r"(?:[a-z][a-z0-9+.-]*://)?(\[[0-9a-fA-F:]+\]|[^:/\s\[\]]+):(\d{1,5})",
+                         address)  # fmt: skip
+        if m is None or not 0 < int(m.group(2)) < 65536:
+            raise UsageError(f"--dask-scheduler {address}: expected HOST:PORT, e.g. "
+                             "tcp://127.0.0.1:8786")  # fmt: skip
 
 
 def check_observations(path, obs, domain) -> None:

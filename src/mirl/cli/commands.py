@@ -12,8 +12,13 @@ from mirl.cli.checks import (
     FIGURE_SUFFIXES,
     MIN_TRIALS,
     UsageError,
+    check_distinct,
+    check_experiment_flags,
+    check_fixed_p,
     check_observations,
     check_output,
+    check_pose_flags,
+    check_poses_output,
     feature_trials,
     unique_lowest,
     warn,
@@ -87,9 +92,13 @@ def _show_map(args: argparse.Namespace) -> int:
 def _simulate(args: argparse.Namespace) -> int:
     from mirl.simulation.grid import simulate
 
-    for flag, path in (("--observations", args.observations), ("--truth", args.truth)):
+    check_pose_flags(args)
+    outputs = (("--observations", args.observations), ("--truth", args.truth))
+    check_distinct(*outputs, ("--poses", args.poses))
+    for flag, path in outputs:
         if path:
             check_output(path, flag)
+    check_poses_output(args.poses, args.world)
     scenario = _load_scenario(args)
     if args.world == "physics":
         from mirl.cli.physical import simulate_physics
@@ -144,18 +153,13 @@ def _write_poses(args: argparse.Namespace, scenario, observations) -> None:
         sigma_yaw_degrees=sigma_deg,
         seed=args.seed,
     )
-    out = Path(args.poses)
-    if out.suffix == ".csv":
+    out = Path(args.poses)  # its kind was checked before the simulation (check_poses_output)
+    if out.suffix.lower() == ".csv":
         write_pose_csv(tracks, out)
         what = "pose CSV"
-    elif out.suffix == ".mcap" or not out.suffix:
+    else:
         write_mcap(tracks, out)
         what = "MCAP, topics /ROBOT/pose"
-    else:
-        raise UsageError(
-            f"--poses {out}: expected a .csv or .mcap file or a bag directory (no suffix); "
-            "ROS 1 bags are read, not written"
-        )
     print(
         f"wrote {out} ({len(tracks)} poses, {what}, {args.pose_rate:g} Hz, steps of "
         f"{args.step_seconds:g} s from t = 0; noise {sigma_m:g} m / {sigma_deg:g} deg)"
@@ -180,6 +184,8 @@ def _read_observations(args: argparse.Namespace, scenario, observability=None):
 
 @command("convert")
 def _convert(args: argparse.Namespace) -> int:
+    check_distinct(("IN", args.input), ("OUT", args.output))
+    check_output(args.output, "OUT")
     scenario = _load_scenario(args)
     args.observations = args.input
     loaded = _read_observations(args, scenario)
@@ -248,6 +254,7 @@ def _experiment(args: argparse.Namespace) -> int:
     from mirl.experiments.conditions import get_experiment, in_world, with_em_init
     from mirl.experiments.sweep import run_experiment
 
+    check_experiment_flags(args)
     exp = with_em_init(get_experiment(args.name), args.em_init)  # unknown: one line, exit 2
     if args.world == "physics":
         _need_physics()
@@ -303,7 +310,7 @@ def _run(args: argparse.Namespace) -> int:
         obs_steps=args.obs_steps if fixed else DEFAULT_OBS_STEPS,
         watch_until_seen=None if fixed else args.watch_until_seen or WATCH_UNTIL_SEEN,
         seed=args.seed,
-        p=args.p,
+        p=check_fixed_p(args),
         max_wait=args.max_wait,
         learn_options={"em_init": args.em_init} if args.em_init else None,
         world_kind=args.world,
@@ -339,7 +346,7 @@ def _learn(args: argparse.Namespace) -> int:
         obs,
         scenario,
         args.method,
-        p=args.p,
+        p=check_fixed_p(args),
         visible=loaded.visible_states(scenario),
         observability=degree,
         max_iterations=args.max_iterations,

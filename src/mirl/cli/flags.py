@@ -16,6 +16,8 @@ __all__ = [
     "positive_float",
     "finite_float",
     "non_negative_float",
+    "float_between",
+    "step_seconds",
     "seed",
     "MAX_STEPS",
     "MAX_OBS_STEPS",
@@ -108,3 +110,21 @@ def float_at_least(low: float, *, strict: bool):
 positive_float = float_at_least(0.0, strict=True)
 finite_float = float_at_least(float("-inf"), strict=True)
 non_negative_float = float_at_least(0.0, strict=False)
+
+
+def float_between(low: float, high: float, unit: str = ""):
+    """An argparse type: a number in [low, high] (the limits stated in the refusal)."""
+
+    def parse(text: str) -> float:
+        v = _float(text)
+        if not low <= v <= high:
+            raise argparse.ArgumentTypeError(f"must be in [{low:g}, {high:g}]{unit}, got {text}")
+        return v
+
+    parse.__name__ = f"number in [{low:g}, {high:g}]"
+    return parse
+
+
+# seconds per time step: from a millisecond to an hour (a step of 1e-300 s or 1e308 s spans
+# more steps, or fewer poses, than any record holds)
+step_seconds = float_between(0.001, 3600.0, " s")

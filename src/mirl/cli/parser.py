@@ -12,10 +12,12 @@ from mirl.cli.flags import (
     OneLineParser,
     bounded_int,
     finite_float,
+    float_between,
     fraction,
     non_negative_float,
     positive_float,
     seed,
+    step_seconds,
 )
 
 __all__ = ["build_parser"]
@@ -60,7 +62,9 @@ def _learn_parser(sub) -> None:
         default="mirl-t",
         help="learning method (mirl-t is the paper's mIRL*/T+Int; see README 'Methods')",
     )
-    le.add_argument("--p", type=fraction, default=0.9, help="fixed success p of mirl / known-r")
+    le.add_argument(
+        "--p", type=fraction, default=None, help="fixed success p of mirl / known-r (None: 0.9)"
+    )
     _observability_arg(le, "degree the observations were taken at (default: the scenario's)")
     le.add_argument(
         "--max-iterations",
@@ -130,7 +134,9 @@ def _run_parser(sub) -> None:
         f"({RUN_WATCH_LIMIT * 2 // 60} min) (None: {RUN_WATCH_UNTIL_SEEN})",
     )
     ru.add_argument("--seed", type=seed, default=0, help="seed of the whole run")
-    ru.add_argument("--p", type=fraction, default=0.9, help="fixed success p of mirl / known-r")
+    ru.add_argument(
+        "--p", type=fraction, default=None, help="fixed success p of mirl / known-r (None: 0.9)"
+    )
     ru.add_argument(
         "--max-wait",
         type=bounded_int(0, MAX_WAIT_STEPS),
@@ -230,7 +236,7 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
     )
     g.add_argument(
         "--step-seconds",
-        type=positive_float,
+        type=step_seconds,
         default=None,
         metavar="S",
         help="seconds per time step (None: 2, the paper's)",
@@ -320,7 +326,11 @@ def _simulate_parser(sub) -> None:
         "file (.mcap) / ROS 2 bag directory with a PoseStamped topic /ROBOT/pose per robot",
     )
     si.add_argument(
-        "--pose-rate", type=positive_float, default=10.0, metavar="HZ", help="poses per second"
+        "--pose-rate",
+        type=float_between(0.001, 1000.0, " Hz"),
+        default=None,
+        metavar="HZ",
+        help="poses per second (None: 10)",
     )
     si.add_argument(
         "--pose-noise",
@@ -331,10 +341,10 @@ def _simulate_parser(sub) -> None:
     )
     si.add_argument(
         "--step-seconds",
-        type=positive_float,
-        default=2.0,
+        type=step_seconds,
+        default=None,
         metavar="S",
-        help="seconds per time step of the written poses",
+        help="seconds per time step of the written poses (None: 2)",
     )
 
 

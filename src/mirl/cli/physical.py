@@ -62,12 +62,10 @@ def simulate_physics(args: argparse.Namespace, scenario) -> int:
 def _write_tracks(out: Path, world) -> None:
     from mirl.observations.poses import write_pose_csv
 
-    if out.suffix == ".csv":
+    if out.suffix.lower() == ".csv":  # .csv or .mcap: checked before the simulation
         write = write_pose_csv
-    elif out.suffix == ".mcap":
-        from mirl.observations.bags import write_mcap as write
     else:
-        raise ValueError(f"--poses {out}: expected a .csv or .mcap file")
+        from mirl.observations.bags import write_mcap as write
     observed, truth = world.observed_tracks(), world.true_tracks()
     write(observed, out)
     write(truth, true_path(out))

@@ -77,8 +77,10 @@ def actuator_mjcf(name: str, left: float = 1.0, right: float = 1.0, k: Kobuki = 
     out = []
     for side, s in (("left", left), ("right", right)):
         kv, tau = k.motor_gain * s, k.torque_limit * s
+        # a dead motor (strength 0) has no gain and so no force; MuJoCo refuses the empty force
+        # range [0, 0] that would say the same, so it is left unlimited
+        limit = f'forcelimited="true" forcerange="{-tau:.6g} {tau:.6g}"' if s > 0 else ""
         out.append(
-            f'<velocity name="{name}_{side}_motor" joint="{name}_{side}" kv="{kv:.6g}"'
-            f' forcelimited="true" forcerange="{-tau:.6g} {tau:.6g}"/>'
+            f'<velocity name="{name}_{side}_motor" joint="{name}_{side}" kv="{kv:.6g}" {limit}/>'
         )
     return "\n    ".join(out)

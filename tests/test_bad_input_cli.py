@@ -1,0 +1,89 @@
+"""Flags a bad-input audit found unchecked: each is refused with one line naming the flag, exit
+code 2, before any simulation or learning (so every case is cheap); their valid neighbours
+still run."""
+
+from __future__ import annotations
+
+import pytest
+
+from mirl.cli import main
+
+S = ["simulate", "--scenario", "boyd2", "--steps", "5"]
+GOOD_CSV = "t,robot,row,col,heading\n0,I,0,4,2\n1,I,0,3,2\n2,I,0,2,2\n0,J,0,1,0\n1,J,0,2,0\n"
+
+BAD = [
+    # (argv, a substring the one line must contain)
+    (S + ["--step-seconds", "1e308", "--poses", "{d}/p.csv"], "--step-seconds"),
+    (S + ["--step-seconds", "1e-300", "--poses", "{d}/p.csv"], "--step-seconds"),
+    (S + ["--pose-rate", "1e9", "--poses", "{d}/p.csv"], "--pose-rate"),
+    (S + ["--pose-rate", "1e-9", "--poses", "{d}/p.csv"], "--pose-rate"),
+    (S + ["--pose-rate", "600", "--poses", "{d}/p.csv"], "poses per step"),
+    (S + ["--pose-noise", "1e308", "1", "--poses", "{d}/p.csv"], "--pose-noise SIGMA_M"),
+    (S + ["--pose-noise", "0.1", "1e9", "--poses", "{d}/p.csv"], "--pose-noise SIGMA_DEG"),
+    (S + ["--pose-rate", "5"], "give --poses"),  # ignored without --poses: refused
+    (S + ["--step-seconds", "1"], "give --poses"),
+    (S + ["--observations", "{d}/o.csv", "--truth", "{d}/../{name}/o.csv"], "the same file"),
+    (S + ["--observations", "{d}/o.csv", "--poses", "{d}/o.csv"], "the same file"),
+    (S + ["--poses", "{d}/no/dir/p.mcap"], "--poses"),
+    (S + ["--poses", "{d}/p.bag"], "ROS 1 bags are read"),
+    (["convert", "{d}/good.csv", "{d}/good.csv", "--scenario", "boyd2"], "the same file"),
+    (["convert", "{d}/good.csv", "{d}/no/dir/out.csv", "--scenario", "boyd2"], "OUT"),
+    (["learn", "--scenario", "boyd2", "--observations", "{d}/good.csv", "--p", "0.3"], "--p"),
+    (
+        [
+            "learn",
+            "--scenario",
+            "boyd2",
+            "--observations",
+            "{d}/good.csv",
+            "--step-seconds",
+            "1e-300",
+        ],
+        "--step-seconds",
+    ),  # fmt: skip
+    (["run", "--method", "random", "--p", "0.5"], "--p applies"),
+    (["run", "--method", "mirl-t", "--p", "0.5"], "--p applies"),
+    (["experiment", "table1", "--out", "{d}/good.csv"], "is a file"),
+    (["experiment", "table1", "--out", ""], "--out"),
+    (["experiment", "table1", "--out", "{d}/x", "--dask-scheduler", "nonsense"], "HOST:PORT"),
+    (["experiment", "table1", "--out", "{d}/x", "--dask-scheduler", "h:99999"], "HOST:PORT"),
+]
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("badcli")
+    (d / "good.csv").write_text(GOOD_CSV)
+    return d
+
+
+@pytest.mark.parametrize(("argv", "needle"), BAD, ids=[needle for _, needle in BAD])
+def test_refused_in_one_line_before_any_work(files, capsys, argv, needle):
+    argv = [a.format(d=files, name=files.name) for a in argv]
+    try:
+        code = main(argv)
+    except SystemExit as stop:  # argparse refuses a flag's value by exiting
+        code = stop.code
+    assert code == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and needle in lines[0], captured.err
+    assert "Traceback" not in captured.err and captured.out == ""
+    assert not (files / "o.csv").exists() and not (files / "x").exists()  # nothing written
+
+
+def test_the_valid_neighbours_still_run(files, capsys):
+    assert main(S + ["--poses", str(files / "p.csv"), "--pose-rate", "5", "--step-seconds",
+                     "1", "--pose-noise", "0.05", "3"]) == 0  # fmt: skip
+    assert "5 Hz, steps of 1 s" in capsys.readouterr().out
+    assert main(["learn", "--scenario", "boyd2", "--observations", str(files / "good.csv"),
+                 "--method", "mirl", "--p", "0.8", "--json"]) == 0  # fmt: skip
+    assert main(["convert", str(files / "good.csv"), str(files / "grid.csv"), "--scenario",
+                 "boyd2"]) == 0  # fmt: skip
+
+
+def test_a_dead_motor_is_a_strength_of_zero_in_the_physics_world(capsys):
+    pytest.importorskip("mujoco")
+    assert main(["simulate", "--scenario", "boyd2", "--world", "physics", "--steps", "3",
+                 "--damage", "J:left_wheel=0"]) == 0  # fmt: skip
+    assert "J:left_wheel=0" in capsys.readouterr().out
