@@ -66,6 +66,15 @@ def test_missing_mujoco_names_the_extra(monkeypatch, capsys):
     assert code == 2 and len(err) == 1 and 'pip install "mirl[physics]"' in err[0]
 
 
+def test_a_broken_mujoco_release_is_refused_with_the_reason(monkeypatch, capsys):
+    import types
+
+    monkeypatch.setitem(sys.modules, "mujoco", types.SimpleNamespace(__version__="4.0.0"))
+    code = main(["simulate", "--scenario", "boyd2", "--world", "physics", "--steps", "3"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "MuJoCo 4.0.0" in err[0] and "!=4.0.0" in err[0]
+
+
 def test_experiment_in_physics_world():
     from mirl.experiments.conditions import Condition, get_experiment, in_world
 

@@ -27,12 +27,26 @@ __all__ = ["MISSING_MESSAGE", "require_mujoco", "mujoco_version"]
 MISSING_MESSAGE = 'the physics world needs MuJoCo: pip install "mirl[physics]"'
 
 
+# releases that simulate these robots wrongly, and why (docs/results.md, "MuJoCo versions")
+BROKEN_MUJOCO = {
+    "4.0.0": "its sparse-Cholesky bug (fixed in 4.0.1) slows a healthy robot to 0.30 m/s",
+}
+
+
 def require_mujoco() -> None:
-    """Raise ImportError with :data:`MISSING_MESSAGE` when ``mujoco`` cannot be imported."""
+    """Raise ImportError with :data:`MISSING_MESSAGE` when ``mujoco`` cannot be imported, and
+    with the reason when it is a release in :data:`BROKEN_MUJOCO` (installed by hand: the
+    ``physics`` extra excludes them)."""
     try:
-        import mujoco  # noqa: F401
+        import mujoco
     except ImportError:
         raise ImportError(MISSING_MESSAGE) from None
+    version = str(getattr(mujoco, "__version__", ""))
+    if version in BROKEN_MUJOCO:
+        raise ImportError(
+            f"MuJoCo {version} breaks the physics world ({BROKEN_MUJOCO[version]}): "
+            'pip install "mujoco!=4.0.0"'
+        )
 
 
 def mujoco_version() -> str:
