@@ -56,17 +56,24 @@ def _int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"'{text}' is not an integer") from None
 
 
-def bounded_int(low: int, high: int):
-    """An argparse type: an integer in [low, high]."""
+def _bounded(convert, low, high, what: str, unit: str = "", show=str):
+    """An argparse type: ``convert(text)`` within [low, high], the limits in the refusal."""
 
-    def parse(text: str) -> int:
-        v = _int(text)
+    def parse(text: str):
+        v = convert(text)
         if not low <= v <= high:
-            raise argparse.ArgumentTypeError(f"must be an integer in [{low}, {high}], got {v}")
+            raise argparse.ArgumentTypeError(
+                f"must be {what} in [{show(low)}, {show(high)}]{unit}, got {show(v)}"
+            )
         return v
 
-    parse.__name__ = f"integer in [{low}, {high}]"
+    parse.__name__ = f"{what} in [{show(low)}, {show(high)}]"
     return parse
+
+
+def bounded_int(low: int, high: int):
+    """An argparse type: an integer in [low, high]."""
+    return _bounded(_int, low, high, "an integer")
 
 
 def seed(text: str) -> int:
@@ -114,15 +121,7 @@ non_negative_float = float_at_least(0.0, strict=False)
 
 def float_between(low: float, high: float, unit: str = ""):
     """An argparse type: a number in [low, high] (the limits stated in the refusal)."""
-
-    def parse(text: str) -> float:
-        v = _float(text)
-        if not low <= v <= high:
-            raise argparse.ArgumentTypeError(f"must be in [{low:g}, {high:g}]{unit}, got {text}")
-        return v
-
-    parse.__name__ = f"number in [{low:g}, {high:g}]"
-    return parse
+    return _bounded(_float, low, high, "a number", unit, show="{:g}".format)
 
 
 # seconds per time step: from a millisecond to an hour (a step of 1e-300 s or 1e308 s spans
