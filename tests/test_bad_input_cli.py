@@ -87,3 +87,27 @@ def test_a_dead_motor_is_a_strength_of_zero_in_the_physics_world(capsys):
     assert main(["simulate", "--scenario", "boyd2", "--world", "physics", "--steps", "3",
                  "--damage", "J:left_wheel=0"]) == 0  # fmt: skip
     assert "J:left_wheel=0" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("tamper", "needle"),
+    [
+        ("DELETE FROM meta", "no experiment or base_seed"),
+        ("UPDATE runs SET outcome = 'exploded' WHERE run = 0", "ended in 'exploded'"),
+    ],
+)
+def test_report_refuses_runs_no_sweep_writes(tmp_path, capsys, tamper, needle):
+    import sqlite3
+
+    assert main(["experiment", "selftest", "--runs", "1", "--out", str(tmp_path), "--workers",
+                 "1", "--quiet"]) == 0  # fmt: skip
+    db = tmp_path / "results.sqlite"
+    with sqlite3.connect(db) as con:
+        con.execute(tamper)
+    con.close()
+    before = db.read_bytes()
+    capsys.readouterr()
+    assert main(["report", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and needle in err[0] and "results.sqlite" in err[0]
+    assert db.read_bytes() == before  # left as it is

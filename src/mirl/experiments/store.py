@@ -16,6 +16,7 @@ from typing import Any
 
 from mirl import __version__
 from mirl.experiments.conditions import (
+    OUTCOMES,
     Condition,
     StoreError,
 )
@@ -280,6 +281,26 @@ def load_results(path: str | Path) -> tuple[dict[str, str], list[dict[str, Any]]
     check_store(db)
     store = ResultStore(db, read_only=True)
     try:
-        return store.meta(), store.rows(), store.sessions()
+        meta, rows, sessions = store.meta(), store.rows(), store.sessions()
     finally:
         store.close()
+    _check_contents(db, meta, rows)
+    return meta, rows, sessions
+
+
+def _check_contents(db: Path, meta: Mapping[str, str], rows: list[dict[str, Any]]) -> None:
+    """Refuse runs a sweep cannot have written: without the experiment and base seed that
+    ``open_store`` records, or with an outcome no run ends in (they would be counted)."""
+    missing = [k for k in ("experiment", "base_seed") if k not in meta]
+    if rows and missing:
+        raise StoreError(
+            f"{db}: {len(rows)} runs but no {' or '.join(missing)} in its meta table (not "
+            "written by mirl experiment; left as it is)"
+        )
+    known = (*OUTCOMES, "error")
+    for r in rows:
+        if r["outcome"] not in known:
+            raise StoreError(
+                f"{db}: run {r['run']} of {r['condition_key']} ended in '{r['outcome']}', not "
+                f"one of {', '.join(known)} (left as it is)"
+            )
