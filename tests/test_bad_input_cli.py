@@ -18,6 +18,20 @@ BAD = [
     (S + ["--pose-rate", "1e9", "--poses", "{d}/p.csv"], "--pose-rate"),
     (S + ["--pose-rate", "1e-9", "--poses", "{d}/p.csv"], "--pose-rate"),
     (S + ["--pose-rate", "600", "--poses", "{d}/p.csv"], "poses per step"),
+    (
+        [
+            "simulate",
+            "--scenario",
+            "boyd2",
+            "--steps",
+            "1000000",
+            "--pose-rate",
+            "100",
+            "--poses",
+            "{d}/p.csv",
+        ],
+        "poses per robot",
+    ),  # fmt: skip
     (S + ["--pose-noise", "1e308", "1", "--poses", "{d}/p.csv"], "--pose-noise SIGMA_M"),
     (S + ["--pose-noise", "0.1", "1e9", "--poses", "{d}/p.csv"], "--pose-noise SIGMA_DEG"),
     (S + ["--pose-rate", "5"], "give --poses"),  # ignored without --poses: refused

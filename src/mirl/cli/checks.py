@@ -31,9 +31,11 @@ __all__ = [
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 # a learned probability resting on fewer observed trials than this is flagged as barely informed
 MIN_TRIALS = 10
-# `simulate --poses`: poses per robot per step (--pose-rate x --step-seconds); 1000 is 500 Hz at
-# the paper's 2 s steps, above any tracker, and keeps a 1 000 000-step record writable
+# `simulate --poses`: poses per robot per step (--pose-rate x --step-seconds; 1000 is 500 Hz at
+# the paper's 2 s steps, above any tracker) and per robot in all (--steps x that, were L to see
+# every step: 20 000 000 is the defaults' 20 a step over the longest --steps, ~1 GB of poses)
 MAX_POSES_PER_STEP = 1000
+MAX_POSES = 20_000_000
 MAX_POSE_NOISE = (100.0, 360.0)  # metres, degrees: beyond, a pose says nothing of its cell
 FIXED_P_METHODS = ("mirl", "known-r")  # the methods whose every action succeeds with --p
 DEFAULT_P = 0.9
@@ -102,6 +104,11 @@ def check_pose_flags(args) -> None:
         raise UsageError(
             f"--pose-rate {args.pose_rate:g} Hz x --step-seconds {args.step_seconds:g} s is "
             f"{per_step:g} poses per step; at most {MAX_POSES_PER_STEP}"
+        )
+    if per_step * args.steps > MAX_POSES:
+        raise UsageError(
+            f"--steps {args.steps} x {per_step:g} poses per step (--pose-rate x --step-seconds) "
+            f"is up to {per_step * args.steps:g} poses per robot; at most {MAX_POSES:g}"
         )
     for name, value, limit, unit in zip(
         ("SIGMA_M", "SIGMA_DEG"),
