@@ -125,3 +125,43 @@ def test_report_refuses_runs_no_sweep_writes(tmp_path, capsys, tamper, needle):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and needle in err[0] and "results.sqlite" in err[0]
     assert db.read_bytes() == before  # left as it is
+
+
+def _boyd2_with(tmp_path, after: str, text: str):
+    """boyd2's scenario with ``text`` inserted after the line ``after``."""
+    from mirl.world import scenario as scenario_module
+
+    shipped = scenario_module.__file__.replace("world/scenario.py", "data/scenarios/boyd2.toml")
+    toml = open(shipped, encoding="utf-8").read()
+    assert after in toml
+    path = tmp_path / "s.toml"
+    path.write_text(toml.replace(after, after + "\n" + text, 1))
+    return str(path)
+
+
+@pytest.mark.parametrize(
+    ("line", "field"),
+    [
+        ("timestep = 0.0", "physics.timestep"),
+        ("control_hz = 0", "physics.control_hz"),
+        ("step_seconds = 0.0", "physics.step_seconds"),
+        ("timestep = 1e9", "physics.timestep"),  # longer than a control tick
+        ("step_seconds = 0.01", "physics.step_seconds"),  # shorter than a control tick
+        ("localisation_sigma = inf", "physics.localisation_sigma"),
+        ("max_speed = nan", "physics.max_speed"),
+    ],
+)
+def test_physics_values_that_cannot_work_are_refused(tmp_path, capsys, line, field):
+    pytest.importorskip("mujoco")
+    path = _boyd2_with(tmp_path, "[physics]", line)
+    code = main(["simulate", "--scenario", path, "--world", "physics", "--steps", "3"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and field in err[0] and "s.toml" in err[0], err
+
+
+def test_transition_feature_actions_must_be_a_table(tmp_path, capsys):
+    table = '[transition_features]\nfeatures = ["floor"]\nactions = 3\n'
+    path = _boyd2_with(tmp_path, "detect_distance = 6", table)
+    assert main(["simulate", "--scenario", path, "--steps", "3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "transition_features.actions" in err[0], err

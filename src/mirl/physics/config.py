@@ -102,10 +102,27 @@ def physics_config(
                 raise ValueError(f"{source}: physics.camera_pose: expected [x, y, yaw_deg]")
             out[k] = None if v is None else tuple(float(x) for x in v)
             continue
-        if not isinstance(v, int | float) or isinstance(v, bool) or v < 0:
+        if not isinstance(v, int | float) or isinstance(v, bool) or not 0 <= v < float("inf"):
             raise ValueError(f"{source}: physics.{k}: expected a non-negative number, got {v!r}")
+        if k in _POSITIVE and v == 0:
+            raise ValueError(f"{source}: physics.{k}: must be positive, got 0")
         out[k] = float(v)
-    return PhysicsConfig(**out, motor_strength=strengths)
+    cfg = PhysicsConfig(**out, motor_strength=strengths)
+    tick = 1.0 / cfg.control_hz
+    if cfg.timestep > tick:
+        raise ValueError(f"{source}: physics.timestep: {cfg.timestep:g} s is longer than a "
+                         f"control tick (1 / control_hz = {tick:g} s)")  # fmt: skip
+    if cfg.ticks_per_step < 1:
+        raise ValueError(f"{source}: physics.step_seconds: {cfg.step_seconds:g} s is shorter "
+                         f"than a control tick (1 / control_hz = {tick:g} s)")  # fmt: skip
+    return cfg
+
+
+# fields a zero makes meaningless (a division by it, or a robot or camera that cannot act)
+_POSITIVE = frozenset(
+    ("timestep", "control_hz", "step_seconds", "camera_fov_deg",
+     "patroller_fov_deg", "max_speed", "max_accel", "turn_speed")
+)  # fmt: skip
 
 
 def with_motor_strength(scenario, robot: str, wheel: str, strength: float):

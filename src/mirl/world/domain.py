@@ -117,7 +117,8 @@ class FeatureMap:
             data, where, ("features", "actions", "override"), ("features", "actions")
         )
         features = _names(data["features"], f"{where}.features")
-        acts = schema.table(data["actions"], f"{where}.actions", data["actions"].keys())
+        raw = data["actions"]  # any action names, but a table of them
+        acts = schema.table(raw, f"{where}.actions", raw.keys() if isinstance(raw, dict) else ())
         actions = {a: _names(v, f"{where}.actions.{a}") for a, v in acts.items()}
         overrides = []
         for i, ov in enumerate(schema.array(data.get("override", []), f"{where}.override")):
