@@ -165,3 +165,18 @@ def test_transition_feature_actions_must_be_a_table(tmp_path, capsys):
     assert main(["simulate", "--scenario", path, "--steps", "3"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "transition_features.actions" in err[0], err
+
+
+def test_a_device_as_scenario_or_map_is_read_only_up_to_the_limit(capsys):
+    # /dev/zero has no size to check first; it used to be read until memory ran out
+    for argv in (["simulate", "--scenario", "/dev/zero"], ["show-map", "/dev/zero"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "/dev/zero" in err[0] and "64 MB" in err[0], err
+
+
+def test_a_scenario_with_windows_line_ends_reads_as_before(tmp_path, capsys):
+    path = _boyd2_with(tmp_path, "detect_distance = 6", "")
+    crlf = tmp_path / "crlf.toml"
+    crlf.write_bytes(open(path, "rb").read().replace(b"\n", b"\r\n"))
+    assert main(["simulate", "--scenario", str(crlf), "--steps", "3"]) == 0

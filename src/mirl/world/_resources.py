@@ -28,7 +28,14 @@ def read_shipped_or_file(
         if path.is_file() and path.stat().st_size > MAX_FILE_BYTES:
             size = path.stat().st_size / 2**20
             raise error(f"{path}: {size:.0f} MB is larger than the limit of 64 MB for a {kind}")
-        return path.read_text(encoding="utf-8"), str(path), path
+        # a device or pipe (/dev/zero, <(cat ...)) has no size to check first: read one byte
+        # past the limit at most
+        with path.open("rb") as fh:
+            data = fh.read(MAX_FILE_BYTES + 1)
+        if len(data) > MAX_FILE_BYTES:
+            raise error(f"{path}: more than the limit of 64 MB for a {kind}")
+        text = data.decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")  # as read_text
+        return text, str(path), path
     except FileNotFoundError:
         raise error(f"{path}: no such file (shipped {kind}s: {', '.join(shipped)})") from None
     except (OSError, UnicodeDecodeError) as exc:
