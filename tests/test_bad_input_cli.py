@@ -180,3 +180,26 @@ def test_a_scenario_with_windows_line_ends_reads_as_before(tmp_path, capsys):
     crlf = tmp_path / "crlf.toml"
     crlf.write_bytes(open(path, "rb").read().replace(b"\n", b"\r\n"))
     assert main(["simulate", "--scenario", str(crlf), "--steps", "3"]) == 0
+
+
+def _boyd2_replaced(tmp_path, old: str, new: str) -> str:
+    path = _boyd2_with(tmp_path, "detect_distance = 6", "")
+    text = open(path, encoding="utf-8").read()
+    assert old in text
+    open(path, "w", encoding="utf-8").write(text.replace(old, new, 1))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "field"),
+    [
+        ("start = [16, 8, 2]", "start = [0, 8, 2]", "robots[1].start"),  # I's start
+        ('name = "J"', 'name = ""', "robots[1].name"),  # was renamed R1 silently
+        ("turn_around = 0.3 }", "turn_around = 1e308 }", "reward.weights.turn_around"),
+    ],
+)
+def test_scenario_content_that_cannot_be_meant_is_refused(tmp_path, capsys, old, new, field):
+    path = _boyd2_replaced(tmp_path, old, new)
+    assert main(["simulate", "--scenario", path, "--steps", "3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and field in err[0] and "s.toml" in err[0], err

@@ -172,6 +172,9 @@ def read_reward_spec(reward: dict, shape: tuple[int, int]) -> tuple[RewardSpec, 
     ), True
 
 
+MAX_WEIGHT = 1e6  # a reward weight's magnitude; values stay far from overflow at any discount
+
+
 def read_weights(
     value: Any, path: str, names: tuple[str, ...], base: Mapping[str, float]
 ) -> dict[str, float]:
@@ -180,4 +183,6 @@ def read_weights(
     out = dict(base)
     for k, v in value.items():
         out[k] = schema.number(v, f"{path}.{k}")
+        if abs(out[k]) > MAX_WEIGHT:  # 1e308 overflowed the value functions into NaN
+            raise schema.FieldError(f"{path}.{k}", f"|{out[k]:g}| is above {MAX_WEIGHT:g}")
     return out

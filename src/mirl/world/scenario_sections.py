@@ -108,8 +108,10 @@ def read_robots(
     for i, rd in enumerate(items):
         where = f"robots[{i}]"
         rd = schema.table(rd, where, ("name", "start", "feature_probabilities", "weights"))
-        name = schema.string(rd["name"], f"{where}.name") if "name" in rd else "IJKLMNOP"[i : i + 1]
-        name = name or f"R{i}"
+        if "name" in rd:  # a name given must be usable (an empty one is refused below)
+            name = schema.string(rd["name"], f"{where}.name")
+        else:
+            name = "IJKLMNOP"[i : i + 1] or f"R{i}"
         if not name.strip() or any(ch in name for ch in ",:\n"):
             raise FieldError(f"{where}.name", f"{name!r} is not a usable robot name")
         if "start" not in rd:
@@ -117,6 +119,9 @@ def read_robots(
         start = schema.cell(rd["start"], f"{where}.start", domain.map.shape, n=3)
         if domain.state_index(*start) < 0:
             raise FieldError(f"{where}.start", f"{list(start)} is not a hallway cell")
+        same = [k for k, r in enumerate(robots) if r.start == start]
+        if same:  # two robots cannot stand in one state (in physics they would overlap)
+            raise FieldError(f"{where}.start", f"{list(start)} is robots[{same[0]}]'s start too")
         probs = _probabilities(
             rd.get("feature_probabilities", {}),
             f"{where}.feature_probabilities",
