@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from mirl.experiments.conditions import OUTCOMES  # one definition; re-exported here
 from mirl.learning.models import LearnResult
 from mirl.observations.trajectories import Trajectories
 from mirl.physics import mujoco_version
@@ -28,7 +29,6 @@ __all__ = [
 
 METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "random", "oracle")
 LEARNED_METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em")
-OUTCOMES = ("success", "detected", "timeout")
 # CLI method name -> (the paper's name, what it does in plain words); README and reports use it
 METHOD_NAMES = {
     "mirl-t": (

@@ -25,6 +25,7 @@ from mirl.observations.poses import PoseTracks
 from mirl.physics.camera import Cone, Sighting, line_of_sight, observer_camera
 from mirl.physics.config import PhysicsConfig, scenario_physics
 from mirl.physics.control import DRIVE, HOLD, PIVOT, Controller, wrap
+from mirl.physics.events import TickEvents
 from mirl.physics.records import OBSERVER, Records
 from mirl.physics.robot import KOBUKI
 from mirl.physics.world import YAW, Frame, world_mjcf
@@ -46,7 +47,7 @@ Pose = tuple[float, float, float]  # x, y (m), yaw (rad)
 HEADING_DELTAS = np.array([[0, 1], [-1, 0], [0, -1], [1, 0]])
 
 
-class PhysicalWorld(Records):
+class PhysicalWorld(Records, TickEvents):
     """N patrollers (and L, unless ``observer=False``) in one MuJoCo model."""
 
     def __init__(
@@ -271,11 +272,14 @@ class PhysicalWorld(Records):
         meas[:, :2] += z[:, :2] * self.cfg.measurement_sigma * cs
         meas[:, 2] = wrap(meas[:, 2] + z[:, 2] * np.radians(self.cfg.measurement_sigma_deg))
         tsec = self.t * self.cfg.step_seconds
-        rows = [(tsec, int(i), *map(float, meas[k])) for k, i in enumerate(idx)]
-        self._obs_rows.extend(rows)
+        measured = [
+            (tsec, int(i), float(x), float(y), float(yaw))
+            for i, (x, y, yaw) in zip(idx, meas, strict=True)
+        ]
+        self._obs_rows.extend(measured)
         # the robot-data discretisation (mirl.observations.discretise), one step at a time:
         # nearest cell (snapped onto the hallway within its tolerance) and nearest heading
-        a = np.asarray(rows)
+        a = np.asarray(measured)
         step = PoseTracks(self.names, a[:, 0], a[:, 1].astype(int), a[:, 2], a[:, 3], a[:, 4],
                           source="L's camera")  # fmt: skip
         d = discretise(
@@ -368,60 +372,3 @@ class PhysicalWorld(Records):
                 self._tick_pose.append(p)
             if self.has_observer and self.observer_moved:
                 self._detect(dt, p)
-
-    def _crowded(self, p: np.ndarray) -> np.ndarray:
-        """Robots that must go slowly: another robot coming the other way within
-        ``pass_distance`` ahead (±70°: pass slowly), or one going the same way less than 0.8
-        cell ahead (do not run into it). True poses: a real robot's bumper and laser see the
-        other robot directly."""
-        dx = p[None, :, 0] - p[:, None, 0]
-        dy = p[None, :, 1] - p[:, None, 1]
-        dist = np.hypot(dx, dy) / self.frame.cell_size
-        np.fill_diagonal(dist, np.inf)
-        ahead = np.abs(wrap(np.arctan2(dy, dx) - p[:, None, 2])) < np.radians(70)
-        oncoming = np.abs(wrap(p[None, :, 2] - p[:, None, 2])) > np.pi / 2
-        slow = ahead & np.where(oncoming, dist < self.cfg.pass_distance, dist < 0.8)
-        return slow.any(axis=1)
-
-    def _contacts(self) -> None:
-        d = self.data
-        if d.ncon == 0:
-            self._touching = set()
-            return
-        g = d.contact.geom[: d.ncon]
-        ra, rb = self._geom_robot[g[:, 0]], self._geom_robot[g[:, 1]]
-        if not self._touching and (ra < 0).all() and (rb < 0).all():
-            return  # the usual case: wheels and casters on the floor only
-        now = set()
-        both = (ra >= 0) & (rb >= 0)
-        for i, j in zip(ra[both], rb[both], strict=True):
-            now.add((int(min(i, j)), int(max(i, j))))
-        wall = ((ra >= 0) & self._is_wall[g[:, 1]]) | ((rb >= 0) & self._is_wall[g[:, 0]])
-        for i in np.where(ra >= 0, ra, rb)[wall]:
-            now.add((int(i), -1))
-        for pair in now - self._touching:
-            if pair[1] >= 0:
-                self.contacts += 1
-                self.contact_pairs.append((self.t, *pair))
-            else:
-                self.wall_contacts += 1
-        self._touching = now
-
-    def _detect(self, dt: float, p: np.ndarray | None = None) -> None:
-        p = self.poses() if p is None else p
-        L = p[self.n]
-        r, c = self.frame.cell_of(L[0], L[1])
-        rows, cols = self.map.shape
-        in_room = not (0 <= r < rows and 0 <= c < cols) or bool(self.map.observer_only[r, c])
-        self.observer_out = not in_room
-        if in_room:
-            return
-        P = p[: self.n]
-        cand = self._patrol_cone.inside(P[:, 0], P[:, 1], P[:, 2], L[0], L[1])
-        for i in np.flatnonzero(cand):
-            if line_of_sight(self.model, self.data, P[i, 0], P[i, 1], L[0], L[1]):
-                rx, ry, ryaw = map(float, P[i])
-                lx, ly, lyaw = map(float, L)
-                self.sightings.append(
-                    Sighting(float(self.data.time), self.t, int(i), (rx, ry, ryaw), (lx, ly, lyaw))
-                )
