@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from mirl.cli import main
+from mirl.experiments.conditions import OUTCOMES
 from mirl.experiments.episode import run_episode
-from mirl.experiments.records import OUTCOMES
 from mirl.experiments.run_report import format_report
 from mirl.learning.models import oracle_models
 from mirl.planning.observer import observer_model

@@ -8,7 +8,6 @@ from typing import Any
 
 import numpy as np
 
-from mirl.experiments.conditions import OUTCOMES  # one definition; re-exported here
 from mirl.learning.models import LearnResult
 from mirl.observations.trajectories import Trajectories
 from mirl.physics import mujoco_version
@@ -17,7 +16,6 @@ from mirl.planning.go import ObserverPlan
 __all__ = [
     "METHODS",
     "LEARNED_METHODS",
-    "OUTCOMES",
     "METHOD_NAMES",
     "MAX_WAIT",
     "WATCH_UNTIL_SEEN",
