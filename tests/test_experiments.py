@@ -175,3 +175,17 @@ def test_cli_one_line_errors(tmp_path, capsys):
     assert main(["experiment", "selftest", "--runs", "1", "--out", str(tmp_path), "--quiet"]) == 0
     assert main(["experiment", "selftest", "--runs", "1", "--out", str(tmp_path)]) == 2
     assert "--resume" in capsys.readouterr().err
+
+
+def test_report_takes_the_database_file_and_names_any_other_file(tmp_path, capsys):
+    run_experiment(
+        replace(EXPERIMENTS["table1"], run_function=selftest_run), tmp_path, runs=1, **QUIET
+    )
+    assert main(["report", str(tmp_path / "results.sqlite")]) == 0  # its directory's report
+    assert (tmp_path / "report.md").exists()
+    other = tmp_path / "runs.csv"
+    other.write_text("a,b\n")
+    capsys.readouterr()
+    assert main(["report", str(other)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "a file, not an experiment's results directory" in err

@@ -84,6 +84,10 @@ def _databases(path: Path) -> list[Path]:
 def write_report(directory: str | Path) -> Path:
     """Draw the figures of every experiment under ``directory`` and write its report.md."""
     root = Path(directory)
+    if root.is_file() and root.name == "results.sqlite":
+        root = root.parent  # the database itself names its directory
+    elif root.exists() and not root.is_dir():
+        raise StoreError(f"{root}: a file, not an experiment's results directory")
     dbs = _databases(root) if root.is_dir() else []
     if not dbs:
         raise StoreError(f"{root}: no results.sqlite here or in its sub-directories")
