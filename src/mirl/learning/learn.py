@@ -60,7 +60,7 @@ from mirl.learning.rounds import (
 from mirl.learning.transitions import observed_steps, policy_labels
 from mirl.observations.trajectories import Trajectories
 from mirl.world.game import Equilibrium
-from mirl.world.scenario import Scenario
+from mirl.world.scenario import Scenario, load_scenario
 
 __all__ = ["METHODS", "LoopTrace", "learn", "relabel_loop"]
 
@@ -69,7 +69,7 @@ METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "oracle")
 
 def learn(
     observations: Trajectories,
-    scenario: Scenario,
+    scenario: Scenario | str,
     method: str = "mirl-t",
     *,
     p: float = 0.9,
@@ -87,6 +87,9 @@ def learn(
     em_init: str = "intended",
 ) -> LearnResult:
     """Learn models of the scenario's patrollers from L's ``observations`` with ``method``.
+
+    ``scenario``: a :class:`~mirl.world.scenario.Scenario`, or the name or path
+    :func:`~mirl.world.scenario.load_scenario` takes.
 
     ``visible``: (S,) bool states L can see; by default those of ``observability`` (or the
     scenario's degree). ``p``: success probability of every action for the fixed-T methods.
@@ -108,21 +111,11 @@ def learn(
     Long because the signature and the validation of every option come first; the recipes
     themselves are :func:`_method_models` and :mod:`mirl.learning.rounds`.
     """
-    if method not in METHODS:
-        raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
-    if not 0.0 <= p <= 1.0:
-        raise ValueError(f"p must be in [0, 1], got {p}")
-    if em_init not in EM_INITS:
-        raise ValueError(f"unknown EM initialisation '{em_init}' (known: {', '.join(EM_INITS)})")
-    if max_iterations < 1:
-        raise ValueError(f"max_iterations must be at least 1, got {max_iterations}")
-    if not 0.0 <= label_tol <= 1.0:
-        raise ValueError(f"label_tol must be in [0, 1], got {label_tol}")
-    if tuple(observations.robot_names) != tuple(scenario.robot_names):
-        raise ValueError(
-            f"observations are of robots {list(observations.robot_names)}, "
-            f"the scenario has {list(scenario.robot_names)}"
-        )
+    scenario = _check_arguments(
+        observations, scenario, method, p, em_init, max_iterations, label_tol, random_state
+    )
+    if visible is not None:
+        visible = _checked_visible(visible, scenario.domain.n_states)
     clock = Clock()
     start = time.perf_counter()
     if method == "oracle":
@@ -232,6 +225,50 @@ def _method_models(
         eq = None
         trace.converged = True
     return weights, transitions, probs, eq, message
+
+
+def _check_arguments(
+    observations, scenario, method, p, em_init, max_iterations, label_tol, random_state
+) -> Scenario:
+    """The arguments :func:`learn` cannot work with, refused before any work with a message
+    naming the argument; a scenario given by name (``"boyd2"``) is loaded."""
+    if isinstance(scenario, str):
+        scenario = load_scenario(scenario)
+    if not isinstance(scenario, Scenario):
+        raise TypeError(f"scenario must be a Scenario or a scenario name, got {type(scenario)}")
+    if not isinstance(observations, Trajectories):
+        raise TypeError(
+            f"observations must be mirl.observations.Trajectories, got {type(observations)}"
+        )
+    if method not in METHODS:
+        raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
+    if not 0.0 <= p <= 1.0:
+        raise ValueError(f"p must be in [0, 1], got {p}")
+    if em_init not in EM_INITS:
+        raise ValueError(f"unknown EM initialisation '{em_init}' (known: {', '.join(EM_INITS)})")
+    if max_iterations < 1:
+        raise ValueError(f"max_iterations must be at least 1, got {max_iterations}")
+    if not 0.0 <= label_tol <= 1.0:
+        raise ValueError(f"label_tol must be in [0, 1], got {label_tol}")
+    integer = isinstance(random_state, int | np.integer) and not isinstance(random_state, bool)
+    if random_state is not None and not (integer and random_state >= 0):
+        raise ValueError(f"random_state must be a non-negative int or None, got {random_state!r}")
+    if tuple(observations.robot_names) != tuple(scenario.robot_names):
+        raise ValueError(
+            f"observations are of robots {list(observations.robot_names)}, "
+            f"the scenario has {list(scenario.robot_names)}"
+        )
+    return scenario
+
+
+def _checked_visible(visible, n_states: int) -> np.ndarray:
+    """``visible`` as an (S,) bool array; any other shape, or values other than 0/1, refused."""
+    v = np.asarray(visible)
+    if v.shape != (n_states,):
+        raise ValueError(f"visible must have shape ({n_states},), one per state, got {v.shape}")
+    if v.dtype != bool and not np.isin(v, (0, 1)).all():
+        raise ValueError("visible must be booleans (or 0/1), one per state")
+    return v.astype(bool)
 
 
 def relabel_loop(

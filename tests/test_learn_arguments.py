@@ -1,0 +1,54 @@
+"""learn() at its boundary: arguments it cannot work with are refused before any work, with a
+message naming the argument; a scenario may be given by name."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mirl.learning.learn import learn
+from mirl.simulation.grid import simulate
+from mirl.world.scenario import load_scenario
+
+
+@pytest.fixture(scope="module")
+def record():
+    sc = load_scenario("boyd2")
+    return sc, simulate(sc, 60, seed=1, observability=0.14).observations
+
+
+def test_a_scenario_name_is_the_scenario(record):
+    sc, obs = record
+    by_name = learn(obs, "boyd2", "mirl", score=False)
+    by_object = learn(obs, sc, "mirl", score=False)
+    for a, b in zip(by_name.robots, by_object.robots, strict=True):
+        np.testing.assert_array_equal(a.weights, b.weights)
+        np.testing.assert_array_equal(a.policy, b.policy)
+
+
+@pytest.mark.parametrize(
+    ("change", "error", "needle"),
+    [
+        ({"observations": None}, TypeError, "observations must be"),
+        ({"observations": [[0, 1]]}, TypeError, "observations must be"),
+        ({"scenario": 3}, TypeError, "scenario must be"),
+        ({"random_state": -1}, ValueError, "random_state"),
+        ({"random_state": 1.5}, ValueError, "random_state"),
+        ({"visible": np.ones(5, bool)}, ValueError, "visible must have shape"),
+        ({"visible": np.full(124, 2)}, ValueError, "visible must be booleans"),
+        ({"label_tol": 2.0}, ValueError, "label_tol"),
+    ],
+)
+def test_bad_arguments_are_named(record, change, error, needle):
+    sc, obs = record
+    kwargs = {"observations": obs, "scenario": sc, "method": "mirl", "score": False} | change
+    with pytest.raises(error, match=needle):
+        learn(**kwargs)
+
+
+def test_numpy_integer_seed_and_01_visible_are_accepted(record):
+    sc, obs = record
+    visible = sc.domain.visible_states(0.14)
+    a = learn(obs, sc, "mirl", random_state=np.int64(2), visible=visible.astype(int), score=False)
+    b = learn(obs, sc, "mirl", random_state=2, visible=visible, score=False)
+    np.testing.assert_array_equal(a.robots[0].weights, b.robots[0].weights)
