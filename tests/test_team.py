@@ -309,3 +309,32 @@ def test_envs_end_with_goal_or_detection():
         if info["outcome"] == "detected":
             assert reward == -1.0
     assert outcomes <= {"detected", "success", None}
+
+
+def test_envs_refuse_what_they_would_otherwise_default_or_drop():
+    from gymnasium.error import ResetNeeded
+
+    from mirl.envs import PenetrationEnv, TeamEnv
+
+    with pytest.raises(ResetNeeded, match="reset"):
+        PenetrationEnv("boyd2").step(0)
+    env = TeamEnv("boyd2")
+    with pytest.raises(ValueError, match="reset"):
+        env.step({"I": 0, "J": 0, "L": 0})
+    env.reset(seed=0)
+    good = {"I": 0, "J": 3, "L": 3}
+    for actions, needle in [
+        (good | {"X": 0}, r"unknown \['X'\]"),
+        ({"I": 0, "L": 3}, r"missing \['J'\]"),
+        (good | {"J": 99}, "agent J: action 99"),
+        (good | {"L": -1}, "agent L: action -1"),
+    ]:
+        with pytest.raises(ValueError, match=needle):
+            env.step(actions)
+    obs, *_ = env.step(good)  # nothing refused above moved anyone
+    fresh = TeamEnv("boyd2")
+    fresh.reset(seed=0)
+    expected, *_ = fresh.step(good)
+    for name in ("I", "J"):
+        np.testing.assert_array_equal(obs[name], expected[name])
+    np.testing.assert_array_equal(obs["L"]["observer"], expected["L"]["observer"])

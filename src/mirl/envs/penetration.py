@@ -22,6 +22,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.error import ResetNeeded
 
 from mirl.envs.core import PenetrationWorld, as_scenario
 from mirl.world.scenario import Scenario
@@ -66,6 +67,7 @@ class PenetrationEnv(gym.Env):
         self.observation_space = observation_space(self.world)
         self.action_space = spaces.Discrete(len(OBSERVER_ACTIONS))
         self._t = 0
+        self._reset_once = False  # step() before the first reset() has no episode to step
 
     def _obs(self) -> dict[str, Any]:
         w = self.world
@@ -79,9 +81,12 @@ class PenetrationEnv(gym.Env):
         super().reset(seed=seed)
         self.world.reset(int(self.np_random.integers(2**63 - 1)))
         self._t = 0
+        self._reset_once = True
         return self._obs(), {"t": 0, "patroller_states": self.world.sim.states.copy()}
 
     def step(self, action):
+        if not self._reset_once:
+            raise ResetNeeded("call reset() before step()")
         if not self.action_space.contains(action):
             raise ValueError(f"action {action!r} is not in {self.action_space}")
         w = self.world

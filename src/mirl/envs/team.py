@@ -92,12 +92,36 @@ class TeamEnv(ParallelEnv):
         self._t = 0
         return self._observations(), {a: {} for a in self.agents}
 
+    def _check_actions(self, actions: dict[str, Any]) -> None:
+        """One action per live agent, each in its space (PettingZoo's contract), or a
+        ValueError naming the agent: nothing is defaulted or dropped."""
+        if not self.agents:
+            raise ValueError(
+                "no live agents: call reset() before step() (and after an episode ends)"
+            )
+        unknown = sorted(set(actions) - set(self.agents), key=str)
+        missing = [a for a in self.agents if a not in actions]
+        if unknown or missing:
+            raise ValueError(
+                f"actions must name every live agent ({', '.join(self.agents)}): "
+                + "; ".join(
+                    p for p in (f"unknown {unknown}" if unknown else "",
+                                f"missing {missing}" if missing else "") if p
+                )
+            )  # fmt: skip
+        for agent in self.agents:
+            if not self._act_spaces[agent].contains(actions[agent]):
+                raise ValueError(
+                    f"agent {agent}: action {actions[agent]!r} is not in {self._act_spaces[agent]}"
+                )
+
     def step(self, actions: dict[str, Any]):
+        self._check_actions(actions)
         w = self.world
         names = w.scenario.robot_names
-        acts = np.array([int(actions.get(n, ACTIONS.index("stop"))) for n in names])
+        acts = np.array([int(actions[n]) for n in names])
         before = w.sim.states.copy()
-        w.move_observer(int(actions.get(OBSERVER, 3)))
+        w.move_observer(int(actions[OBSERVER]))
         w.step_patrollers(acts)
         self._t += 1
         goal_reward, penalty, bonus = self.rewards_for
