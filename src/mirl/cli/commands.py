@@ -7,6 +7,7 @@ import argparse
 import json
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 from mirl.cli.checks import (
     FIGURE_SUFFIXES,
@@ -74,6 +75,11 @@ def _show_map(args: argparse.Namespace) -> int:
 
     if args.png:
         check_output(args.png, "--png", FIGURE_SUFFIXES)
+    if args.cell_size is not None and Path(args.map).suffix.lower() not in (".yaml", ".yml"):
+        raise UsageError(
+            f"--cell-size applies to ROS map_server maps (.yaml), not to {args.map} "
+            "(a text map's cells are its characters)"
+        )
     gridmap = load_map(args.map, cell_size=args.cell_size)
     mask = gridmap.visible_mask(args.observability) if args.observability is not None else None
     print(map_to_text(gridmap, mask))

@@ -20,6 +20,8 @@ def read_shipped_or_file(
     shipped names exist, so a typo in a name is as clear as a missing file."""
     name = str(name_or_path)
     shipped = shipped_names(folder, suffix)
+    if not name.strip():  # Path("") is ".", which would be read as a directory
+        raise error(f"an empty {kind} name (shipped {kind}s: {', '.join(shipped)})")
     if name in shipped:
         res = resources.files("mirl") / "data" / folder / f"{name}{suffix}"
         return res.read_text(), f"{name} (shipped)", None

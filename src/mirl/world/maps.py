@@ -39,6 +39,12 @@ class MapError(ValueError):
     """A map file that cannot be used; the message names the file and the problem."""
 
 
+# Bounds on a metric frame, far beyond any building, so that positions keep centimetres in
+# float64 and cell arithmetic cannot overflow (1e308 was accepted and overflowed later)
+MIN_CELL_SIZE, MAX_CELL_SIZE = 1e-3, 1e3  # metres a cell
+MAX_FRAME_ORIGIN = 1e7  # metres, |x| and |y|
+
+
 @dataclass(frozen=True)
 class MapFrame:
     """Where the grid lies in a metric map frame (x east, y north, as in ROS).
@@ -56,8 +62,16 @@ class MapFrame:
         values = (self.cell_size, self.origin_x, self.origin_y)
         if not all(np.isfinite(values)):
             raise MapError(f"map frame must be finite, got {values}")
-        if self.cell_size <= 0:
-            raise MapError(f"cell size must be positive, got {self.cell_size}")
+        if not MIN_CELL_SIZE <= self.cell_size <= MAX_CELL_SIZE:
+            raise MapError(
+                f"cell size must be in [{MIN_CELL_SIZE:g}, {MAX_CELL_SIZE:g}] m, "
+                f"got {self.cell_size:g}"
+            )
+        if max(abs(self.origin_x), abs(self.origin_y)) > MAX_FRAME_ORIGIN:
+            raise MapError(
+                f"origin x and y must be within {MAX_FRAME_ORIGIN:g} m of the map frame's, got "
+                f"({self.origin_x:g}, {self.origin_y:g})"
+            )
 
     def cell_centre(self, row, col):
         """Map-frame (x, y) of the centre of cell (row, col); arrays broadcast."""

@@ -28,16 +28,21 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from mirl.world.maps import GridMap, MapError, MapFrame
+from mirl.world.maps import MAX_FRAME_ORIGIN, GridMap, MapError, MapFrame
 
 __all__ = ["load_ros_map", "occupancy_free_mask", "discretise_free_mask", "ros_map_frame"]
 
 _MODES = ("trinary", "scale", "raw")
+# 64 M pixels: a 400 m x 400 m building at map_server's usual 5 cm a pixel (real maps are a few
+# thousand pixels a side); a header claiming more is refused before the pixels are decoded
+MAX_MAP_PIXELS = 64 * 2**20
+MAX_RESOLUTION = 100.0  # metres a pixel
 _EPS = 1e-9
 
 
@@ -108,6 +113,8 @@ def _read_yaml(path: Path) -> dict[str, Any]:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise MapError(f"{path}: invalid YAML ({_one_line(exc)})") from None
+    except RecursionError:  # PyYAML's composer recurses once per nesting level
+        raise MapError(f"{path}: invalid YAML (nested too deeply for a map file)") from None
     if not isinstance(data, dict):
         raise MapError(f"{path}: expected a YAML mapping with map_server keys (image, resolution…)")
     return data
@@ -151,7 +158,16 @@ def _read_image(path: Path, image_path: Path) -> tuple[np.ndarray, np.ndarray | 
     from PIL import Image, UnidentifiedImageError
 
     try:
-        with Image.open(image_path) as img:
+        with warnings.catch_warnings():
+            # Pillow warns from 89 M pixels; the limit below, checked before decoding, is lower
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            img = Image.open(image_path)
+        with img:
+            if img.width * img.height > MAX_MAP_PIXELS:
+                raise MapError(
+                    f"{path}: image {image_path} is {img.width} x {img.height} pixels, more than "
+                    f"the limit of {MAX_MAP_PIXELS // 2**20} M pixels for a map"
+                )
             img.load()
             if img.mode.startswith("I"):
                 # 16-bit greyscale (PGM with maxval > 255): Pillow scales it to 0..65535
@@ -163,6 +179,13 @@ def _read_image(path: Path, image_path: Path) -> tuple[np.ndarray, np.ndarray | 
                 return la[..., 0], la[..., 1]
             has_alpha = "A" in img.mode or "transparency" in img.info
             rgba = np.asarray(img.convert("RGBA"), dtype=float)
+    except MapError:
+        raise
+    except Image.DecompressionBombError:  # Pillow's own limit (2 x 89 M pixels) came first
+        raise MapError(
+            f"{path}: image {image_path} has more than the limit of "
+            f"{MAX_MAP_PIXELS // 2**20} M pixels for a map"
+        ) from None
     except FileNotFoundError:
         raise MapError(f"{path}: image file {image_path} not found") from None
     except UnidentifiedImageError:
@@ -197,8 +220,10 @@ def load_ros_map(
     if not isinstance(data["image"], str) or not data["image"]:
         raise MapError(f"{path}: 'image' must be a file name, got {data['image']!r}")
     resolution = _number(path, data, "resolution")
-    if resolution <= 0:
-        raise MapError(f"{path}: 'resolution' must be positive, got {resolution}")
+    if not 0 < resolution <= MAX_RESOLUTION:
+        raise MapError(
+            f"{path}: 'resolution' must be in (0, {MAX_RESOLUTION:g}] m a pixel, got {resolution}"
+        )
     origin = data.get("origin")
     if origin is None:
         raise MapError(f"{path}: missing key 'origin'")
@@ -211,6 +236,10 @@ def load_ros_map(
         )
     ):
         raise MapError(f"{path}: 'origin' must be [x, y, yaw] numbers, got {origin!r}")
+    if max(abs(origin[0]), abs(origin[1])) > MAX_FRAME_ORIGIN:
+        raise MapError(
+            f"{path}: 'origin' x and y must be within {MAX_FRAME_ORIGIN:g} m, got {origin!r}"
+        )
     negate_raw = data.get("negate", 0)
     if negate_raw not in (0, 1, True, False):
         raise MapError(f"{path}: 'negate' must be 0 or 1, got {negate_raw!r}")

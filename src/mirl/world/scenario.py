@@ -233,7 +233,7 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
     physics = data.get("physics", {})
     feature_map = DEFAULT_FEATURE_MAP
     if "transition_features" in data:
-        feature_map = read_feature_map(data["transition_features"], shape)
+        feature_map = read_feature_map(data["transition_features"], gridmap)
     reward = schema.table(data.get("reward", {}), "reward", ("features", "weights",
                           "upper_hallway", "lower_hallway", "turn_around"))  # fmt: skip
     reward_spec, legacy = read_reward_spec(reward, shape)
@@ -257,6 +257,10 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         raise schema.FieldError("game.played", str(exc)) from None
     start, goal = _observer(data.get("observer", {}), gridmap)
     name = schema.string(data["name"], "name") if "name" in data else Path(source).stem
+    if not name.strip() or "\n" in name or "\r" in name:  # it heads reports and run headers
+        raise schema.FieldError(
+            "name", f"{name!r} is not a usable scenario name (empty or multi-line)"
+        )
     return Scenario(
         name=name,
         map=gridmap,

@@ -75,9 +75,17 @@ def read_map(data: dict, base: Path | None) -> GridMap:
     return replace(gridmap, frame=placed)
 
 
-def read_feature_map(data: Any, shape: tuple[int, int]) -> FeatureMap:
-    """The ``[transition_features]`` table (ξ as data, :class:`~mirl.world.domain.FeatureMap`)."""
-    return FeatureMap.from_dict(data, shape=shape)
+def read_feature_map(data: Any, gridmap: GridMap) -> FeatureMap:
+    """The ``[transition_features]`` table (ξ as data, :class:`~mirl.world.domain.FeatureMap`);
+    an override's cells must be hallway cells (elsewhere no patroller acts, so it would be
+    silently without effect)."""
+    feature_map = FeatureMap.from_dict(data, shape=gridmap.shape)
+    for i, override in enumerate(feature_map.overrides):
+        for k, (r, c) in enumerate(override.cells or ()):
+            if not gridmap.patroller[r, c]:
+                where = f"transition_features.override[{i}].cells[{k}]"
+                raise FieldError(where, f"[{r}, {c}] is not a hallway cell")
+    return feature_map
 
 
 def _probabilities(value: Any, where: str, features: tuple[str, ...]) -> dict[str, float]:
