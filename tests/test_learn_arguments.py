@@ -52,3 +52,12 @@ def test_numpy_integer_seed_and_01_visible_are_accepted(record):
     a = learn(obs, sc, "mirl", random_state=np.int64(2), visible=visible.astype(int), score=False)
     b = learn(obs, sc, "mirl", random_state=2, visible=visible, score=False)
     np.testing.assert_array_equal(a.robots[0].weights, b.robots[0].weights)
+
+
+def test_simulate_takes_a_scenario_by_name_too(record):
+    sc, _ = record
+    by_name = simulate("boyd2", 40, seed=4, observability=0.14)
+    by_object = simulate(sc, 40, seed=4, observability=0.14)
+    np.testing.assert_array_equal(by_name.true_states, by_object.true_states)
+    with pytest.raises(TypeError, match="scenario must be"):
+        simulate(None, 40, seed=4)

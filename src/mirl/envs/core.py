@@ -9,13 +9,9 @@ import numpy as np
 
 from mirl.planning.observer import ObserverModel, observer_model
 from mirl.simulation.grid import PatrolSimulator
-from mirl.world.scenario import Scenario, load_scenario
+from mirl.world.scenario import Scenario
 
-__all__ = ["PenetrationWorld", "as_scenario"]
-
-
-def as_scenario(scenario: Scenario | str) -> Scenario:
-    return scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+__all__ = ["PenetrationWorld"]
 
 
 class PenetrationWorld:

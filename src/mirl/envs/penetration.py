@@ -24,8 +24,8 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from mirl.envs.core import PenetrationWorld, as_scenario
-from mirl.world.scenario import Scenario
+from mirl.envs.core import PenetrationWorld
+from mirl.world.scenario import Scenario, as_scenario
 
 __all__ = ["PenetrationEnv", "observation_space", "OBSERVER_ACTIONS"]
 

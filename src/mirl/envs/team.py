@@ -21,10 +21,10 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from mirl.envs.core import PenetrationWorld, as_scenario
+from mirl.envs.core import PenetrationWorld
 from mirl.envs.penetration import OBSERVER_ACTIONS, observation_space
 from mirl.world.domain import ACTIONS
-from mirl.world.scenario import Scenario
+from mirl.world.scenario import Scenario, as_scenario
 
 __all__ = ["TeamEnv", "OBSERVER"]
 

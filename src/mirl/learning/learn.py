@@ -60,7 +60,7 @@ from mirl.learning.rounds import (
 from mirl.learning.transitions import observed_steps, policy_labels
 from mirl.observations.trajectories import Trajectories
 from mirl.world.game import Equilibrium
-from mirl.world.scenario import Scenario, load_scenario
+from mirl.world.scenario import Scenario, as_scenario
 
 __all__ = ["METHODS", "LoopTrace", "learn", "relabel_loop"]
 
@@ -232,10 +232,7 @@ def _check_arguments(
 ) -> Scenario:
     """The arguments :func:`learn` cannot work with, refused before any work with a message
     naming the argument; a scenario given by name (``"boyd2"``) is loaded."""
-    if isinstance(scenario, str):
-        scenario = load_scenario(scenario)
-    if not isinstance(scenario, Scenario):
-        raise TypeError(f"scenario must be a Scenario or a scenario name, got {type(scenario)}")
+    scenario = as_scenario(scenario)
     if not isinstance(observations, Trajectories):
         raise TypeError(
             f"observations must be mirl.observations.Trajectories, got {type(observations)}"

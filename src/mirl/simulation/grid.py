@@ -14,7 +14,7 @@ import numpy as np
 
 from mirl.observations.trajectories import Trajectories
 from mirl.world.game import game_action_to_action, meeting
-from mirl.world.scenario import Scenario
+from mirl.world.scenario import Scenario, as_scenario
 
 __all__ = ["PatrolSimulator", "SimulationResult", "simulate", "patrol_cycle"]
 
@@ -39,13 +39,14 @@ class PatrolSimulator:
 
     def __init__(
         self,
-        scenario: Scenario,
+        scenario: Scenario | str,
         *,
         observability: float | None = None,
         heading_noise: float = 0.0,
     ) -> None:
         if not 0.0 <= heading_noise <= 1.0:
             raise ValueError(f"heading_noise must be in [0, 1], got {heading_noise}")
+        scenario = as_scenario(scenario)
         self.scenario = scenario
         self.domain = scenario.domain
         self.observability = scenario.observability if observability is None else observability
@@ -161,7 +162,7 @@ class SimulationResult:
 
 
 def simulate(
-    scenario: Scenario,
+    scenario: Scenario | str,
     steps: int,
     *,
     seed: int | None = None,
@@ -172,6 +173,7 @@ def simulate(
     """Run ``steps`` time steps (t = 0 … steps−1) and record truth and L's observations."""
     if steps < 1:
         raise ValueError(f"steps must be at least 1, got {steps}")
+    scenario = as_scenario(scenario)
     sim = PatrolSimulator(scenario, observability=observability, heading_noise=heading_noise)
     obs, info = sim.reset(seed=seed, options={"random_starts": random_starts})
     true_states = np.empty((steps, sim.n_robots), dtype=int)

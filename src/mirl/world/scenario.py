@@ -41,6 +41,7 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "load_scenario",
+    "as_scenario",
     "shipped_scenarios",
     "parse_damage",
     "HEALTHY_PROBABILITIES",
@@ -164,6 +165,16 @@ def parse_damage(text: str) -> tuple[str, str, float]:
 # ---- loading ---------------------------------------------------------------------------------
 def shipped_scenarios() -> list[str]:
     return shipped_names("scenarios", ".toml")
+
+
+def as_scenario(scenario: Scenario | str | Path, what: str = "scenario") -> Scenario:
+    """``scenario`` itself, or the scenario a shipped name or a path names; anything else is a
+    TypeError naming ``what`` (the argument of the function that was given it)."""
+    if isinstance(scenario, Scenario):
+        return scenario
+    if isinstance(scenario, str | Path):
+        return load_scenario(scenario)
+    raise TypeError(f"{what} must be a Scenario, a shipped name or a path, got {type(scenario)}")
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
