@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -109,24 +110,39 @@ def test_hand_built_bag_every_step(bag, scenario, decode):
     assert (j.read, j.binned, j.snapped, j.dropped, j.observed_steps) == (4, 4, 0, 0, 4)
 
 
-def test_fast_decoding_matches_rosbags_with_varied_strings(tmp_path):
-    # frame ids of different lengths: messages of several lengths and pose offsets in one topic
-    for fmt in ("ros1", "mcap"):
-        ros2 = fmt != "ros1"
-        ts = typestore(ros2)
-        recs = []
-        for k in range(40):
-            kind = "odom"
-            _, msg = pose_message(ts, kind, 50.0 + k * 0.1, 0.1 * k, -0.2 * k, 0.05 * k)
-            msg.header.frame_id = "m" * (k % 7)
-            msg.child_frame_id = "b" * (k % 5)
-            recs.append(("/o", 50.0 + k * 0.1, ("nav_msgs/msg/Odometry", msg)))
-        path = write_bag(bag_path(tmp_path, fmt), recs, fmt=fmt)
-        fast = read_bag(path, {"/o": "I"}, decode="fast")
-        slow = read_bag(path, {"/o": "I"}, decode="rosbags")
-        for f in ("t", "x", "y", "yaw"):
-            np.testing.assert_array_equal(getattr(fast, f), getattr(slow, f))
-        np.testing.assert_allclose(fast.x, 0.1 * np.arange(40))
+def _odometry_bag(tmp_path, fmt: str, frame_of) -> Path:
+    ts = typestore(fmt != "ros1")
+    recs = []
+    for k in range(40):
+        _, msg = pose_message(ts, "odom", 50.0 + k * 0.1, 0.1 * k, -0.2 * k, 0.05 * k)
+        msg.header.frame_id = frame_of(k)
+        msg.child_frame_id = "b" * (k % 5)
+        recs.append(("/o", 50.0 + k * 0.1, ("nav_msgs/msg/Odometry", msg)))
+    folder = tmp_path / fmt
+    folder.mkdir(parents=True)
+    return write_bag(bag_path(folder, fmt), recs, fmt=fmt)
+
+
+@pytest.mark.parametrize("fmt", ["ros1", "mcap"])
+def test_fast_decoding_matches_rosbags_with_varied_strings(tmp_path, fmt):
+    # child frame ids of different lengths: messages of several lengths and pose offsets
+    path = _odometry_bag(tmp_path, fmt, lambda k: "map")
+    fast = read_bag(path, {"/o": "I"}, decode="fast")
+    slow = read_bag(path, {"/o": "I"}, decode="rosbags")
+    for f in ("t", "x", "y", "yaw"):
+        np.testing.assert_array_equal(getattr(fast, f), getattr(slow, f))
+    np.testing.assert_allclose(fast.x, 0.1 * np.arange(40))
+
+
+@pytest.mark.parametrize("fmt", ["ros1", "mcap"])
+@pytest.mark.parametrize("decode", ["fast", "rosbags"])
+def test_a_topic_in_two_frames_is_refused(tmp_path, fmt, decode):
+    # poses in 'map' and 'odom' cannot be placed on one map; both decoders see the frames
+    # (frame ids of different lengths, and of the same length: 'map' / 'odo')
+    for other in ("odom", "odo"):
+        path = _odometry_bag(tmp_path / other, fmt, lambda k, o=other: o if k == 17 else "map")
+        with pytest.raises(BagError, match=f"messages in 2 frames \\(map, {other}\\)"):
+            read_bag(path, {"/o": "I"}, decode=decode)
 
 
 def test_pose_stamped_topics_and_bag_topics(tmp_path):

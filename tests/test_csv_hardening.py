@@ -39,7 +39,7 @@ def test_utf8_bom_is_accepted(tmp_path, domain):
         (f"{10**12},I,0,7,2\n", f"line 4: time {10**12} is beyond the limit of {MAX_TIME}"),
         (f"{MAX_TIME},I,0,7,2\n", "is beyond the limit"),
         ("1," + "I" * 200_000 + ",0,7,2\n", "line 4: robot 'IIII"),
-        ("1,I," + "9" * 10_000 + ",7,2\n", "(10000 characters)' is not an integer"),
+        ("1,I," + "9" * 10_000 + ",7,2\n", "(10000 characters)' is too large"),
         ("1,I\x00,0,7,2\n", "robot 'I\\x00' is not in the scenario"),
     ],
 )

@@ -24,6 +24,7 @@ __all__ = [
     "check_fixed_p",
     "check_experiment_flags",
     "check_observations",
+    "check_visible",
     "feature_trials",
     "unique_lowest",
 ]
@@ -182,6 +183,26 @@ def check_observations(path, obs, domain) -> None:
                 f"{path}: {bad.size} of robot {name}'s {len(t)} observed steps are explained by "
                 f"no action (first: t={int(t[k])} {a} -> {b}); they count as failed actions"
             )
+
+
+def check_visible(path, obs, domain, visible: np.ndarray, degree: float) -> None:
+    """Observed rows where L sees nothing are refused (``--observability 0`` with rows: the
+    learner's "unseen means out of view" would contradict every row); rows on cells outside
+    L's view are warned about, once, with the first of them."""
+    outside = ~np.asarray(visible, dtype=bool)[obs.states(domain)]
+    if not outside.any():
+        return
+    if not np.any(visible):
+        raise UsageError(
+            f"--observability {degree:g}: L sees no cell, yet {path} has {len(obs)} observed "
+            "rows (give the observability they were recorded at)"
+        )
+    k = int(np.argmax(outside))
+    warn(
+        f"{path}: {int(outside.sum())} of {len(obs)} observed rows lie on cells L cannot see at "
+        f"observability {degree:g} (first: t={int(obs.t[k])} {obs.robot_names[obs.robot[k]]} "
+        f"at ({int(obs.row[k])},{int(obs.col[k])})); they are used as observations all the same"
+    )
 
 
 def feature_trials(counts) -> dict[str, int]:

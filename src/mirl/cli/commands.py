@@ -20,6 +20,7 @@ from mirl.cli.checks import (
     check_output,
     check_pose_flags,
     check_poses_output,
+    check_visible,
     feature_trials,
     unique_lowest,
     warn,
@@ -195,6 +196,15 @@ def _convert(args: argparse.Namespace) -> int:
     scenario = _load_scenario(args)
     args.observations = args.input
     loaded = _read_observations(args, scenario)
+    if len(loaded.trajectories) == 0:  # an empty record is never what a conversion is for
+        d = loaded.discretised
+        why = (
+            f"none of its {sum(r.read for r in d.report)} poses fell on a step "
+            f"({d.summary().splitlines()[0]})"
+            if d is not None
+            else "it has a header and no rows"
+        )
+        raise UsageError(f"{args.input}: nothing to convert: {why}")
     loaded.trajectories.to_csv(args.output)
     if loaded.discretised is not None:
         print(f"{args.input}: " + loaded.discretised.summary())
@@ -348,12 +358,16 @@ def _learn(args: argparse.Namespace) -> int:
     obs = loaded.trajectories
     _check_em_init(args)
     check_observations(args.observations, obs, scenario.domain)
+    visible = loaded.visible_states(scenario)
+    if visible is None:  # grid data (pose data's summary counts the rows outside the view)
+        seen = scenario.domain.visible_states(degree)
+        check_visible(args.observations, obs, scenario.domain, seen, degree)
     result = learn(
         obs,
         scenario,
         args.method,
         p=check_fixed_p(args),
-        visible=loaded.visible_states(scenario),
+        visible=visible,
         observability=degree,
         max_iterations=args.max_iterations,
         label_tol=args.label_tol,

@@ -49,7 +49,7 @@ class BagError(PoseError):
 def is_bag(path: str | Path) -> bool:
     """Whether ``path`` looks like a bag: ``.bag``, ``.mcap``, ``.db3`` or a ROS 2 bag dir."""
     path = Path(path)
-    return path.suffix in (".bag", ".mcap", ".db3") or (path / "metadata.yaml").exists()
+    return path.suffix.lower() in (".bag", ".mcap", ".db3") or (path / "metadata.yaml").exists()
 
 
 def _one_line(exc: BaseException) -> str:
@@ -68,7 +68,12 @@ def _reader(path: Path):
 
     if not path.exists():
         raise BagError(f"{path}: no such file or directory")
-    ros2 = path.suffix != ".bag"
+    if path.suffix != path.suffix.lower():  # rosbags tells the storage by the suffix as written
+        raise BagError(
+            f"{path}: rosbags reads bags by their lower-case suffix; rename it to "
+            f"{path.with_suffix(path.suffix.lower()).name}"
+        )
+    ros2 = path.suffix.lower() != ".bag"
     try:
         return AnyReader([path], default_typestore=_typestore(ros2)), ros2
     except Exception as exc:  # rosbags raises many kinds on a file that is not a bag
@@ -135,7 +140,12 @@ def read_bag(
             parts = []
             for topic, robot in topics.items():
                 msgtype = available[topic].msgtype
-                cols = _decode(reader, raws[topic], msgtype, ros2, decode)
+                cols, frames = _decode(reader, raws[topic], msgtype, ros2, decode)
+                if len(frames) > 1:  # poses in two frames cannot be placed on one map
+                    raise BagError(
+                        f"{path}: topic {topic}: messages in {len(frames)} frames "
+                        f"({', '.join(sorted(frames)[:4])}); its poses must all be in the map frame"
+                    )
                 parts.append(_check(path, topic, robot, cols))
     except BagError:
         raise
@@ -180,31 +190,38 @@ def _check(path: Path, topic: str, robot: str, cols: np.ndarray) -> PoseTracks:
 
 
 # ---- decoding ------------------------------------------------------------------------------
-def _decode(reader, raws: list[bytes], msgtype: str, ros2: bool, decode: str) -> np.ndarray:
-    """(n, 8) float64: stamp seconds, position xyz, orientation xyzw."""
+def _decode(
+    reader, raws: list[bytes], msgtype: str, ros2: bool, decode: str
+) -> tuple[np.ndarray, set[str]]:
+    """(n, 8) float64: stamp seconds, position xyz, orientation xyzw; and the header frame_ids
+    the messages name."""
     if not raws:
-        return np.zeros((0, 8))
-    cols = _decode_fast(raws, SUPPORTED_TYPES[msgtype], ros2) if decode == "fast" else None
+        return np.zeros((0, 8)), set()
+    fast = _decode_fast(raws, SUPPORTED_TYPES[msgtype], ros2) if decode == "fast" else None
+    cols, frames = fast if fast is not None else (None, set())
     if cols is not None:
         # the fast path must agree with rosbags on the first and last message
         for i in {0, len(raws) - 1}:
-            ref = _decode_one(reader, raws[i], msgtype)
-            if not np.array_equal(ref, cols[i], equal_nan=True):
+            ref, frame = _decode_one(reader, raws[i], msgtype)
+            if not np.array_equal(ref, cols[i], equal_nan=True) or frame not in frames:
                 cols = None
                 break
     if cols is None:
-        cols = np.array([_decode_one(reader, raw, msgtype) for raw in raws], dtype=np.float64)
-    return cols
+        decoded = [_decode_one(reader, raw, msgtype) for raw in raws]
+        cols = np.array([values for values, _ in decoded], dtype=np.float64)
+        frames = {frame for _, frame in decoded}
+    return cols, frames
 
 
-def _decode_one(reader, raw: bytes, msgtype: str) -> np.ndarray:
+def _decode_one(reader, raw: bytes, msgtype: str) -> tuple[np.ndarray, str]:
     msg = reader.deserialize(raw, msgtype)
     pose = msg.pose.pose if msgtype != "geometry_msgs/msg/PoseStamped" else msg.pose
     stamp = msg.header.stamp
     sec = stamp.sec if hasattr(stamp, "sec") else stamp.secs  # ROS 2 / ROS 1 field names
     nsec = stamp.nanosec if hasattr(stamp, "nanosec") else stamp.nsecs
     p, q = pose.position, pose.orientation
-    return np.array([sec + nsec * 1e-9, p.x, p.y, p.z, q.x, q.y, q.z, q.w], dtype=np.float64)
+    values = [sec + nsec * 1e-9, p.x, p.y, p.z, q.x, q.y, q.z, q.w]
+    return np.array(values, dtype=np.float64), str(msg.header.frame_id)
 
 
 def _u32(buf: np.ndarray, rows: np.ndarray, offset: np.ndarray) -> np.ndarray:
@@ -213,7 +230,9 @@ def _u32(buf: np.ndarray, rows: np.ndarray, offset: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(buf[rows[:, None], idx]).view("<u4")[:, 0].astype(np.int64)
 
 
-def _decode_fast(raws: list[bytes], n_strings: int, ros2: bool) -> np.ndarray | None:
+def _decode_fast(
+    raws: list[bytes], n_strings: int, ros2: bool
+) -> tuple[np.ndarray, set[str]] | None:
     """Vectorised decoding of stamp and pose; None if the layout is not one it knows.
 
     ROS 2 (classic little-endian CDR): 4-byte encapsulation header, then stamp sec (int32),
@@ -224,6 +243,7 @@ def _decode_fast(raws: list[bytes], n_strings: int, ros2: bool) -> np.ndarray | 
     """
     lengths = np.fromiter(map(len, raws), dtype=np.int64, count=len(raws))
     out = np.empty((len(raws), 8), dtype=np.float64)
+    frames: set[str] = set()
     base = 4 if ros2 else 0
     for length in np.unique(lengths):
         which = np.flatnonzero(lengths == length)
@@ -238,6 +258,9 @@ def _decode_fast(raws: list[bytes], n_strings: int, ros2: bool) -> np.ndarray | 
             sec = np.ascontiguousarray(buf[:, 4:8]).view("<i4")[:, 0].astype(np.int64)
             nsec = np.ascontiguousarray(buf[:, 8:12]).view("<u4")[:, 0].astype(np.int64)
             end = 16 + _u32(buf, rows, np.full(len(which), 12, dtype=np.int64))
+            if np.any(end > length):
+                return None
+            frames |= _frame_ids(buf, end - 16)
             for _ in range(n_strings):
                 start = base + (((end - base) + 3) // 4) * 4
                 if np.any(start + 4 > length):
@@ -248,6 +271,9 @@ def _decode_fast(raws: list[bytes], n_strings: int, ros2: bool) -> np.ndarray | 
             sec = np.ascontiguousarray(buf[:, 4:8]).view("<u4")[:, 0].astype(np.int64)
             nsec = np.ascontiguousarray(buf[:, 8:12]).view("<u4")[:, 0].astype(np.int64)
             end = 16 + _u32(buf, rows, np.full(len(which), 12, dtype=np.int64))
+            if np.any(end > length):
+                return None
+            frames |= _frame_ids(buf, end - 16)
             for _ in range(n_strings):
                 if np.any(end + 4 > length):
                     return None
@@ -263,7 +289,20 @@ def _decode_fast(raws: list[bytes], n_strings: int, ros2: bool) -> np.ndarray | 
             pose = np.ascontiguousarray(buf[rows[:, None], idx]).view("<f8")
         out[which, 0] = sec + nsec * 1e-9
         out[which, 1:] = pose
-    return out
+    return out, frames
+
+
+def _frame_ids(buf: np.ndarray, sizes: np.ndarray) -> set[str]:
+    """The distinct header frame_ids of (n, L) messages whose frame_id (``sizes`` bytes with
+    its NUL) starts at byte 16 (ROS 1 and little-endian ROS 2 CDR alike)."""
+    found: set[bytes] = set()
+    for size in np.unique(sizes):
+        names = buf[sizes == size, 16 : 16 + int(size)]
+        other = (names != names[0]).any(axis=1)  # usually none: np.unique's sort only if any
+        found.add(bytes(names[0]))
+        if other.any():
+            found |= {bytes(n) for n in np.unique(names[other], axis=0)}
+    return {n.rstrip(b"\0").decode("utf-8", "replace") for n in found}
 
 
 # ---- writing -------------------------------------------------------------------------------
@@ -314,7 +353,7 @@ def write_mcap(
         raise BagError(f"{path}: cannot write NaN or infinite poses")
     if path.exists():
         raise BagError(f"{path}: exists already, not overwriting")
-    bare = path.suffix == ".mcap"
+    bare = path.suffix.lower() == ".mcap"
     tmp = Path(tempfile.mkdtemp(prefix=".mirl-", dir=path.parent)) if bare else None
     target = path if tmp is None else tmp / path.stem
     typestore = _typestore(True)

@@ -24,14 +24,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from mirl.observations.poses import PoseError, PoseTracks
-from mirl.observations.trajectories import Trajectories
-from mirl.world.maps import HEADING_YAWS
+from mirl.observations.trajectories import MAX_TIME, Trajectories
+from mirl.world.maps import HEADING_YAWS, MAX_FRAME_ORIGIN
 from mirl.world.scenario import Scenario
 
 __all__ = ["Discretised", "DiscretisationError", "RobotCounts", "discretise", "heading_of_yaw"]
 
 # fraction of a cell a wall/off-map pose may be from a patroller cell and still snap to it
 SNAP_CELLS = 0.5
+# poses further than this cannot lie on any map (a frame's origin is within 1e7 m of the map
+# frame's, maps are far smaller), and times beyond 1e11 s (the year 5138 in epoch seconds) are
+# no clock's; checked before arithmetic that would overflow on 1e300
+MAX_XY = 2 * MAX_FRAME_ORIGIN
+MAX_POSE_TIME = 1e11
 
 
 class DiscretisationError(PoseError):
@@ -109,11 +114,18 @@ def discretise(
     tracks, tol = _checked(tracks, scenario, step_seconds, tolerance)
     if start_time is None:
         start_time = float(tracks.t.min()) if len(tracks) else 0.0
+    elif not (np.isfinite(start_time) and abs(start_time) <= MAX_POSE_TIME):
+        raise DiscretisationError(
+            f"{tracks.source}: start time {start_time:g} s is not a time within "
+            f"{MAX_POSE_TIME:g} s of 0 (epoch seconds or simulation time)"
+        )
     if n_steps is None:
         last = float(tracks.t.max()) if len(tracks) else start_time
-        n_steps = max(int(np.floor((last - start_time) / step_seconds + 0.5)) + 1, 0)
-    if n_steps < 0:
-        raise DiscretisationError(f"{tracks.source}: n_steps must not be negative, got {n_steps}")
+        n_steps = _steps_spanned(tracks, start_time, last, step_seconds)
+    if not 0 <= n_steps <= MAX_TIME:
+        raise DiscretisationError(
+            f"{tracks.source}: n_steps must be in [0, {MAX_TIME}], got {n_steps}"
+        )
 
     # time: nearest step and the distance to it
     k = np.floor((tracks.t - start_time) / step_seconds + 0.5).astype(np.int64)
@@ -163,6 +175,20 @@ def discretise(
     return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis)
 
 
+def _steps_spanned(tracks: PoseTracks, start: float, last: float, step_seconds: float) -> int:
+    """Steps from ``start`` to the last pose, refused past :data:`MAX_TIME` before anything
+    that size is allocated: a record mixing epoch stamps (~1.7e9 s) with simulation time
+    would otherwise ask for gigabytes."""
+    span = (last - start) / step_seconds
+    if span + 0.5 >= MAX_TIME:
+        raise DiscretisationError(
+            f"{tracks.source}: the poses span {last - start:.6g} s from t = {start:.6g} s, "
+            f"{span:.3g} steps of {step_seconds:g} s, more than the limit of {MAX_TIME} steps "
+            "(mixed clocks, e.g. epoch and simulation time? or a later --start-time)"
+        )
+    return max(int(np.floor(span + 0.5)) + 1, 0)
+
+
 def _checked(tracks: PoseTracks, scenario: Scenario, step_seconds: float, tolerance):
     """Tracks indexed by the scenario's robots, NaN-free; the tolerance."""
     src = tracks.source
@@ -180,6 +206,14 @@ def _checked(tracks: PoseTracks, scenario: Scenario, step_seconds: float, tolera
         i = int(np.argmax(bad))
         name = tracks.robot_names[tracks.robot[i]]
         raise DiscretisationError(f"{src}: robot {name}: NaN or infinite pose at t = {tracks.t[i]}")
+    far = (np.abs(tracks.t) > MAX_POSE_TIME) | (np.maximum(abs(tracks.x), abs(tracks.y)) > MAX_XY)
+    if far.any():  # checked before any arithmetic that could overflow on them
+        i = int(np.argmax(far))
+        name = tracks.robot_names[tracks.robot[i]]
+        raise DiscretisationError(
+            f"{src}: robot {name}: pose ({tracks.x[i]:.6g}, {tracks.y[i]:.6g}) m at t = "
+            f"{tracks.t[i]:.6g} s is beyond the limits of {MAX_XY:g} m and {MAX_POSE_TIME:g} s"
+        )
     return tracks, tol
 
 

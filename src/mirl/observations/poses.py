@@ -151,7 +151,7 @@ def _first_bad_line(path: Path, columns: list[str], numeric: set[str]) -> str:
         for lineno, rec in enumerate(reader, start=2):
             if not rec:
                 continue
-            if len(rec) < len(header):
+            if len(rec) != len(header):
                 return f"line {lineno}: expected {len(header)} cells, got {len(rec)}"
             for c, i in idx.items():
                 if c in numeric:
@@ -190,6 +190,11 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
     for col in ("t", "robot", "x", "y"):
         if col not in header:
             raise PoseError(f"{path}: line 1: missing column '{col}' (expected t,robot,x,y,yaw)")
+    twice = next((h for k, h in enumerate(header) if h in header[:k]), None)
+    if twice is not None:  # which of the two is meant cannot be known
+        raise PoseError(f"{path}: line 1: column '{twice[:40]}' appears twice")
+    if "yaw" in header and ("qz" in header or "qw" in header):
+        raise PoseError(f"{path}: line 1: give the heading as 'yaw' or as 'qz','qw', not both")
     if "yaw" in header:
         angles = ["yaw"]
     elif "qz" in header and "qw" in header:

@@ -40,6 +40,19 @@ def parse_topic(text: str) -> tuple[str, str]:
     return topic.strip(), robot.strip()
 
 
+def _topic_map(topics: Mapping[str, str] | Sequence[tuple[str, str]] | None) -> dict[str, str]:
+    """topic -> robot; a topic given twice is refused (a dict would keep the last silently)."""
+    pairs = list(topics.items()) if isinstance(topics, Mapping) else list(topics or [])
+    out: dict[str, str] = {}
+    for topic, robot in pairs:
+        if topic in out:
+            raise ValueError(
+                f"--topic {topic}: given twice ({topic}={out[topic]} and {topic}={robot})"
+            )
+        out[topic] = robot
+    return out
+
+
 def observation_kind(path: str | Path) -> str:
     """``bag``, ``grid-csv`` or ``pose-csv`` (by the header), or a one-line error."""
     path = Path(path)
@@ -79,7 +92,7 @@ def load_observations(
     observed on; or a (rows, cols) bool mask.
     """
     path = Path(path)
-    topics = dict(topics or {})
+    topics = _topic_map(topics)
     kind = observation_kind(path)
     names = scenario.robot_names
     if kind == "grid-csv":

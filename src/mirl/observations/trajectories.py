@@ -5,6 +5,7 @@ output. Reading validates every row against the scenario and reports the file, l
 from __future__ import annotations
 
 import csv
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -18,6 +19,7 @@ HEADER = ("t", "robot", "row", "col", "heading")
 # a time step at or beyond this is refused, not allocated: L's per-step arrays span the horizon
 # (1 M steps = 23 days of robot time at 2 s a step; 8 MB per robot per array)
 MAX_TIME = 1_000_000
+_INTEGER = re.compile(r"[+-]?[0-9]+", re.ASCII)
 _MAX_CELL = 2**62  # larger values are refused before numpy could overflow on them
 
 
@@ -239,14 +241,19 @@ def _parse_rows(path: Path, reader, domain, robot_names, horizon) -> Trajectorie
     missing = [h for h in HEADER if h not in header]
     if missing:
         raise TrajectoryError(f"{path}: line 1: missing column '{missing[0]}'")
+    twice = next((h for k, h in enumerate(header) if h in header[:k]), None)
+    if twice is not None:  # which of the two would be meant cannot be known
+        raise TrajectoryError(f"{path}: line 1: column '{_shown(twice)}' appears twice")
     idx = [header.index(h) for h in HEADER]
     rows: list[tuple[int, int, int, int, int]] = []
     lines: list[int] = []
     for lineno, rec in enumerate(reader, start=2):
         if not rec or all(not x.strip() for x in rec):
             continue
-        if len(rec) < len(header):
-            raise TrajectoryError(f"{path}: line {lineno}: expected {len(header)} cells")
+        if len(rec) != len(header):  # a longer row has cells no column names
+            raise TrajectoryError(
+                f"{path}: line {lineno}: expected {len(header)} cells, got {len(rec)}"
+            )
         vals = [rec[i].strip() for i in idx]
         name = vals[1]
         if name not in robot_names:
@@ -254,13 +261,13 @@ def _parse_rows(path: Path, reader, domain, robot_names, horizon) -> Trajectorie
             raise TrajectoryError(
                 f"{path}: line {lineno}: robot '{_shown(name)}' is not in the scenario ({known})"
             )
-        try:
-            t, r, c, h = (int(vals[i]) for i in (0, 2, 3, 4))
-        except ValueError:
-            bad = next(v for v in (vals[0], *vals[2:]) if not _is_int(v))
-            raise TrajectoryError(
-                f"{path}: line {lineno}: '{_shown(bad)}' is not an integer"
-            ) from None
+        bad = next((v for v in (vals[0], *vals[2:]) if not _is_int(v)), None)
+        if bad is not None:
+            raise TrajectoryError(f"{path}: line {lineno}: '{_shown(bad)}' is not an integer")
+        long = next((v for v in (vals[0], *vals[2:]) if len(v) > 24), None)
+        if long is not None:  # past int64 anyway (and int() refuses 4 300 digits)
+            raise TrajectoryError(f"{path}: line {lineno}: '{_shown(long)}' is too large")
+        t, r, c, h = (int(vals[i]) for i in (0, 2, 3, 4))
         big = next((v for v in (r, c, h) if abs(v) >= _MAX_CELL), None)
         if big is not None:
             raise TrajectoryError(f"{path}: line {lineno}: {_shown(str(big))} is too large")
@@ -276,8 +283,6 @@ def _parse_rows(path: Path, reader, domain, robot_names, horizon) -> Trajectorie
 
 
 def _is_int(text: str) -> bool:
-    try:
-        int(text)
-    except ValueError:
-        return False
-    return True
+    """Plain ASCII digits with an optional sign, as pyarrow parses them: Python's int() would
+    also take ``6_0`` (60) and non-ASCII digits, which no robot log means as numbers."""
+    return _INTEGER.fullmatch(text) is not None

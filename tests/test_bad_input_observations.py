@@ -1,0 +1,104 @@
+"""Robot data a third bad-input pass found crashing, allocating gigabytes or silently accepted:
+each is refused in one line naming the file (and line or field), exit code 2, nothing printed
+before it; the valid neighbours still read."""
+
+from __future__ import annotations
+
+import shutil
+import warnings
+
+import pytest
+
+from mirl.cli import main
+from mirl.observations.sources import load_observations
+from mirl.world.scenario import load_scenario
+
+GRID = "t,robot,row,col,heading\n0,I,0,4,2\n1,I,0,3,2\n"
+POSES = "t,robot,x,y,yaw\n0,I,4.0,0.0,3.14159\n2,I,3.0,0.0,3.14159\n"
+
+BAD = [
+    # (file name, content, extra flags, what the one line must contain)
+    ("long.csv", GRID + "2,I,0,2,2,9\n", [], "line 4: expected 5 cells, got 6"),
+    ("dup.csv", "t,robot,row,col,heading,row\n0,I,0,4,2,0\n", [], "column 'row' appears twice"),
+    ("us.csv", GRID + "6_0,I,0,2,2\n", [], "'6_0' is not an integer"),  # int() read 60
+    ("digits.csv", GRID + "2,I,0,\u0663,2\n", [], "is not an integer"),  # Arabic-Indic 3
+    ("huge.csv", GRID + "2,I,0," + "9" * 5000 + ",2\n", [], "is too large"),
+    ("px.csv", POSES + "4,I,1e300,0.0,0\n", [], "beyond the limits"),  # numpy warnings first
+    ("pt.csv", POSES + "1e300,I,2.0,0.0,0\n", [], "beyond the limits"),  # OverflowError
+    ("mix.csv", POSES + "1700000000,I,2.0,0.0,0\n", [], "limit of 1000000 steps"),  # GBs
+    ("pdup.csv", "t,robot,x,y,yaw,x\n0,I,4.0,0.0,0,1\n", [], "column 'x' appears twice"),
+    ("both.csv", "t,robot,x,y,yaw,qz,qw\n0,I,4.0,0.0,0,0,1\n", [], "not both"),
+    ("plong.csv", POSES + "4,I,2.0,0.0,0,7\n", [], "line 4: expected 5 cells, got 6"),
+    ("p.csv", POSES, ["--start-time=-1e300"], "start time"),
+    ("p2.csv", POSES, ["--topic", "I=I", "--topic", "I=J"], "given twice"),
+]
+
+
+@pytest.mark.parametrize(("name", "text", "flags", "needle"), BAD, ids=[b[0] for b in BAD])
+def test_refused_in_one_line(tmp_path, capsys, name, text, flags, needle):
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a warning printed before the error line is a failure
+        code = main(["learn", "--scenario", "boyd2", "--observations", str(path), *flags])
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and needle in lines[0], captured.err
+    assert name in lines[0] or "--topic" in lines[0]
+    assert captured.out == ""
+
+
+def test_the_valid_neighbours_still_read(tmp_path):
+    sc = load_scenario("boyd2")
+    (tmp_path / "g.csv").write_text(GRID + "2,I,+0,2,2\n")  # a sign is a plain integer
+    assert len(load_observations(tmp_path / "g.csv", sc).trajectories) == 3
+    (tmp_path / "p.csv").write_text(POSES)
+    loaded = load_observations(tmp_path / "p.csv", sc, start_time=1700000000.0 - 1e9)
+    assert len(loaded.trajectories) == 0  # far before: nothing binned, nothing allocated
+    loaded = load_observations(tmp_path / "p.csv", sc, topics=[("I", "J")])
+    assert loaded.trajectories.robot.tolist() == [1, 1]
+
+
+def test_a_conversion_with_no_steps_writes_nothing(tmp_path, capsys):
+    (tmp_path / "p.csv").write_text(POSES)
+    out = tmp_path / "out.csv"
+    argv = ["convert", str(tmp_path / "p.csv"), str(out), "--scenario", "boyd2"]
+    assert main([*argv, "--start-time=100"]) == 2  # every pose before step 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "nothing to convert: none of its 2 poses fell on a step" in err[0]
+    assert not out.exists()
+    assert main(argv) == 0 and out.read_text().count("\n") == 3
+
+
+def test_a_bag_in_capitals_is_told_as_a_bag(tmp_path, capsys):
+    # it was read as a CSV; rosbags picks the storage by the suffix as written, so the one
+    # line says to rename it, and the renamed file reads
+    from bag_helpers import pose_message, typestore, write_bag
+
+    ts = typestore(False)
+    recs = [("/i", 100.0 + k, pose_message(ts, "stamped", 100.0 + k, 4.0 - k, 0.0, 3.14159))
+            for k in range(3)]  # fmt: skip
+    shutil.move(write_bag(tmp_path / "p.bag", recs, fmt="ros1"), tmp_path / "P.BAG")
+    flags = ["--scenario", "boyd2", "--topic", "/i=I", "--step-seconds", "1"]
+    assert main(["convert", str(tmp_path / "P.BAG"), str(tmp_path / "o.csv"), *flags]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "rename it to P.bag" in err[0], err
+    shutil.move(tmp_path / "P.BAG", tmp_path / "P.bag")
+    assert main(["convert", str(tmp_path / "P.bag"), str(tmp_path / "o.csv"), *flags]) == 0
+    assert (tmp_path / "o.csv").read_text().count("\n") == 4
+
+
+def test_observed_rows_where_l_sees_nothing(tmp_path, capsys):
+    obs = tmp_path / "g.csv"
+    assert main(["simulate", "--scenario", "boyd2", "--steps", "120", "--seed", "1",
+                 "--observations", str(obs)]) == 0  # fmt: skip
+    capsys.readouterr()
+    learn = ["learn", "--scenario", "boyd2", "--observations", str(obs), "--method", "mirl"]
+    assert main([*learn, "--observability", "0"]) == 2  # was learned from, as if unseen
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--observability 0: L sees no cell" in err[0], err
+    assert main([*learn, "--observability", "0.05"]) == 0  # rows outside the view: one warning
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "lie on cells L cannot see at observability 0.05" in err[0], err
+    assert main(learn) == 0  # recorded at the scenario's 0.14: all in view, no warning
+    assert capsys.readouterr().err == ""
