@@ -61,3 +61,35 @@ def test_simulate_takes_a_scenario_by_name_too(record):
     np.testing.assert_array_equal(by_name.true_states, by_object.true_states)
     with pytest.raises(TypeError, match="scenario must be"):
         simulate(None, 40, seed=4)
+
+
+@pytest.mark.parametrize(
+    ("option", "needle"),
+    [
+        ({"temperature": 0.0}, "temperature must be positive"),
+        ({"l2": -1.0}, "l2 must be at least 0"),
+        ({"max_evaluations": 0}, "max_evaluations must be at least 1"),
+        ({"n_restarts": 0}, "n_restarts must be at least 1"),
+        ({"visible": np.ones(7, bool)}, r"visible must be \(3,\)"),
+    ],
+)
+def test_irl_options_that_would_fit_nothing_are_refused(option, needle):
+    # each ran and returned θ = 0 (or a NaN policy) without a word
+    import scipy.sparse as sp
+
+    from mirl.learning.irl import OccludedMaxEntIRL
+
+    stay = sp.csr_array((np.ones(6), (np.arange(6), np.repeat(np.arange(3), 2))), shape=(6, 3))
+    with pytest.raises(ValueError, match=needle):
+        OccludedMaxEntIRL(np.zeros((3, 2, 1)), stay, **option)
+
+
+def test_backward_induction_refuses_a_negative_horizon():
+    import scipy.sparse as sp
+
+    from mirl.mdp import backward_induction
+
+    stay = sp.csr_array((np.ones(6), (np.arange(6), np.repeat(np.arange(3), 2))), shape=(6, 3))
+    with pytest.raises(ValueError, match="horizon must be at least 0"):
+        backward_induction(stay, np.zeros((3, 2)), -1)
+    assert backward_induction(stay, np.zeros((3, 2)), 0).values.shape == (1, 3)

@@ -260,6 +260,8 @@ def backward_induction(
     """
     rewards = np.asarray(rewards, dtype=float)
     S, A = rewards.shape[-2:]
+    if horizon < 0:
+        raise ValueError(f"horizon must be at least 0, got {horizon}")
     if rewards.ndim == 3 and rewards.shape[0] != horizon:
         raise ValueError(f"time-indexed rewards must have {horizon} slices, got {rewards.shape[0]}")
     T_as = actions_first(sp.csr_array(transitions), A)

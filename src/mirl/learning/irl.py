@@ -53,8 +53,9 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.optimize import OptimizeResult, minimize
+from scipy.optimize import OptimizeResult
 
+from mirl.learning.optimise import minimise_from
 from mirl.learning.sequence import BlockOperator, ObservedSequence
 from mirl.learning.soft_policy import _Dynamics, soft_policy_iteration
 from mirl.mdp import TabularMDP, csr_matmul, value_iteration
@@ -144,6 +145,16 @@ class OccludedMaxEntIRL:
         S, A, _ = self.features.shape
         if self.transitions.shape != (S * A, S):
             raise ValueError(f"transitions must be ({S * A}, {S}), got {self.transitions.shape}")
+        shape = None if visible is None else np.shape(visible)
+        for name, got, ok, needed in (
+            ("temperature", temperature, temperature > 0, "positive"),
+            ("l2", l2, l2 >= 0, "at least 0"),
+            ("max_evaluations", max_evaluations, max_evaluations >= 1, "at least 1"),
+            ("n_restarts", n_restarts, n_restarts >= 1, "at least 1"),
+            ("visible", shape, shape in (None, (S,)), (S,)),
+        ):  # each would run and return a meaningless fit (0/0 policies, an unbounded loss)
+            if not ok:
+                raise ValueError(f"{name} must be {needed}, got {got}")
         self.discount = discount
         self.visible = None if visible is None else np.asarray(visible, dtype=bool)
         self.objective = objective
@@ -336,33 +347,13 @@ class OccludedMaxEntIRL:
         results: list[OptimizeResult] = []
         for x_start in starts:
             self._V_warm = None
-            if self.optimizer == "nelder-mead":
-                step = 0.5 * max(1.0, float(np.abs(x_start).max()))
-                simplex = np.vstack([x_start, x_start + step * np.eye(K)])
-                res = minimize(
-                    self._loss,
-                    x_start,
-                    method="Nelder-Mead",
-                    options={
-                        "initial_simplex": simplex,
-                        "maxfev": self.max_evaluations,
-                        "xatol": 1e-3,
-                        "fatol": 1e-7,
-                    },
-                )
-            else:
-                res = minimize(
-                    self._loss,
-                    x_start,
-                    args=(True,),
-                    jac=True,
-                    method="L-BFGS-B",
-                    options={
-                        "maxfun": self.max_evaluations,
-                        "gtol": 1e-7,
-                        **({} if self.tol is None else {"ftol": self.tol}),
-                    },
-                )
+            res = minimise_from(
+                self._loss,
+                np.asarray(x_start, dtype=float),
+                optimizer=self.optimizer,
+                max_evaluations=self.max_evaluations,
+                tol=self.tol,
+            )
             results.append(res)
         self._sequence.free_workspace()  # its filter history (tens of MB on large maps)
         best = min(results, key=lambda r: r.fun)  # the first of equal optima, as before
