@@ -26,6 +26,12 @@ __all__ = ["DRIVE", "PIVOT", "HOLD", "Controller", "wrap"]
 DRIVE, PIVOT, HOLD = 0, 1, 2
 
 
+try:  # the clip ufunc without numpy's Python wrappers around it (same loop, same results)
+    from numpy._core.umath import clip as _clip  # type: ignore[attr-defined]
+except ImportError:  # numpy < 2
+    from numpy.core.umath import clip as _clip  # type: ignore[no-redef]
+
+
 def wrap(a):
     return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
 
@@ -76,17 +82,17 @@ class Controller:
         # heading first: slow down in proportion to the bearing error, turn in place beyond
         # ``turn_first`` (20 degrees) (a robot whose wheel cannot follow is slowed, not sent astray)
         v_des = np.where(
-            drive & ~arrived, v_des * np.clip(1.0 - (bearing / self.turn_first) ** 2, 0.0, 1.0), 0.0
+            drive & ~arrived, v_des * _clip(1.0 - (bearing / self.turn_first) ** 2, 0.0, 1.0), 0.0
         )
         if slow is not None:
             v_des = np.where(slow, np.minimum(v_des, self.pass_speed), v_des)
         # accelerate gently, brake as hard as needed
         self.v = np.where(v_des > self.v, np.minimum(v_des, self.v + self.amax * self.dt), v_des)
-        w_drive = np.clip(self.kh * e, -2.0, 2.0)
+        w_drive = _clip(self.kh * e, -2.0, 2.0)
         w_drive = np.where(arrived & (np.abs(e) < 0.05), 0.0, w_drive)
         pivot = self.mode == PIVOT
         e_turn = wrap(self.tyaw - yaw)
-        w_turn = np.clip(self.kh * e_turn, -self.wturn, self.wturn)
+        w_turn = _clip(self.kh * e_turn, -self.wturn, self.wturn)
         w_turn = np.where(np.abs(e_turn) < 0.03, 0.0, w_turn)
         half = self.sep / 2
         vl = np.where(drive, self.v - w_drive * half, 0.0)
@@ -96,4 +102,4 @@ class Controller:
         vr = np.where(pivot, np.where(w_turn > 0, w_turn * self.sep, 0.0), vr)
         self.v = np.where(drive, self.v, 0.0)
         big = np.maximum(np.maximum(np.abs(vl), np.abs(vr)) / self.wheel_max, 1.0)
-        return np.column_stack([vl / big, vr / big]) / self.r
+        return np.stack((vl / big, vr / big), axis=1) / self.r

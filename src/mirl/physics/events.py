@@ -49,6 +49,8 @@ class TickEvents:
         dy = p[None, :, 1] - p[:, None, 1]
         dist = np.hypot(dx, dy) / self.frame.cell_size
         np.fill_diagonal(dist, np.inf)
+        if not (dist < max(self.cfg.pass_distance, 0.8)).any():
+            return np.zeros(len(p), dtype=bool)  # the usual tick: nobody near anybody
         ahead = np.abs(wrap(np.arctan2(dy, dx) - p[:, None, 2])) < np.radians(70)
         oncoming = np.abs(wrap(p[None, :, 2] - p[:, None, 2])) > np.pi / 2
         slow = ahead & np.where(oncoming, dist < self.cfg.pass_distance, dist < 0.8)
