@@ -112,20 +112,7 @@ def discretise(
     (``outside_visible``), never dropped.
     """
     tracks, tol = _checked(tracks, scenario, step_seconds, tolerance)
-    if start_time is None:
-        start_time = float(tracks.t.min()) if len(tracks) else 0.0
-    elif not (np.isfinite(start_time) and abs(start_time) <= MAX_POSE_TIME):
-        raise DiscretisationError(
-            f"{tracks.source}: start time {start_time:g} s is not a time within "
-            f"{MAX_POSE_TIME:g} s of 0 (epoch seconds or simulation time)"
-        )
-    if n_steps is None:
-        last = float(tracks.t.max()) if len(tracks) else start_time
-        n_steps = _steps_spanned(tracks, start_time, last, step_seconds)
-    if not 0 <= n_steps <= MAX_TIME:
-        raise DiscretisationError(
-            f"{tracks.source}: n_steps must be in [0, {MAX_TIME}], got {n_steps}"
-        )
+    start_time, n_steps = _watch(tracks, start_time, n_steps, step_seconds)
 
     # time: nearest step and the distance to it
     k = np.floor((tracks.t - start_time) / step_seconds + 0.5).astype(np.int64)
@@ -173,6 +160,28 @@ def discretise(
         RobotCounts(name, *(c[i] for c in columns)) for i, name in enumerate(tracks.robot_names)
     )
     return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis)
+
+
+def _watch(
+    tracks: PoseTracks, start_time: float | None, n_steps: int | None, step_seconds: float
+) -> tuple[float, int]:
+    """The watch's start (default: the first pose) and number of steps (default: up to the last
+    pose), each checked against its limit."""
+    if start_time is None:
+        start_time = float(tracks.t.min()) if len(tracks) else 0.0
+    elif not (np.isfinite(start_time) and abs(start_time) <= MAX_POSE_TIME):
+        raise DiscretisationError(
+            f"{tracks.source}: start time {start_time:g} s is not a time within "
+            f"{MAX_POSE_TIME:g} s of 0 (epoch seconds or simulation time)"
+        )
+    if n_steps is None:
+        last = float(tracks.t.max()) if len(tracks) else start_time
+        n_steps = _steps_spanned(tracks, start_time, last, step_seconds)
+    if not 0 <= n_steps <= MAX_TIME:
+        raise DiscretisationError(
+            f"{tracks.source}: n_steps must be in [0, {MAX_TIME}], got {n_steps}"
+        )
+    return start_time, n_steps
 
 
 def _steps_spanned(tracks: PoseTracks, start: float, last: float, step_seconds: float) -> int:
