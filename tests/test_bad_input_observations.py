@@ -4,10 +4,14 @@ before it; the valid neighbours still read."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import shutil
 import warnings
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from mirl.cli import main
 from mirl.observations.sources import load_observations
@@ -102,3 +106,38 @@ def test_observed_rows_where_l_sees_nothing(tmp_path, capsys):
     assert len(err) == 1 and "lie on cells L cannot see at observability 0.05" in err[0], err
     assert main(learn) == 0  # recorded at the scenario's 0.14: all in view, no warning
     assert capsys.readouterr().err == ""
+
+
+CELLS = ["0", "1", "4", "-1", "2.5", "nan", "inf", "1e300", " 3", "I", "J", "K", "", "\u0663",
+         "6_0", "+2", "0x1f", "9" * 30, '"3"']  # fmt: skip
+HEADERS = [
+    ["t", "robot", "row", "col", "heading"],
+    ["t", "robot", "x", "y", "yaw"],
+    ["t", "robot", "x", "y", "qz", "qw"],
+]
+
+
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    header=st.sampled_from(HEADERS),
+    extra=st.sampled_from([None, "t", "x", "row", "extra"]),
+    rows=st.lists(st.lists(st.sampled_from(CELLS), min_size=4, max_size=7), max_size=5),
+    end=st.sampled_from(["\n", "", "\r\n"]),
+)
+def test_any_hostile_csv_converts_or_is_one_line(tmp_path, header, extra, rows, end):
+    # a property over hostile cells, short and long rows and repeated columns: convert either
+    # works or says one line with exit code 2 (no traceback, no warning before it)
+    head = header + ([extra] if extra else [])
+    path, out = tmp_path / "f.csv", tmp_path / "o.csv"
+    path.write_text("\n".join([",".join(head)] + [",".join(r) for r in rows]) + end, "utf-8")
+    out.unlink(missing_ok=True)
+    err = io.StringIO()
+    with warnings.catch_warnings(), contextlib.redirect_stderr(err):
+        warnings.simplefilter("error")
+        with contextlib.redirect_stdout(io.StringIO()):
+            code = main(["convert", str(path), str(out), "--scenario", "boyd2"])
+    lines = err.getvalue().strip().splitlines()
+    assert code == 0 or (code == 2 and len(lines) == 1 and "f.csv" in lines[0]), err.getvalue()
+    assert code == 2 or out.exists()
