@@ -24,6 +24,12 @@ def csv_header(path: Path, error) -> list[str]:
     return [h.strip().strip('"') for h in first.strip("\r\n").split(",")]
 
 
+def repeated_column(header: list[str]) -> str | None:
+    """The first column name the header repeats (which of the two a reader would take cannot
+    be known), or None."""
+    return next((h for k, h in enumerate(header) if h in header[:k]), None)
+
+
 def arrow_read(path: Path, header: list[str], columns: dict):
     """Read ``columns`` (name -> arrow type) of a CSV whose stripped header is ``header`` (pyarrow
     would keep the spaces of `` robot``). Raises pyarrow's errors: callers decide the message."""

@@ -15,7 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
-from mirl.observations._csv import arrow_read, csv_header, data_line_numbers, write_columns
+from mirl.observations._csv import (
+    arrow_read,
+    csv_header,
+    data_line_numbers,
+    repeated_column,
+    write_columns,
+)
 
 __all__ = [
     "PoseTracks",
@@ -190,8 +196,8 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
     for col in ("t", "robot", "x", "y"):
         if col not in header:
             raise PoseError(f"{path}: line 1: missing column '{col}' (expected t,robot,x,y,yaw)")
-    twice = next((h for k, h in enumerate(header) if h in header[:k]), None)
-    if twice is not None:  # which of the two is meant cannot be known
+    twice = repeated_column(header)
+    if twice is not None:
         raise PoseError(f"{path}: line 1: column '{twice[:40]}' appears twice")
     if "yaw" in header and ("qz" in header or "qw" in header):
         raise PoseError(f"{path}: line 1: give the heading as 'yaw' or as 'qz','qw', not both")

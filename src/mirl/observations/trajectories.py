@@ -241,8 +241,10 @@ def _parse_rows(path: Path, reader, domain, robot_names, horizon) -> Trajectorie
     missing = [h for h in HEADER if h not in header]
     if missing:
         raise TrajectoryError(f"{path}: line 1: missing column '{missing[0]}'")
-    twice = next((h for k, h in enumerate(header) if h in header[:k]), None)
-    if twice is not None:  # which of the two would be meant cannot be known
+    from mirl.observations._csv import repeated_column
+
+    twice = repeated_column(header)
+    if twice is not None:
         raise TrajectoryError(f"{path}: line 1: column '{_shown(twice)}' appears twice")
     idx = [header.index(h) for h in HEADER]
     rows: list[tuple[int, int, int, int, int]] = []

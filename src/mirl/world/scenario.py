@@ -167,14 +167,14 @@ def shipped_scenarios() -> list[str]:
     return shipped_names("scenarios", ".toml")
 
 
-def as_scenario(scenario: Scenario | str | Path, what: str = "scenario") -> Scenario:
+def as_scenario(scenario: Scenario | str | Path) -> Scenario:
     """``scenario`` itself, or the scenario a shipped name or a path names; anything else is a
-    TypeError naming ``what`` (the argument of the function that was given it)."""
+    TypeError."""
     if isinstance(scenario, Scenario):
         return scenario
     if isinstance(scenario, str | Path):
         return load_scenario(scenario)
-    raise TypeError(f"{what} must be a Scenario, a shipped name or a path, got {type(scenario)}")
+    raise TypeError(f"scenario must be a Scenario, a shipped name or a path, got {type(scenario)}")
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
