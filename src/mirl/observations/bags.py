@@ -252,15 +252,15 @@ def _decode_fast(
         blob = b"".join(raws[i] for i in which) if len(which) < len(raws) else b"".join(raws)
         buf = np.frombuffer(blob, dtype=np.uint8).reshape(len(which), int(length))
         rows = np.arange(len(which))
+        if ros2 and not (np.all(buf[:, 0] == 0) and np.all(buf[:, 1] == 1)):
+            return None  # big-endian or XCDR2: leave it to rosbags
+        end = 16 + _u32(buf, rows, np.full(len(which), 12, dtype=np.int64))  # after frame_id
+        if np.any(end > length):
+            return None
+        frames |= _frame_ids(buf, end - 16)
         if ros2:
-            if not (np.all(buf[:, 0] == 0) and np.all(buf[:, 1] == 1)):
-                return None  # big-endian or XCDR2: leave it to rosbags
             sec = np.ascontiguousarray(buf[:, 4:8]).view("<i4")[:, 0].astype(np.int64)
             nsec = np.ascontiguousarray(buf[:, 8:12]).view("<u4")[:, 0].astype(np.int64)
-            end = 16 + _u32(buf, rows, np.full(len(which), 12, dtype=np.int64))
-            if np.any(end > length):
-                return None
-            frames |= _frame_ids(buf, end - 16)
             for _ in range(n_strings):
                 start = base + (((end - base) + 3) // 4) * 4
                 if np.any(start + 4 > length):
@@ -270,10 +270,6 @@ def _decode_fast(
         else:
             sec = np.ascontiguousarray(buf[:, 4:8]).view("<u4")[:, 0].astype(np.int64)
             nsec = np.ascontiguousarray(buf[:, 8:12]).view("<u4")[:, 0].astype(np.int64)
-            end = 16 + _u32(buf, rows, np.full(len(which), 12, dtype=np.int64))
-            if np.any(end > length):
-                return None
-            frames |= _frame_ids(buf, end - 16)
             for _ in range(n_strings):
                 if np.any(end + 4 > length):
                     return None
