@@ -101,14 +101,12 @@ class TeamEnv(ParallelEnv):
             )
         unknown = sorted(set(actions) - set(self.agents), key=str)
         missing = [a for a in self.agents if a not in actions]
-        if unknown or missing:
+        problems = [f"unknown {unknown}"] * bool(unknown) + [f"missing {missing}"] * bool(missing)
+        if problems:
             raise ValueError(
                 f"actions must name every live agent ({', '.join(self.agents)}): "
-                + "; ".join(
-                    p for p in (f"unknown {unknown}" if unknown else "",
-                                f"missing {missing}" if missing else "") if p
-                )
-            )  # fmt: skip
+                + "; ".join(problems)
+            )
         for agent in self.agents:
             if not self._act_spaces[agent].contains(actions[agent]):
                 raise ValueError(
