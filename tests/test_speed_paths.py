@@ -176,20 +176,43 @@ def test_factored_weighing_is_exact_without_meetings_and_close_with_them(boyd2):
 
 
 def test_meeting_part_of_the_joint_step_is_bitwise_the_dense_product(boyd2):
-    from mirl.learning.equilibria import _joint_model
+    from mirl.learning.equilibria import _joint_filter
 
     d = boyd2.domain
     pol = [boyd2.true_policy(0), boyd2.true_policy(1)]
     T = [boyd2.true_transitions(0), boyd2.true_transitions(1)]
     for eq in boyd2.game.equilibria():
-        jm = _joint_model(d, pol, T, eq, 1e-3)
+        jf = _joint_filter(d, pol, T, eq, 1e-3)
+        PT, GT = _robot_steps(d, pol, T, eq, 1e-3)
         M = np.random.default_rng(0).random((d.n_states, d.n_states))
-        at = np.where(jm.meet, M, 0.0)
-        dense = csr_matmul(jm.PT[0], csr_matmul(jm.PT[1], (M - at).T).T) + csr_matmul(
-            jm.GT[0], csr_matmul(jm.GT[1], at.T).T
+        at = np.where(jf._off == 0.0, M, 0.0)
+        dense = csr_matmul(PT[0], csr_matmul(PT[1], (M - at).T).T) + csr_matmul(
+            GT[0], csr_matmul(GT[1], at.T).T
         )
-        assert jm.meet.any()
-        assert np.array_equal(jm.step(M), dense)
+        assert (jf._off == 0.0).any()
+        assert np.array_equal(jf.step(M, -1, -1), dense)
+
+
+@pytest.mark.parametrize(("name", "degree"), [("boyd2", 0.14), ("boyd2", 1.0), ("boydright", 0.5)])
+def test_joint_filter_is_bitwise_the_plain_one(name, degree):
+    """The joint filter's shortcuts (outer products after a robot was seen, the meeting part as
+    fixed linear maps) give the log-likelihood of the plain filter bit for bit, for every
+    candidate equilibrium, with learned (not true) models."""
+    from joint_filter_reference import reference_joint_log_likelihood
+
+    from mirl.learning.learn import learn
+
+    sc = load_scenario(name)
+    d = sc.domain
+    obs = simulate(sc, 200, seed=1, observability=degree, random_starts=True).observations
+    series = [obs.state_series(d, i) for i in range(2)]
+    assert all((s >= 0).any() for s in series)  # both robots' shortcuts are taken
+    res = learn(obs, sc, "mirl", observability=degree, score=False)
+    pol, T = [r.policy for r in res.robots], [r.transitions for r in res.robots]
+    vis = d.visible_states(degree)
+    for e in sc.game.equilibria():
+        ours = joint_log_likelihood(d, series, pol, T, e, vis, max_joint_states=None)
+        assert ours == reference_joint_log_likelihood(d, series, pol, T, e, vis)
 
 
 def test_forward_operator_pattern_reuse_and_direct_lapack_solve_are_bitwise(boyd2):

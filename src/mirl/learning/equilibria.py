@@ -20,11 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse import _sparsetools
 
 from mirl.learning.factored_pair import factored_log_likelihood, meeting_matrix
+from mirl.learning.joint_filter import JointFilter
 from mirl.learning.soft_policy import _Dynamics
-from mirl.mdp import csr_matmul
 from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
 from mirl.world.game import Equilibrium, meeting
 
@@ -78,60 +77,6 @@ def _game_actions(equilibrium_side: Sequence[float], own: np.ndarray, n_actions:
     return out
 
 
-class _JointModel:
-    """Per robot: ε-greedy P_πᵀ and the equilibrium's game-move matrix Gᵀ (both (S, S) CSR);
-    ``meet`` (S, S) bool marks the joint states where the robots' intended moves meet."""
-
-    def __init__(self, PT, GT, meet: np.ndarray) -> None:
-        self.PT, self.GT, self.meet = PT, GT, meet
-        self._at = meet.astype(float)  # masks as factors: M·1 = M, M·0 = +0 (as np.where)
-        self._off = (~meet).astype(float)
-        self._meeting = _MeetingPart(GT[0], GT[1], meet)
-
-    def step(self, M: np.ndarray) -> np.ndarray:
-        """Joint distribution one step on: Pᵢᵀ (M off meetings) Pⱼ + Gᵢᵀ (M at meetings) Gⱼ.
-
-        A robot's game move depends only on its own state (its policy action, stop or turn), so
-        the meeting part factorises like the rest."""
-        P = self.PT
-        out = csr_matmul(P[0], csr_matmul(P[1], (M * self._off).T).T)
-        self._meeting.add_to(out, M)
-        return out
-
-
-class _MeetingPart:
-    """Gᵢᵀ (M at meetings) Gⱼ added into a dense (S, S) array, by two sparse-sparse products.
-
-    M at meetings is sparse (hundreds of the S² joint states), but a dense product pays for all
-    S². scipy's ``@`` on sparse operands costs more in dispatch than the products themselves,
-    so its kernels (Gustavson's, in scipy.sparse._sparsetools) are called directly on fixed
-    buffers. Each sum gets the terms of the dense product in the same order, less its exact
-    zeros, so the result is bitwise the dense one (tests/test_speed_paths.py)."""
-
-    def __init__(self, GT_i: sp.csr_array, GT_j: sp.csr_array, meet: np.ndarray) -> None:
-        S = meet.shape[0]
-        idx = GT_i.indptr.dtype
-        self._S = S
-        self._mi, self._mj = (a.astype(np.intp) for a in np.nonzero(meet))  # row-major
-        self._at = (np.searchsorted(self._mi, np.arange(S + 1)).astype(idx), self._mj.astype(idx))
-        gj = sp.csr_array(GT_j.T)  # Gⱼ (= (Gⱼᵀ)ᵀ) as CSR
-        gj.sort_indices()
-        self._gi = (GT_i.indptr.astype(idx), GT_i.indices.astype(idx), GT_i.data)
-        self._gj = (gj.indptr.astype(idx), gj.indices.astype(idx), gj.data)
-        n1 = _sparsetools.csr_matmat_maxnnz(S, S, *self._at, *self._gj[:2])
-        self._y = (np.zeros(S + 1, idx), np.zeros(n1, idx), np.zeros(n1))
-        self._c = (np.zeros(S + 1, idx), np.zeros(S * S, idx), np.zeros(S * S))
-
-    def add_to(self, out: np.ndarray, M: np.ndarray) -> None:
-        S, kernel = self._S, _sparsetools.csr_matmat
-        if len(self._mi) == 0:
-            return
-        values = M[self._mi, self._mj]
-        kernel(S, S, *self._at, values, *self._gj, *self._y)  # Y = (M at meetings) Gⱼ
-        kernel(S, S, *self._gi, *self._y, *self._c)  # Gᵢᵀ Y
-        _sparsetools.csr_todense(S, S, *self._c, out)  # out += Gᵢᵀ Y (adds, as its name hides)
-
-
 def _robot_steps(domain, pol, transitions, equilibrium, epsilon):
     """Per robot the transposed ε-greedy policy step Pᵀ and game-move step Gᵀ, (S, S) CSR."""
     S, A = domain.n_states, domain.n_actions
@@ -146,13 +91,13 @@ def _robot_steps(domain, pol, transitions, equilibrium, epsilon):
     return PT, GT
 
 
-def _joint_model(domain, policies, transitions, equilibrium, epsilon) -> _JointModel:
+def _joint_filter(domain, policies, transitions, equilibrium, epsilon) -> JointFilter:
     S = domain.n_states
     pol = [np.asarray(p, dtype=int) for p in policies]
     PT, GT = _robot_steps(domain, pol, transitions, equilibrium, epsilon)
     si, sj = np.divmod(np.arange(S * S), S)
     meet = meeting(domain, si, sj, pol[0][si], pol[1][sj]).reshape(S, S)
-    return _JointModel((PT[0], PT[1]), (GT[0], GT[1]), meet)
+    return JointFilter(PT, GT, meet)
 
 
 def _condition(M: np.ndarray, x: int, visible: np.ndarray, axis: int) -> None:
@@ -196,12 +141,12 @@ def joint_log_likelihood(
         PT, GT = _robot_steps(domain, pol, transitions, equilibrium, epsilon)
         meet = meeting_matrix(domain, pol[0], pol[1])
         return factored_log_likelihood((x, y), PT, GT, meet, vis)
-    jm = _joint_model(domain, policies, transitions, equilibrium, epsilon)
+    jf = _joint_filter(domain, policies, transitions, equilibrium, epsilon)
     M = np.full((S, S), 1.0 / (S * S))
     total = 0.0
     for t in range(len(x)):
         if t > 0:
-            M = jm.step(M)
+            M = jf.step(M, x[t - 1], y[t - 1])
         _condition(M, x[t], vis, 0)
         _condition(M, y[t], vis, 1)
         c = M.sum()
