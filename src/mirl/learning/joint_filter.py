@@ -66,7 +66,7 @@ class MeetingMaps:
         # first map: meeting value e times Gⱼ entry k lands on Y[mi[e], column of k]
         e, k = _expand(gj.indptr.astype(np.intp), mj)
         y_keys, self._first = _linear_map(mi[e] * S + gj.indices[k], e, e, gj.data[k], dtype)
-        # second map: Y entry y times Gᵢᵀ entry kk (in column y's row of Y) lands on C[row of kk, y's col]
+        # second map: Y entry y = (a, c) times Gᵢᵀ entry kk = (r, a) lands on C[r, c]
         by_column = np.argsort(GT_i.indices, kind="stable")
         column_ptr = np.searchsorted(GT_i.indices[by_column], np.arange(S + 1))
         y_index, p = _expand(column_ptr, y_keys // S)
