@@ -2,7 +2,7 @@
 the dense products they replace (each output adds the same non-zero terms in the same order,
 starting from 0; the dense products' other terms were exact zeros): the meeting part of a
 propagation step (:class:`MeetingStep`) and P(both robots see L's cell) (:class:`PairSightings`).
-``np.bincount`` adds its weights in input order, so the terms are listed in that order. A
+The terms are listed in that order (CSR maps for scipy's mat-vec kernel, ``np.bincount``). A
 re-plan propagates ~100 steps of the S² joint and sums its sightings at each, and these two were
 half of it (issue 12)."""
 
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse import _sparsetools
 
 __all__ = ["MeetingStep", "PairSightings"]
 
@@ -19,8 +20,9 @@ class MeetingStep:
     the two dense sparse products computed it (a re-plan propagates ~100 steps, and this was
     30 % of each): each output element adds the same non-zero terms in the same order — the
     CSR order of the row of M_Iᵀ, then of M_Jᵀ — starting from 0; the products' other terms
-    were exact zeros. ``np.bincount`` adds its weights in input order, so the terms are listed
-    in that order."""
+    were exact zeros. Each stage is a fixed CSR map whose rows list their terms in that order,
+    which scipy's mat-vec kernel adds left to right from 0 (as ``np.bincount`` did before it,
+    at 1.7× the time)."""
 
     def __init__(self, meet: np.ndarray, mixed_T: list[sp.csr_array]) -> None:
         S = meet.shape[0]
@@ -34,6 +36,10 @@ class MeetingStep:
         x_sj, x_a = np.divmod(self._x_at, S)
         self._src2, self._coef2, b, a2 = self._terms(mixed_T[1], x_sj, x_a, S)
         self._out_at, self._dst2 = np.unique(b * S + a2, return_inverse=True)
+        self._maps = (
+            _term_map(self._dst1, self._src1, self._coef1, len(self._x_at), len(self.at)),
+            _term_map(self._dst2, self._src2, self._coef2, len(self._out_at), len(self._x_at)),
+        )
 
     @staticmethod
     def _terms(A: sp.csr_array, inner: np.ndarray, outer: np.ndarray, S: int):
@@ -52,9 +58,20 @@ class MeetingStep:
     def add_to(self, out_t: np.ndarray, met: np.ndarray) -> None:
         """``out_t`` (flat, transposed: [b·S + a]) += the meeting term for ``met`` = B at
         :attr:`at`."""
-        x = np.bincount(self._dst1, self._coef1 * met[self._src1], len(self._x_at))
-        y = np.bincount(self._dst2, self._coef2 * x[self._src2], len(self._out_at))
-        np.add.at(out_t, self._out_at, y)  # unique positions: out + y, element by element
+        (n_x, n_met, *first), (n_out, _, *second) = self._maps
+        x, y = np.zeros(n_x), np.zeros(n_out)
+        _sparsetools.csr_matvec(n_x, n_met, *first, met, x)
+        _sparsetools.csr_matvec(n_out, n_x, *second, x, y)
+        out_t[self._out_at] += y  # unique positions: out + y, element by element
+
+
+def _term_map(dst: np.ndarray, src: np.ndarray, coef: np.ndarray, n_rows: int, n_cols: int):
+    """(n_rows, n_cols, indptr, indices, data) of the CSR map y[dst[n]] += coef[n]·x[src[n]],
+    each row's terms in input order."""
+    order = np.argsort(dst, kind="stable")
+    indptr = np.searchsorted(dst[order], np.arange(n_rows + 1))
+    index = np.int32 if max(n_cols, len(dst)) < 2**31 else np.int64
+    return n_rows, n_cols, indptr.astype(index), src[order].astype(index), coef[order]
 
 
 class PairSightings:
