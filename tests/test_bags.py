@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import shutil
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -266,6 +267,19 @@ def test_zero_quaternion_is_an_error(tmp_path):
     with pytest.raises(BagError) as e:
         read_bag(path, {"/p": "I"})
     _one_line(e, path, "topic /p", "message 1", "zero quaternion")
+
+
+def test_quaternion_far_past_unit_is_an_error(tmp_path):
+    """A component of 1e300 is no orientation (its square overflowed into a warning before)."""
+    ts = typestore(True)
+    recs = [("/p", t, pose_message(ts, "stamped", t, 1.0, 0.0, 0.0)) for t in (1.0, 2.0)]
+    recs[1][2][1].pose.orientation.w = 1e300
+    path = write_bag(tmp_path / "q", recs, fmt="mcap")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(BagError) as e:
+            read_bag(path, {"/p": "I"})
+    _one_line(e, path, "topic /p", "message 1", "orientation component beyond")
 
 
 @pytest.mark.parametrize("fmt", FORMATS)

@@ -71,6 +71,7 @@ def test_quaternion_columns_spaces_and_blank_lines(tmp_path):
         ("t,robot,x,y,yaw\n1, ,2,3,0\n", "line 2: empty robot name"),
         ("", "file is empty"),
         ("t,robot,x,y,qz,qw\n1,I,2,3,0,1\n2,I,2,3,0,0\n", "line 3: qz = qw = 0"),
+        ("t,robot,x,y,qz,qw\n1,I,2,3,0,1\n2,I,2,3,0,1e300\n", "line 3: qz or qw beyond"),
     ],
 )
 def test_errors_name_file_and_line(tmp_path, text, where):

@@ -29,7 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
-from mirl.observations.poses import PoseError, PoseTracks, yaw_from_quaternion
+from mirl.observations.poses import (
+    MAX_QUATERNION,
+    PoseError,
+    PoseTracks,
+    far_quaternion,
+    yaw_from_quaternion,
+)
 
 __all__ = ["BagError", "read_bag", "write_mcap", "bag_topics", "SUPPORTED_TYPES", "is_bag"]
 
@@ -165,6 +171,13 @@ def _check(path: Path, topic: str, robot: str, cols: np.ndarray) -> PoseTracks:
     if bad.any():
         i = int(np.argmax(bad))
         raise BagError(f"{path}: topic {topic}: message {i} (stamp {t[i]:.9f} s): NaN pose")
+    far = far_quaternion(cols[:, 4:8])
+    if far.any():
+        i = int(np.argmax(far))
+        raise BagError(
+            f"{path}: topic {topic}: message {i} (stamp {t[i]:.9f} s): orientation component "
+            f"beyond ±{MAX_QUATERNION:g} (a quaternion's components lie in [-1, 1])"
+        )
     zero = (cols[:, 4:8] ** 2).sum(axis=1) < 1e-12
     if zero.any():
         i = int(np.argmax(zero))

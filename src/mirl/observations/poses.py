@@ -133,6 +133,17 @@ class PoseTracks:
         ).sorted()
 
 
+# a unit quaternion's components lie in [-1, 1]; an unnormalised one is read as its direction, but
+# components past this are no orientation anyone recorded, and their squares overflow (1e300)
+MAX_QUATERNION = 1e6
+
+
+def far_quaternion(components: np.ndarray) -> np.ndarray:
+    """(n,) bool: rows of the (n, k) quaternion ``components`` with one beyond
+    :data:`MAX_QUATERNION` in magnitude."""
+    return (np.abs(components) > MAX_QUATERNION).any(axis=1)
+
+
 def yaw_from_quaternion(qx, qy, qz, qw) -> np.ndarray:
     """Yaw (rotation about z) of quaternions, radians in (−π, π] (arrays ok); the same for any
     non-zero scale of the quaternion."""
@@ -228,6 +239,13 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
     if "yaw" in cols:
         yaw = cols["yaw"]
     else:
+        far = far_quaternion(np.column_stack([cols["qz"], cols["qw"]]))
+        if far.any():
+            row = int(np.argmax(far))
+            raise PoseError(
+                f"{path}: line {_line_of(path, row)}: qz or qw beyond ±{MAX_QUATERNION:g} "
+                "(a quaternion's components lie in [-1, 1])"
+            )
         zero = cols["qz"] ** 2 + cols["qw"] ** 2 < 1e-12
         if zero.any():
             row = int(np.argmax(zero))
