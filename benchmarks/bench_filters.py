@@ -15,12 +15,13 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # as the CLI does, before nu
 
 import argparse  # noqa: E402
 import sys  # noqa: E402
-import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_speed import _best  # noqa: E402  (CPU seconds, best of n)
 from joint_filter_reference import reference_joint_log_likelihood  # noqa: E402
 
 from mirl.experiments.episode import run_episode  # noqa: E402
@@ -29,15 +30,6 @@ from mirl.learning.learn import learn  # noqa: E402
 from mirl.planning.pair_sums import MeetingStep  # noqa: E402
 from mirl.simulation.grid import simulate  # noqa: E402
 from mirl.world.scenario import load_scenario  # noqa: E402
-
-
-def _cpu(fn, repeats: int) -> tuple[float, object]:
-    best, out = np.inf, None
-    for _ in range(repeats):
-        t0 = time.process_time()
-        out = fn()
-        best = min(best, time.process_time() - t0)
-    return best, out
 
 
 def _pair_of(sc, degree: float, seed: int):
@@ -59,8 +51,8 @@ def weighing(seeds: int, repeats: int) -> None:
         for seed in range(seeds):
             pair = _pair_of(sc, degree, seed)
             for e in sc.game.equilibria():
-                t_new, a = _cpu(lambda: joint_log_likelihood(*pair, e, vis), repeats)  # noqa: B023
-                t_ref, b = _cpu(lambda: reference_joint_log_likelihood(*pair, e, vis), repeats)  # noqa: B023
+                t_new, a = _best(lambda: joint_log_likelihood(*pair, e, vis), repeats)  # noqa: B023
+                t_ref, b = _best(lambda: reference_joint_log_likelihood(*pair, e, vis), repeats)  # noqa: B023
                 assert a == b, (a, b)
                 ours, ref = ours + t_new, ref + t_ref
         print(f"   observability {degree:<4}  ours {ours:6.3f} s  plain {ref:6.3f} s  "
@@ -102,8 +94,8 @@ def meeting_step(repeats: int) -> None:
     plain(b)
     assert np.array_equal(a, b)
     n = 2000
-    t_new, _ = _cpu(lambda: [step.add_to(a, met) for _ in range(n)], repeats)
-    t_ref, _ = _cpu(lambda: [plain(b) for _ in range(n)], repeats)
+    t_new, _ = _best(lambda: [step.add_to(a, met) for _ in range(n)], repeats)
+    t_ref, _ = _best(lambda: [plain(b) for _ in range(n)], repeats)
     print(f"2. planner meeting step, boyd2 ({len(step.at)} meeting states; µs per call, best of "
           f"{repeats}): CSR maps {t_new / n * 1e6:.1f}, bincount {t_ref / n * 1e6:.1f}, "
           f"{t_ref / t_new:.2f}x")  # fmt: skip

@@ -9,7 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import _sparsetools
 
-from mirl.learning.equilibria import _robot_steps
+from mirl.learning.equilibria import _condition, _robot_steps
 from mirl.mdp import csr_matmul
 from mirl.world.game import meeting
 
@@ -37,16 +37,6 @@ class _MeetingPart:
         kernel(S, S, *self._at, values, *self._gj, *self._y)
         kernel(S, S, *self._gi, *self._y, *self._c)
         _sparsetools.csr_todense(S, S, *self._c, out)
-
-
-def _condition(M, x, visible, axis) -> None:
-    view = M if axis == 0 else M.T
-    if x >= 0:
-        keep = view[x].copy()
-        view[:] = 0.0
-        view[x] = keep
-    else:
-        view[visible] = 0.0
 
 
 def reference_joint_log_likelihood(domain, series, policies, transitions, equilibrium, visible,
