@@ -25,7 +25,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import _sparsetools
 
-__all__ = ["JointFilter", "MeetingMaps"]
+__all__ = ["JointFilter", "MeetingMaps", "linear_map"]
 
 
 def _expand(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -37,9 +37,11 @@ def _expand(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return i, k
 
 
-def _linear_map(keys, within, columns, data, dtype) -> tuple[np.ndarray, tuple]:
+def linear_map(keys, within, columns, data, dtype) -> tuple[np.ndarray, tuple]:
     """A CSR map summing ``data[n]·x[columns[n]]`` into the output entry ``keys[n]``: its rows
-    are the distinct keys (ascending, returned first), each row's terms ordered by ``within``."""
+    are the distinct keys (ascending, returned first), each row's terms ordered by ``within``.
+    scipy's mat-vec kernel adds a row's terms in that order from 0, so the map reproduces any
+    sum whose order is known (used by the planner's meeting step as well)."""
     order = np.lexsort((within, keys))
     keys = keys[order]
     uniq, start = np.unique(keys, return_index=True)
@@ -65,7 +67,7 @@ class MeetingMaps:
         gj.sort_indices()
         # first map: meeting value e times Gⱼ entry k lands on Y[mi[e], column of k]
         e, k = _expand(gj.indptr.astype(np.intp), mj)
-        y_keys, self._first = _linear_map(mi[e] * S + gj.indices[k], e, e, gj.data[k], dtype)
+        y_keys, self._first = linear_map(mi[e] * S + gj.indices[k], e, e, gj.data[k], dtype)
         # second map: Y entry y = (a, c) times Gᵢᵀ entry kk = (r, a) lands on C[r, c]
         by_column = np.argsort(GT_i.indices, kind="stable")
         column_ptr = np.searchsorted(GT_i.indices[by_column], np.arange(S + 1))
@@ -73,7 +75,7 @@ class MeetingMaps:
         kk = by_column[p]
         gi_rows = np.repeat(np.arange(S), np.diff(GT_i.indptr))
         c_key = gi_rows[kk] * S + y_keys[y_index] % S
-        self._c_keys, self._second = _linear_map(c_key, kk, y_index, GT_i.data[kk], dtype)
+        self._c_keys, self._second = linear_map(c_key, kk, y_index, GT_i.data[kk], dtype)
         self._n = (len(mi), len(y_keys), len(self._c_keys))
 
     def add_to(self, out: np.ndarray, M: np.ndarray) -> None:

@@ -12,6 +12,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import _sparsetools
 
+from mirl.learning.joint_filter import linear_map
+
 __all__ = ["MeetingStep", "PairSightings"]
 
 
@@ -36,9 +38,12 @@ class MeetingStep:
         x_sj, x_a = np.divmod(self._x_at, S)
         self._src2, self._coef2, b, a2 = self._terms(mixed_T[1], x_sj, x_a, S)
         self._out_at, self._dst2 = np.unique(b * S + a2, return_inverse=True)
-        self._maps = (
-            _term_map(self._dst1, self._src1, self._coef1, len(self._x_at), len(self.at)),
-            _term_map(self._dst2, self._src2, self._coef2, len(self._out_at), len(self._x_at)),
+        self._maps = tuple(  # rows: every X (Y) entry; terms in input order
+            (len(rows), n_in, *linear_map(dst, np.arange(len(dst)), src, coef, np.int64)[1])
+            for rows, n_in, dst, src, coef in (
+                (self._x_at, len(self.at), self._dst1, self._src1, self._coef1),
+                (self._out_at, len(self._x_at), self._dst2, self._src2, self._coef2),
+            )
         )
 
     @staticmethod
@@ -63,15 +68,6 @@ class MeetingStep:
         _sparsetools.csr_matvec(n_x, n_met, *first, met, x)
         _sparsetools.csr_matvec(n_out, n_x, *second, x, y)
         out_t[self._out_at] += y  # unique positions: out + y, element by element
-
-
-def _term_map(dst: np.ndarray, src: np.ndarray, coef: np.ndarray, n_rows: int, n_cols: int):
-    """(n_rows, n_cols, indptr, indices, data) of the CSR map y[dst[n]] += coef[n]·x[src[n]],
-    each row's terms in input order."""
-    order = np.argsort(dst, kind="stable")
-    indptr = np.searchsorted(dst[order], np.arange(n_rows + 1))
-    index = np.int32 if max(n_cols, len(dst)) < 2**31 else np.int64
-    return n_rows, n_cols, indptr.astype(index), src[order].astype(index), coef[order]
 
 
 class PairSightings:
