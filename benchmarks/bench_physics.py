@@ -10,7 +10,7 @@
    executed actions, (b) L's full-view camera observations labelled by the true policy (Known
    R/T), (c) the whole mirl-t learner (``learn``) on L's full-view observations, 300 steps.
 3. **Speed.** A 750-step (25-minute) run with three robots (I, J, L): CPU and wall seconds and
-   the real-time factor; ``run_episode(world_kind="physics")`` end to end.
+   the real-time factor; ``run_episode(world="physics")`` end to end.
 """
 
 from __future__ import annotations
@@ -108,11 +108,11 @@ def speed(repeats: int = 3) -> None:
     cpus, walls, outs = [], [], []
     for seed in range(5):
         c, t = time.process_time(), time.perf_counter()
-        res = run_episode(sc, "mirl-t", seed=seed, world_kind="physics")
+        res = run_episode(sc, "mirl-t", seed=seed, world="physics")
         cpus.append(time.process_time() - c)
         walls.append(time.perf_counter() - t)
         outs.append(f"{res.outcome}@{res.end_time}")
-    print(f"run_episode(mirl-t, world_kind='physics'), 5 seeds: CPU median {np.median(cpus):.1f} "
+    print(f"run_episode(mirl-t, world='physics'), 5 seeds: CPU median {np.median(cpus):.1f} "
           f"s (max {max(cpus):.1f}), wall median {np.median(walls):.1f} s (max "
           f"{max(walls):.1f}); {', '.join(outs)}")  # fmt: skip
 

@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from mirl.learning.dbn_em import em_fit, em_transition_model, expected_counts, initial_transitions
-from mirl.planning.random_go import random_go
 from mirl.simulation.grid import simulate
 from mirl.world.domain import PatrolDomain
 from mirl.world.maps import parse_map
@@ -118,7 +117,11 @@ def test_em_rejects_bad_input(tiny):
 
 
 def test_random_go_is_uniform_over_the_window():
+    from mirl.experiments.episode import _random_going
+    from mirl.planning.observer import observer_model
+
+    model = observer_model(load_scenario("boyd2"))
     rng = np.random.default_rng(0)
-    draws = np.array([random_go(rng, 5) for _ in range(3000)])
+    draws = np.array([_random_going(model, 0, 5, rng).go_time for _ in range(3000)])
     assert draws.min() == 0 and draws.max() == 5
     assert np.bincount(draws) / len(draws) == pytest.approx(np.full(6, 1 / 6), abs=0.03)

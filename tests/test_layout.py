@@ -16,8 +16,15 @@ import mirl
 
 ROOT = Path(mirl.__file__).parent
 README = ROOT.parents[1] / "README.md"
-MAX_MODULE_LINES = 430  # "~400": the largest, physics/patrol.py, is one class (the physical world)
-MAX_FUNCTION_LINES = 80
+# A guideline, not a cap: a module longer than this, or a function longer than that, needs a
+# reason a reviewer accepts, written in LONG_ON_PURPOSE. A module holds one concept whatever its
+# length; it is never split to meet a number.
+MODULE_GUIDELINE = 700
+FUNCTION_GUIDELINE = 100
+LONG_ON_PURPOSE = {  # "path/in/package.py" or "path.py:function" -> the reason
+    "experiments/episode.py:run_episode": "the run protocol's knobs are its keyword arguments, "
+    "one a line; the body is the four phases in order",
+}
 STAGES = ("mdp", "world", "observations", "simulation", "learning", "planning",
           "experiments", "envs", "viz", "cli")  # fmt: skip
 
@@ -54,20 +61,43 @@ def test_every_stage_is_a_documented_package():
         assert doc and len(doc.split()) >= 15, f"{path}: needs a docstring saying what it holds"
 
 
-def test_modules_and_functions_fit_in_one_sitting():
+def test_long_modules_and_functions_have_a_reason():
     for path in _modules():
         text = path.read_text()
+        rel = path.relative_to(ROOT).as_posix()
         n = text.count("\n")
-        assert n <= MAX_MODULE_LINES, f"{path.relative_to(ROOT)}: {n} lines"
+        assert n <= MODULE_GUIDELINE or rel in LONG_ON_PURPOSE, f"{rel}: {n} lines, no reason"
         for node in ast.walk(ast.parse(text)):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
                 length = node.end_lineno - node.lineno + 1
-                doc = ast.get_docstring(node) or ""
-                if length > MAX_FUNCTION_LINES:
-                    assert "Long because" in doc, (
-                        f"{path.relative_to(ROOT)}:{node.lineno} {node.name}: {length} lines "
-                        "and no reason ('Long because ...') at its top"
+                key = f"{rel}:{node.name}"
+                assert length <= FUNCTION_GUIDELINE or key in LONG_ON_PURPOSE, (
+                    f"{key} (line {node.lineno}): {length} lines, no reason"
+                )
+
+
+def test_no_string_comparison_with_a_method_or_world_name_outside_its_table():
+    """What differs between methods or worlds is read from their tables' rows, never decided by
+    comparing a name, so adding one is a row and not a hunt through the code."""
+    from mirl.experiments.worlds import WORLDS
+    from mirl.learning.methods import METHODS
+
+    names = set(METHODS) | set(WORLDS)
+    tables = {"learning/methods.py", "experiments/worlds.py"}
+    found = []
+    for path in _modules():
+        rel = path.relative_to(ROOT).as_posix()
+        if rel in tables:
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Compare):
+                for side in (node.left, *node.comparators):
+                    consts = (
+                        side.elts if isinstance(side, ast.Tuple | ast.List | ast.Set) else [side]
                     )
+                    if any(isinstance(c, ast.Constant) and c.value in names for c in consts):
+                        found.append(f"{rel}:{node.lineno}")
+    assert found == []
 
 
 def test_public_face_resolves_every_name():

@@ -80,7 +80,7 @@ def test_experiment_in_physics_world():
 
     exp = in_world(get_experiment("table1"), "physics")
     assert {c.world for c in exp.conditions} == {"physics"}
-    assert "physical world" in exp.description
+    assert "physics world" in exp.description
     grid = Condition("mirl-t")
     assert "world" not in grid.key  # grid keys unchanged: old result stores still resume
     assert Condition.from_key(exp.conditions[0].key).world == "physics"

@@ -149,13 +149,16 @@ def test_default_run_is_the_main_job(capsys):
 
 
 def test_l_replans_when_it_outlives_its_plan(boyd2):
-    from mirl.experiments.execution import RunWorld, execute
+    from mirl.experiments.execution import PlanFollower, execute
+    from mirl.experiments.grid_world import GridRunWorld
     from mirl.planning.belief import BeliefFilter
     from mirl.planning.go import solve_observer_mdp
 
-    world = RunWorld(boyd2, 0.14, seed=2)  # both patrollers start in the lower hallway
     model = observer_model(boyd2)
-    belief = BeliefFilter(boyd2.domain, oracle_models(boyd2), visible=world.sim.visible)
+    world = GridRunWorld(  # both patrollers start in the lower hallway
+        boyd2, model, observability=0.14, seed=2, noise=np.random.SeedSequence(0)
+    )
+    belief = BeliefFilter(boyd2.domain, oracle_models(boyd2), visible=world.visible)
     belief.update(world.seen[0])
     calls = []
 
@@ -164,16 +167,7 @@ def test_l_replans_when_it_outlives_its_plan(boyd2):
         return solve_observer_mdp(model, belief.predict(40, model), window=0)
 
     short = solve_observer_mdp(model, belief.predict(2, model), window=0)  # two steps only
-    outcome, path, _, plan = execute(
-        world,
-        model,
-        lambda k, s: int(short.policy[k, s]),
-        short,
-        np.random.default_rng(0),
-        belief,
-        replan,
-        200,
-        boyd2.robot_names,
-    )
-    assert calls[0] == 2 and plan is not short
+    follower = PlanFollower(lambda k, s: int(short.policy[k, s]), short, replan, world.t)
+    outcome, path, _ = execute(world, model, follower, belief, 200)
+    assert calls[0] == 2 and follower.plan is not short
     assert outcome in OUTCOMES and len(path) > 3

@@ -69,19 +69,12 @@ __all__ = [
 ]
 
 
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version  # ~20-80 ms: only when asked
-
-    try:
-        return version("mirl")
-    except PackageNotFoundError:  # running from a source tree without installation
-        return "0.0.0+unknown"
-
-
 def __getattr__(name: str) -> Any:
     # PEP 562: import the defining module on first use (keeps `mirl --version` fast)
     if name == "__version__":
-        globals()[name] = value = _version()
+        from mirl._version import package_version
+
+        globals()[name] = value = package_version()
         return value
     if name in _EXPORTS:
         value = getattr(import_module(_EXPORTS[name]), name)

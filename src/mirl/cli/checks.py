@@ -12,6 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
+from mirl.experiments.worlds import get_world
+from mirl.learning.methods import METHODS
+
 __all__ = [
     "UsageError",
     "FIGURE_SUFFIXES",
@@ -38,7 +41,6 @@ MIN_TRIALS = 10
 MAX_POSES_PER_STEP = 1000
 MAX_POSES = 20_000_000
 MAX_POSE_NOISE = (100.0, 360.0)  # metres, degrees: beyond, a pose says nothing of its cell
-FIXED_P_METHODS = ("mirl", "known-r")  # the methods whose every action succeeds with --p
 DEFAULT_P = 0.9
 
 
@@ -95,7 +97,7 @@ def check_pose_flags(args) -> None:
     ]
     if given and not args.poses:
         raise UsageError(f"{given[0]} shapes the poses --poses writes; give --poses OUT too")
-    if given and args.world == "physics":
+    if given and get_world(args.world).records_poses:
         raise UsageError(f"{given[0]}: the physics world writes its own tracks (L's camera, and "
                          "the true poses at the control rate); leave it out")  # fmt: skip
     args.pose_rate = 10.0 if args.pose_rate is None else args.pose_rate
@@ -128,7 +130,7 @@ def check_poses_output(path: str | None, world: str) -> None:
     if not path:
         return
     out = Path(path)
-    kinds = (".csv", ".mcap") if world == "physics" else (".csv", ".mcap", "")
+    kinds = (".csv", ".mcap") if get_world(world).records_poses else (".csv", ".mcap", "")
     if out.suffix.lower() not in kinds:
         raise UsageError(
             f"--poses {out}: expected a .csv or .mcap file"
@@ -143,8 +145,9 @@ def check_poses_output(path: str | None, world: str) -> None:
 
 def check_fixed_p(args) -> float:
     """``--p`` only for the methods that fix every action's success at p; returns the p to use."""
-    if args.p is not None and args.method not in FIXED_P_METHODS:
-        raise UsageError(f"--p applies to --method {' and '.join(FIXED_P_METHODS)} only (they "
+    if args.p is not None and not METHODS[args.method].uses_p:
+        fixed_p = [m.name for m in METHODS.values() if m.uses_p]
+        raise UsageError(f"--p applies to --method {' and '.join(fixed_p)} only (they "
                          f"fix every action's success at p), not {args.method}")  # fmt: skip
     return DEFAULT_P if args.p is None else args.p
 

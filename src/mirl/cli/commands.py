@@ -25,6 +25,8 @@ from mirl.cli.checks import (
     unique_lowest,
     warn,
 )
+from mirl.experiments.worlds import DEFAULT_WORLD, WorldSpec, get_world
+from mirl.learning.methods import METHODS
 
 __all__ = ["COMMANDS", "UsageError", "print_json"]
 
@@ -43,30 +45,25 @@ def _load_scenario(args: argparse.Namespace):
     from mirl.world.scenario import load_scenario, parse_damage
 
     scenario = load_scenario(args.scenario)
-    physics = getattr(args, "world", "grid") == "physics"
-    if physics:
-        _need_physics()
-        from mirl.physics.config import with_motor_strength
+    world = _world(getattr(args, "world", DEFAULT_WORLD))
     for text in getattr(args, "damage", None) or []:
         robot, feature, p = parse_damage(text)
-        try:
-            if physics:  # in the physical world the value is the wheel motor's strength
-                scenario = with_motor_strength(scenario, robot, feature, p)
-            else:
-                scenario = scenario.with_damage(robot, feature, p)
+        try:  # what the value means is the world's: a success probability, a motor strength
+            scenario = world.load().apply_damage(scenario, robot, feature, p)
         except ValueError as exc:  # name the flag, as parse_damage's own errors do
             raise UsageError(f"--damage '{text}': {exc}") from None
     return scenario
 
 
-def _need_physics() -> None:
-    """One line naming the extra when MuJoCo is missing (exit 2)."""
-    from mirl.physics import require_mujoco
-
+def _world(name: str) -> WorldSpec:
+    """The row of world ``name``, refused in one line naming the extra to install when its
+    optional dependencies are missing (exit 2)."""
+    world = get_world(name)
     try:
-        require_mujoco()
+        world.check()
     except ImportError as exc:
         raise UsageError(str(exc)) from None
+    return world
 
 
 @command("show-map")
@@ -107,8 +104,8 @@ def _simulate(args: argparse.Namespace) -> int:
             check_output(path, flag)
     check_poses_output(args.poses, args.world)
     scenario = _load_scenario(args)
-    if args.world == "physics":
-        from mirl.cli.physical import simulate_physics
+    if get_world(args.world).records_poses:
+        from mirl.cli.simulate_physics import simulate_physics
 
         return simulate_physics(args, scenario)
     start = time.perf_counter()
@@ -272,10 +269,10 @@ def _experiment(args: argparse.Namespace) -> int:
 
     check_experiment_flags(args)
     exp = with_em_init(get_experiment(args.name), args.em_init)  # unknown: one line, exit 2
-    if args.world == "physics":
-        _need_physics()
+    _world(args.world)
     exp = in_world(exp, args.world)
-    out = args.out or f"results/{exp.name}" + ("-physics" if args.world == "physics" else "")
+    suffix = "" if args.world == DEFAULT_WORLD else f"-{args.world}"
+    out = args.out or f"results/{exp.name}{suffix}"
     summary = run_experiment(
         exp,
         out,
@@ -329,7 +326,7 @@ def _run(args: argparse.Namespace) -> int:
         p=check_fixed_p(args),
         max_wait=args.max_wait,
         learn_options={"em_init": args.em_init} if args.em_init else None,
-        world_kind=args.world,
+        world=args.world,
     )
     if args.json:
         print_json(result.to_dict())
@@ -387,7 +384,7 @@ def _learn(args: argparse.Namespace) -> int:
 
 
 def _check_em_init(args: argparse.Namespace) -> None:
-    if args.em_init is not None and args.method != "dbn-em":
+    if args.em_init is not None and not METHODS[args.method].uses_em_init:
         raise UsageError(f"--em-init applies to --method dbn-em only, not {args.method}")
 
 

@@ -19,15 +19,15 @@ from mirl.cli.flags import (
     seed,
     step_seconds,
 )
+from mirl.experiments.worlds import DEFAULT_WORLD, WORLDS
+from mirl.learning.methods import LEARNING_METHODS, METHODS
 
 __all__ = ["build_parser"]
 
-# Literal copies of the learning and run modules' tuples, so that building the parser imports
-# none of them (issue 12); tests/test_startup.py checks that they match their sources.
-LEARN_METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "oracle")  # learning.learn
+# Literal copies of tuples whose modules import numpy and scipy, so that building the parser
+# imports none of them; tests/test_startup.py checks that they match their sources.
 IRL_OBJECTIVES = ("counts", "likelihood", "both", "sequence")  # learning.irl.OBJECTIVES
 IRL_OPTIMIZERS = ("nelder-mead", "lbfgs")  # learning.irl.OPTIMIZERS
-RUN_METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "random", "oracle")  # records
 RUN_MAX_WAIT = 450  # experiments.records.MAX_WAIT
 RUN_WATCH_UNTIL_SEEN = 40  # experiments.records.WATCH_UNTIL_SEEN
 RUN_WATCH_LIMIT = 1800  # experiments.records.WATCH_LIMIT
@@ -41,9 +41,9 @@ class _VersionAction(argparse.Action):
         super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
 
     def __call__(self, parser, namespace, values, option_string=None) -> None:
-        from mirl import __version__
+        from mirl._version import package_version
 
-        print(f"mirl {__version__}")
+        print(f"mirl {package_version()}")
         parser.exit()
 
 
@@ -58,7 +58,7 @@ def _learn_parser(sub) -> None:
     _observation_args(le)
     le.add_argument(
         "--method",
-        choices=[m for m in LEARN_METHODS if m != "oracle"],
+        choices=[m for m in LEARNING_METHODS if METHODS[m].learns],
         default="mirl-t",
         help="learning method (mirl-t is the paper's mIRL*/T+Int; see README 'Methods')",
     )
@@ -109,7 +109,7 @@ def _run_parser(sub) -> None:
     _world_arg(ru)
     ru.add_argument(
         "--method",
-        choices=RUN_METHODS,
+        choices=tuple(METHODS),
         default="mirl-t",
         help="how L models the patrollers (mirl-t is the paper's mIRL*/T+Int; see README)",
     )
@@ -378,11 +378,13 @@ def _data_parsers(sub) -> None:
 def _world_arg(sp: argparse.ArgumentParser) -> None:
     sp.add_argument(
         "--world",
-        choices=("grid", "physics"),
-        default="grid",
-        help="grid simulator (default) or the physical world: differential-drive robots in "
-        'MuJoCo seen through cameras (pip install "mirl[physics]"); there --damage '
-        "ROBOT:left_wheel=S sets a wheel motor's strength S",
+        choices=tuple(WORLDS),
+        default=DEFAULT_WORLD,
+        help="; ".join(
+            f"{w.name}: {w.description}, where --damage sets {w.damage}"
+            + (f' (pip install "mirl[{w.requirement_extra}]")' if w.requirement_extra else "")
+            for w in WORLDS.values()
+        ),
     )
 
 

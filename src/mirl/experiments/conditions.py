@@ -25,6 +25,9 @@ from typing import Any
 
 import numpy as np
 
+from mirl.experiments.worlds import DEFAULT_WORLD, WORLDS
+from mirl.learning.methods import METHODS
+
 __all__ = [
     "Condition",
     "Experiment",
@@ -55,7 +58,7 @@ class Condition:
     observability: float = 0.14
     obs_steps: int = DEFAULT_OBS_STEPS
     p: float | None = None
-    world: str = "grid"  # or "physics" (mirl.physics, MuJoCo)
+    world: str = DEFAULT_WORLD  # a name in mirl.experiments.worlds.WORLDS
     em_init: str | None = None  # DBN-EM's initial T; None: the default ("intended")
 
     @property
@@ -66,7 +69,7 @@ class Condition:
         fields = {
             k: v
             for k, v in asdict(self).items()
-            if not (k == "em_init" and v is None) and not (k == "world" and v == "grid")
+            if not (k == "em_init" and v is None) and not (k == "world" and v == DEFAULT_WORLD)
         }
         return json.dumps(fields, sort_keys=True, separators=(",", ":"))
 
@@ -82,14 +85,14 @@ class Condition:
 
 def in_world(experiment: Experiment, world: str) -> Experiment:
     """The same grid of conditions run in another world (``mirl experiment --world``)."""
-    if world == "grid":
+    if world == DEFAULT_WORLD:
         return experiment
-    if world != "physics":
-        raise StoreError(f"unknown world '{world}' (known: grid, physics)")
+    if world not in WORLDS:
+        raise StoreError(f"unknown world '{world}' (known: {', '.join(WORLDS)})")
     if experiment.run_function is not episode_run:
         raise StoreError(f"experiment '{experiment.name}' has no physical version")
     conds = tuple(replace(c, world=world) for c in experiment.conditions)
-    desc = experiment.description.replace("on the grid simulator", "in the physical world")
+    desc = experiment.description.replace("on the grid simulator", f"in the {world} world")
     return replace(experiment, conditions=conds, description=f"{desc} ({world} world)")
 
 
@@ -115,7 +118,7 @@ def code_version() -> str:
     """The library version plus a hash of the package's source and shipped data, so rows that
     different code computed are told apart even between releases (work in progress, a
     resumed sweep after an edit)."""
-    from mirl import __version__  # importlib.metadata (~20-80 ms): not for `mirl run`
+    from mirl._version import package_version
 
     root = Path(__file__).parents[1]  # the whole mirl package, not just this stage
     h = hashlib.sha256()
@@ -123,7 +126,7 @@ def code_version() -> str:
         if p.is_file() and p.suffix in {".py", ".txt", ".toml"}:
             h.update(p.relative_to(root).as_posix().encode())
             h.update(p.read_bytes())
-    return f"{__version__}+src.{h.hexdigest()[:10]}"
+    return f"{package_version()}+src.{h.hexdigest()[:10]}"
 
 
 def run_seed(base_seed: int, run: int) -> int:
@@ -159,7 +162,7 @@ def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
         observability=condition.observability,
         obs_steps=condition.obs_steps,
         seed=seed,
-        world_kind=condition.world,
+        world=condition.world,
         **kwargs,
     )
     return _flatten_run_result(result)
@@ -183,10 +186,9 @@ def _flatten_run_result(result: Any) -> dict[str, Any]:
         out[f"seen_steps_{robot}"] = int(n)
     out["plan_value"] = _maybe_float(getattr(result, "plan_value", None))
     out["plan_attempts"] = len(getattr(result, "attempts", ()) or ())
-    physical = getattr(result, "physical", None)
-    if physical is not None:  # robot-robot and robot-wall contact events of a physical run
-        out["contacts"] = int(physical.contacts)
-        out["wall_contacts"] = int(physical.wall_contacts)
+    extras = getattr(result, "extras", None)
+    if extras is not None:  # the world's own counts (the physics world's contact events)
+        out.update({k: v for k, v in extras.to_dict().items() if isinstance(v, int | float)})
     return out
 
 
@@ -317,9 +319,9 @@ def with_em_init(exp: Experiment, init: str | None) -> Experiment:
     """``exp`` with DBN-EM's initialisation set on its dbn-em conditions (None: unchanged)."""
     if init is None:
         return exp
-    if not any(c.method == "dbn-em" for c in exp.conditions):
+    if not any(METHODS[c.method].uses_em_init for c in exp.conditions):
         raise StoreError(f"--em-init: experiment {exp.name} has no dbn-em runs to initialise")
     conditions = tuple(
-        replace(c, em_init=init) if c.method == "dbn-em" else c for c in exp.conditions
+        replace(c, em_init=init) if METHODS[c.method].uses_em_init else c for c in exp.conditions
     )
     return replace(exp, conditions=conditions)

@@ -48,22 +48,16 @@ from typing import Any
 
 import numpy as np
 
-from mirl.experiments.execution import RunWorld, execute, wait_for_go
-from mirl.experiments.records import (
-    LEARNED_METHODS,
-    MAX_WAIT,
-    METHODS,
-    WATCH_LIMIT,
-    Detection,
-    PlanAttempt,
-    RunResult,
-)
+from mirl.experiments.execution import PlanFollower, execute, wait_for_go
+from mirl.experiments.records import MAX_WAIT, WATCH_LIMIT, Detection, PlanAttempt, RunResult
+from mirl.experiments.worlds import DEFAULT_WORLD, RunWorld, make_world
 from mirl.learning.learn import learn
+from mirl.learning.methods import get_method
 from mirl.learning.models import LearnResult, behavior_accuracy, oracle_models
+from mirl.observations.trajectories import Trajectories
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.go import ObserverPlan, solve_observer_mdp
 from mirl.planning.observer import ObserverModel, observer_model, shortest_path_policy
-from mirl.planning.random_go import random_go
 from mirl.world.scenario import Scenario
 
 __all__ = ["run_episode"]
@@ -118,22 +112,18 @@ def run_episode(
     learned: LearnResult | None = None,
     watch_until_seen: int | None = None,
     max_obs_steps: int = WATCH_LIMIT,
-    world_kind: str = "grid",
+    world: str = DEFAULT_WORLD,
 ) -> RunResult:
     """Run one penetration (module doc). ``learned`` overrides learning (for tests and
     experiments with hand-made models). ``travel_steps`` is the part of the planning horizon
-    after the last go time (default: 3 × L's shortest path, at least 20). ``world_kind``
-    ``"physics"`` runs the same protocol in MuJoCo (:mod:`mirl.experiments.physical`).
+    after the last go time (default: 3 × L's shortest path, at least 20). ``world`` names the
+    world of :data:`~mirl.experiments.worlds.WORLDS` the run happens in (``"physics"``: MuJoCo).
 
     ``watch_until_seen=K`` (``mirl run``'s default; None here, so experiments keep the paper's
     fixed observation time): L observes at least ``obs_steps`` steps and then keeps watching
     until it has seen every patroller on K steps, or ``max_obs_steps`` have passed.
-
-    Long because its keyword arguments are the run protocol's knobs, each documented in the
-    module docstring; the body is the four phases in order, each a call.
     """
-    if method not in METHODS:
-        raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
+    spec = get_method(method)
     if obs_steps < 1:
         raise ValueError(f"obs_steps must be at least 1, got {obs_steps}")
     if watch_until_seen is not None and not 1 <= watch_until_seen <= max_obs_steps:
@@ -147,31 +137,23 @@ def run_episode(
 
     clock = time.perf_counter()
     model = observer_model(scenario)
-    world: RunWorld  # or the physical world's stand-in with the same interface
-    if world_kind == "physics":
-        from mirl.experiments.physical import PhysicalRunWorld, execute_physical
-
-        start_heading = int(model.domain.states[model.start_state][2])
-        world = PhysicalRunWorld(  # type: ignore[assignment]
-            scenario, degree, int(sim_seed.generate_state(1)[0]), observer_heading=start_heading
-        )
-    elif world_kind == "grid":
-        world = RunWorld(scenario, degree, int(sim_seed.generate_state(1)[0]))
-    else:
-        raise ValueError(f"unknown world '{world_kind}' (known: grid, physics)")
-    _observe(world, obs_steps, watch_until_seen, max_obs_steps)
-    t_obs = world.t  # last step of the observation phase
+    run_world = make_world(
+        world, scenario, model, observability=degree,
+        seed=int(sim_seed.generate_state(1)[0]), noise=noise_seed,
+    )  # fmt: skip
+    _observe(run_world, obs_steps, watch_until_seen, max_obs_steps)
+    t_obs = run_world.t  # last step of the observation phase
     timings["observe"] += time.perf_counter() - clock
 
     clock = time.perf_counter()
-    if learned is None and method == "oracle":
+    if learned is None and spec.plans and not spec.learns:
         learned = oracle_models(scenario)
-    elif learned is None and method in LEARNED_METHODS:
-        observations = world.observations(scenario.robot_names, t_obs)
+    elif learned is None and spec.learns:
+        observations = _observations(scenario, run_world, t_obs)
         learn_seed_int = int(learn_seed.generate_state(1)[0])
         kwargs: dict[str, Any] = {"method": method, "p": p, **(learn_options or {})}
         # the run's observability (maybe not the scenario's) and the run's learning stream
-        kwargs.setdefault("visible", world.sim.visible)
+        kwargs.setdefault("visible", run_world.visible)
         kwargs.setdefault("random_state", learn_seed_int)
         learned = learn(observations, scenario, **kwargs)
     timings["learn"] += time.perf_counter() - clock
@@ -187,38 +169,33 @@ def run_episode(
         goal_reward=goal_reward,
         detection_penalty=detection_penalty,
     )
-    if method == "random":
+    if not spec.plans:
         going = _random_going(model, t_obs, window, np.random.default_rng(random_seed))
     else:
         assert learned is not None
-        visible = world.sim.visible if negative_evidence else None
+        visible = run_world.visible if negative_evidence else None
         belief = BeliefFilter(scenario.domain, learned, visible=visible, joint=joint)
-        going = _planned_going(world, belief, model, planning, timings)
+        going = _planned_going(run_world, belief, model, planning, timings)
 
-    outcome, path, detections, plan = "timeout", [], [], going.plan
+    outcome, plan = "timeout", going.plan
+    path: list[tuple[int, ...]] = []
+    detections: list[Detection] = []
     if going.go_time is not None:
         clock = time.perf_counter()
-        while world.t < going.go_time:  # only the random baseline still has to wait here
-            world.step()
+        while run_world.t < going.go_time:  # only the random baseline still has to wait here
+            run_world.step()
         timings["observe"] += time.perf_counter() - clock
         clock = time.perf_counter()
-        run = execute_physical if world_kind == "physics" else execute
-        outcome, path, detections, plan = run(
-            world,  # type: ignore[arg-type]
-            model,
-            going.policy,
-            going.plan,
-            np.random.default_rng(noise_seed),
-            going.belief,
-            going.replan,
-            10 * (planning.travel + 1),
-            scenario.robot_names,
+        follower = PlanFollower(going.policy, going.plan, going.replan, run_world.t)
+        outcome, path, detections = execute(
+            run_world, model, follower, going.belief, 10 * (planning.travel + 1)
         )
+        plan = follower.plan
         timings["execute"] += time.perf_counter() - clock
     timings["total"] = time.perf_counter() - t_start
     timings["cpu"] = time.process_time() - cpu_start  # this process's CPU time (busy machines)
     result = _run_result(
-        scenario, method, int(seed), degree, t_obs + 1, world, t_obs, learned, going,
+        scenario, method, int(seed), degree, t_obs + 1, run_world, t_obs, learned, going,
         (outcome, path, detections, plan), timings,
     )  # fmt: skip
     return replace(result, watch_until_seen=watch_until_seen)
@@ -233,19 +210,21 @@ def _observe(world: RunWorld, obs_steps: int, until_seen: int | None, limit: int
         return
     counts = (np.asarray(world.seen) >= 0).sum(axis=0)
     while counts.min() < until_seen and world.t + 1 < limit:
-        counts += world.step_seen() >= 0
+        world.step()
+        counts += world.seen[-1] >= 0
 
 
 def _random_going(
     model: ObserverModel, t_obs: int, window: int, rng: np.random.Generator
 ) -> _Going:
-    """The random baseline: a uniform go time in the window, then a shortest path."""
+    """The random baseline: L ignores what it saw, goes at a uniform time in 0 … ``window``
+    steps after observing, and follows a shortest path to its goal."""
     fixed = shortest_path_policy(model)
 
     def policy(k: int, s: int) -> int:
         return int(fixed[s])
 
-    return _Going(go_time=t_obs + random_go(rng, window), policy=policy)
+    return _Going(go_time=t_obs + int(rng.integers(0, window + 1)), policy=policy)
 
 
 def _planned_going(
@@ -333,12 +312,18 @@ def _run_result(
         observer_path=np.asarray(path, dtype=int).reshape(-1, 4),
         detections=tuple(detections),
         true_states=np.asarray(world.true),
-        observations=world.observations(names, world.t),
+        observations=_observations(scenario, world, world.t),
         attempts=going.attempts,
         robot_names=names,
         end_time=world.t,
         learned=learned,
         plan=plan,
         seen_steps={n: int((seen_arr[:, i] >= 0).sum()) for i, n in enumerate(names)},
-        physical=getattr(world, "physics", None),
+        extras=world.extras(),
     )
+
+
+def _observations(scenario: Scenario, world: RunWorld, until: int) -> Trajectories:
+    """Everything L saw from its room up to step ``until``."""
+    seen = np.asarray(world.seen[: until + 1])
+    return Trajectories.from_states(scenario.domain, scenario.robot_names, seen)

@@ -1,7 +1,6 @@
 """The two halves of a run after learning: L waiting in its room and re-planning until its go
-time (:func:`wait_for_go`), then L driving its plan while the patrollers move on
-(:func:`execute`). The world they act in is :class:`RunWorld`: the grid simulator plus L's
-record of what it saw."""
+time (:func:`wait_for_go`), then L following its plan while the patrollers move on
+(:func:`execute`), in any :class:`~mirl.experiments.worlds.RunWorld`."""
 
 from __future__ import annotations
 
@@ -11,46 +10,12 @@ from collections.abc import Callable
 import numpy as np
 
 from mirl.experiments.records import Detection, PlanAttempt
-from mirl.observations.trajectories import Trajectories
+from mirl.experiments.worlds import RunWorld
 from mirl.planning.belief import NOT_WATCHING, BeliefFilter
 from mirl.planning.go import ObserverPlan
 from mirl.planning.observer import ObserverModel
-from mirl.simulation.grid import PatrolSimulator
-from mirl.world.scenario import Scenario
 
-__all__ = ["RunWorld", "wait_for_go", "execute", "PlanFollower", "propagate_blind"]
-
-
-class RunWorld:
-    """The simulator plus L's record of it; one instance per run."""
-
-    def __init__(self, scenario: Scenario, observability: float, seed: int) -> None:
-        self.sim = PatrolSimulator(scenario, observability=observability)
-        obs, info = self.sim.reset(seed=seed, options={"random_starts": True})
-        self.domain = scenario.domain
-        self.true: list[np.ndarray] = [info["states"].copy()]
-        self.seen: list[np.ndarray] = [self._seen(obs)]
-        self.t = 0
-
-    def _seen(self, obs: np.ndarray) -> np.ndarray:
-        out = np.full(self.sim.n_robots, -1, dtype=int)
-        out[obs[:, 0]] = self.domain.state_index(obs[:, 1], obs[:, 2], obs[:, 3])
-        return out
-
-    def step(self) -> np.ndarray:
-        obs, _, _, _, info = self.sim.step()
-        self.t += 1
-        self.true.append(info["states"].copy())
-        self.seen.append(self._seen(obs))
-        return self.true[-1]
-
-    def step_seen(self) -> np.ndarray:
-        """Step, and return what L saw (state index per robot, -1 unseen)."""
-        self.step()
-        return self.seen[-1]
-
-    def observations(self, names: tuple[str, ...], until: int) -> Trajectories:
-        return Trajectories.from_states(self.domain, names, np.asarray(self.seen[: until + 1]))
+__all__ = ["wait_for_go", "execute", "PlanFollower", "propagate_blind"]
 
 
 def wait_for_go(
@@ -98,52 +63,41 @@ def wait_for_go(
 def execute(
     world: RunWorld,
     model: ObserverModel,
-    policy: Callable[[int, int], int],
-    plan: ObserverPlan | None,
-    rng: np.random.Generator,
+    follower: PlanFollower,
     belief: BeliefFilter | None,
-    replan: Callable[[], ObserverPlan] | None,
     max_steps: int,
-    names: tuple[str, ...],
-):
-    """L leaves its start cell now and follows ``policy(k, state)`` (re-planning with
-    ``replan`` if it outlives ``plan``); returns the outcome, L's path (t, row, col, heading),
-    the detections and the plan finally followed. More than ``max_steps`` steps: timeout."""
+) -> tuple[str, list[tuple[int, ...]], list[Detection]]:
+    """L leaves its start cell now and follows its plan (``follower``) until a patroller sees
+    it, it reaches its goal, or ``max_steps`` steps have passed.
+
+    Returns
+    -------
+    outcome : {"detected", "success", "timeout"}
+    path : list of tuple (t, row, col, heading)
+        L's states from its go time on, as L knew them.
+    detections : list of Detection
+        The sightings that ended the run (empty unless detected).
+    """
     dom = model.domain
     s = model.start_state
-    follower = PlanFollower(policy, plan, replan, world.t)
     path = [(world.t, *map(int, dom.states[s]))]
     propagate_blind(belief, world.t)  # L stopped watching when it left its room
     for _ in range(max_steps):
-        a = follower.action(s)
-        nxt = s if rng.random() < model.failure else int(dom.intended[s, a])
-        truth = world.step()
+        world.step(observer_action=follower.action(s))
         propagate_blind(belief, world.t)
-        s = nxt
+        s = world.observer_state()
         path.append((world.t, *map(int, dom.states[s])))
-        seen = model.seen_by(truth, s)
-        if seen.any():
-            row, col = map(int, dom.states[s][:2])
-            patrol_states = world.domain.states
-            dets = [
-                Detection(
-                    world.t,
-                    names[i],
-                    (int(r), int(c), int(h)),
-                    (row, col),
-                )
-                for i in np.flatnonzero(seen)
-                for r, c, h in [patrol_states[truth[i]]]
-            ]
-            return "detected", path, dets, follower.plan
-        if model.goal[s]:
-            return "success", path, [], follower.plan
-    return "timeout", path, [], follower.plan
+        detections = world.detections()
+        if detections:
+            return "detected", path, detections
+        if world.at_goal():
+            return "success", path, []
+    return "timeout", path, []
 
 
 class PlanFollower:
     """L's step policy along its time-indexed plan; when L outlives the plan it re-plans from
-    where it stands (``replan``) and follows the new one. Shared by the grid and physical worlds."""
+    where it stands (``replan``) and follows the new one."""
 
     def __init__(
         self,

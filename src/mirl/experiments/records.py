@@ -4,19 +4,19 @@ as records with a JSON form (:meth:`RunResult.to_dict`)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from mirl.experiments.worlds import Detection
 from mirl.learning.models import LearnResult
 from mirl.observations.trajectories import Trajectories
-from mirl.physics import mujoco_version
 from mirl.planning.go import ObserverPlan
 
+if TYPE_CHECKING:
+    from mirl.experiments.worlds import WorldExtras
+
 __all__ = [
-    "METHODS",
-    "LEARNED_METHODS",
-    "METHOD_NAMES",
     "MAX_WAIT",
     "WATCH_UNTIL_SEEN",
     "WATCH_LIMIT",
@@ -25,41 +25,14 @@ __all__ = [
     "RunResult",
 ]
 
-METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "random", "oracle")
-LEARNED_METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em")
-# CLI method name -> (the paper's name, what it does in plain words); README and reports use it
-METHOD_NAMES = {
-    "mirl-t": (
-        "mIRL*/T+Int",
-        "learns each patroller's transition-feature probabilities "
-        "(mIRL*/T), its reward by IRL under occlusion and their interaction, relabelling "
-        "observed steps until they settle",
-    ),
-    "mirl": ("mIRL*+Int", "learns rewards and interaction; every action succeeds with a fixed p"),
-    "known-r-t": ("Known R/T", "true rewards and interaction, learned transitions (upper bound)"),
-    "known-r": ("Known R", "true rewards and interaction, fixed success p"),
-    "dbn-em": ("DBN-EM", "transitions learned by EM over a two-slice DBN, learned rewards"),
-    "random": ("Random", "waits, then goes at a random time along a shortest path"),
-    "oracle": ("Oracle", "the true models (a ceiling; not in the paper)"),
-}
 # L may wait 450 steps (15 min) after observing: with the default 300 observation steps a run
 # lasts at most 25 min of robot time, the paper's limit for its physical runs
 MAX_WAIT = 450
-# `mirl run`'s default observation rule (issue 13): after the 300 steps, L keeps watching until
+# `mirl run`'s default observation rule: after the 300 steps, L keeps watching until
 # it has seen every patroller on WATCH_UNTIL_SEEN steps, for at most WATCH_LIMIT steps in all
 # (60 min of robot time: on boyd2 at 0.14, seed 19's J first enters L's view at t=1555)
 WATCH_UNTIL_SEEN = 40
 WATCH_LIMIT = 1800
-
-
-@dataclass(frozen=True)
-class Detection:
-    """A patroller seeing L: time, robot, the robot's (row, col, heading) and L's cell."""
-
-    t: int
-    robot: str
-    robot_state: tuple[int, int, int]
-    observer_cell: tuple[int, int]
 
 
 @dataclass(frozen=True)
@@ -98,7 +71,7 @@ class RunResult:
     learned: LearnResult | None = None
     plan: ObserverPlan | None = None  # the executed (or last) plan
     seen_steps: dict[str, int] = field(default_factory=dict)  # observation-phase sightings
-    physical: Any = None  # the mirl.physics PhysicalWorld of a --world physics run (poses, cones)
+    extras: WorldExtras | None = None  # what the run's world records beyond the interface
     watch_until_seen: int | None = None  # the observation rule of `mirl run` (None: fixed)
 
     def to_dict(self) -> dict[str, Any]:
@@ -131,16 +104,7 @@ class RunResult:
             ],
             "observer_path": self.observer_path.tolist(),
             "end_time": self.end_time,
-            **(
-                {
-                    "world": "physics",
-                    "mujoco": mujoco_version(),
-                    "contacts": self.physical.contacts,
-                    "wall_contacts": self.physical.wall_contacts,
-                }
-                if self.physical is not None
-                else {}
-            ),
+            **(self.extras.to_dict() if self.extras is not None else {}),
         }
 
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mirl.experiments.records import METHOD_NAMES, RunResult
+from mirl.experiments.records import RunResult
+from mirl.learning.methods import METHODS
 from mirl.world.scenario import Scenario
 
 HEADING_NAMES = ("east", "north", "west", "south")  # heading 0-3 (the map's x east, y north)
@@ -110,10 +111,9 @@ def _truth(scenario: Scenario, result: RunResult) -> str:
     """What is really damaged: in the grid world the scenario's success probabilities below 0.9;
     in the physics world the motor strengths the robots drive with (the grid probabilities are
     then only what the scenario would mean on the grid, not what L watches)."""
-    if result.physical is not None:
-        strengths = result.physical.cfg.motor_strength
-        weak = [f"{r}:{w}={s:g}" for r, ws in strengths.items() for w, s in ws.items() if s < 1]
-        return f"physics, motor strength: {', '.join(weak) or 'all motors healthy'}"
+    world_truth = result.extras.truth() if result.extras is not None else None
+    if world_truth is not None:
+        return world_truth
     damaged = [
         f"{r.name}:{f}={p:g}"
         for r in scenario.robots
@@ -124,12 +124,9 @@ def _truth(scenario: Scenario, result: RunResult) -> str:
 
 
 def format_report(scenario: Scenario, result: RunResult) -> str:
-    """The short readable report printed by ``mirl run``.
-
-    Long because it is one printed page, written line by line in the order it reads.
-    """
+    """The short readable report printed by ``mirl run``."""
     dom = scenario.domain
-    paper, meaning = METHOD_NAMES.get(result.method, (result.method, ""))
+    paper, meaning = METHODS[result.method].paper_name, METHODS[result.method].description
     n_vis = int(scenario.map.visible_mask(result.observability).sum())
     lines = [
         f"mirl run: scenario {scenario.name} ({_truth(scenario, result)}), "

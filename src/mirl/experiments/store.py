@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from mirl import __version__
+from mirl._version import package_version
 from mirl.experiments.conditions import (
     OUTCOMES,
     Condition,
@@ -134,7 +134,7 @@ class ResultStore:
         with self._tx() as con:
             cur = con.execute(
                 "INSERT INTO sessions (started_at, backend, workers, version) VALUES (?,?,?,?)",
-                (_now(), backend, workers, __version__),
+                (_now(), backend, workers, package_version()),
             )
             return int(cur.lastrowid or 0)
 

@@ -30,6 +30,7 @@ from mirl.experiments.conditions import (
     run_seed,
 )
 from mirl.experiments.store import RunRecord, open_store
+from mirl.experiments.worlds import get_world
 
 __all__ = ["Summary", "run_experiment", "conditions_of"]
 
@@ -73,12 +74,8 @@ def run_version(cond: Condition) -> str:
     """What computed a run: mirl's fingerprint, and for the physics world MuJoCo's version too
     (its trajectories differ between MuJoCo releases), so the report flags a store that mixes
     them."""
-    version = code_version()
-    if cond.world == "physics":
-        from mirl.physics import mujoco_version
-
-        version += f"+mujoco.{mujoco_version()}"
-    return version
+    world_version = get_world(cond.world).load().version()
+    return code_version() + (f"+{world_version}" if world_version else "")
 
 
 @dataclass

@@ -10,14 +10,14 @@ from typing import Any
 import numpy as np
 
 from mirl.experiments.conditions import Condition
-from mirl.experiments.records import METHOD_NAMES
+from mirl.learning.methods import METHODS
 
 __all__ = ["PAPER", "method_name"]
 
 
 Row = dict[str, Any]  # one stored run, as read from the store
 
-PAPER_NAMES = {k: v[0] for k, v in METHOD_NAMES.items()}
+PAPER_NAMES = {name: m.paper_name for name, m in METHODS.items()}
 
 # What the paper reports (Bogert & Doshi, Sec. 4), as text beside each of our results.
 PAPER = {

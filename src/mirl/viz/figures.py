@@ -47,8 +47,13 @@ def _save(fig: Figure, figdir: Path, stem: str) -> str:
 # Fig. 3
 
 
+# Fig. 3's methods and how each is drawn: mIRL*/T+Int against its upper bound Known R/T
+FIG3_STYLES = {"mirl-t": ("-", "o"), "known-r-t": ("--", "s")}
+FIG3_LEARNER = "mirl-t"
+
+
 def fig3(gs: list[Group], figdir: Path) -> str:
-    methods = [m for m in ("mirl-t", "known-r-t") if any(g.condition.method == m for g in gs)]
+    methods = [m for m in FIG3_STYLES if any(g.condition.method == m for g in gs)]
     steps = sorted({g.condition.obs_steps for g in gs})
     fig = Figure(figsize=(7.5, 8.5), layout="constrained")
     top, bottom = fig.subplots(2, 1)
@@ -69,8 +74,8 @@ def fig3(gs: list[Group], figdir: Path) -> str:
                 yerr=ms[:, 1],
                 color=colors[n],
                 capsize=3,
-                ls="-" if m == "mirl-t" else "--",
-                marker="o" if m == "mirl-t" else "s",
+                ls=FIG3_STYLES[m][0],
+                marker=FIG3_STYLES[m][1],
                 label=f"{PAPER_NAMES[m]}, {n} steps",
             )
     top.set_xlabel("degree of observability")
@@ -80,7 +85,7 @@ def fig3(gs: list[Group], figdir: Path) -> str:
     top.legend(fontsize=7, ncol=2)
     top.set_title("Behavior accuracy vs observability and observing time (bars: 1 std)")
     acc, succ, r_text = _accuracy_success(gs)
-    for m, marker in (("mirl-t", "o"), ("known-r-t", "s")):
+    for m, (_, marker) in FIG3_STYLES.items():
         idx = [i for i, g in enumerate(gs) if g.condition.method == m]
         if idx:
             bottom.scatter(acc[idx], succ[idx], marker=marker, label=PAPER_NAMES[m])
@@ -119,7 +124,7 @@ def fig3_markdown(gs: list[Group], figdir: Path) -> str:
         "|" + " --- |" * (len(degrees) + 2),
     ]
     by = {(g.condition.method, g.condition.obs_steps, g.condition.observability): g for g in gs}
-    for m in ("mirl-t", "known-r-t"):
+    for m in FIG3_STYLES:
         for n in sorted({g.condition.obs_steps for g in gs}):
             cells = []
             for d in degrees:
@@ -133,7 +138,7 @@ def fig3_markdown(gs: list[Group], figdir: Path) -> str:
                 lines.append(f"| {PAPER_NAMES[m]} | {n} | " + " | ".join(cells) + " |")
     _, succ, r_text = _accuracy_success(gs)
     best = max(
-        (g for g in gs if g.condition.method == "mirl-t"),
+        (g for g in gs if g.condition.method == FIG3_LEARNER),
         key=lambda g: g.rate("success"),
         default=None,
     )

@@ -7,8 +7,9 @@ from dataclasses import replace
 from pathlib import Path
 
 from mirl.experiments.conditions import EXPERIMENTS, StoreError, experiment_names
-from mirl.experiments.records import METHOD_NAMES
 from mirl.experiments.store import load_results
+from mirl.experiments.worlds import DEFAULT_WORLD
+from mirl.learning.methods import METHODS
 from mirl.viz.aggregate import PAPER, Row, groups
 from mirl.viz.figures import SECTIONS, outcomes_markdown
 
@@ -40,7 +41,7 @@ def report_markdown(
     if name in EXPERIMENTS:  # the experiment's own order: methods as the paper lists them
         rank = {c.key: k for k, c in enumerate(EXPERIMENTS[name].conditions)}
         # physical-world runs rank as their grid twins
-        gs.sort(key=lambda g: rank.get(replace(g.condition, world="grid").key, len(rank)))
+        gs.sort(key=lambda g: rank.get(replace(g.condition, world=DEFAULT_WORLD).key, len(rank)))
     errors = sum(r["outcome"] == "error" for r in rows)
     ns = [g.n for g in gs] or [0]
     versions = sorted({str(r["version"]) for r in rows})
@@ -102,8 +103,8 @@ def write_report(directory: str | Path) -> Path:
         "| paper | CLI | what it does |",
         "| --- | --- | --- |",
         *(
-            f"| {paper} | `{cli}` | {what} |".replace("*", "\\*")
-            for cli, (paper, what) in METHOD_NAMES.items()
+            f"| {m.paper_name} | `{m.name}` | {m.description} |".replace("*", "\\*")
+            for m in METHODS.values()
         ),
         "",
     ]

@@ -116,8 +116,8 @@ def run_figure(scenario: Scenario, result: RunResult, *, context: int = 0):
     grid = fig.add_gridspec(1, 2, width_ratios=[cols * scale + 1.0, 4.5])
     ax_map = fig.add_subplot(grid[0, 0])
     ax_val = fig.add_subplot(grid[0, 1])
-    if getattr(result, "physical", None) is not None:  # a --world physics run
-        from mirl.viz.physical import draw_physical_run
+    if result.extras is not None:  # a world with continuous tracks (the physics world)
+        from mirl.viz.physics_run import draw_physical_run
 
         draw_physical_run(ax_map, scenario, result, ROBOT_COLORS, OBSERVER_COLOR)
     else:

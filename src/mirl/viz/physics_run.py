@@ -34,9 +34,10 @@ def _cone(ax, frame, x, y, yaw, fov_deg, rng, color, label):
 
 
 def draw_physical_run(ax, scenario, result, colors, observer_color, *, context: int = 10):
-    """Draw a run whose ``result.physical`` is a :class:`mirl.physics.patrol.PhysicalWorld`
-    (``colors``: one per patroller, cycled; the caller's palette)."""
-    world = result.physical
+    """Draw a physics-world run (its ``result.extras`` is a
+    :class:`~mirl.experiments.physics_world.PhysicsExtras`; ``colors``: one per patroller,
+    cycled; the caller's palette)."""
+    world = result.extras.world
     gm = scenario.map
     frame = gm.frame
     draw_map(ax, gm, gm.visible_mask(result.observability), legend=False)

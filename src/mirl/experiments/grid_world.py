@@ -1,0 +1,103 @@
+"""The grid world of the paper's simulations, as a :class:`~mirl.experiments.worlds.RunWorld`:
+the patrollers in a :class:`~mirl.simulation.grid.PatrolSimulator`, L watching at an
+observability degree, and L moving on its own grid once it goes — each of its actions fails
+(it stays put) with its model's failure probability — seen by the scenario's detection rule."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mirl.experiments.worlds import Detection
+from mirl.planning.observer import ObserverModel
+from mirl.simulation.grid import PatrolSimulator
+from mirl.world.scenario import Scenario
+
+__all__ = ["GridRunWorld"]
+
+
+class GridRunWorld:
+    """The grid simulator plus L's record of it and L's own moves; one instance per run.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The patrollers, their true models and L's map.
+    observer : ObserverModel
+        L's model: its start, goal, moves, action failure probability and who can see it.
+    observability : float
+        The degree of L's view from its room.
+    seed : int
+        Seeds the patrollers' simulator (random starts on their patrol cycles, outcomes).
+    noise : numpy.random.SeedSequence
+        Seeds L's own action failures, a stream apart from the patrollers'.
+    """
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        observer: ObserverModel,
+        *,
+        observability: float,
+        seed: int,
+        noise: np.random.SeedSequence,
+    ) -> None:
+        self.sim = PatrolSimulator(scenario, observability=observability)
+        obs, info = self.sim.reset(seed=seed, options={"random_starts": True})
+        self.visible = self.sim.visible
+        self.domain = scenario.domain
+        self.names = scenario.robot_names
+        self.observer = observer
+        self._observer_state = observer.start_state
+        self._noise = np.random.default_rng(noise)
+        self.true: list[np.ndarray] = [info["states"].copy()]
+        self.seen: list[np.ndarray] = [self._seen(obs)]
+        self._t = 0
+
+    @staticmethod
+    def apply_damage(scenario: Scenario, robot: str, feature: str, value: float) -> Scenario:
+        """The scenario with ``robot``'s ``feature`` succeeding with probability ``value``."""
+        return scenario.with_damage(robot, feature, value)
+
+    @staticmethod
+    def version() -> str:
+        """The grid world's results depend on mirl alone."""
+        return ""
+
+    @property
+    def t(self) -> int:
+        return self._t
+
+    def _seen(self, obs: np.ndarray) -> np.ndarray:
+        out = np.full(self.sim.n_robots, -1, dtype=int)
+        out[obs[:, 0]] = self.domain.state_index(obs[:, 1], obs[:, 2], obs[:, 3])
+        return out
+
+    def step(self, observer_action: int | None = None) -> np.ndarray:
+        if observer_action is not None:
+            s, model = self._observer_state, self.observer
+            fails = self._noise.random() < model.failure
+            self._observer_state = s if fails else int(model.domain.intended[s, observer_action])
+        obs, _, _, _, info = self.sim.step()
+        self._t += 1
+        self.true.append(info["states"].copy())
+        self.seen.append(self._seen(obs))
+        return self.true[-1]
+
+    def observer_state(self) -> int:
+        return self._observer_state
+
+    def detections(self) -> list[Detection]:
+        truth, s = self.true[-1], self._observer_state
+        seen = self.observer.seen_by(truth, s)
+        row, col = map(int, self.observer.domain.states[s][:2])
+        return [
+            Detection(self._t, self.names[i], (int(r), int(c), int(h)), (row, col))
+            for i in np.flatnonzero(seen)
+            for r, c, h in [self.domain.states[truth[i]]]
+        ]
+
+    def at_goal(self) -> bool:
+        return bool(self.observer.goal[self._observer_state])
+
+    def extras(self) -> None:
+        return None

@@ -1,0 +1,132 @@
+"""The physical world as a :class:`~mirl.experiments.worlds.RunWorld`: the same protocol as the
+grid's with :class:`mirl.physics.patrol.PhysicalWorld` in place of the grid simulator.
+
+Only the world changes. L learns from what its camera saw (discretised pose measurements) and
+plans on the grid with the unchanged code; then it *drives* its time-indexed plan with the same
+controller as the patrollers: each decision step it discretises its own estimated pose, takes
+the plan's action there and the controller drives. The patrollers' cameras watch for it at
+10 Hz once it is out of its room. L has reached its goal when its true centre is inside the goal
+cell; it is detected when a patroller's camera saw it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from mirl.experiments.worlds import Detection
+from mirl.physics import mujoco_version
+from mirl.physics.config import with_motor_strength
+from mirl.physics.patrol import PhysicalWorld
+from mirl.planning.observer import ObserverModel
+from mirl.world.scenario import Scenario
+
+__all__ = ["PhysicsRunWorld", "PhysicsExtras"]
+
+
+@dataclass(frozen=True)
+class PhysicsExtras:
+    """What a physics run records beyond the interface: the MuJoCo world itself (continuous
+    tracks, cameras, contacts) and the MuJoCo release that computed it."""
+
+    world: PhysicalWorld
+    mujoco: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "world": "physics",
+            "mujoco": self.mujoco,
+            "contacts": self.world.contacts,
+            "wall_contacts": self.world.wall_contacts,
+        }
+
+    def truth(self) -> str:
+        """The motor strengths the robots drive with (the scenario's grid probabilities are
+        only what it would mean on the grid, not what L watches)."""
+        strengths = self.world.cfg.motor_strength
+        weak = [f"{r}:{w}={s:g}" for r, ws in strengths.items() for w, s in ws.items() if s < 1]
+        return f"physics, motor strength: {', '.join(weak) or 'all motors healthy'}"
+
+
+class PhysicsRunWorld:
+    """A :class:`~mirl.physics.patrol.PhysicalWorld` behind the run interface.
+
+    Parameters are those of :class:`~mirl.experiments.grid_world.GridRunWorld`; ``noise`` is
+    unused, since L's failures here are physical.
+    """
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        observer: ObserverModel,
+        *,
+        observability: float,
+        seed: int,
+        noise: np.random.SeedSequence,
+    ) -> None:
+        start_heading = int(observer.domain.states[observer.start_state][2])
+        self.physics = PhysicalWorld(
+            scenario,
+            observability=observability,
+            seed=seed,
+            random_starts=True,
+            observer_heading=start_heading,
+        )
+        self.visible = self.physics.visible
+        self.domain = scenario.domain
+        self.names = scenario.robot_names
+        self.observer = observer
+        self.true = self.physics.true
+        self.seen = self.physics.seen
+        self._observer_state = observer.start_state
+        self._sightings_before = 0
+        goal = observer.domain.states[np.flatnonzero(observer.goal)]
+        self._goal_cells = {(int(r), int(c)) for r, c, _ in goal}
+
+    @staticmethod
+    def apply_damage(scenario: Scenario, robot: str, feature: str, value: float) -> Scenario:
+        """The scenario with ``robot``'s ``feature`` wheel motor at strength ``value``."""
+        return with_motor_strength(scenario, robot, feature, value)
+
+    @staticmethod
+    def version() -> str:
+        """Physics results depend on MuJoCo's release (the same seed gives other trajectories
+        under another one)."""
+        return f"mujoco.{mujoco_version()}"
+
+    @property
+    def t(self) -> int:
+        return self.physics.t
+
+    def step(self, observer_action: int | None = None) -> np.ndarray:
+        self._sightings_before = len(self.physics.sightings)
+        truth = self.physics.step(observer_action)
+        if observer_action is not None:
+            r, c, h = self.physics.observer_cell_heading(estimated=True)
+            estimate = int(self.observer.domain.state_index(r, c, h))
+            if estimate >= 0:
+                self._observer_state = estimate
+            else:  # off L's map: where it meant to be
+                s = self._observer_state
+                self._observer_state = int(self.observer.domain.intended[s, observer_action])
+        return truth
+
+    def observer_state(self) -> int:
+        return self._observer_state
+
+    def detections(self) -> list[Detection]:
+        if len(self.physics.sightings) <= self._sightings_before:
+            return []
+        sighting = self.physics.sightings[self._sightings_before]
+        lr, lc, _ = self.physics.observer_cell_heading(estimated=False)
+        rr, rc, rh = map(int, self.domain.states[self.true[-1][sighting.robot]])
+        return [Detection(self.t, self.names[sighting.robot], (rr, rc, rh), (int(lr), int(lc)))]
+
+    def at_goal(self) -> bool:
+        r, c, _ = self.physics.observer_cell_heading(estimated=False)
+        return (int(r), int(c)) in self._goal_cells
+
+    def extras(self) -> PhysicsExtras:
+        return PhysicsExtras(self.physics, mujoco_version())
