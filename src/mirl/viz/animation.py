@@ -148,7 +148,7 @@ def save_run_animation(
     ax = fig.add_subplot(1, 1, 1)
     draw_map(ax, gridmap, gridmap.visible_mask(result.observability), legend=False)
     rows, cols = gridmap.shape
-    size = max(4.0, 120.0 / max(rows, cols))
+    size = max(5.0, 120.0 / max(rows, cols))  # robots stay visible on large maps
     handles: list = []
     if scenario.goal is not None:
         gr, gc = scenario.goal
