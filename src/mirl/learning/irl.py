@@ -102,11 +102,19 @@ class OccludedMaxEntIRL:
         several times faster, forward on small ones (boyd2), where it is not.
     random_state : seed for the restarts.
 
-    Attributes after ``fit``: ``weights_`` (K,), ``policy_`` (S,) greedy policy of hard value
-    iteration with ``weights_`` and the transition model, ``soft_policy_`` (S, A),
-    ``expert_counts_`` and ``expected_counts_`` (K,) on the observable states (whatever the
-    objective), ``result_`` (a ``scipy.optimize.OptimizeResult`` with ``x``, ``fun``,
-    ``success``, ``message``, ``nfev`` and ``starts``, the (x, fun) of every start).
+    Attributes
+    ----------
+    weights_ : (K,) array
+        The fitted reward weights (set by ``fit``, as are the others).
+    policy_ : (S,) array
+        Greedy policy of hard value iteration with ``weights_`` and the transition model.
+    soft_policy_ : (S, A) array
+        The soft policy at ``weights_``.
+    expert_counts_, expected_counts_ : (K,) arrays
+        Feature counts on the observable states (whatever the objective).
+    result_ : scipy.optimize.OptimizeResult
+        With ``x``, ``fun``, ``success``, ``message``, ``nfev`` and ``starts``, the (x, fun) of
+        every start.
     """
 
     def __init__(
