@@ -80,8 +80,8 @@ def test_bad_arguments_are_refused(boyd2, tmp_path):
 
 
 def test_physics_run_animates(boyd2, tmp_path):
-    result = run_episode(boyd2, "random", obs_steps=30, seed=3, world_kind="physics")
-    assert result.physical is not None
+    result = run_episode(boyd2, "random", obs_steps=30, seed=3, world="physics")
+    assert result.extras is not None
     path = save_run_animation(boyd2, result, tmp_path / "physics.gif", context=4, max_frames=5)
     n, _, _ = _frames(path)
     assert n == len(animation_times(result, context=4, max_frames=5)) > 1

@@ -311,6 +311,9 @@ def _run(args: argparse.Namespace) -> int:
 
     if args.plot:  # before the run: a bad path must not cost a run
         check_output(args.plot, "--plot", FIGURE_SUFFIXES)
+    if args.animate:
+        check_output(args.animate, "--animate", (".gif",))
+    check_distinct(("--plot", args.plot), ("--animate", args.animate))
     _check_em_init(args)
     fixed = args.obs_steps is not None
     if fixed and args.watch_until_seen is not None:
@@ -341,6 +344,12 @@ def _run(args: argparse.Namespace) -> int:
             raise UsageError(f"--plot {args.plot}: drawing failed ({exc})") from None
         if not args.json:
             print(f"wrote {args.plot}")
+    if args.animate:
+        from mirl.viz.animation import save_run_animation
+
+        save_run_animation(scenario, result, args.animate)
+        if not args.json:
+            print(f"wrote {args.animate}")
     return 0
 
 

@@ -147,6 +147,11 @@ def _run_parser(sub) -> None:
     _em_init_arg(ru)
     ru.add_argument("--json", action="store_true", help="print the run as one JSON object")
     ru.add_argument("--plot", metavar="FILE.png", help="draw the run (.png, .pdf or .svg)")
+    ru.add_argument(
+        "--animate",
+        metavar="FILE.gif",
+        help="animate the run as a GIF: the patrollers, L's view, its wait and its drive",
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -4,7 +4,7 @@ to its goal, and the detection that ended the run, if any.
 
 The drawing follows :mod:`mirl.viz.runs` (its colours, :func:`mirl.viz.maps.draw_map` for the
 map, cell (r, c) at x = c, y = r). Patrollers are drawn from their true grid states, so a
-physics-world run (``world_kind="physics"``) animates the same way, on its grid trace. Only the
+physics-world run (``world="physics"``) animates the same way, on its grid trace. Only the
 object API of matplotlib is used (no pyplot, no global backend).
 """
 
