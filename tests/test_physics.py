@@ -1,4 +1,4 @@
-"""The physical world (issue 11): robots, cameras, determinism, meetings."""
+"""The physical world: robots, cameras, determinism, meetings."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from mirl.physics.camera import Cone, line_of_sight  # noqa: E402
 from mirl.physics.config import PhysicsConfig, physics_config  # noqa: E402
 from mirl.physics.patrol import PhysicalWorld, observer_camera  # noqa: E402
 from mirl.physics.robot import KOBUKI  # noqa: E402
-from mirl.physics.world import Frame, wall_rectangles  # noqa: E402
+from mirl.physics.world import wall_rectangles  # noqa: E402
 from mirl.world.scenario import load_scenario  # noqa: E402
 
 
@@ -69,36 +69,39 @@ def test_walls_block_line_of_sight(healthy):
     assert not line_of_sight(w.model, w.data, 1.0, -3.0, 5.0, -16.0)
 
 
+def _look(world):
+    """The patrollers' cameras look for L once, from the robots' poses now."""
+    world.patroller_cameras.look(world.model, world.data, world.poses(), world.t)
+
+
 def test_patroller_facing_away_does_not_see_observer(healthy):
     w = PhysicalWorld(healthy, seed=0)
-    w.observer_moved = True
     _place(w, 1, 8.0, -16.0, 0.0)
     _place(w, 2, 1.0, -5.0, -np.pi / 2)  # L out in the long hallway
     _place(w, 0, 1.0, -8.0, -np.pi / 2)  # I three cells south of L, facing south: away
-    w._detect(0.1)
+    _look(w)
     assert w.observer_out and not w.sightings
     _place(w, 0, 1.0, -8.0, np.pi / 2)  # facing north: L is 3 m ahead
-    w._detect(0.1)
+    _look(w)
     assert [s.robot for s in w.sightings] == [0]
 
 
 def test_patroller_camera_range_and_walls(healthy):
     w = PhysicalWorld(healthy, seed=0)
-    w.observer_moved = True
     _place(w, 1, 8.0, -16.0, 0.0)
     _place(w, 2, 1.0, -2.0, -np.pi / 2)
     _place(w, 0, 1.0, -9.0, np.pi / 2)  # 7 m away: beyond the 6 m range
-    w._detect(0.1)
+    _look(w)
     assert not w.sightings
     _place(w, 0, 4.0, 0.0, np.pi)  # upper hallway facing west: the corner wall is in between
-    w._detect(0.1)
+    _look(w)
     assert not w.sightings
 
 
 def test_default_camera_sees_the_first_four_upper_cells():
     sc = load_scenario("boyd2")
     cfg = physics_config(sc.physics, sc.source, sc.robot_names)
-    frame = Frame.of(sc.map)
+    frame = sc.map.frame
     (cx, cy, cyaw), cone, overhead = observer_camera(sc, cfg, frame, 0.14)
     assert cone.fov_deg == 57 and cone.range == pytest.approx(4.5)
     assert not overhead.any()
@@ -189,7 +192,7 @@ def test_any_map_compiles_with_few_wall_boxes():
     assert len(rects) < wall.sum() / 4  # merged: far fewer boxes than wall cells
     from mirl.physics.world import world_mjcf
 
-    model = mujoco.MjModel.from_xml_string(world_mjcf(office.free, Frame.of(office), []))
+    model = mujoco.MjModel.from_xml_string(world_mjcf(office.free, office.frame, []))
     assert model.ngeom == len(rects) + 1  # the walls and the floor
 
 
@@ -198,6 +201,6 @@ def test_boydright_patrols_with_its_own_door_camera():
     w = PhysicalWorld(sc, seed=0)
     for _ in range(5):
         w.step()
-    (cx, cy, _), cone = w._cam, w._cone
-    assert (cx, cy) == Frame.of(sc.map).cell_centre(*sc.observer_start)
+    (cx, cy, _), cone = w.camera.pose, w.camera.cone
+    assert (cx, cy) == sc.map.frame.cell_centre(*sc.observer_start)
     assert cone.range > 0 and len(w.true) == 6

@@ -1,14 +1,20 @@
-"""The physical world: differential-drive robots in MuJoCo, seen through cameras (issue 11).
+"""The physical world: differential-drive robots in MuJoCo, seen through cameras.
 
 What it holds:
 
 - :mod:`~mirl.physics.robot` — a TurtleBot 2 (Kobuki) sized robot as MJCF; damaged wheels are
   weaker motors (gain and torque limit), never a coded failure probability;
-- :mod:`~mirl.physics.world` — the MJCF of any grid map (walls as merged boxes) and the map frame;
-- :mod:`~mirl.physics.control` — the ``move_base`` analogue (pursuit + heading feedback, pivots);
-- :mod:`~mirl.physics.camera` — view cones with ``mujoco.mj_ray`` lines of sight;
+- :mod:`~mirl.physics.world` — the MJCF of any grid map (walls as merged boxes), placed by the
+  map's :class:`~mirl.world.maps.MapFrame`;
+- :mod:`~mirl.physics.control` — the ``move_base`` analogue (pursuit + heading feedback, pivots,
+  slowing down near another robot);
+- :mod:`~mirl.physics.camera` — view cones with ``mujoco.mj_ray`` lines of sight: L's camera and
+  the patrollers' cameras with their sightings of L;
+- :mod:`~mirl.physics.contacts` — contact events, robot–robot and robot–wall;
+- :mod:`~mirl.physics.records` — what a run recorded: grid states, actions, tick poses, L's
+  camera measurements;
 - :mod:`~mirl.physics.patrol` — :class:`PhysicalWorld`: patrollers deciding on the grid from a
-  noisy pose estimate and driving in physics, L's camera, the patrollers' cameras, contacts;
+  noisy pose estimate and driving in physics, composed of the objects above;
 - :mod:`~mirl.physics.config` — the ``[physics]`` scenario table and its defaults;
 - :mod:`~mirl.physics.calibration` — effective per-action success rates of the physics.
 

@@ -66,7 +66,7 @@ def calibrate(scenario, *, steps: int = 750, seeds=range(4), alone: int = 2, con
         cal.contacts += w.contacts
         cal.wall_contacts += w.wall_contacts
         T = w.true_states()
-        A = np.asarray(w.actions)
+        A = np.asarray(w.records.actions)
         ok = dom.intended[T[:-1], A] == T[1:]
         cells = dom.states[T][:, :, :2]
         times, poses = w.tick_poses()

@@ -1,4 +1,5 @@
-"""Cameras as cones with a line of sight: L's Kinect + blob finder, the patrollers' cameras.
+"""Cameras as cones with a line of sight: L's Kinect + blob finder (:class:`ObserverCamera`),
+the patrollers' cameras (:class:`PatrollerCameras`).
 
 A target is seen when its centre is within ``range`` of the camera, within ``fov/2`` of the
 camera's yaw, and a ray from the camera to it (cast with ``mujoco.mj_ray`` at 0.3 m above the
@@ -10,15 +11,25 @@ the given cells, for observability degrees beyond what the door camera can reach
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
 
 from mirl.physics.config import PhysicsConfig
 from mirl.physics.control import wrap
-from mirl.physics.world import Frame
+from mirl.world.maps import GridMap, MapFrame
 
-__all__ = ["Cone", "Sighting", "line_of_sight", "observer_camera", "RAY_HEIGHT", "WALL_GROUP"]
+__all__ = [
+    "Cone",
+    "Sighting",
+    "ObserverCamera",
+    "PatrollerCameras",
+    "line_of_sight",
+    "observer_camera",
+    "RAY_HEIGHT",
+    "WALL_GROUP",
+]
 
 RAY_HEIGHT = 0.3
 WALL_GROUP = 1  # MJCF geom group of the walls (rays test only this group)
@@ -60,9 +71,33 @@ class Sighting:
     observer_pose: tuple[float, float, float]
 
 
-def observer_camera(scenario, config: PhysicsConfig, frame: Frame, degree: float):
-    """L's view at observability ``degree``: (camera pose (x, y, yaw) or None, Cone or None,
-    overhead cells as a (rows, cols) bool mask).
+class ObserverCamera(NamedTuple):
+    """L's view: the door camera's pose (x, y, yaw) and cone (both None when everything L may
+    see is watched from overhead), and the cells watched from overhead ((rows, cols) bool)."""
+
+    pose: tuple[float, float, float] | None
+    cone: Cone | None
+    overhead: np.ndarray
+
+    def sees(self, model, data, frame: MapFrame, px: np.ndarray, py: np.ndarray) -> np.ndarray:
+        """Which of the robots at (px, py) L sees now: those on an overhead cell, and those in
+        the cone with a line of sight."""
+        r, c = frame.cell_of(px, py)
+        rows, cols = self.overhead.shape
+        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+        seen = inside & self.overhead[np.clip(r, 0, rows - 1), np.clip(c, 0, cols - 1)]
+        if self.cone is not None and self.pose is not None:
+            cx, cy, cyaw = self.pose
+            cand = self.cone.inside(cx, cy, cyaw, px, py) & ~seen
+            for i in np.flatnonzero(cand):
+                seen[i] = line_of_sight(model, data, cx, cy, px[i], py[i])
+        return seen
+
+
+def observer_camera(
+    scenario, config: PhysicsConfig, frame: MapFrame, degree: float
+) -> ObserverCamera:
+    """L's view at observability ``degree``.
 
     Degree 1 is an overhead view of every hallway. Otherwise the camera sits at the centre of
     L's start cell looking at the first cell of the map's visibility order (east, through the
@@ -74,7 +109,7 @@ def observer_camera(scenario, config: PhysicsConfig, frame: Frame, degree: float
     gm = scenario.map
     mask = gm.visible_mask(degree)
     if degree >= 1.0:
-        return None, None, mask
+        return ObserverCamera(None, None, mask)
     r0, c0 = scenario.observer_start
     if config.camera_pose is not None:
         cx, cy, cyaw = config.camera_pose
@@ -98,4 +133,45 @@ def observer_camera(scenario, config: PhysicsConfig, frame: Frame, degree: float
     overhead = np.zeros_like(mask)
     inside = cone.inside(cx, cy, cyaw, px, py)
     overhead[cells[~inside, 0], cells[~inside, 1]] = True
-    return (float(cx), float(cy), float(cyaw)), cone, overhead
+    return ObserverCamera((float(cx), float(cy), float(cyaw)), cone, overhead)
+
+
+class PatrollerCameras:
+    """The patrollers' cameras, looking for L once it has left its room, and what they saw.
+
+    Parameters
+    ----------
+    cone : Cone
+        Every patroller's view, centred on its heading.
+    gridmap : GridMap
+        The map; L is in its room while on one of its ``observer_only`` cells (or off the map).
+    n : int
+        Number of patrollers: poses ``0 .. n-1`` are theirs, pose ``n`` is L's.
+    """
+
+    def __init__(self, cone: Cone, gridmap: GridMap, n: int) -> None:
+        self.cone = cone
+        self.map = gridmap
+        self.n = n
+        self.sightings: list[Sighting] = []
+        self.observer_out = False  # L outside its room at the last look
+
+    def look(self, model, data, p: np.ndarray, step: int) -> None:
+        """Look for L with true poses ``p`` (patrollers, then L) at decision step ``step``:
+        every patroller with L inside its cone and a line of sight adds a :class:`Sighting`."""
+        L = p[self.n]
+        r, c = self.map.frame.cell_of(L[0], L[1])
+        rows, cols = self.map.shape
+        in_room = not (0 <= r < rows and 0 <= c < cols) or bool(self.map.observer_only[r, c])
+        self.observer_out = not in_room
+        if in_room:
+            return
+        P = p[: self.n]
+        cand = self.cone.inside(P[:, 0], P[:, 1], P[:, 2], L[0], L[1])
+        for i in np.flatnonzero(cand):
+            if line_of_sight(model, data, P[i, 0], P[i, 1], L[0], L[1]):
+                rx, ry, ryaw = map(float, P[i])
+                lx, ly, lyaw = map(float, L)
+                self.sightings.append(
+                    Sighting(float(data.time), step, int(i), (rx, ry, ryaw), (lx, ly, lyaw))
+                )

@@ -13,15 +13,16 @@ Vectorised over robots. Per robot a *mode* and a target, set once per decision s
   paper's ξ has it (turn_left uses the right wheel, turn_right the left).
 - ``HOLD`` (stop): both wheels commanded to zero.
 
-The forward speed is acceleration-limited (``max_accel``) like move_base's velocity smoother.
-Nothing here knows a motor's strength: a weak wheel shows up only through the pose feedback.
+The forward speed is acceleration-limited (``max_accel``) like move_base's velocity smoother,
+and capped at ``pass_speed`` for robots :func:`crowded` by another. Nothing here knows a motor's
+strength: a weak wheel shows up only through the pose feedback.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["DRIVE", "PIVOT", "HOLD", "Controller", "wrap"]
+__all__ = ["DRIVE", "PIVOT", "HOLD", "Controller", "crowded", "wrap"]
 
 DRIVE, PIVOT, HOLD = 0, 1, 2
 
@@ -34,6 +35,26 @@ except ImportError:  # numpy < 2
 
 def wrap(a):
     return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
+
+
+def crowded(p: np.ndarray, cell_size: float, pass_distance: float) -> np.ndarray:
+    """Robots that must go slowly: another robot coming the other way within
+    ``pass_distance`` cells ahead (±70°: pass slowly), or one going the same way less than 0.8
+    cell ahead (do not run into it).
+
+    ``p`` holds true poses (x, y, yaw), one row a robot: a real robot's bumper and laser see the
+    other robot directly.
+    """
+    dx = p[None, :, 0] - p[:, None, 0]
+    dy = p[None, :, 1] - p[:, None, 1]
+    dist = np.hypot(dx, dy) / cell_size
+    np.fill_diagonal(dist, np.inf)
+    if not (dist < max(pass_distance, 0.8)).any():
+        return np.zeros(len(p), dtype=bool)  # the usual tick: nobody near anybody
+    ahead = np.abs(wrap(np.arctan2(dy, dx) - p[:, None, 2])) < np.radians(70)
+    oncoming = np.abs(wrap(p[None, :, 2] - p[:, None, 2])) > np.pi / 2
+    slow = ahead & np.where(oncoming, dist < pass_distance, dist < 0.8)
+    return slow.any(axis=1)
 
 
 class Controller:

@@ -22,15 +22,23 @@ import numpy as np
 
 from mirl.observations.discretise import discretise
 from mirl.observations.poses import PoseTracks
-from mirl.physics.camera import Cone, Sighting, line_of_sight, observer_camera
+from mirl.observations.trajectories import Trajectories
+from mirl.physics.camera import (
+    Cone,
+    ObserverCamera,
+    PatrollerCameras,
+    Sighting,
+    observer_camera,
+)
 from mirl.physics.config import PhysicsConfig, scenario_physics
-from mirl.physics.control import DRIVE, HOLD, PIVOT, Controller, wrap
-from mirl.physics.events import TickEvents
+from mirl.physics.contacts import ContactLog
+from mirl.physics.control import DRIVE, HOLD, PIVOT, Controller, crowded, wrap
 from mirl.physics.records import OBSERVER, Records
 from mirl.physics.robot import KOBUKI
-from mirl.physics.world import YAW, Frame, world_mjcf
-from mirl.world.domain import ACTIONS
+from mirl.physics.world import world_mjcf
+from mirl.world.domain import FORWARD, N_HEADINGS, TURN_LEFT, TURN_RIGHT
 from mirl.world.game import game_action_to_action, meeting
+from mirl.world.maps import HEADING_DELTAS, HEADING_YAWS
 
 __all__ = [
     "PhysicalWorld",
@@ -40,15 +48,22 @@ __all__ = [
     "OBSERVER",
 ]
 
-FORWARD, TURN_LEFT, TURN_RIGHT, STOP = (
-    ACTIONS.index(a) for a in ("forward", "turn_left", "turn_right", "stop")
-)
 Pose = tuple[float, float, float]  # x, y (m), yaw (rad)
-HEADING_DELTAS = np.array([[0, 1], [-1, 0], [0, -1], [1, 0]])
 
 
-class PhysicalWorld(Records, TickEvents):
-    """N patrollers (and L, unless ``observer=False``) in one MuJoCo model."""
+def _heading(yaw):
+    """The grid heading nearest a yaw (radians; arrays elementwise)."""
+    return np.rint(wrap(yaw) / (np.pi / 2)).astype(int) % N_HEADINGS
+
+
+class PhysicalWorld:
+    """N patrollers (and L, unless ``observer=False``) in one MuJoCo model.
+
+    What happens is kept by composed objects: :attr:`records` (states, actions, poses, L's
+    camera measurements), :attr:`contact_log` (contact events), :attr:`camera` (L's view) and
+    :attr:`patroller_cameras` (the patrollers' sightings of L); the attributes and methods
+    below that read them are views of those objects.
+    """
 
     def __init__(
         self,
@@ -68,7 +83,7 @@ class PhysicalWorld(Records, TickEvents):
         self.cfg = cfg = config or scenario_physics(scenario)
         self.domain = dom = scenario.domain
         self.map = scenario.map
-        self.frame = Frame.of(scenario.map)
+        self.frame = scenario.map.frame
         self.n = len(scenario.robots)
         self.names = scenario.robot_names
         self.degree = scenario.observability if observability is None else float(observability)
@@ -99,29 +114,28 @@ class PhysicalWorld(Records, TickEvents):
         self._init_noise_and_control()
         self._nearest = self._nearest_cells()
         self._visible_cells = self.map.visible_mask(self.degree)
-        self._init_records(record_ticks)
+        self.t = 0  # decision steps so far
+        self.observer_moved = False  # L has been driven: the patrollers' cameras look for it
+        self.records = Records(dom, self.names, observer, record_ticks)
         self._record_decision_time()
 
-    def _start_poses(
-        self, starts, observer_heading: int | None
-    ) -> list[tuple[float, float, float]]:
+    def _start_poses(self, starts, observer_heading: int | None) -> list[Pose]:
         """Patrollers on their start cells in their lanes; L at its start cell's centre."""
         poses = []
         for r, c, h in starts:
             x, y = self.frame.cell_centre(r, c)
-            x, y = x + self._lane * np.sin(YAW[h]), y - self._lane * np.cos(YAW[h])
-            poses.append((float(x), float(y), float(YAW[h])))
+            yaw = HEADING_YAWS[h]
+            x, y = x + self._lane * np.sin(yaw), y - self._lane * np.cos(yaw)
+            poses.append((float(x), float(y), float(yaw)))
         if self.has_observer:
             x, y = self.frame.cell_centre(*self.scenario.observer_start)
-            self._cam, self._cone, self._overhead = observer_camera(
-                self.scenario, self.cfg, self.frame, self.degree
-            )
-            oyaw = self._cam[2] if self._cam else 0.0
+            self.camera = observer_camera(self.scenario, self.cfg, self.frame, self.degree)
+            oyaw = self.camera.pose[2] if self.camera.pose else 0.0
             if observer_heading is not None:
-                oyaw = float(YAW[observer_heading])
+                oyaw = float(HEADING_YAWS[observer_heading])
             poses.append((float(x), float(y), float(oyaw)))
         else:
-            self._cam, self._cone, self._overhead = None, None, np.zeros(self.map.shape, bool)
+            self.camera = ObserverCamera(None, None, np.zeros(self.map.shape, bool))
         return poses
 
     def _build(self, poses) -> None:
@@ -140,11 +154,7 @@ class PhysicalWorld(Records, TickEvents):
         self._qadr = np.array([model.jnt_qposadr[j] for j in roots])
         self._pose_idx = self._qadr[:, None] + np.array([0, 1, 3, 4, 5, 6])
         self._dadr = np.array([model.jnt_dofadr[j] for j in roots])
-        self._geom_robot = np.full(model.ngeom, -1)
-        self._geom_robot[[model.geom(f"{nm}_base").id for nm in names]] = np.arange(self.m)
-        self._is_wall = np.array(
-            [model.geom(g).name.startswith("wall") for g in range(model.ngeom)]
-        )
+        self.contact_log = ContactLog(model, names)
 
     def _init_noise_and_control(self) -> None:
         cfg, cs = self.cfg, self.frame.cell_size
@@ -164,27 +174,83 @@ class PhysicalWorld(Records, TickEvents):
         self._noise_a = float(np.exp(-1.0 / (cfg.control_hz * max(cfg.localisation_tau, 1e-9))))
         self._noise = self._loc_rng.normal(size=(self.m, 3)) * self._noise_sd
         rng = cfg.patroller_range
-        self._patrol_cone = Cone(
+        cone = Cone(
             cfg.patroller_fov_deg, rng if rng is not None else self.scenario.detect_distance * cs
         )
+        self.patroller_cameras = PatrollerCameras(cone, self.map, self.n)
 
-    def _init_records(self, record_ticks: bool) -> None:
-        self.t = 0  # decision steps so far
-        self.contacts = 0  # robot-robot contact events
-        self.wall_contacts = 0
-        self.contact_pairs: list[tuple[int, int, int]] = []  # (step, i, j)
-        self._touching: set[tuple[int, int]] = set()
-        self.sightings: list[Sighting] = []
-        self.observer_out = False
-        self.observer_moved = False
-        self.record_ticks = record_ticks
-        self._tick_t: list[float] = []
-        self._tick_pose: list[np.ndarray] = []
-        self.true: list[np.ndarray] = []  # per decision time: (N,) true state indices
-        self.believed: list[np.ndarray] = []  # (N,) states the patrollers decided from
-        self.actions: list[np.ndarray] = []  # (N,) actions taken at each decision
-        self.seen: list[np.ndarray] = []  # (N,) L's discretised observation (-1 unseen)
-        self._obs_rows: list[tuple[float, int, float, float, float]] = []
+    # ---- views of the composed records -------------------------------------------------
+    @property
+    def true(self) -> list[np.ndarray]:
+        """Per decision time: (N,) true state indices."""
+        return self.records.true
+
+    @property
+    def seen(self) -> list[np.ndarray]:
+        """Per decision time: (N,) L's discretised observations (-1 unseen)."""
+        return self.records.seen
+
+    def true_states(self) -> np.ndarray:
+        return self.records.true_states()
+
+    def observations(self, until: int | None = None) -> Trajectories:
+        return self.records.observations(until)
+
+    def truth(self) -> Trajectories:
+        return self.records.truth()
+
+    def tick_poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """(k,) times and (k, m, 3) true poses at every control tick."""
+        return self.records.tick_poses()
+
+    def observed_rows(self) -> np.ndarray:
+        """(k, 5) rows t (s), robot, x, y, yaw of L's camera measurements."""
+        return self.records.observed_rows()
+
+    def observed_tracks(self) -> PoseTracks:
+        """What L's camera measured: one noisy pose per seen patroller per decision step."""
+        return self.records.observed_tracks()
+
+    def true_tracks(self) -> PoseTracks:
+        """Every robot's true pose at every control tick (L, if present, is robot ``L``)."""
+        return self.records.true_tracks()
+
+    @property
+    def contacts(self) -> int:
+        """Robot-robot contact events so far."""
+        return self.contact_log.contacts
+
+    @property
+    def wall_contacts(self) -> int:
+        """Robot-wall contact events so far."""
+        return self.contact_log.wall_contacts
+
+    @property
+    def contact_pairs(self) -> list[tuple[int, int, int]]:
+        """(step, i, j) of every robot-robot contact event."""
+        return self.contact_log.pairs
+
+    @property
+    def sightings(self) -> list[Sighting]:
+        """Every time a patroller's camera saw L."""
+        return self.patroller_cameras.sightings
+
+    @property
+    def observer_out(self) -> bool:
+        """Whether L was outside its room when the patrollers' cameras last looked."""
+        return self.patroller_cameras.observer_out
+
+    @property
+    def _cam(self) -> Pose | None:
+        return self.camera.pose
+
+    @property
+    def _cone(self) -> Cone | None:
+        return self.camera.cone
+
+    @property
+    def _patrol_cone(self) -> Cone:
+        return self.patroller_cameras.cone
 
     # ---- geometry helpers ---------------------------------------------------------------
     def _cycle(self, i: int, s: int) -> np.ndarray:
@@ -227,26 +293,26 @@ class PhysicalWorld(Records, TickEvents):
         the nearest hallway cell if ``snap``, else -1."""
         rows, cols = self.map.shape
         r, c = self.frame.cell_of(poses[:, 0], poses[:, 1])
-        h = np.rint(wrap(poses[:, 2]) / (np.pi / 2)).astype(int) % 4
+        h = _heading(poses[:, 2])
         inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
         rc, cc = np.clip(r, 0, rows - 1), np.clip(c, 0, cols - 1)
         s = self.domain.state_index(np.where(inside, r, -1), np.where(inside, c, -1), h)
         if snap:
             cell = self._nearest[rc, cc]
-            s = np.where(s >= 0, s, cell * 4 + h)
+            s = np.where(s >= 0, s, cell * N_HEADINGS + h)
         return s
 
     def observer_cell_heading(self, estimated: bool = True) -> tuple[int, int, int]:
         p = (self.estimated_poses() if estimated else self.poses())[self.n]
         r, c = self.frame.cell_of(p[0], p[1])
-        h = int(np.rint(wrap(p[2]) / (np.pi / 2))) % 4
+        h = int(_heading(p[2]))
         return int(r), int(c), h
 
     # ---- one decision step --------------------------------------------------------------
     def _record_decision_time(self) -> None:
         p = self.poses()
-        self.true.append(self.discretise(p[: self.n]))
-        self.seen.append(self._observe(p))
+        self.records.true.append(self.discretise(p[: self.n]))
+        self.records.seen.append(self._observe(p))
 
     def _observe(self, p: np.ndarray) -> np.ndarray:
         """L's camera now: a noisy pose for every patroller it sees, discretised."""
@@ -254,15 +320,7 @@ class PhysicalWorld(Records, TickEvents):
         if not self.has_observer:
             return out
         px, py = p[: self.n, 0], p[: self.n, 1]
-        r, c = self.frame.cell_of(px, py)
-        rows, cols = self.map.shape
-        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
-        seen = inside & self._overhead[np.clip(r, 0, rows - 1), np.clip(c, 0, cols - 1)]
-        if self._cone is not None:
-            cx, cy, cyaw = self._cam
-            cand = self._cone.inside(cx, cy, cyaw, px, py) & ~seen
-            for i in np.flatnonzero(cand):
-                seen[i] = line_of_sight(self.model, self.data, cx, cy, px[i], py[i])
+        seen = self.camera.sees(self.model, self.data, self.frame, px, py)
         idx = np.flatnonzero(seen)
         if len(idx) == 0:
             return out
@@ -276,7 +334,7 @@ class PhysicalWorld(Records, TickEvents):
             (tsec, int(i), float(x), float(y), float(yaw))
             for i, (x, y, yaw) in zip(idx, meas, strict=True)
         ]
-        self._obs_rows.extend(measured)
+        self.records.measured(measured)
         # the robot-data discretisation (mirl.observations.discretise), one step at a time:
         # nearest cell (snapped onto the hallway within its tolerance) and nearest heading
         a = np.asarray(measured)
@@ -313,7 +371,7 @@ class PhysicalWorld(Records, TickEvents):
         """Targets for robots ``idx`` from their intended (row, col, heading) and actions."""
         r, c, h = states_rch.T
         x, y = self.frame.cell_centre(r, c)
-        yaw = YAW[h]
+        yaw = HEADING_YAWS[h]
         x = x + lane * np.sin(yaw)
         y = y - lane * np.cos(yaw)
         mode = np.select(
@@ -330,17 +388,17 @@ class PhysicalWorld(Records, TickEvents):
             if 0 <= rr < rows and 0 <= cc < cols and self.map.free[rr, cc]:
                 r, c = rr, cc
         elif action == TURN_LEFT:
-            h = (h + 1) % 4
+            h = (h + 1) % N_HEADINGS
         elif action == TURN_RIGHT:
-            h = (h + 3) % 4
+            h = (h + 3) % N_HEADINGS
         return np.array([[r, c, h]]), action
 
     def step(self, observer_action: int | None = None) -> np.ndarray:
         """Advance one decision step; returns the patrollers' true states at the new time.
         ``observer_action`` (an index into ACTIONS) drives L; None leaves it standing."""
         s, acts = self.decide()
-        self.believed.append(s)
-        self.actions.append(acts)
+        self.records.believed.append(s)
+        self.records.actions.append(acts)
         nxt = self.domain.intended[s, acts]
         self._set_targets(np.arange(self.n), self.domain.states[nxt], acts, self._lane)
         if self.has_observer and observer_action is not None:
@@ -350,25 +408,21 @@ class PhysicalWorld(Records, TickEvents):
         self._run_ticks(self.cfg.ticks_per_step)
         self.t += 1
         self._record_decision_time()
-        return self.true[-1]
+        return self.records.true[-1]
 
     def _run_ticks(self, k: int) -> None:
         m, d, cfg = self.model, self.data, self.cfg
-        dt = 1.0 / cfg.control_hz
         a = self._noise_a
         b = np.sqrt(1 - a * a) * self._noise_sd
         p = self.poses()
         for _ in range(k):
             self._noise = a * self._noise + b * self._loc_rng.normal(size=(self.m, 3))
             est = p + self._noise
-            d.ctrl[:] = self.ctrl.wheel_speeds(
-                est[:, 0], est[:, 1], est[:, 2], self._crowded(p)
-            ).ravel()
+            slow = crowded(p, self.frame.cell_size, cfg.pass_distance)
+            d.ctrl[:] = self.ctrl.wheel_speeds(est[:, 0], est[:, 1], est[:, 2], slow).ravel()
             mujoco.mj_step(m, d, nstep=cfg.substeps)
             p = self.poses()
-            self._contacts()
-            if self.record_ticks:
-                self._tick_t.append(d.time)
-                self._tick_pose.append(p)
+            self.contact_log.update(d, self.t)
+            self.records.tick(d.time, p)
             if self.has_observer and self.observer_moved:
-                self._detect(dt, p)
+                self.patroller_cameras.look(m, d, p, self.t)

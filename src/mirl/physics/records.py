@@ -1,5 +1,6 @@
-"""What a :class:`~mirl.physics.patrol.PhysicalWorld` recorded: the patrollers' true and observed
-grid states, the true poses at every control tick, and L's camera measurements as pose tracks."""
+"""What a :class:`~mirl.physics.patrol.PhysicalWorld` recorded: the patrollers' true, believed
+and observed grid states and their actions at every decision step, the true poses at every
+control tick, and L's camera measurements as pose tracks."""
 
 from __future__ import annotations
 
@@ -7,8 +8,6 @@ import numpy as np
 
 from mirl.observations.poses import PoseTracks
 from mirl.observations.trajectories import Trajectories
-from mirl.physics.config import PhysicsConfig
-from mirl.physics.world import Frame
 from mirl.world.domain import PatrolDomain
 
 __all__ = ["Records", "OBSERVER"]
@@ -17,25 +16,52 @@ OBSERVER = "L"
 
 
 class Records:
-    """Mixin of :class:`~mirl.physics.patrol.PhysicalWorld` (its attributes are set there)."""
+    """The records of one run, appended to as it goes.
 
-    n: int
-    m: int
-    names: tuple[str, ...]
-    has_observer: bool
-    domain: PatrolDomain
-    frame: Frame
-    cfg: PhysicsConfig
-    true: list[np.ndarray]
-    seen: list[np.ndarray]
-    _tick_t: list[float]
-    _tick_pose: list[np.ndarray]
-    _obs_rows: list[tuple[float, int, float, float, float]]
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The patrollers' domain (state indices).
+    names : tuple of str
+        The patrollers, in robot-index order.
+    has_observer : bool
+        Whether L is in the world (as robot :data:`OBSERVER`, after the patrollers).
+    record_ticks : bool
+        Whether :meth:`tick` keeps the poses of every control tick.
+    """
 
-    def poses(self) -> np.ndarray:  # pragma: no cover - provided by PhysicalWorld
-        raise NotImplementedError
+    def __init__(
+        self, domain: PatrolDomain, names: tuple[str, ...], has_observer: bool, record_ticks: bool
+    ) -> None:
+        self.domain = domain
+        self.names = names
+        self.has_observer = has_observer
+        self.record_ticks = record_ticks
+        self.true: list[np.ndarray] = []  # per decision time: (N,) true state indices
+        self.believed: list[np.ndarray] = []  # (N,) states the patrollers decided from
+        self.actions: list[np.ndarray] = []  # (N,) actions taken at each decision
+        self.seen: list[np.ndarray] = []  # (N,) L's discretised observation (-1 unseen)
+        self._tick_t: list[float] = []
+        self._tick_pose: list[np.ndarray] = []
+        self._obs_rows: list[tuple[float, int, float, float, float]] = []
 
-    # ---- records -----------------------------------------------------------------------
+    @property
+    def m(self) -> int:
+        """Number of robots in the world (patrollers and L)."""
+        return len(self.names) + int(self.has_observer)
+
+    # ---- appending ---------------------------------------------------------------------
+    def tick(self, time: float, poses: np.ndarray) -> None:
+        """The (m, 3) true poses at a control tick ending at ``time`` (s), if ticks are kept."""
+        if self.record_ticks:
+            self._tick_t.append(time)
+            self._tick_pose.append(poses)
+
+    def measured(self, rows: list[tuple[float, int, float, float, float]]) -> None:
+        """L's camera measurements (t (s), robot, x, y, yaw) of one decision time."""
+        self._obs_rows.extend(rows)
+
+    # ---- reading -----------------------------------------------------------------------
     def true_states(self) -> np.ndarray:
         return np.asarray(self.true)
 

@@ -56,20 +56,22 @@ def robot_mjcf(name: str, x: float, y: float, yaw_deg: float, rgba: str, k: Kobu
       <geom name="{name}_caster_f" type="sphere" size="{cz}" pos="{fx} 0 {cpz:.4f}"
             mass="0.001" condim="1" priority="1" contype="1" conaffinity="1"/>
       <geom name="{name}_caster_b" type="sphere" size="{cz}" pos="{-fx} 0 {cpz:.4f}"
-            mass="0.001" condim="1" priority="1" contype="1" conaffinity="1"/>
-      <body name="{name}_lw" pos="0 {half} 0">
-        <joint name="{name}_left" type="hinge" axis="0 1 0" damping="{k.gear_damping}"
-               frictionloss="{k.gear_friction}"/>
-        <geom type="sphere" size="{r}" mass="{k.wheel_mass}" friction="1.0 0.005 0.0001"
-              contype="1" conaffinity="1" rgba="0.1 0.1 0.1 1"/>
-      </body>
-      <body name="{name}_rw" pos="0 {-half} 0">
-        <joint name="{name}_right" type="hinge" axis="0 1 0" damping="{k.gear_damping}"
-               frictionloss="{k.gear_friction}"/>
-        <geom type="sphere" size="{r}" mass="{k.wheel_mass}" friction="1.0 0.005 0.0001"
-              contype="1" conaffinity="1" rgba="0.1 0.1 0.1 1"/>
-      </body>
+            mass="0.001" condim="1" priority="1" contype="1" conaffinity="1"/>\
+{_wheel_mjcf(name, "lw", "left", half, k)}{_wheel_mjcf(name, "rw", "right", -half, k)}
     </body>"""
+
+
+def _wheel_mjcf(name: str, body: str, side: str, y: float, k: Kobuki) -> str:
+    """One driven wheel: body ``{name}_{body}`` at ``y`` in the robot's frame, on the hinge
+    ``{name}_{side}`` its motor turns."""
+    r = k.wheel_radius
+    return f"""
+      <body name="{name}_{body}" pos="0 {y} 0">
+        <joint name="{name}_{side}" type="hinge" axis="0 1 0" damping="{k.gear_damping}"
+               frictionloss="{k.gear_friction}"/>
+        <geom type="sphere" size="{r}" mass="{k.wheel_mass}" friction="1.0 0.005 0.0001"
+              contype="1" conaffinity="1" rgba="0.1 0.1 0.1 1"/>
+      </body>"""
 
 
 def actuator_mjcf(name: str, left: float = 1.0, right: float = 1.0, k: Kobuki = KOBUKI) -> str:

@@ -3,7 +3,8 @@
 Wall cells (every non-free cell, plus a one-cell border around the map) become boxes; runs of
 wall cells are merged into rectangles (greedily: maximal horizontal runs, then stacked while the
 next row has the same run), so boyd2's 136 wall cells are a handful of boxes and a 60 × 60
-office stays small. Cell (r, c)'s centre is at the map frame's ``cell_centre(r, c)``.
+office stays small. Cell (r, c)'s centre is at the map frame's ``cell_centre(r, c)``
+(:class:`mirl.world.maps.MapFrame`).
 """
 
 from __future__ import annotations
@@ -11,41 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from mirl.physics.robot import KOBUKI, Kobuki, actuator_mjcf, robot_mjcf
+from mirl.world.maps import MapFrame
 
-__all__ = ["wall_rectangles", "world_mjcf", "Frame", "YAW"]
-
-# heading 0 east, 1 north, 2 west, 3 south -> yaw (radians)
-YAW = np.array([0.0, np.pi / 2, np.pi, -np.pi / 2])
-
-
-class Frame:
-    """Cells to metres, as :class:`mirl.world.maps.MapFrame` (x = ox + col·cell, y = oy − row·cell),
-    plus nearest-cell lookup."""
-
-    def __init__(self, cell_size: float = 1.0, origin_x: float = 0.0, origin_y: float = 0.0):
-        self.cell_size, self.origin_x, self.origin_y = float(cell_size), origin_x, origin_y
-
-    def cell_centre(self, row, col):
-        return (
-            self.origin_x + np.asarray(col, dtype=float) * self.cell_size,
-            self.origin_y - np.asarray(row, dtype=float) * self.cell_size,
-        )
-
-    def cell_coordinates(self, x, y):
-        return (
-            (self.origin_y - np.asarray(y, dtype=float)) / self.cell_size,
-            (np.asarray(x, dtype=float) - self.origin_x) / self.cell_size,
-        )
-
-    def cell_of(self, x, y) -> tuple[np.ndarray, np.ndarray]:
-        r, c = self.cell_coordinates(x, y)
-        return np.rint(r).astype(int), np.rint(c).astype(int)
-
-    @classmethod
-    def of(cls, gridmap) -> Frame:
-        """The map's frame (``GridMap.frame``; a scenario's ``[frame]`` table sets it)."""
-        f = gridmap.frame
-        return cls(f.cell_size, f.origin_x, f.origin_y)
+__all__ = ["wall_rectangles", "world_mjcf"]
 
 
 def wall_rectangles(wall: np.ndarray) -> list[tuple[int, int, int, int]]:
@@ -80,7 +49,7 @@ def wall_rectangles(wall: np.ndarray) -> list[tuple[int, int, int, int]]:
 
 def world_mjcf(
     free: np.ndarray,
-    frame: Frame,
+    frame: MapFrame,
     robots: list[tuple[str, float, float, float, float, float]],
     *,
     timestep: float = 0.01,

@@ -85,6 +85,12 @@ class MapFrame:
         row = (self.origin_y - np.asarray(y, dtype=float)) / self.cell_size
         return row, col
 
+    def cell_of(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """Integer (row, col) of the cell whose centre is nearest each map-frame point (which
+        may lie outside the grid); arrays broadcast."""
+        row, col = self.cell_coordinates(x, y)
+        return np.rint(row).astype(int), np.rint(col).astype(int)
+
 
 @dataclass(frozen=True, eq=False)
 class GridMap:
