@@ -240,18 +240,6 @@ class PhysicalWorld:
         """Whether L was outside its room when the patrollers' cameras last looked."""
         return self.patroller_cameras.observer_out
 
-    @property
-    def _cam(self) -> Pose | None:
-        return self.camera.pose
-
-    @property
-    def _cone(self) -> Cone | None:
-        return self.camera.cone
-
-    @property
-    def _patrol_cone(self) -> Cone:
-        return self.patroller_cameras.cone
-
     # ---- geometry helpers ---------------------------------------------------------------
     def _cycle(self, i: int, s: int) -> np.ndarray:
         pol, psi = self.policies[i], self.domain.intended

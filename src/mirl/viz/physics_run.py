@@ -62,15 +62,16 @@ def draw_physical_run(ax, scenario, result, colors, observer_color, *, context: 
             (line,) = ax.plot(c, r, "-", color=observer_color, lw=2.6,
                               label=f"L (left t={result.go_time}) — {result.outcome}")  # fmt: skip
             handles.append(line)
-    if world._cone is not None:
-        cx, cy, cyaw = world._cam
+    camera = world.camera
+    if camera.cone is not None and camera.pose is not None:
+        cx, cy, cyaw = camera.pose
         handles.append(
-            _cone(ax, frame, cx, cy, cyaw, world._cone.fov_deg, world._cone.range, "#2ca02c",
-                  f"L's camera ({world._cone.fov_deg:g}°, {world._cone.range:.1f} m)")
+            _cone(ax, frame, cx, cy, cyaw, camera.cone.fov_deg, camera.cone.range, "#2ca02c",
+                  f"L's camera ({camera.cone.fov_deg:g}°, {camera.cone.range:.1f} m)")
         )  # fmt: skip
     for s in world.sightings[:1]:
         x, y, yaw = s.robot_pose
-        cone = world._patrol_cone
+        cone = world.patroller_cameras.cone
         handles.append(
             _cone(ax, frame, x, y, yaw, cone.fov_deg, cone.range, "#ff2222",
                   f"{result.robot_names[s.robot]}'s camera saw L at {s.time:.1f} s")
