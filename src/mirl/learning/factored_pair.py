@@ -22,7 +22,7 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.mdp import csr_matmul
+from mirl.sparse import csr_matmul
 from mirl.world.domain import PatrolDomain
 from mirl.world.game import meeting
 

@@ -58,7 +58,8 @@ from scipy.optimize import OptimizeResult
 from mirl.learning.optimise import minimise_from
 from mirl.learning.sequence import BlockOperator, ObservedSequence
 from mirl.learning.soft_policy import _Dynamics, soft_policy_iteration
-from mirl.mdp import TabularMDP, csr_matmul, value_iteration
+from mirl.mdp import TabularMDP, value_iteration
+from mirl.sparse import csr_matmul
 
 __all__ = ["OBJECTIVES", "ANCHORS", "OPTIMIZERS", "OccludedMaxEntIRL"]
 

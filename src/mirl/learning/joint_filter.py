@@ -23,9 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse import _sparsetools
 
-__all__ = ["JointFilter", "MeetingMaps", "linear_map"]
+from mirl.sparse import csr_block_matvec, linear_map
+
+__all__ = ["JointFilter", "MeetingMaps"]
 
 
 def _expand(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -35,18 +36,6 @@ def _expand(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarra
     i = np.repeat(np.arange(len(rows)), counts)
     k = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts - starts, counts)
     return i, k
-
-
-def linear_map(keys, within, columns, data, dtype) -> tuple[np.ndarray, tuple]:
-    """A CSR map summing ``data[n]·x[columns[n]]`` into the output entry ``keys[n]``: its rows
-    are the distinct keys (ascending, returned first), each row's terms ordered by ``within``.
-    scipy's mat-vec kernel adds a row's terms in that order from 0, so the map reproduces any
-    sum whose order is known (used by the planner's meeting step as well)."""
-    order = np.lexsort((within, keys))
-    keys = keys[order]
-    uniq, start = np.unique(keys, return_index=True)
-    indptr = np.append(start, len(keys)).astype(dtype)
-    return uniq, (indptr, columns[order].astype(dtype), np.ascontiguousarray(data[order]))
 
 
 class MeetingMaps:
@@ -85,8 +74,8 @@ class MeetingMaps:
             return
         values = M.reshape(-1)[self.at]
         y, c = np.zeros(n_y), np.zeros(n_c)
-        _sparsetools.csr_matvec(n_y, m, *self._first, values, y)
-        _sparsetools.csr_matvec(n_c, n_y, *self._second, y, c)
+        csr_block_matvec(n_y, m, 1, *self._first, values, y)
+        csr_block_matvec(n_c, n_y, 1, *self._second, y, c)
         flat = out.reshape(-1)
         flat[self._c_keys] += c
 
@@ -114,20 +103,20 @@ class JointFilter:
         out = np.zeros((S, S))
         if seen_i >= 0:  # (M off meetings) is row x: Pᵢᵀ e_x (Pⱼᵀ row)ᵀ, an outer product
             w = np.zeros(S)
-            _sparsetools.csr_matvec(S, S, *self._P[1], M[seen_i] * self._off[seen_i], w)
+            csr_block_matvec(S, S, 1, *self._P[1], M[seen_i] * self._off[seen_i], w)
             np.multiply(self._P_i_dense[:, seen_i, None], w, out=out)
         elif seen_j >= 0:  # column y: only the columns robot J reaches from y are not zero
             b = self._P_j_dense[:, seen_j]
             reach = np.flatnonzero(b)
             yt = np.multiply.outer(M[:, seen_j] * self._off_T[seen_j], b[reach])
             part = np.zeros((S, len(reach)))
-            _sparsetools.csr_matvecs(S, S, len(reach), *self._P[0], yt.ravel(), part.ravel())
+            csr_block_matvec(S, S, len(reach), *self._P[0], yt.ravel(), part.ravel())
             out[:, reach] = part
         else:  # Pᵢᵀ ((M off meetings) Pⱼ), the latter as (Pⱼᵀ (M off meetings)ᵀ)ᵀ
             np.multiply(M.T, self._off_T, out=self._xt)
             self._y.fill(0.0)
-            _sparsetools.csr_matvecs(S, S, S, *self._P[1], self._xt.ravel(), self._y.ravel())
+            csr_block_matvec(S, S, S, *self._P[1], self._xt.ravel(), self._y.ravel())
             np.copyto(self._yt, self._y.T)
-            _sparsetools.csr_matvecs(S, S, S, *self._P[0], self._yt.ravel(), out.ravel())
+            csr_block_matvec(S, S, S, *self._P[0], self._yt.ravel(), out.ravel())
         self._meeting.add_to(out, M)
         return out

@@ -24,7 +24,7 @@ import scipy.sparse as sp
 
 from mirl.learning.gap_adjoint import gap_gradient
 from mirl.learning.soft_policy import _Dynamics
-from mirl.mdp import csr_block_matvec
+from mirl.sparse import csr_block_matvec
 
 __all__ = ["ObservedSequence", "BlockOperator"]
 
