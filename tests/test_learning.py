@@ -9,7 +9,7 @@ import pytest
 
 from mirl.cli import main
 from mirl.learning.learn import METHODS, LoopTrace, learn
-from mirl.learning.models import LearnResult
+from mirl.learning.results import LearnResult
 from mirl.learning.transitions import count_subsets, observed_steps, perception_labels
 from mirl.simulation.grid import simulate
 from mirl.world.domain import FORWARD, TURN_LEFT, TURN_RIGHT

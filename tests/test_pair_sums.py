@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mirl.learning.models import oracle_models
+from mirl.learning.results import oracle_models
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.observer import observer_model
 from mirl.planning.pair_sums import PairSightings

@@ -59,7 +59,7 @@ from mirl.experiments.records import (
     RunResult,
 )
 from mirl.learning.learn import learn
-from mirl.learning.models import LearnResult, behavior_accuracy, oracle_models
+from mirl.learning.results import LearnResult, behavior_accuracy, oracle_models
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.go import ObserverPlan, solve_observer_mdp
 from mirl.planning.observer import ObserverModel, observer_model, shortest_path_policy

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from mirl.learning.models import LearnResult
+from mirl.learning.results import LearnResult
 from mirl.observations.trajectories import Trajectories
 from mirl.physics import mujoco_version
 from mirl.planning.go import ObserverPlan

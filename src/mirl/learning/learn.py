@@ -22,7 +22,7 @@ success probability ``p`` (no T learning, one round: the relabelled labels could
 ``known-r-t`` uses the true reward and played equilibrium and learns T from labels given by the
 true policies (no IRL); ``known-r`` is the true reward and equilibrium with T from ``p``;
 ``dbn-em`` takes T from :func:`mirl.learning.dbn_em.em_transition_model` and learns the reward like
-``mirl``; ``oracle`` is the truth (:func:`mirl.learning.models.oracle_models`).
+``mirl``; ``oracle`` is the truth (:func:`mirl.learning.results.oracle_models`).
 
 Fixed-T methods (``mirl``, ``known-r``, ``dbn-em``) report ``feature_probabilities = {}``: they have
 no per-feature probabilities; the success probability ``p`` is in the result's ``message``.
@@ -43,7 +43,7 @@ import scipy.sparse as sp
 
 from mirl.learning.dbn_em import EM_INITS
 from mirl.learning.equilibria import meeting_log_likelihood, potential_meetings
-from mirl.learning.models import LearnResult, RobotModel, behavior_accuracy, oracle_models
+from mirl.learning.results import LearnResult, RobotModel, behavior_accuracy, oracle_models
 from mirl.learning.rounds import (
     Clock,
     LoopTrace,

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.models import LearnResult
+from mirl.learning.results import LearnResult
 from mirl.mdp import policy_matrix
 from mirl.planning.observer import ObserverModel
 from mirl.planning.pair_sums import MeetingStep, PairSightings
