@@ -64,9 +64,9 @@ def test_loading_a_scenario_does_not_enumerate_equilibria():
 def test_parser_choices_match_their_sources():
     from mirl.cli import parser
     from mirl.experiments import records
-    from mirl.learning import dbn_em, irl, learn
+    from mirl.learning import dbn_em, irl, methods
 
-    assert parser.LEARN_METHODS == learn.METHODS
+    assert parser.LEARN_METHODS == methods.LEARNING_METHODS
     assert parser.IRL_OBJECTIVES == irl.OBJECTIVES
     assert parser.IRL_OPTIMIZERS == irl.OPTIMIZERS
     assert parser.RUN_METHODS == records.METHODS
