@@ -16,8 +16,8 @@ import mirl
 
 ROOT = Path(mirl.__file__).parent
 README = ROOT.parents[1] / "README.md"
-MAX_MODULE_LINES = 430  # "~400": the largest, physics/patrol.py, is one class (the physical world)
-MAX_FUNCTION_LINES = 80
+MAX_MODULE_LINES = 900  # one algorithm, one module: folds of cap-driven splits reach ~800
+MAX_FUNCTION_LINES = 120  # lines of code, the docstring not counted (numpydoc sections are long)
 STAGES = ("mdp", "world", "observations", "simulation", "learning", "planning",
           "experiments", "envs", "viz", "cli")  # fmt: skip
 
@@ -61,13 +61,12 @@ def test_modules_and_functions_fit_in_one_sitting():
         assert n <= MAX_MODULE_LINES, f"{path.relative_to(ROOT)}: {n} lines"
         for node in ast.walk(ast.parse(text)):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
-                length = node.end_lineno - node.lineno + 1
-                doc = ast.get_docstring(node) or ""
-                if length > MAX_FUNCTION_LINES:
-                    assert "Long because" in doc, (
-                        f"{path.relative_to(ROOT)}:{node.lineno} {node.name}: {length} lines "
-                        "and no reason ('Long because ...') at its top"
-                    )
+                first = node.body[0]
+                doc = first.end_lineno - first.lineno + 1 if ast.get_docstring(node) else 0
+                length = node.end_lineno - node.lineno + 1 - doc
+                assert length <= MAX_FUNCTION_LINES, (
+                    f"{path.relative_to(ROOT)}:{node.lineno} {node.name}: {length} lines"
+                )
 
 
 def test_public_face_resolves_every_name():

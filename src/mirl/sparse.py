@@ -66,7 +66,9 @@ def csr_scale_columns(n_row, n_col, indptr, indices, data, x) -> None:
     _sparsetools.csr_scale_columns(n_row, n_col, indptr, indices, data, x)
 
 
-def linear_map(keys, within, columns, data, dtype) -> tuple[np.ndarray, tuple]:
+def linear_map(
+    keys, within, columns, data, dtype
+) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """A CSR map summing ``data[n]·x[columns[n]]`` into the output entry ``keys[n]``: its rows
     are the distinct keys (ascending, returned first), each row's terms ordered by ``within``.
     The mat-vec kernel adds a row's terms in that order from 0, so the map reproduces any sum

@@ -247,10 +247,10 @@ def _method_models(
     """Weights, transition matrices, feature probabilities, equilibrium (None: to be weighed)
     and a message, from the sources ``row`` names."""
     if row.relabels:
-        weights, transitions, probs, eq = relabel_loop(setup, max_iterations, trace, label_tol)
-        return weights, transitions, probs, eq, trace.message
+        return (*relabel_loop(setup, max_iterations, trace, label_tol), trace.message)
     scenario = setup.scenario
     labels = None
+    eq: Equilibrium | None
     if row.reward == "learned" or row.transitions == "features":
         with setup.clock("labels"):
             labels = _first_labels(setup, row)
