@@ -258,16 +258,8 @@ def weigh_equilibria(
         meeting_log_likelihood(domain, series, policies, transitions, e, epsilon=epsilon)
         for e in candidates
     ]
-    w = np.exp(ll - ll.max())
-    w /= w.sum()
-    best = int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])
-    return EquilibriumWeights(
-        tuple(candidates),
-        ll,
-        w,
-        np.array([m[0] for m in meet]),
-        meet[0][1] if meet else 0,
-        best,
+    return EquilibriumWeights.from_log_likelihoods(
+        candidates, ll, np.array([m[0] for m in meet]), meet[0][1] if meet else 0
     )
 
 
