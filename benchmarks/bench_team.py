@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mirl.learning.models import oracle_models
+from mirl.learning.results import oracle_models
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.observer import observer_model, shortest_path_policy
 from mirl.simulation.grid import simulate

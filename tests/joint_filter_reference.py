@@ -10,7 +10,7 @@ import scipy.sparse as sp
 from scipy.sparse import _sparsetools
 
 from mirl.learning.equilibria import _condition, _robot_steps
-from mirl.mdp import csr_matmul
+from mirl.sparse import csr_matmul
 from mirl.world.game import meeting
 
 

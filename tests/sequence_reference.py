@@ -60,7 +60,7 @@ def forward_mode_loglik(self, pi, B, visible, dpi=None):
             Z = np.ascontiguousarray(Z[:, :live])
             out = np.empty_like(Z)
             z_flat, out_flat = Z.ravel(), out.ravel()
-        out.fill(0.0)  # Z ← B Z by the kernel behind `B @ Z` (mirl.mdp.csr_matmul)
+        out.fill(0.0)  # Z ← B Z by the kernel behind `B @ Z` (mirl.sparse.csr_matmul)
         indptr, indices, data = masked if n > 1 else (B.indptr, B.indices, B.data)
         kernel(R, R, live, indptr, indices, data, z_flat, out_flat)
         Z, out, z_flat, out_flat = out, Z, out_flat, z_flat

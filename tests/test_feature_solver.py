@@ -19,8 +19,7 @@ from hypothesis import strategies as st
 from scipy.optimize import minimize, minimize_scalar
 from scipy.special import entr
 
-from mirl.learning.feature_solver import solve_feature_probabilities
-from mirl.learning.feature_solver._common import FeatureSolveResult
+from mirl.learning.feature_solver import FeatureSolveResult, solve_feature_probabilities
 
 LEFT, RIGHT, NAV, FLOOR = "left_wheel", "right_wheel", "navigation", "floor"
 ROBOT = (LEFT, RIGHT, NAV, FLOOR)

@@ -16,14 +16,19 @@ import mirl
 
 ROOT = Path(mirl.__file__).parent
 README = ROOT.parents[1] / "README.md"
-# A guideline, not a cap: a module longer than this, or a function longer than that, needs a
-# reason a reviewer accepts, written in LONG_ON_PURPOSE. A module holds one concept whatever its
-# length; it is never split to meet a number.
+# A guideline, not a cap: a module longer than this, or a function whose code (its docstring
+# aside) is longer than that, needs a reason a reviewer accepts, written in LONG_ON_PURPOSE.
+# A module holds one concept whatever its length; it is never split to meet a number.
 MODULE_GUIDELINE = 700
 FUNCTION_GUIDELINE = 100
 LONG_ON_PURPOSE = {  # "path/in/package.py" or "path.py:function" -> the reason
     "experiments/episode.py:run_episode": "the run protocol's knobs are its keyword arguments, "
     "one a line; the body is the four phases in order",
+    "learning/feature_solver.py": "one algorithm, the Eq. 4 solver: its maximum-entropy form "
+    "(with the maximum-likelihood face it searches) and the paper's procedure share the pooling "
+    "of counts, the result record and the report",
+    "world/ros_maps.py:load_ros_map": "checks each field of a map_server YAML where it is read, "
+    "in the order of the format, each refusal one line naming the field",
 }
 STAGES = ("mdp", "world", "observations", "simulation", "learning", "planning",
           "experiments", "envs", "viz", "cli")  # fmt: skip
@@ -69,7 +74,9 @@ def test_long_modules_and_functions_have_a_reason():
         assert n <= MODULE_GUIDELINE or rel in LONG_ON_PURPOSE, f"{rel}: {n} lines, no reason"
         for node in ast.walk(ast.parse(text)):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
-                length = node.end_lineno - node.lineno + 1
+                first = node.body[0]  # a docstring documents; it does not lengthen the code
+                doc = first.end_lineno - first.lineno + 1 if ast.get_docstring(node) else 0
+                length = node.end_lineno - node.lineno + 1 - doc
                 key = f"{rel}:{node.name}"
                 assert length <= FUNCTION_GUIDELINE or key in LONG_ON_PURPOSE, (
                     f"{key} (line {node.lineno}): {length} lines, no reason"

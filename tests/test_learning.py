@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from mirl.cli import main
-from mirl.learning.learn import METHODS, LoopTrace, learn
-from mirl.learning.models import LearnResult
+from mirl.learning.learn import LoopTrace, learn
+from mirl.learning.methods import LEARNING_METHODS
+from mirl.learning.results import LearnResult
 from mirl.learning.transitions import count_subsets, observed_steps, perception_labels
 from mirl.simulation.grid import simulate
 from mirl.world.domain import FORWARD, TURN_LEFT, TURN_RIGHT
@@ -95,7 +96,7 @@ def test_label_tol_counts_a_round_within_it_as_converged(boyd2, full_run, relabe
         learn(obs, boyd2, "mirl-t", label_tol=1.5)
 
 
-@pytest.mark.parametrize("method", [m for m in METHODS if m != "mirl-t"])
+@pytest.mark.parametrize("method", [m for m in LEARNING_METHODS if m != "mirl-t"])
 def test_every_method_returns_models(boyd2, method):
     run = simulate(boyd2, 120, seed=1, observability=0.5, random_starts=True)
     result = learn(run.observations, boyd2, method, observability=0.5, p=0.8)

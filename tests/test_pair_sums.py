@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mirl.learning.models import oracle_models
-from mirl.mdp import csr_matmul
+from mirl.learning.results import oracle_models
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.observer import observer_model
 from mirl.planning.pair_sums import PairSightings
+from mirl.sparse import csr_matmul
 from mirl.world.scenario import load_scenario
 
 

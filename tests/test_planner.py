@@ -8,7 +8,7 @@ import itertools
 import numpy as np
 import pytest
 
-from mirl.learning.models import LearnResult, RobotModel, oracle_models
+from mirl.learning.results import LearnResult, RobotModel, oracle_models
 from mirl.mdp import policy_matrix
 from mirl.planning.belief import NOT_WATCHING, UNSEEN, BeliefFilter, Prediction, _joint_step_matrix
 from mirl.planning.go import solve_observer_mdp

@@ -11,7 +11,7 @@ from mirl.cli import main
 from mirl.experiments.conditions import OUTCOMES
 from mirl.experiments.episode import run_episode
 from mirl.experiments.run_report import format_report
-from mirl.learning.models import oracle_models
+from mirl.learning.results import oracle_models
 from mirl.planning.observer import observer_model
 from mirl.world.domain import detection_cells
 from mirl.world.scenario import load_scenario

@@ -9,19 +9,17 @@ import pytest
 import scipy.sparse as sp
 from scipy.sparse import _sparsetools
 
-from mirl.learning.equilibria import _robot_steps, joint_log_likelihood
-from mirl.learning.factored_pair import factored_log_likelihood, meeting_matrix
+from mirl.learning.equilibria import (
+    _robot_steps,
+    factored_log_likelihood,
+    joint_log_likelihood,
+    meeting_matrix,
+)
 from mirl.learning.sequence import ObservedSequence
 from mirl.learning.soft_policy import _Dynamics
-from mirl.mdp import (
-    TabularMDP,
-    csc_block_matvec,
-    csr_block_matvec,
-    csr_matmul,
-    greedy_policy,
-    value_iteration,
-)
+from mirl.mdp import TabularMDP, greedy_policy, value_iteration
 from mirl.simulation.grid import simulate
+from mirl.sparse import csc_block_matvec, csr_block_matvec, csr_matmul
 from mirl.world.game import meeting
 from mirl.world.scenario import load_scenario
 

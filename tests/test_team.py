@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from mirl.learning.equilibria import meeting_pairs, weigh_equilibria, weigh_team_equilibria
-from mirl.learning.models import oracle_models
+from mirl.learning.results import oracle_models
 from mirl.planning.belief import UNSEEN, BeliefFilter
 from mirl.planning.observer import observer_model
 from mirl.planning.team_filter import meeting_matrix

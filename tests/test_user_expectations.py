@@ -18,7 +18,7 @@ from mirl.experiments.records import WATCH_LIMIT
 from mirl.experiments.run_report import format_report, state_text
 from mirl.experiments.store import ResultStore
 from mirl.experiments.sweep import run_experiment
-from mirl.learning.models import oracle_models
+from mirl.learning.results import oracle_models
 from mirl.world.scenario import load_scenario
 
 

@@ -33,7 +33,7 @@ _EXPORTS = {
     "TransitionFeatureLearner": "mirl.learning.transitions",
     "OccludedMaxEntIRL": "mirl.learning.irl",
     "learn": "mirl.learning.learn",
-    "LearnResult": "mirl.learning.models",
+    "LearnResult": "mirl.learning.results",
     "BeliefFilter": "mirl.planning.belief",
     "observer_model": "mirl.planning.observer",
     "solve_observer_mdp": "mirl.planning.go",
@@ -94,7 +94,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from mirl.learning.feature_solver import solve_feature_probabilities
     from mirl.learning.irl import OccludedMaxEntIRL
     from mirl.learning.learn import learn
-    from mirl.learning.models import LearnResult
+    from mirl.learning.results import LearnResult
     from mirl.learning.transitions import TransitionFeatureLearner
     from mirl.mdp import TabularMDP, value_iteration
     from mirl.observations.trajectories import Trajectories, read_csv

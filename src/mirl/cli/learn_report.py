@@ -7,7 +7,7 @@ __all__ = ["learn_record", "print_learn"]
 
 
 def learn_record(result, scenario, observations: str, steps: int, degree: float) -> dict:
-    """The JSON-ready record of ``result`` (a :class:`~mirl.learning.models.LearnResult`)
+    """The JSON-ready record of ``result`` (a :class:`~mirl.learning.results.LearnResult`)
     learned on ``scenario`` from ``observations`` (``steps`` long, at observability ``degree``)."""
     names = scenario.domain.reward_feature_names
     robots = {

@@ -53,7 +53,7 @@ from mirl.experiments.records import MAX_WAIT, WATCH_LIMIT, Detection, PlanAttem
 from mirl.experiments.worlds import DEFAULT_WORLD, RunWorld, make_world
 from mirl.learning.learn import learn
 from mirl.learning.methods import get_method
-from mirl.learning.models import LearnResult, behavior_accuracy, oracle_models
+from mirl.learning.results import LearnResult, behavior_accuracy, oracle_models
 from mirl.observations.trajectories import Trajectories
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.go import ObserverPlan, solve_observer_mdp

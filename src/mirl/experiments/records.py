@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from mirl.experiments.worlds import Detection
-from mirl.learning.models import LearnResult
+from mirl.learning.results import LearnResult
 from mirl.observations.trajectories import Trajectories
 from mirl.planning.go import ObserverPlan
 

@@ -1,16 +1,43 @@
-"""Interactions: which observed steps could be meetings, and the weighing of the interaction game's
-candidate equilibria by the exact likelihood of both robots' observations under the joint
-dynamics (a forward filter over joint states where the equilibrium replaces the policies at
-meeting states).
+"""Interactions: which observed steps could be meetings, and the weighing of the interaction
+game's candidate equilibria by the likelihood of both robots' observations under the joint
+dynamics, in which the equilibrium's moves replace the policies' at meeting states.
 
 **Interactions.** Observed steps at which both robots are in view and *could* meet are left out of
 the per-robot fit (their actions may be the game's). The candidate equilibria (all Nash equilibria
-of the bimatrix) are weighed by the exact likelihood of both robots' observations under the joint
-dynamics — a forward filter over the S² joint states where the equilibrium's moves replace the
-policies' at meeting states (:func:`joint_log_likelihood`) — which contains the likelihood of the
-evident meetings (:func:`meeting_log_likelihood`). The joint filter costs ~0.1 s per equilibrium
-on boyd2 (450 steps), 10–25 times a marginal objective evaluation, so it weighs equilibria once
-per learned model rather than inside the optimiser.
+of the bimatrix) are weighed by the likelihood of both robots' observations
+(:func:`joint_log_likelihood`), which contains the likelihood of the evident meetings
+(:func:`meeting_log_likelihood`). The exact joint filter costs ~0.1 s per equilibrium on boyd2
+(450 steps), 10–25 times a marginal objective evaluation, so equilibria are weighed once per
+learned model rather than inside the optimiser.
+
+**The exact joint filter** (:class:`JointFilter`). The joint belief is an S × S matrix M; a step
+is M ← Pᵢᵀ (M off meetings) Pⱼ + Gᵢᵀ (M at meetings) Gⱼ, where P are the robots' ε-greedy policy
+steps and G the equilibrium's game moves. Each step adds the same products in the same order as
+the plain form (two dense-by-sparse products of the whole S × S matrix, and scipy's
+sparse-sparse kernel for the meeting part), so the likelihood is bit for bit the plain one
+(``tests/joint_filter_reference.py``), but it skips what is known to be zero:
+
+* after a step at which L saw robot I, M is zero off that robot's row, so the next step is an
+  outer product of two vectors (and after one at which it saw J, the product of Pᵢᵀ with the few
+  columns J can reach) instead of two S × S × nnz products — exactly, since a sum of exact zeros
+  and one product is that product;
+* the meeting part is two fixed linear maps from the few hundred meeting values to the entries
+  they reach (their order of summation that of scipy's kernel), instead of a sparse-sparse
+  product whose structure is rebuilt at every step.
+
+**The factored filter on large maps** (:func:`factored_log_likelihood`). The exact filter tracks
+every pair of states, S² of them (712 k on a 30 × 30 office, 39 M on 80 × 80). Only meetings
+need the pair, and a meeting needs the two robots within two cells of each other, so the meeting
+states are a sparse set (at most ~50 per state, :func:`meeting_matrix`). Above
+``MAX_JOINT_STATES`` pair states the belief is kept as a product of the two robots' marginals
+(the Boyen–Koller projection): a step moves each marginal by its policy, except for the mass the
+pair has at meeting states, which moves by the equilibrium's game moves — exactly the joint
+step's marginals when the joint is that product — and the evidence (each robot seen where it is,
+or not on a visible cell) factorises, so its likelihood is the product of the two robots'. What
+is dropped is the correlation a meeting leaves behind (who waited for whom). Cost per step: two
+sparse mat-vecs per robot and one product with the sparse meeting matrix, O(S) instead of O(S²).
+The approximation against the exact joint is measured in ``benchmarks/bench_speed.py
+--accuracy`` and docs/design.md ("Equilibrium weighing at scale").
 """
 
 from __future__ import annotations
@@ -21,14 +48,13 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.factored_pair import factored_log_likelihood, meeting_matrix
-from mirl.learning.joint_filter import JointFilter
 from mirl.learning.soft_policy import _Dynamics
+from mirl.sparse import csr_block_matvec, csr_matmul, linear_map
 from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
 from mirl.world.game import Equilibrium, meeting
 
 # pair states up to which the weighing filters the exact joint (as the planner's BeliefFilter);
-# above, the factored filter coupled at meetings (issue 12; error measured in docs/design.md)
+# above, the factored filter coupled at meetings (error measured in docs/design.md)
 MAX_JOINT_STATES = 60_000
 
 __all__ = [
@@ -40,6 +66,10 @@ __all__ = [
     "meeting_pairs",
     "TeamEquilibria",
     "weigh_team_equilibria",
+    "JointFilter",
+    "MeetingMaps",
+    "meeting_matrix",
+    "factored_log_likelihood",
 ]
 
 
@@ -91,26 +121,7 @@ def _robot_steps(domain, pol, transitions, equilibrium, epsilon):
     return PT, GT
 
 
-def _joint_filter(domain, policies, transitions, equilibrium, epsilon) -> JointFilter:
-    S = domain.n_states
-    pol = [np.asarray(p, dtype=int) for p in policies]
-    PT, GT = _robot_steps(domain, pol, transitions, equilibrium, epsilon)
-    si, sj = np.divmod(np.arange(S * S), S)
-    meet = meeting(domain, si, sj, pol[0][si], pol[1][sj]).reshape(S, S)
-    return JointFilter(PT, GT, meet)
-
-
-def _condition(M: np.ndarray, x: int, visible: np.ndarray, axis: int) -> None:
-    """In-place: keep only what is consistent with one robot's observation at this step."""
-    view = M if axis == 0 else M.T
-    if x >= 0:
-        keep = view[x].copy()
-        view[:] = 0.0
-        view[x] = keep
-    else:
-        view[visible] = 0.0
-
-
+# ---- weighing equilibria -------------------------------------------------------------------------
 def joint_log_likelihood(
     domain: PatrolDomain,
     series: Sequence[np.ndarray],
@@ -129,7 +140,7 @@ def joint_log_likelihood(
     conditioned on what L saw (the observed state, or "somewhere not visible"). Policies are the
     greedy ones mixed with ε of uniform actions so that no observation has probability 0.
     Above ``max_joint_states`` pair states (None: never) the robots are filtered on their own
-    and coupled at meetings (:mod:`mirl.learning.factored_pair`), an approximation.
+    and coupled at meetings (:func:`factored_log_likelihood`), an approximation.
     """
     x, y = (np.asarray(s, dtype=int) for s in series)
     S = domain.n_states
@@ -247,17 +258,196 @@ def weigh_equilibria(
         meeting_log_likelihood(domain, series, policies, transitions, e, epsilon=epsilon)
         for e in candidates
     ]
-    w = np.exp(ll - ll.max())
-    w /= w.sum()
-    best = int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])
-    return EquilibriumWeights(
-        tuple(candidates),
-        ll,
-        w,
-        np.array([m[0] for m in meet]),
-        meet[0][1] if meet else 0,
-        best,
+    return EquilibriumWeights.from_log_likelihoods(
+        candidates, ll, np.array([m[0] for m in meet]), meet[0][1] if meet else 0
     )
+
+
+# ---- the exact joint filter ----------------------------------------------------------------------
+def _expand(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every (i, k) with k an entry position of row ``rows[i]`` of a compressed array."""
+    starts = indptr[rows]
+    counts = indptr[rows + 1] - starts
+    i = np.repeat(np.arange(len(rows)), counts)
+    k = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts - starts, counts)
+    return i, k
+
+
+class MeetingMaps:
+    """Gᵢᵀ (M at meetings) Gⱼ added into a dense (S, S) array, by two fixed linear maps.
+
+    scipy's sparse-sparse kernel (Gustavson's) forms Y = (M at meetings) Gⱼ summing each entry
+    over the meeting states of its row in order, then Gᵢᵀ Y summing each entry over Gᵢᵀ's row in
+    its stored order. The two maps below sum the same terms in the same orders (an entry that is
+    zero adds an exact zero, as the kernel's dropped entries do not), so the result is bitwise
+    the kernel's; their structure is built once rather than at every step."""
+
+    def __init__(self, GT_i: sp.csr_array, GT_j: sp.csr_array, meet: np.ndarray) -> None:
+        S = meet.shape[0]
+        dtype = GT_i.indptr.dtype
+        mi, mj = (a.astype(np.intp) for a in np.nonzero(meet))  # row-major: the kernel's order
+        self.at = mi * S + mj  # flat positions of the meeting states
+        gj = sp.csr_array(GT_j.T)  # Gⱼ as CSR, in the kernel's order
+        gj.sort_indices()
+        # first map: meeting value e times Gⱼ entry k lands on Y[mi[e], column of k]
+        e, k = _expand(gj.indptr.astype(np.intp), mj)
+        y_keys, self._first = linear_map(mi[e] * S + gj.indices[k], e, e, gj.data[k], dtype)
+        # second map: Y entry y = (a, c) times Gᵢᵀ entry kk = (r, a) lands on C[r, c]
+        by_column = np.argsort(GT_i.indices, kind="stable")
+        column_ptr = np.searchsorted(GT_i.indices[by_column], np.arange(S + 1))
+        y_index, p = _expand(column_ptr, y_keys // S)
+        kk = by_column[p]
+        gi_rows = np.repeat(np.arange(S), np.diff(GT_i.indptr))
+        c_key = gi_rows[kk] * S + y_keys[y_index] % S
+        self._c_keys, self._second = linear_map(c_key, kk, y_index, GT_i.data[kk], dtype)
+        self._n = (len(mi), len(y_keys), len(self._c_keys))
+
+    def add_to(self, out: np.ndarray, M: np.ndarray) -> None:
+        """``out`` (C-contiguous) += Gᵢᵀ (M at meetings) Gⱼ."""
+        m, n_y, n_c = self._n
+        if m == 0:
+            return
+        values = M.reshape(-1)[self.at]
+        y, c = np.zeros(n_y), np.zeros(n_c)
+        csr_block_matvec(n_y, m, 1, *self._first, values, y)
+        csr_block_matvec(n_c, n_y, 1, *self._second, y, c)
+        flat = out.reshape(-1)
+        flat[self._c_keys] += c
+
+
+class JointFilter:
+    """One step of the joint belief of two robots (module docstring). ``PT``, ``GT``: per robot
+    the transposed ε-greedy policy step and game-move step, (S, S) CSR; ``meet``: (S, S) bool,
+    the joint states where the robots' intended moves meet."""
+
+    def __init__(self, PT, GT, meet: np.ndarray) -> None:
+        S = meet.shape[0]
+        self.S = S
+        self._P = [(P.indptr, P.indices, P.data) for P in PT]
+        self._P_i_dense = PT[0].toarray()  # column x: where robot I goes from x
+        self._P_j_dense = PT[1].toarray()
+        self._off = (~meet).astype(float)  # masks as factors: M·1 = M, M·0 = +0
+        self._off_T = np.ascontiguousarray(self._off.T)
+        self._meeting = MeetingMaps(GT[0], GT[1], meet)
+        self._xt, self._y, self._yt = np.empty((S, S)), np.empty((S, S)), np.empty((S, S))
+
+    def step(self, M: np.ndarray, seen_i: int, seen_j: int) -> np.ndarray:
+        """M one step on. ``seen_i``, ``seen_j``: the states L saw the robots in at the step M
+        was conditioned on (-1: not seen), where M is zero off that row (column)."""
+        S = self.S
+        out = np.zeros((S, S))
+        if seen_i >= 0:  # (M off meetings) is row x: Pᵢᵀ e_x (Pⱼᵀ row)ᵀ, an outer product
+            w = np.zeros(S)
+            csr_block_matvec(S, S, 1, *self._P[1], M[seen_i] * self._off[seen_i], w)
+            np.multiply(self._P_i_dense[:, seen_i, None], w, out=out)
+        elif seen_j >= 0:  # column y: only the columns robot J reaches from y are not zero
+            b = self._P_j_dense[:, seen_j]
+            reach = np.flatnonzero(b)
+            yt = np.multiply.outer(M[:, seen_j] * self._off_T[seen_j], b[reach])
+            part = np.zeros((S, len(reach)))
+            csr_block_matvec(S, S, len(reach), *self._P[0], yt.ravel(), part.ravel())
+            out[:, reach] = part
+        else:  # Pᵢᵀ ((M off meetings) Pⱼ), the latter as (Pⱼᵀ (M off meetings)ᵀ)ᵀ
+            np.multiply(M.T, self._off_T, out=self._xt)
+            self._y.fill(0.0)
+            csr_block_matvec(S, S, S, *self._P[1], self._xt.ravel(), self._y.ravel())
+            np.copyto(self._yt, self._y.T)
+            csr_block_matvec(S, S, S, *self._P[0], self._yt.ravel(), out.ravel())
+        self._meeting.add_to(out, M)
+        return out
+
+
+def _joint_filter(domain, policies, transitions, equilibrium, epsilon) -> JointFilter:
+    S = domain.n_states
+    pol = [np.asarray(p, dtype=int) for p in policies]
+    PT, GT = _robot_steps(domain, pol, transitions, equilibrium, epsilon)
+    si, sj = np.divmod(np.arange(S * S), S)
+    meet = meeting(domain, si, sj, pol[0][si], pol[1][sj]).reshape(S, S)
+    return JointFilter(PT, GT, meet)
+
+
+def _condition(M: np.ndarray, x: int, visible: np.ndarray, axis: int) -> None:
+    """In-place: keep only what is consistent with one robot's observation at this step."""
+    view = M if axis == 0 else M.T
+    if x >= 0:
+        keep = view[x].copy()
+        view[:] = 0.0
+        view[x] = keep
+    else:
+        view[visible] = 0.0
+
+
+# ---- the factored filter, coupled at meetings ----------------------------------------------------
+def meeting_matrix(domain: PatrolDomain, policy_i: np.ndarray, policy_j: np.ndarray):
+    """(S, S) sparse 0/1 matrix of the pair states where the policies' intended moves meet,
+    without enumerating all S² pairs: only states whose cells are within two steps can meet."""
+    S = domain.n_states
+    cells = domain.cells
+    rows, cols = domain.cell_lut.shape
+    offsets = [(dr, dc) for dr in range(-2, 3) for dc in range(-2, 3) if abs(dr) + abs(dc) <= 2]
+    si_all, sj_all = [], []
+    heads = np.arange(4)
+    for dr, dc in offsets:
+        r, c = cells[:, 0] + dr, cells[:, 1] + dc
+        ok = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+        other = np.full(len(cells), -1)
+        other[ok] = domain.cell_lut[r[ok], c[ok]]
+        ci = np.flatnonzero(other >= 0)
+        # every heading of the cell against every heading of the other cell
+        si = (ci[:, None, None] * 4 + heads[:, None]).repeat(4, axis=2).ravel()
+        sj = (other[ci][:, None, None] * 4 + heads[None, None, :]).repeat(4, axis=1).ravel()
+        si_all.append(si)
+        sj_all.append(sj)
+    si, sj = np.concatenate(si_all), np.concatenate(sj_all)
+    pi, pj = np.asarray(policy_i, dtype=int), np.asarray(policy_j, dtype=int)
+    hit = meeting(domain, si, sj, pi[si], pj[sj])
+    data = np.ones(int(hit.sum()))
+    return sp.csr_array((data, (si[hit], sj[hit])), shape=(S, S))
+
+
+def _condition_marginal(b: np.ndarray, x: int, visible: np.ndarray) -> float:
+    """In place: one robot's marginal given its observation; returns the evidence's probability."""
+    if x >= 0:
+        keep = b[x]
+        b[:] = 0.0
+        b[x] = keep
+    else:
+        b[visible] = 0.0
+    return float(b.sum())
+
+
+def factored_log_likelihood(
+    series: Sequence[np.ndarray],
+    PT: Sequence[sp.csr_array],
+    GT: Sequence[sp.csr_array],
+    meet: sp.csr_array,
+    visible: np.ndarray,
+) -> float:
+    """log P(observations of both robots) under the factored filter (module docstring), for the
+    model of :func:`joint_log_likelihood`: per robot the transposed
+    ε-greedy policy step ``PT`` and game-move step ``GT``, the sparse ``meet`` matrix of
+    :func:`meeting_matrix` and the (S,) states L can see (a robot seen elsewhere counts)."""
+    x, y = (np.asarray(s, dtype=int) for s in series)
+    S = meet.shape[0]
+    meet_T = sp.csr_array(meet.T)
+    b = [np.full(S, 1.0 / S), np.full(S, 1.0 / S)]
+    total = 0.0
+    for t in range(len(x)):
+        if t > 0:
+            # mass each robot has at meeting states: r_I(s) = b_I(s) Σ_s' m(s, s') b_J(s')
+            r = [b[0] * csr_matmul(meet, b[1]), b[1] * csr_matmul(meet_T, b[0])]
+            b = [csr_matmul(PT[k], b[k] - r[k]) + csr_matmul(GT[k], r[k]) for k in (0, 1)]
+        obs = (int(x[t]), int(y[t]))
+        for k in (0, 1):
+            c = _condition_marginal(b[k], obs[k], visible)
+            if c <= 0.0:  # impossible under the model: restart this robot's marginal
+                total += np.log(1e-300)
+                b[k] = np.ones(S)
+                c = _condition_marginal(b[k], obs[k], visible)
+            else:
+                total += np.log(c)
+            b[k] /= c
+    return float(total)
 
 
 # ---- teams of N ≥ 2 ----------------------------------------------------------------------------
@@ -302,7 +492,7 @@ def weigh_team_equilibria(
     """:func:`weigh_equilibria` on every pair of :func:`meeting_pairs` (each pair's joint
     filter ignores the other robots), combined by summing log-likelihoods. With two robots this
     is exactly :func:`weigh_equilibria`. A pair whose joint has more than ``max_joint_states``
-    states is filtered factored, coupled at meetings (:mod:`mirl.learning.factored_pair`).
+    states is filtered factored, coupled at meetings (:func:`factored_log_likelihood`).
     """
     per_pair = {
         (i, j): weigh_equilibria(

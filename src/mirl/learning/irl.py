@@ -32,7 +32,8 @@ policy handed on is the greedy policy of *hard* value iteration with θ and T.
 ``"lbfgs"``: L-BFGS-B with the exact gradient — dπ/dθ through the soft successor features
 (I − γP_π)⁻¹ φ_π; for the sequence objective the gap filter's gradient in forward mode (the
 distributions and their K derivatives in one block-sparse step) on small models and in reverse
-mode (:mod:`mirl.learning.gap_adjoint`) on large ones (``gradient``).
+mode (:meth:`~mirl.learning.sequence.ObservedSequence.loglik_reverse`) on large ones
+(``gradient``).
 
 Soft values come from soft policy iteration (Newton's method on the soft Bellman equation,
 quadratic convergence) warm-started from the previous evaluation.
@@ -51,14 +52,16 @@ Interactions (meetings, equilibria) are :mod:`mirl.learning.equilibria`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import scipy.sparse as sp
-from scipy.optimize import OptimizeResult
+from scipy.optimize import OptimizeResult, minimize
 
-from mirl.learning.optimise import minimise_from
 from mirl.learning.sequence import BlockOperator, ObservedSequence
 from mirl.learning.soft_policy import _Dynamics, soft_policy_iteration
-from mirl.mdp import TabularMDP, csr_matmul, value_iteration
+from mirl.mdp import TabularMDP, value_iteration
+from mirl.sparse import csr_matmul
 
 __all__ = ["OBJECTIVES", "ANCHORS", "OPTIMIZERS", "OccludedMaxEntIRL"]
 
@@ -80,40 +83,61 @@ class OccludedMaxEntIRL:
 
     Parameters
     ----------
-    features : (S, A, K) reward features φ.
-    transitions : (S·A, S) CSR transition model of the robot (learned or fixed).
-    discount : the robot's discount factor.
-    visible : (S,) bool, the states L can observe (all if None). Observed states are always
-        treated as observable.
-    objective, anchor, optimizer : see the module docstring (defaults: the measured best; the
-        paper's is ``objective="counts", optimizer="nelder-mead", n_restarts=3``).
-    temperature : τ of the soft policy; θ's scale is learned, so τ only fixes the units.
-    l2 : weight of the L2 penalty on θ.
-    n_restarts : optimiser starts: ``initial_weights`` (or θ = 0) first, then seeded N(0, 1) draws.
-    max_evaluations : objective evaluations allowed per start.
-    tol : L-BFGS-B's ``ftol``, the relative decrease of the loss per iteration below which it
-        stops. The default ``1e-5`` stops once an iteration gains less than 10⁻⁵ of the loss
-        (a few hundredths of a nat on the office's records): measured to learn boyd2 ~17 %
-        and the office ~25 % faster with the same equilibria and accuracy (docs/design.md, "A
-        looser stopping rule"); None: scipy's 2.2e-9, which the results before it used.
-    gradient : how the sequence objective's gradient is taken, both exact: ``"forward"`` (the
-        K derivatives propagated with the distributions), ``"reverse"`` (an adjoint pass,
-        :mod:`mirl.learning.gap_adjoint`), or ``"auto"``: reverse on large models, where it is
-        several times faster, forward on small ones (boyd2), where it is not.
-    random_state : seed for the restarts.
+    features : ndarray of shape (S, A, K)
+        Reward features φ.
+    transitions : sparse array of shape (S·A, S)
+        The robot's transition model, CSR (learned by mIRL*/T, or fixed).
+    discount : float, default 0.95
+        The robot's discount factor.
+    visible : ndarray of shape (S,) of bool, optional
+        The states L can observe (all if None). Observed states are always treated as
+        observable.
+    objective : {"sequence", "counts", "likelihood", "both"}, default "sequence"
+        What is fitted (module docstring); the default is the measured best, the paper's is
+        ``"counts"``.
+    anchor : {"first", "reentry"}, default "first"
+        Where the ``"counts"`` objective's expected counts are propagated from.
+    optimizer : {"lbfgs", "nelder-mead"}, default "lbfgs"
+        L-BFGS-B with the exact gradient, or the paper's derivative-free Nelder–Mead.
+    temperature : float, default 1.0
+        τ of the soft policy; θ's scale is learned, so τ only fixes the units.
+    l2 : float, default 1e-4
+        Weight of the L2 penalty on θ.
+    n_restarts : int, default 1
+        Optimiser starts: ``initial_weights`` (or θ = 0) first, then seeded N(0, 1) draws (the
+        paper's configuration: 3, with Nelder–Mead).
+    max_evaluations : int, default 300
+        Objective evaluations allowed per start.
+    tol : float or None, default 1e-5
+        L-BFGS-B's ``ftol``, the relative decrease of the loss per iteration below which it
+        stops. The default stops once an iteration gains less than 10⁻⁵ of the loss (a few
+        hundredths of a nat on the office's records): measured to learn boyd2 ~17 % and the
+        office ~25 % faster with the same equilibria and accuracy (docs/design.md, "A looser
+        stopping rule"); None: scipy's 2.2e-9.
+    gradient : {"auto", "forward", "reverse"}, default "auto"
+        How the sequence objective's gradient is taken, both exact: ``"forward"`` (the K
+        derivatives propagated with the distributions), ``"reverse"`` (an adjoint pass,
+        :meth:`~mirl.learning.sequence.ObservedSequence.loglik_reverse`), or ``"auto"``:
+        reverse on large models, where it is several times faster, forward on small ones
+        (boyd2), where it is not.
+    random_state : int, Generator or None
+        Seed for the restarts.
 
     Attributes
     ----------
-    weights_ : (K,) array
-        The fitted reward weights (set by ``fit``, as are the others).
-    policy_ : (S,) array
+    weights_ : ndarray of shape (K,)
+        The learned reward weights θ.
+    policy_ : ndarray of shape (S,)
         Greedy policy of hard value iteration with ``weights_`` and the transition model.
-    soft_policy_ : (S, A) array
-        The soft policy at ``weights_``.
-    expert_counts_, expected_counts_ : (K,) arrays
-        Feature counts on the observable states (whatever the objective).
+    q_values_ : ndarray of shape (S, A)
+        That value iteration's Q.
+    soft_policy_ : ndarray of shape (S, A)
+        The soft policy π of ``weights_``.
+    expert_counts_, expected_counts_ : ndarray of shape (K,)
+        Feature counts on the observable states, observed and expected (whatever the
+        objective; computed when first read).
     result_ : scipy.optimize.OptimizeResult
-        With ``x``, ``fun``, ``success``, ``message``, ``nfev`` and ``starts``, the (x, fun) of
+        ``x``, ``fun``, ``success``, ``message``, ``nfev`` and ``starts``, the (x, fun) of
         every start.
     """
 
@@ -340,11 +364,24 @@ class OccludedMaxEntIRL:
         exclude: np.ndarray | None = None,
         initial_weights: np.ndarray | None = None,
     ) -> OccludedMaxEntIRL:
-        """Learn θ from one robot's (horizon,) state series (-1 = occluded).
+        """Learn θ from one robot's state series.
 
-        ``labels``: (horizon,) action per time step (-1 = unknown). ``exclude``: (horizon,) bool,
-        time steps left out of both sides of the counts and of the likelihood (e.g. steps whose
-        action was dictated by the interaction game rather than the robot's own policy).
+        Parameters
+        ----------
+        series : ndarray of shape (horizon,) of int
+            The state L saw the robot in at each time step, -1 where occluded.
+        labels : ndarray of shape (horizon,) of int, optional
+            The action taken at each time step, -1 where unknown.
+        exclude : ndarray of shape (horizon,) of bool, optional
+            Time steps left out of both sides of the counts and of the likelihood (e.g. steps
+            whose action was dictated by the interaction game, not the robot's own policy).
+        initial_weights : ndarray of shape (K,), optional
+            The first start (θ = 0 if None).
+
+        Returns
+        -------
+        self : OccludedMaxEntIRL
+            Fitted (attributes in the class docstring).
         """
         self._prepare(series, labels, exclude)
         S, A, K = self.features.shape
@@ -355,7 +392,7 @@ class OccludedMaxEntIRL:
         results: list[OptimizeResult] = []
         for x_start in starts:
             self._V_warm = None
-            res = minimise_from(
+            res = _minimise_from(
                 self._loss,
                 np.asarray(x_start, dtype=float),
                 optimizer=self.optimizer,
@@ -404,3 +441,29 @@ class OccludedMaxEntIRL:
             self._final_counts = self._counts(phi_pi, D)
         assert self._final_counts is not None
         return self._final_counts
+
+
+# ---- the optimiser -----------------------------------------------------------------------------
+def _minimise_from(
+    loss: Callable,
+    x_start: np.ndarray,
+    *,
+    optimizer: str,
+    max_evaluations: int,
+    tol: float | None,
+) -> OptimizeResult:
+    """Minimise ``loss`` from ``x_start``, one start of Nelder–Mead (derivative-free, the
+    paper's) or L-BFGS-B with the exact gradient, with the options the estimator's defaults
+    were measured with. ``loss(x)`` returns the value, ``loss(x, True)`` (value, gradient).
+    Nelder–Mead starts from a simplex of half the start's scale (at least
+    0.5); L-BFGS-B stops at ``tol`` relative gain (None: scipy's default ftol)."""
+    if optimizer == "nelder-mead":
+        K = len(x_start)
+        step = 0.5 * max(1.0, float(np.abs(x_start).max()))
+        simplex = np.vstack([x_start, x_start + step * np.eye(K)])
+        options = {"initial_simplex": simplex, "maxfev": max_evaluations}
+        return minimize(
+            loss, x_start, method="Nelder-Mead", options=options | {"xatol": 1e-3, "fatol": 1e-7}
+        )
+    options = {"maxfun": max_evaluations, "gtol": 1e-7, **({} if tol is None else {"ftol": tol})}
+    return minimize(loss, x_start, args=(True,), jac=True, method="L-BFGS-B", options=options)

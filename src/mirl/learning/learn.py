@@ -1,31 +1,37 @@
-"""What L learns from its observations: the methods of SPEC §5 behind one entry point, `learn`.
+"""What L learns from its observations: every method of :mod:`mirl.learning.methods` behind one
+entry point, :func:`learn`, with the steps of its rounds.
 
-``mirl-t`` is mIRL*/T+Int with the relabelling loop of Sec. 3.6:
+A method is a row of :data:`~mirl.learning.methods.METHODS` naming where its models come from,
+and :func:`learn` builds them from those sources:
 
-1. label every observed step (s_t, s_{t+1}) by perception — the action whose intended state is
-   s_{t+1} (:func:`mirl.learning.transitions.perception_labels`);
-2. learn each robot's transition-feature probabilities and T from the labelled steps (mIRL*/T,
-   :class:`mirl.learning.transitions.TransitionFeatureLearner`);
-3. learn each robot's reward by occluded max-ent IRL with that T
-   (:class:`mirl.learning.irl.OccludedMaxEntIRL`), leaving out the observed steps where the two
-   robots could be interacting, and weigh the game's candidate equilibria against everything L saw
-   (:func:`mirl.learning.equilibria.weigh_equilibria`);
-4. relabel every observed step with the learned policy's action, or the best equilibrium's at an
+* the reward and interaction equilibrium: learned (occluded max-ent IRL,
+  :class:`mirl.learning.irl.OccludedMaxEntIRL`, leaving out the observed steps where two robots
+  could be interacting, then the game's candidate equilibria weighed against everything L saw,
+  :func:`mirl.learning.equilibria.weigh_team_equilibria`), or the scenario's truth;
+* each robot's T: learned from labelled steps (mIRL*/T, its transition-feature probabilities,
+  :class:`mirl.learning.transitions.TransitionFeatureLearner`), one success probability ``p``
+  for every action (no per-feature probabilities: ``feature_probabilities = {}``, ``p`` in the
+  result's ``message``), DBN-EM (:func:`mirl.learning.dbn_em.em_transition_model`), or the
+  truth (:func:`mirl.learning.results.oracle_models`).
+
+Steps are labelled with actions by perception (the action whose intended state is s_{t+1},
+:func:`mirl.learning.transitions.perception_labels`), or, where the reward is the truth, by the
+true policies. A method that relabels (``mirl-t``, mIRL*/T+Int, Sec. 3.6) runs rounds:
+
+1. label every observed step (s_t, s_{t+1}) by perception;
+2. learn each robot's transition-feature probabilities and T from the labelled steps;
+3. learn each robot's reward by occluded max-ent IRL with that T, and pick the equilibrium
+   under which the evident meetings are most likely;
+4. relabel every observed step with the learned policy's action, or that equilibrium's at an
    evident meeting (:func:`mirl.learning.transitions.policy_labels`) — a perceived turn where the
    policy says forward becomes a *failed* forward — and go back to 2, until at most
    ``label_tol`` of the labelled steps change (default 1 %; 0: none may change) or
    ``max_iterations`` rounds have run. Rounds after the first start the IRL from the previous
    weights (one start instead of ``n_restarts``).
 
-The other methods reuse the same code paths with parts switched off: ``mirl`` fixes T from one
-success probability ``p`` (no T learning, one round: the relabelled labels could only change T);
-``known-r-t`` uses the true reward and played equilibrium and learns T from labels given by the
-true policies (no IRL); ``known-r`` is the true reward and equilibrium with T from ``p``;
-``dbn-em`` takes T from :func:`mirl.learning.dbn_em.em_transition_model` and learns the reward like
-``mirl``; ``oracle`` is the truth (:func:`mirl.learning.models.oracle_models`).
-
-Fixed-T methods (``mirl``, ``known-r``, ``dbn-em``) report ``feature_probabilities = {}``: they have
-no per-feature probabilities; the success probability ``p`` is in the result's ``message``.
+A method that does not relabel learns its T from the first labels (its labels could only change
+T) and its reward once. The equilibria are weighed by the joint filter once, for the final
+models.
 
 Every learned policy is the greedy policy of hard value iteration with the learned weights and
 that robot's T. ``behavior_accuracy`` (SPEC §6) is filled in from the scenario's truth when
@@ -35,36 +41,38 @@ that robot's T. ``behavior_accuracy`` (SPEC §6) is filled in from the scenario'
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.dbn_em import EM_INITS
-from mirl.learning.equilibria import meeting_log_likelihood, potential_meetings
-from mirl.learning.models import LearnResult, RobotModel, behavior_accuracy, oracle_models
-from mirl.learning.rounds import (
-    Clock,
-    LoopTrace,
-    RoundSetup,
-    count_changes,
-    em_transitions,
-    fixed_transitions,
-    irl_round,
-    learn_transitions,
-    perception,
-    policies_of,
-    weigh,
+from mirl.learning.dbn_em import EM_INITS, em_transition_model
+from mirl.learning.equilibria import (
+    EquilibriumWeights,
+    TeamEquilibria,
+    meeting_log_likelihood,
+    potential_meetings,
+    weigh_team_equilibria,
 )
-from mirl.learning.transitions import observed_steps, policy_labels
+from mirl.learning.irl import OccludedMaxEntIRL
+from mirl.learning.methods import LEARNING_METHODS, Method, get_method
+from mirl.learning.results import LearnResult, RobotModel, behavior_accuracy, oracle_models
+from mirl.learning.transitions import (
+    TransitionFeatureLearner,
+    observed_steps,
+    perception_labels,
+    policy_labels,
+)
+from mirl.mdp import TabularMDP, value_iteration
 from mirl.observations.trajectories import Trajectories
 from mirl.world.game import Equilibrium
+from mirl.world.motion import transition_matrix_from_success
 from mirl.world.scenario import Scenario, as_scenario
 
-__all__ = ["METHODS", "LoopTrace", "learn", "relabel_loop"]
-
-METHODS = ("mirl-t", "mirl", "known-r-t", "known-r", "dbn-em", "oracle")
+__all__ = ["learn", "LoopTrace", "relabel_loop"]
 
 
 def learn(
@@ -88,71 +96,87 @@ def learn(
 ) -> LearnResult:
     """Learn models of the scenario's patrollers from L's ``observations`` with ``method``.
 
-    ``scenario``: a :class:`~mirl.world.scenario.Scenario`, or the name or path
-    :func:`~mirl.world.scenario.load_scenario` takes.
+    Parameters
+    ----------
+    observations : Trajectories
+        What L saw of the patrollers (their names those of the scenario's robots).
+    scenario : Scenario or str
+        The world and robots, or the name or path :func:`~mirl.world.scenario.load_scenario`
+        takes.
+    method : str, default "mirl-t"
+        One of :data:`~mirl.learning.methods.LEARNING_METHODS` (the rows of
+        :data:`~mirl.learning.methods.METHODS` with models to build).
+    p : float, default 0.9
+        Success probability of every action, for the methods with a fixed T.
+    visible : ndarray of shape (S,) of bool, optional
+        The states L can see; by default those of ``observability``.
+    observability : float, optional
+        Share of the map L sees, when ``visible`` is not given (default: the scenario's).
+    max_iterations : int, default 5
+        Rounds of relabelling at most.
+    label_tol : float, default 0.01
+        The relabelling has converged when a round changes at most this share of the labelled
+        steps (those T is learned from); on long records a few labels can flip back and forth
+        for rounds, each a full refit (docs/design.md, "A looser stopping rule").
+    objective, optimizer : str
+        Passed to :class:`~mirl.learning.irl.OccludedMaxEntIRL`. The defaults were picked by
+        measured behaviour accuracy and speed (the :mod:`mirl.learning.irl` docstring); the
+        paper's are ``objective="counts", optimizer="nelder-mead"``.
+    n_restarts : int, optional
+        The IRL's starts: by default 1 for L-BFGS (its restarts were measured to land on the
+        same optimum) and 3 for Nelder–Mead.
+    irl_options : mapping, optional
+        Further keyword arguments of the estimator (e.g. ``anchor``, ``l2``,
+        ``max_evaluations``).
+    random_state : int or None, default 0
+        Seeds every random choice (the IRL's restarts); None counts as 0, so learning is
+        deterministic.
+    score : bool, default True
+        Fill in each model's ``behavior_accuracy`` (SPEC §6) from the scenario's truth.
+    trace : LoopTrace, optional
+        An empty trace to receive the labels, estimators and weighings of every round.
+    em_init : {"intended", "uniform"}, default "intended"
+        DBN-EM's initial T (:mod:`mirl.learning.dbn_em`).
 
-    ``visible``: (S,) bool states L can see; by default those of ``observability`` (or the
-    scenario's degree). ``p``: success probability of every action for the fixed-T methods.
-    ``objective``, ``optimizer``, ``n_restarts``: passed to
-    :class:`mirl.learning.irl.OccludedMaxEntIRL` (the paper's choice is ``objective="counts",
-    optimizer="nelder-mead"``; the defaults were picked by measured behaviour accuracy and
-    speed, see the :mod:`mirl.learning.irl` docstring).
-    ``n_restarts`` defaults to 1 for L-BFGS (its restarts were measured to land on the same
-    optimum) and 3 for Nelder–Mead. ``irl_options``: further keyword arguments of the
-    estimator (e.g. ``anchor``, ``l2``, ``max_evaluations``).
-    ``label_tol``: ``mirl-t``'s relabelling has converged when a round changes at most this
-    share of the labelled steps (those T is learned from); on long records a few labels can
-    flip back and forth for rounds, each a full refit (docs/design.md, "A looser stopping
-    rule"). ``trace``: an empty :class:`LoopTrace` to receive the labels of every round.
-    ``em_init``: DBN-EM's initial T (``intended`` or ``uniform``, see :mod:`mirl.learning.dbn_em`).
-    ``random_state`` seeds every random choice (IRL restarts); ``None`` counts as 0, so learning
-    is deterministic.
+    Returns
+    -------
+    LearnResult
+        One :class:`~mirl.learning.results.RobotModel` per patroller, the equilibrium they
+        were learned to play, and diagnostics.
 
-    Long because the signature and the validation of every option come first; the recipes
-    themselves are :func:`_method_models` and :mod:`mirl.learning.rounds`.
+    Raises
+    ------
+    ValueError
+        An unknown method or EM initialisation, or an option out of its range (the message
+        names it); observations of other robots than the scenario's.
+    TypeError
+        ``observations`` that are not :class:`~mirl.observations.trajectories.Trajectories`.
     """
-    scenario = _check_arguments(
+    scenario, row = _check_arguments(
         observations, scenario, method, p, em_init, max_iterations, label_tol, random_state
     )
     if visible is not None:
         visible = _checked_visible(visible, scenario.domain.n_states)
-    clock = Clock()
     start = time.perf_counter()
-    if method == "oracle":
-        res = oracle_models(scenario, method="oracle")
+    if row.transitions == "true":  # the scenario's truth: nothing to learn
+        res = oracle_models(scenario, method=row.name)
         res.timings["total"] = time.perf_counter() - start
         return res
-    domain = scenario.domain
-    n = len(scenario.robots)
-    with clock("labels"):
-        series = [observations.state_series(domain, i) for i in range(n)]
-        if visible is None:
-            degree = scenario.observability if observability is None else observability
-            visible = domain.visible_states(degree)
-        exclude = np.zeros(observations.horizon, dtype=bool)
-        for i in range(n):
-            for j in range(i + 1, n):
-                exclude |= potential_meetings(domain, series[i], series[j])
-    setup = RoundSetup(
-        scenario,
-        series,
-        np.asarray(visible, dtype=bool),
-        exclude,
-        clock,
-        {
-            "objective": objective,
-            "optimizer": optimizer,
-            "n_restarts": n_restarts or (1 if optimizer == "lbfgs" else 3),
-            **(irl_options or {}),
-        },
-        random_state,
-        em_init,
+    irl_options = {
+        "objective": objective,
+        "optimizer": optimizer,
+        "n_restarts": n_restarts or (1 if optimizer == "lbfgs" else 3),
+        **(irl_options or {}),
+    }
+    setup = _round_setup(
+        observations, scenario, visible, observability, irl_options, random_state, em_init
     )
+    clock = setup.clock
     trace = LoopTrace() if trace is None else trace
     weights, transitions, probs, eq, message = _method_models(
-        setup, method, p, max_iterations, trace, label_tol
+        setup, row, p, max_iterations, trace, label_tol
     )
-    if method == "mirl-t":
+    if row.relabels:  # the last round's policies
         policies = trace.policies
     else:
         with clock("policies"):
@@ -170,7 +194,7 @@ def learn(
     eq_w = trace.equilibria
     team = trace.team_equilibria
     return LearnResult(
-        method=method,
+        method=row.name,
         robots=tuple(robots),
         equilibrium=eq,
         equilibrium_weights=tuple(float(w) for w in eq_w.weights) if eq_w is not None else (),
@@ -183,62 +207,107 @@ def learn(
     )
 
 
+def _round_setup(
+    observations, scenario, visible, observability, irl_options, random_state, em_init
+) -> RoundSetup:
+    """What every step reads: each robot's state series, the states L sees, the steps where two
+    robots could be interacting (left out of the IRL), and a fresh clock."""
+    clock = Clock()
+    domain = scenario.domain
+    n = len(scenario.robots)
+    with clock("labels"):
+        series = [observations.state_series(domain, i) for i in range(n)]
+        if visible is None:
+            degree = scenario.observability if observability is None else observability
+            visible = domain.visible_states(degree)
+        exclude = np.zeros(observations.horizon, dtype=bool)
+        for i in range(n):
+            for j in range(i + 1, n):
+                exclude |= potential_meetings(domain, series[i], series[j])
+    return RoundSetup(
+        scenario,
+        series,
+        np.asarray(visible, dtype=bool),
+        exclude,
+        clock,
+        irl_options,
+        random_state,
+        em_init,
+    )
+
+
 def _method_models(
     setup: RoundSetup,
-    method: str,
+    row: Method,
     p: float,
     max_iterations: int,
     trace: LoopTrace,
     label_tol: float,
 ):
     """Weights, transition matrices, feature probabilities, equilibrium (None: to be weighed)
-    and a message, by ``method``'s recipe (SPEC §5)."""
+    and a message, from the sources ``row`` names."""
+    if row.relabels:
+        return (*relabel_loop(setup, max_iterations, trace, label_tol), trace.message)
     scenario = setup.scenario
-    message = ""
-    if method == "mirl-t":
-        weights, transitions, probs, eq = relabel_loop(setup, max_iterations, trace, label_tol)
-        message = trace.message
-    elif method in ("known-r-t", "known-r"):
-        weights = [np.asarray(r.weights, dtype=float) for r in scenario.robots]
-        eq = scenario.played_equilibrium
-        if method == "known-r-t":
-            with setup.clock("labels"):
-                policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
-                labels = policy_labels(setup.domain, setup.series, policies, eq)
-            transitions, probs = learn_transitions(setup, labels)
-            trace.labels.append(labels)
-        else:
-            transitions, probs = fixed_transitions(setup, p)
-            message = f"fixed success probability p={p:g} for every action"
-        trace.converged = True
-    else:  # mirl, dbn-em: reward learned once against a given T
+    labels = None
+    eq: Equilibrium | None
+    if row.reward == "learned" or row.transitions == "features":
         with setup.clock("labels"):
-            labels = perception(setup)
+            labels = _first_labels(setup, row)
         trace.labels.append(labels)
-        if method == "mirl":
-            transitions, probs = fixed_transitions(setup, p)
-            message = f"fixed success probability p={p:g} for every action"
-        else:
-            transitions, probs = em_transitions(setup)
-            message = "tabular T from DBN-EM"
+    transitions, probs, message = _transitions(setup, row.transitions, labels, p)
+    if row.reward == "learned":  # once, against the T just found
         weights = irl_round(setup, transitions, labels, None, 1, trace)
         eq = None
-        trace.converged = True
+    else:
+        weights = [np.asarray(r.weights, dtype=float) for r in scenario.robots]
+        eq = scenario.played_equilibrium
+    trace.converged = True
     return weights, transitions, probs, eq, message
+
+
+def _first_labels(setup: RoundSetup, row: Method) -> list[np.ndarray]:
+    """Per robot (horizon,) labels before anything is learned: by perception, or where the
+    reward is the truth, by the true policies and the played equilibrium."""
+    if row.reward != "true":
+        return perception(setup)
+    scenario = setup.scenario
+    policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
+    return policy_labels(setup.domain, setup.series, policies, scenario.played_equilibrium)
+
+
+def _transitions(setup: RoundSetup, source: str, labels, p: float):
+    """Each robot's T and feature probabilities from ``source`` (a method's ``transitions``),
+    and what the result's message says of them."""
+    if source == "features":
+        return (*learn_transitions(setup, labels), "")
+    n = len(setup.series)
+    with setup.clock("transitions"):
+        if source == "fixed-p":
+            T = transition_matrix_from_success(setup.domain, p, setup.scenario.error_model)
+            message = f"fixed success probability p={p:g} for every action"
+            return [T] * n, [{} for _ in range(n)], message
+        if source == "em":
+            em = [
+                sp.csr_array(em_transition_model(setup.domain, [x], init=setup.em_init))
+                for x in setup.series
+            ]
+            return em, [{} for _ in range(n)], "tabular T from DBN-EM"
+    raise ValueError(f"no models of transitions from '{source}'")
 
 
 def _check_arguments(
     observations, scenario, method, p, em_init, max_iterations, label_tol, random_state
-) -> Scenario:
+) -> tuple[Scenario, Method]:
     """The arguments :func:`learn` cannot work with, refused before any work with a message
-    naming the argument; a scenario given by name (``"boyd2"``) is loaded."""
+    naming the argument; the scenario (one given by name, ``"boyd2"``, is loaded) and the
+    method's row."""
     scenario = as_scenario(scenario)
     if not isinstance(observations, Trajectories):
         raise TypeError(
             f"observations must be mirl.observations.Trajectories, got {type(observations)}"
         )
-    if method not in METHODS:
-        raise ValueError(f"unknown method '{method}' (known: {', '.join(METHODS)})")
+    row = get_method(method, LEARNING_METHODS)
     if not 0.0 <= p <= 1.0:
         raise ValueError(f"p must be in [0, 1], got {p}")
     if em_init not in EM_INITS:
@@ -255,7 +324,7 @@ def _check_arguments(
             f"observations are of robots {list(observations.robot_names)}, "
             f"the scenario has {list(scenario.robot_names)}"
         )
-    return scenario
+    return scenario, row
 
 
 def _checked_visible(visible, n_states: int) -> np.ndarray:
@@ -268,10 +337,11 @@ def _checked_visible(visible, n_states: int) -> np.ndarray:
     return v.astype(bool)
 
 
+# ---- the rounds ----------------------------------------------------------------------------------
 def relabel_loop(
     setup: RoundSetup, max_iterations: int, trace: LoopTrace, label_tol: float
 ) -> tuple[list[np.ndarray], list[sp.csr_array], list[dict[str, float]], Equilibrium]:
-    """The mirl-t rounds (module docstring, steps 1–4); returns weights, T, feature
+    """The relabelling rounds (module docstring, steps 1–4); returns weights, T, feature
     probabilities and the best equilibrium of the last round.
 
     The loop ends when a relabelling changes at most ``label_tol`` of the labelled steps
@@ -323,3 +393,155 @@ def _equilibrium_for_labels(setup: RoundSetup, policies, transitions) -> Equilib
         x, pol, T = (list(v) for v in zip(*sub, strict=True))
         ll += [meeting_log_likelihood(setup.domain, x, pol, T, e)[0] for e in candidates]
     return candidates[int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])]
+
+
+class Clock:
+    """Accumulates wall time per phase."""
+
+    def __init__(self) -> None:
+        self.timings: dict[str, float] = {}
+
+    @contextmanager
+    def __call__(self, phase: str) -> Iterator[None]:
+        start = time.perf_counter()
+        yield  # a phase that raises ends learning: its time is not needed
+        self.timings[phase] = self.timings.get(phase, 0.0) + time.perf_counter() - start
+
+
+@dataclass
+class LoopTrace:
+    """What happened in the learning rounds: labels used per round and per robot ((horizon,)
+    arrays, -1 where unobserved or unlabelled), labels changed by each relabelling, and the
+    IRL estimators and equilibrium weights of the last round."""
+
+    labels: list[list[np.ndarray]] = field(default_factory=list)
+    label_changes: list[int] = field(default_factory=list)
+    irl: list[OccludedMaxEntIRL | None] = field(default_factory=list)
+    equilibria: EquilibriumWeights | None = None
+    team_equilibria: TeamEquilibria | None = None  # per pair L saw meet (N ≥ 2)
+    policies: list[np.ndarray] = field(default_factory=list)
+    converged: bool = False
+    message: str = ""
+    notes: set[str] = field(default_factory=set)
+
+
+@dataclass
+class RoundSetup:
+    """What every step of :func:`learn` reads: the scenario, each robot's (horizon,) state
+    series (-1 where occluded), the (S,) states L sees, the steps left out of the IRL, the
+    clock, the estimator's options, the seed and DBN-EM's initial T."""
+
+    scenario: Scenario
+    series: list[np.ndarray]
+    visible: np.ndarray
+    exclude: np.ndarray  # (horizon,) steps where the robots may be interacting
+    clock: Clock
+    irl_options: dict
+    random_state: int | None
+    em_init: str = "intended"
+
+    @property
+    def domain(self):
+        return self.scenario.domain
+
+    def robot_seed(self, robot: int, round_: int) -> int:
+        """The IRL's seed for ``robot`` in round ``round_``, drawn from ``random_state``."""
+        ss = np.random.SeedSequence([self.random_state or 0, robot, round_])
+        return int(ss.generate_state(1)[0])
+
+
+def perception(setup: RoundSetup) -> list[np.ndarray]:
+    """Per robot (horizon,) perception labels of the steps with both ends observed, else -1."""
+    out = []
+    for x in setup.series:
+        lab = np.full(len(x), -1, dtype=int)
+        t, s, s_next = observed_steps(x)
+        lab[t] = perception_labels(setup.domain, s, s_next)
+        out.append(lab)
+    return out
+
+
+def count_changes(series, old: list[np.ndarray], new: list[np.ndarray]) -> int:
+    """Labels that differ on the steps T is learned from (both ends observed)."""
+    total = 0
+    for x, a, b in zip(series, old, new, strict=True):
+        t = observed_steps(x)[0]
+        total += int((a[t] != b[t]).sum())
+    return total
+
+
+def learn_transitions(setup: RoundSetup, labels: list[np.ndarray]):
+    """Per robot T and feature probabilities learned from the labelled steps (mIRL*/T)."""
+    out_T, out_p = [], []
+    with setup.clock("transitions"):
+        for x, lab in zip(setup.series, labels, strict=True):
+            t, s, s_next = observed_steps(x)
+            m = TransitionFeatureLearner(setup.domain, setup.scenario.error_model).fit(
+                s, lab[t], s_next
+            )
+            out_T.append(m.transition_model_)
+            out_p.append({k: float(v) for k, v in m.feature_probabilities_.items()})
+    return out_T, out_p
+
+
+def irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.ndarray]:
+    """One IRL per robot; rounds after the first warm-start from the previous weights."""
+    d = setup.domain
+    weights: list[np.ndarray | None] = []
+    estimators: list[OccludedMaxEntIRL | None] = []
+    with setup.clock("irl"):
+        for i, (x, T) in enumerate(zip(setup.series, transitions, strict=True)):
+            if not (x >= 0).any():  # never seen: filled in below
+                weights.append(None)
+                estimators.append(None)
+                continue
+            init = None if previous is None else previous[i]
+            options = dict(setup.irl_options)
+            if init is not None:
+                options["n_restarts"] = 1
+            irl = OccludedMaxEntIRL(
+                d.reward_features,
+                T,
+                discount=setup.scenario.discount,
+                visible=setup.visible,
+                random_state=setup.robot_seed(i, round_),
+                **options,
+            ).fit(x, labels[i], exclude=setup.exclude, initial_weights=init)
+            weights.append(irl.weights_)
+            estimators.append(irl)
+    # A robot L never saw gets the mean reward of those it saw — the patrollers are robots of
+    # one kind on one route (SPEC §2); its T stays at the uninformed maximum-entropy solution.
+    seen = [w for w in weights if w is not None]
+    fill = np.mean(seen, axis=0) if seen else np.zeros(len(d.reward_feature_names))
+    unseen = [setup.scenario.robot_names[i] for i, w in enumerate(weights) if w is None]
+    if unseen:
+        trace.notes.add(f"never observed: {', '.join(unseen)} (reward of the others)")
+    trace.irl = estimators
+    return [fill.copy() if w is None else w for w in weights]
+
+
+def policies_of(setup: RoundSetup, transitions, weights, trace: LoopTrace) -> list[np.ndarray]:
+    """Greedy policies of hard value iteration with each robot's weights and T: the IRL's own
+    where it fits (its last step is this very value iteration), else solved here."""
+    irl = trace.irl + [None] * (len(weights) - len(trace.irl))  # none before the first IRL
+    return [
+        e.policy_
+        if e is not None and e.weights_ is w and e.transitions_source is T
+        else value_iteration(TabularMDP(T, setup.domain.rewards(w), setup.scenario.discount)).policy
+        for e, T, w in zip(irl, transitions, weights, strict=True)
+    ]
+
+
+def weigh(setup: RoundSetup, policies, transitions, trace: LoopTrace) -> EquilibriumWeights:
+    """Equilibria weighed on every pair L has seen meet (one game for the team: the pairs'
+    log-likelihoods add up; each pair's own best is kept as well)."""
+    team = weigh_team_equilibria(
+        setup.domain,
+        setup.series,
+        policies,
+        transitions,
+        setup.scenario.game.equilibria(),
+        setup.visible,
+    )
+    trace.team_equilibria = team
+    return team.shared

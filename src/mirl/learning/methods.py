@@ -18,7 +18,7 @@ from typing import Literal
 __all__ = ["Method", "METHODS", "get_method", "LEARNING_METHODS"]
 
 RewardSource = Literal["learned", "true", "none"]
-TransitionSource = Literal["features", "fixed-p", "dbn-em", "true", "none"]
+TransitionSource = Literal["features", "fixed-p", "em", "true", "none"]
 
 
 @dataclass(frozen=True)
@@ -36,9 +36,10 @@ class Method:
     reward : {"learned", "true", "none"}
         Where the patrollers' rewards and their interaction equilibrium come from: occluded
         max-ent IRL and the weighing of equilibria, the scenario's truth, or nowhere.
-    transitions : {"features", "fixed-p", "dbn-em", "true", "none"}
+    transitions : {"features", "fixed-p", "em", "true", "none"}
         Where each patroller's transition model comes from: mIRL*/T's feature probabilities,
-        one success probability ``p`` for every action, DBN-EM, the truth, or nowhere.
+        one success probability ``p`` for every action, tabular EM over a two-slice DBN, the
+        truth, or nowhere.
     relabels : bool
         Whether the observed steps are relabelled with the learned policies until the labels
         settle (mIRL*/T+Int's rounds).
@@ -62,7 +63,7 @@ class Method:
     @property
     def uses_em_init(self) -> bool:
         """Whether DBN-EM's initial transition model (``em_init``) applies."""
-        return self.transitions == "dbn-em"
+        return self.transitions == "em"
 
     @property
     def learns(self) -> bool:
@@ -100,7 +101,7 @@ _ROWS = (
     Method(
         "dbn-em", "DBN-EM",
         "transitions learned by EM over a two-slice DBN, learned rewards",
-        reward="learned", transitions="dbn-em",
+        reward="learned", transitions="em",
     ),
     Method(
         "random", "Random",

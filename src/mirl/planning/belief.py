@@ -22,11 +22,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.models import LearnResult
-from mirl.mdp import csr_matmul, policy_matrix
+from mirl.learning.results import LearnResult
+from mirl.mdp import policy_matrix
 from mirl.planning.observer import ObserverModel
 from mirl.planning.pair_sums import MeetingStep, PairSightings
 from mirl.planning.team_filter import ExactTeam, FactoredTeam, TeamParts, factored_detection
+from mirl.sparse import csr_matmul
 from mirl.world.domain import N_HEADINGS, STOP, TURN_LEFT, PatrolDomain
 from mirl.world.game import Equilibrium, meeting
 

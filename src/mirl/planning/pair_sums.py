@@ -12,7 +12,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import _sparsetools
 
-from mirl.learning.joint_filter import linear_map
+from mirl.sparse import linear_map
 
 __all__ = ["MeetingStep", "PairSightings"]
 

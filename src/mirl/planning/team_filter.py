@@ -23,8 +23,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.models import LearnResult
-from mirl.mdp import csr_block_matvec, policy_matrix
+from mirl.learning.results import LearnResult
+from mirl.mdp import policy_matrix
+from mirl.sparse import csr_block_matvec
 from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
 
 __all__ = ["meeting_matrix", "game_step_matrix", "TeamParts", "ExactTeam", "FactoredTeam"]

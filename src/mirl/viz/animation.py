@@ -17,6 +17,7 @@ import numpy as np
 from mirl.experiments.records import RunResult
 from mirl.viz.maps import MAP_COLORS, draw_map
 from mirl.viz.runs import OBSERVER_COLOR, ROBOT_COLORS
+from mirl.world.maps import HEADING_DELTAS
 from mirl.world.scenario import Scenario
 
 __all__ = ["DEFAULT_MAX_FRAMES", "animation_times", "save_run_animation"]
@@ -27,8 +28,6 @@ DEFAULT_MAX_FRAMES = 120
 DETECTION_COLOR = "#ff2222"
 TRAIL = 6  # steps of each patroller's recent path drawn behind it
 HOLD_SECONDS = 2.0  # the last frame (the outcome) stays this long before the GIF loops
-# (row, col) step of headings 0..3 (east, north, west, south), as in the domain's states
-_HEADING_STEPS = np.array([(0, 1), (-1, 0), (0, -1), (1, 0)], dtype=float)
 
 
 def animation_times(result: RunResult, *, context: int = 40, max_frames: int = DEFAULT_MAX_FRAMES):
@@ -90,6 +89,21 @@ def _figure(scenario: Scenario):
     scale = 0.32 if max(rows, cols) <= 30 else 9.0 / max(rows, cols)
     width = max(cols * scale + 1.2, 4.2)  # room for the title and the legend below the map
     return Figure(figsize=(width, rows * scale + 2.4), dpi=90)
+
+
+def _detection_artists(ax, result: RunResult, size: float) -> list[tuple[int, tuple]]:
+    """Per detection, its step and (hidden) artists: a ring around L — the robot that saw it
+    may share its cell, so nothing is drawn over them — and a dashed line from that robot."""
+    seen = []
+    for d in result.detections:
+        (rr, cc, _), (lr, lc) = d.robot_state, d.observer_cell
+        (line,) = ax.plot([cc, lc], [rr, lr], "--", color=DETECTION_COLOR, lw=2.0, zorder=9)
+        (mark,) = ax.plot(lc, lr, "o", mfc="none", mec=DETECTION_COLOR, mew=3.0, ms=size * 3.2)
+        mark.set_zorder(10)
+        for artist in (line, mark):
+            artist.set_visible(False)
+        seen.append((d.t, (line, mark)))
+    return seen
 
 
 def save_run_animation(
@@ -180,33 +194,15 @@ def save_run_animation(
     l_dot.set_label("L")
     handles.append(l_dot)
 
-    # a detection: a ring around L (the robot that saw it may share its cell, so nothing is
-    # drawn over them) and a dashed line from that robot, shown from the detection's step on
-    seen = []
-    for d in result.detections:
-        (rr, cc, _), (lr, lc) = d.robot_state, d.observer_cell
-        (line,) = ax.plot([cc, lc], [rr, lr], "--", color=DETECTION_COLOR, lw=2.0, zorder=9)
-        (mark,) = ax.plot(lc, lr, "o", mfc="none", mec=DETECTION_COLOR, mew=3.0, ms=size * 3.2)
-        mark.set_zorder(10)
-        for artist in (line, mark):
-            artist.set_visible(False)
-        seen.append((d.t, (line, mark)))
+    seen = _detection_artists(ax, result, size)
     if seen:
         handles.append(
             Line2D(
                 [], [], marker="o", mfc="none", mec=DETECTION_COLOR, mew=2.0, ls="", label="seen"
             )
         )
-    ax.legend(
-        handles=handles,
-        loc="upper center",
-        bbox_to_anchor=(0.5, -0.08),
-        ncol=3,
-        fontsize="small",
-        frameon=False,
-        handletextpad=0.3,
-        columnspacing=1.0,
-    )
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=3,
+              fontsize="small", frameon=False, handletextpad=0.3, columnspacing=1.0)  # fmt: skip
     head = f"{scenario.name}, {result.method}, seed {result.seed}"
     title = ax.set_title(f"{head}\nt={result.end_time}: {result.outcome}", fontsize="medium")
     fig.tight_layout()
@@ -223,7 +219,7 @@ def save_run_animation(
             r, c, h = states[t, i]
             y, x = r + offsets[i], c + offsets[i]
             dots[i].set_data([x], [y])
-            dr, dc = _HEADING_STEPS[h] * 0.55
+            dr, dc = HEADING_DELTAS[h] * 0.55
             arrows[i].set_positions((x, y), (x + dc, y + dr))
         walked = result.observer_path[path_t <= t]
         l_path.set_data(walked[:, 2], walked[:, 1])

@@ -21,37 +21,81 @@ __all__ = ["RobotModel", "LearnResult", "behavior_accuracy", "oracle_models"]
 
 @dataclass(frozen=True, eq=False)
 class RobotModel:
-    """One patroller as L models it."""
+    """One patroller as L models it.
+
+    Parameters
+    ----------
+    name : str
+        The robot's name in the scenario.
+    weights : ndarray of shape (K,)
+        Reward weights over ``domain.reward_feature_names``.
+    feature_probabilities : mapping of str to float
+        Success probability of each transition feature; empty for methods whose T has none
+        (one success probability ``p``, DBN-EM).
+    transitions : sparse array of shape (S·A, S)
+        The transition model, CSR, row ``s·A + a`` being T(s, a, ·).
+    policy : ndarray of shape (S,)
+        The greedy action in each state.
+    behavior_accuracy : float or None
+        Share of states where ``policy`` is optimal under the truth (SPEC §6); None when the
+        truth was not used to score it.
+    """
 
     name: str
-    weights: np.ndarray  # (K,) reward weights over domain.reward_feature_names
+    weights: np.ndarray
     feature_probabilities: Mapping[str, float]
-    transitions: sp.csr_array  # (S·A, S)
-    policy: np.ndarray  # (S,) greedy action per state
-    behavior_accuracy: float | None = None  # filled in when the truth is known
+    transitions: sp.csr_array
+    policy: np.ndarray
+    behavior_accuracy: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
 class LearnResult:
-    """Outcome of ``mirl.learning.learn``: models, chosen equilibrium, diagnostics."""
+    """Outcome of :func:`mirl.learning.learn.learn`: the models, the equilibrium the robots
+    were learned to play, and diagnostics.
+
+    Parameters
+    ----------
+    method : str
+        The method that built the models (a name of :data:`mirl.learning.methods.METHODS`).
+    robots : tuple of RobotModel
+        One model per patroller, in the scenario's order.
+    equilibrium : Equilibrium
+        The interaction equilibrium the team plays (the best weighed one, or the truth).
+    equilibrium_weights : tuple of float
+        Posterior weight of each candidate equilibrium of the game; empty when not weighed.
+    iterations : int
+        Rounds of labelling run (one for the methods that do not relabel).
+    label_changes : tuple of int
+        Labels changed by each relabelling.
+    timings : dict of str to float
+        Wall time per phase, in seconds, and ``"total"``.
+    success : bool
+        Whether learning converged (the labels settled, for ``mirl-t``).
+    message : str
+        How it ended, and notes (e.g. the fixed success probability, robots never observed).
+    pair_equilibria : mapping of (int, int) to Equilibrium
+        Per pair (i < j, i the row player), the equilibrium it was learned to play; pairs not
+        listed play ``equilibrium``.
+    """
 
     method: str
     robots: tuple[RobotModel, ...]
     equilibrium: Equilibrium
-    equilibrium_weights: tuple[float, ...] = ()  # one per candidate equilibrium
+    equilibrium_weights: tuple[float, ...] = ()
     iterations: int = 1
-    label_changes: tuple[int, ...] = ()  # labels changed at each relabelling iteration
+    label_changes: tuple[int, ...] = ()
     timings: dict[str, float] = field(default_factory=dict)
     success: bool = True
     message: str = ""
-    # per pair (i < j, i the row player): the equilibrium it was learned to play; pairs not
-    # listed play ``equilibrium``
     pair_equilibria: Mapping[tuple[int, int], Equilibrium] = field(default_factory=dict)
 
     def pair_equilibrium(self, i: int, j: int) -> Equilibrium:
+        """The equilibrium robots ``i`` < ``j`` play."""
         return self.pair_equilibria.get((i, j), self.equilibrium)
 
     def robot(self, name: str) -> RobotModel:
+        """The model of the robot called ``name`` (KeyError if none is)."""
         for r in self.robots:
             if r.name == name:
                 return r
