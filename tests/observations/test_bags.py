@@ -11,12 +11,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bag_helpers import pose_message, string_message, typestore, write_bag
 
 from mirl.observations.bags import BagError, bag_topics, read_bag, write_mcap
 from mirl.observations.discretise import discretise
 from mirl.observations.poses import PoseTracks
 from mirl.world.scenario import load_scenario
+from tests.helpers.bags import pose_message, string_message, typestore, write_bag
 
 TOPICS = {"/tb_i/amcl_pose": "I", "/tb_j/odom": "J"}
 PI = math.pi

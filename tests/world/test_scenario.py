@@ -151,7 +151,7 @@ def test_good_toml_loads_with_defaults(tmp_path):
 
 def test_map_path_relative_to_scenario(tmp_path):
     (tmp_path / "maps").mkdir()
-    text = (Path(__file__).parents[1] / "src/mirl/data/maps/boyd2.txt").read_text()
+    text = (Path(__file__).parents[2] / "src/mirl/data/maps/boyd2.txt").read_text()
     (tmp_path / "maps" / "mine.txt").write_text(text)
     sc = load_scenario(write(tmp_path, GOOD.replace('map = "boyd2"', 'map = "maps/mine.txt"')))
     assert sc.map.n_patroller_cells == 31

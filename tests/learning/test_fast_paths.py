@@ -196,9 +196,8 @@ def test_joint_filter_is_bitwise_the_plain_one(name, degree):
     """The joint filter's shortcuts (outer products after a robot was seen, the meeting part as
     fixed linear maps) give the log-likelihood of the plain filter bit for bit, for every
     candidate equilibrium, with learned (not true) models."""
-    from joint_filter_reference import reference_joint_log_likelihood
-
     from mirl.learning.learn import learn
+    from tests.references.joint_filter import reference_joint_log_likelihood
 
     sc = load_scenario(name)
     d = sc.domain

@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from sequence_reference import forward_mode_loglik
 
 from mirl.learning.irl import OccludedMaxEntIRL
 from mirl.learning.sequence import BlockOperator, ObservedSequence
 from mirl.learning.soft_policy import _Dynamics
 from mirl.simulation.grid import simulate
 from mirl.world.scenario import load_scenario
+from tests.references.sequence import forward_mode_loglik
 
 
 def _case(name: str, seed: int, steps: int = 450, observability: float | None = None):

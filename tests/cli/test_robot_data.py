@@ -7,10 +7,10 @@ import json
 import math
 
 import pytest
-from bag_helpers import pose_message, typestore, write_bag
-from test_bags import EXPECTED, records
 
 from mirl.cli import main
+from tests.helpers.bags import pose_message, typestore, write_bag
+from tests.observations.test_bags import EXPECTED, records
 
 TOPIC_ARGS = ["--topic", "/tb_i/amcl_pose=I", "--topic", "/tb_j/odom=J"]
 

@@ -14,11 +14,11 @@ import pytest
 import scipy.sparse as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from spec_reference import DELTA, FEATURES, SPEC_XI
 
 from mirl.world.catalog import load_map
 from mirl.world.domain import ACTIONS, FeatureMap, FeatureOverride, PatrolDomain
 from mirl.world.motion import transition_matrix
+from tests.references.motion_model import DELTA, FEATURES, SPEC_XI
 
 CARPET_CELLS = {(3, 1), (4, 1), (0, 5), (16, 8)}
 

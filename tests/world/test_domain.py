@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from spec_reference import DELTA, FEATURES, SPEC_XI
 
 from mirl.world.catalog import load_map
 from mirl.world.domain import (
@@ -30,6 +29,7 @@ from mirl.world.domain import (
 )
 from mirl.world.maps import parse_map
 from mirl.world.rewards import hallway_features
+from tests.references.motion_model import DELTA, FEATURES, SPEC_XI
 
 BOYD2_ENDS = {(0, 8), (16, 8)}
 

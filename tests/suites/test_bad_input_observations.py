@@ -77,7 +77,7 @@ def test_a_conversion_with_no_steps_writes_nothing(tmp_path, capsys):
 def test_a_bag_in_capitals_is_told_as_a_bag(tmp_path, capsys):
     # it was read as a CSV; rosbags picks the storage by the suffix as written, so the one
     # line says to rename it, and the renamed file reads
-    from bag_helpers import pose_message, typestore, write_bag
+    from tests.helpers.bags import pose_message, typestore, write_bag
 
     ts = typestore(False)
     recs = [("/i", 100.0 + k, pose_message(ts, "stamped", 100.0 + k, 4.0 - k, 0.0, 3.14159))

@@ -19,7 +19,7 @@ from mirl.world.office_maps import generate_office_map, office_map_from_name
 from mirl.world.ros_maps import load_ros_map
 
 # the reference maps in ../shared beside the checkout (where CI and the developers have them)
-SHARED_MAPS = Path(__file__).resolve().parents[2] / "shared" / "maps"
+SHARED_MAPS = Path(__file__).resolve().parents[3] / "shared" / "maps"
 
 
 def cells(*rc):

@@ -159,9 +159,8 @@ def _ring3(tmp_path):
 
 def _reference_filter(sc, learned, vis):
     """A joint filter whose tensor steps are the first implementation's."""
-    from team_filter_reference import ReferenceExactTeam
-
     from mirl.planning.team_filter import TeamParts
+    from tests.references.team_filter import ReferenceExactTeam
 
     f = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
     f._team = ReferenceExactTeam(TeamParts(sc.domain, learned))
@@ -200,7 +199,7 @@ def test_exact_team_on_boyd2_with_three_robots_matches_the_first_implementation(
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from bench_team import boyd2_three
 
     sc = boyd2_three()
