@@ -1,4 +1,4 @@
-"""Core speed (issue 2): value iteration on the largest generated office map, sparse CSR
+"""Core speed: value iteration on the largest generated office map, sparse CSR
 (mirl.mdp) against a dense (S, A, S) numpy baseline run side by side, and simulation speed.
 
     python benchmarks/bench_core.py [--size 80]

@@ -1,6 +1,6 @@
-"""The two pair filters' steps against the plain forms they replace, side by side in one process
-(issue 12): the equilibrium weighing's exact joint filter against the reference kept in
-``tests/joint_filter_reference.py``, and the planner's meeting step (CSR maps for scipy's
+"""The two pair filters' steps against their plain forms, side by side in one process: the
+equilibrium weighing's exact joint filter against the reference kept in
+``tests/references/joint_filter.py``, and the planner's meeting step (CSR maps for scipy's
 mat-vec kernel) against the ``np.bincount`` form it replaced. Both pairs agree bit for bit
 (checked here as well as in the tests).
 
@@ -19,10 +19,9 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.references
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_speed import _best  # noqa: E402  (CPU seconds, best of n)
-from joint_filter_reference import reference_joint_log_likelihood  # noqa: E402
 
 from mirl.experiments.episode import run_episode  # noqa: E402
 from mirl.learning.equilibria import joint_log_likelihood  # noqa: E402
@@ -30,6 +29,7 @@ from mirl.learning.learn import learn  # noqa: E402
 from mirl.planning.pair_sums import MeetingStep  # noqa: E402
 from mirl.simulation.grid import simulate  # noqa: E402
 from mirl.world.scenario import load_scenario  # noqa: E402
+from tests.references.joint_filter import reference_joint_log_likelihood  # noqa: E402
 
 
 def _pair_of(sc, degree: float, seed: int):

@@ -1,4 +1,4 @@
-"""Forward against reverse mode for the sequence objective's gradient (issue 12/14), side by side.
+"""Forward against reverse mode for the sequence objective's gradient, side by side.
 
     python benchmarks/bench_gradients.py [--scenarios boyd2 boydright-3 office] [--repeats 15]
 

@@ -1,4 +1,4 @@
-"""Learned behaviour accuracy and speed of `mirl.learning.learn` (issue 4).
+"""Learned behaviour accuracy and speed of `mirl.learning.learn`.
 
     python benchmarks/bench_learning.py [--seeds 10] [--workers 2]            # accuracy grid
     python benchmarks/bench_learning.py --timing-only [--repeats 9]           # `mirl learn` time

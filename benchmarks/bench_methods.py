@@ -44,8 +44,9 @@ def _one(scenario_name: str, damage: list[str], method: str, seed: int, kwargs: 
     from mirl._blas import one_blas_thread
 
     one_blas_thread()  # as the CLI and sweep workers do, so CPU times are one core's
+    from mirl.cli.flags import parse_damage
     from mirl.experiments.episode import run_episode
-    from mirl.world.scenario import load_scenario, parse_damage
+    from mirl.world.scenario import load_scenario
 
     scenario = load_scenario(scenario_name)
     for d in damage:

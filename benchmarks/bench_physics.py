@@ -1,4 +1,4 @@
-"""The physical world (issue 11): calibration and speed.
+"""The physical world: calibration and speed.
 
     python benchmarks/bench_physics.py [--seeds 4] [--steps 750] [--skip-speed]
 

@@ -1,4 +1,4 @@
-"""Robot data in (issue 10): reading and discretising one hour of three robots at 30 Hz from MCAP
+"""Robot data in: reading and discretising one hour of three robots at 30 Hz from MCAP
 (324 000 PoseStamped messages), and reading a 50 MB grid CSV, against the slower ways side by
 side. Targets: ≤ 5 s each on one core.
 

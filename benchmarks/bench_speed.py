@@ -1,4 +1,4 @@
-"""Speed side by side (issue 12), in one run:
+"""Speed side by side, in one run:
 
 1. start-up: ``mirl run`` (boyd2, ``--obs-steps 300``) against a bare
    ``python -c "import numpy, scipy.sparse, scipy.optimize"`` (target ≤ 1.5×), paired and

@@ -1,4 +1,4 @@
-"""The N-robot belief filter: exact joint vs factored (issue 14).
+"""The N-robot belief filter: exact joint vs factored.
 
     python benchmarks/bench_team.py speed            # exact 3-robot joint on boyd2: ms per step
     python benchmarks/bench_team.py error --seeds 50 --seeds3 3  # detection along L's path
@@ -8,7 +8,7 @@
 ``speed``: three patrollers on boyd2 (124³ = 1 906 624 joint states), the true models; ms
 per filter step (propagate + condition) and per predicted step (propagate + detection),
 against the factored filter, and one propagation of the exact joint against the first
-implementation (tests/team_filter_reference.py), all in the same process.
+implementation (tests/references/team_filter.py), all in the same process.
 ``error``: after 300 observation steps (the true models, so only the filter differs), both
 filters predict 60 steps; the error is |d_exact − d_factored| on the cells of L's shortest path
 at the step L would reach them if it went now — for two robots on boyd2 (pair joint) and for
@@ -74,8 +74,8 @@ def _filters(sc, steps, seed):
 
 
 def speed() -> None:
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-    from team_filter_reference import ReferenceExactTeam
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository
+    from tests.references.team_filter import ReferenceExactTeam
 
     sc = boyd2_three()
     exact, fact, seen = _filters(sc, 20, 0)

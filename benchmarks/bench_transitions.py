@@ -1,4 +1,4 @@
-"""mIRL*/T statistics for issue 3: accuracy with plenty of data, identification of a damaged wheel
+"""mIRL*/T statistics : accuracy with plenty of data, identification of a damaged wheel
 under occlusion (t-test over seeds), and the solver's speed.
 
     python benchmarks/bench_transitions.py [--seeds 30] [--workers 2]

@@ -1,4 +1,4 @@
-"""``--world physics`` on the command line (issue 11)."""
+"""``--world physics`` on the command line."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The issue-10 round trip over five seeds (slow): simulate -> MCAP poses -> learn --json equals
+"""The robot-data round trip over five seeds (slow): simulate -> MCAP poses -> learn --json equals
 the grid CSV path, and 5 cm / 3 degree pose noise moves no feature probability by 0.02."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Start-up stays at the floor: building the parser and light sub-commands import no learner,
-no planner, no optimiser, no game solver and no plotting library (issue 12)."""
+no planner, no optimiser, no game solver and no plotting library."""
 
 from __future__ import annotations
 

@@ -137,11 +137,11 @@ def test_failed_runs_are_recorded_then_retried_on_resume(tmp_path, reference):
 
 def test_existing_results_need_resume_and_the_same_experiment(tmp_path):
     run_experiment("selftest", tmp_path, runs=1, **QUIET)
-    with pytest.raises(StoreError, match="--resume"):
+    with pytest.raises(StoreError, match="`resume`"):
         run_experiment("selftest", tmp_path, runs=1, **QUIET)
     with pytest.raises(StoreError, match="not table1"):
         run_experiment("table1", tmp_path, runs=1, resume=True, **QUIET)
-    with pytest.raises(StoreError, match="--seed"):
+    with pytest.raises(StoreError, match="`base_seed`"):
         run_experiment("selftest", tmp_path, runs=1, resume=True, base_seed=3, **QUIET)
     grown = run_experiment("selftest", tmp_path, runs=2, resume=True, **QUIET)
     assert (grown.already_done, grown.finished) == (4, 4)

@@ -1,4 +1,4 @@
-"""Teams of N ≥ 2 patrollers (issue 14): meetings between any pair in the simulator, the sparse
+"""Teams of N ≥ 2 patrollers: meetings between any pair in the simulator, the sparse
 meeting masks, the exact N-robot joint filter against the pair filter and the factored one,
 equilibrium weighing over pairs, three-robot learning, and the RL environments."""
 

@@ -1,4 +1,4 @@
-"""The fast paths of issue 12 compute what the plain ones do: sparse products without scipy's
+"""The fast paths compute what the plain ones do: sparse products without scipy's
 dispatch, actions-first value iteration, shared gap columns, the sparse meeting matrix, and the
 factored equilibrium weighing (exact when no meeting is possible)."""
 

@@ -1,4 +1,4 @@
-"""Tests for the transition-feature solver (paper Eq. 3–4, SPEC §3.2).
+"""Tests for the transition-feature solver (paper Eq. 3–4).
 
 Expected answers come from exact rational data (so "consistent" really is consistent), from
 independent brute-force searches, or from an independent constrained optimiser in p space —
@@ -23,7 +23,7 @@ from mirl.learning.feature_solver import FeatureSolveResult, solve_feature_proba
 
 LEFT, RIGHT, NAV, FLOOR = "left_wheel", "right_wheel", "navigation", "floor"
 ROBOT = (LEFT, RIGHT, NAV, FLOOR)
-# SPEC §2: ξ of the four actions.
+# ξ of the four actions (docs/design.md, "Transition features").
 XI = {
     "forward": (LEFT, RIGHT, NAV, FLOOR),
     "turn_left": (RIGHT, NAV, FLOOR),

@@ -1,4 +1,4 @@
-"""Occluded max-ent IRL and equilibrium weighting (issue 4), on hand-checkable models."""
+"""Occluded max-ent IRL and equilibrium weighting, on hand-checkable models."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""`mirl.learning.learn` and `mirl learn` (issue 4): methods, the relabelling loop, the CLI."""
+"""`mirl.learning.learn` and `mirl learn`: methods, the relabelling loop, the CLI."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Counting, labelling and the mIRL*/T estimator (issue 3), checked against hand counts."""
+"""Counting, labelling and the mIRL*/T estimator, checked against hand counts."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The pair filter's sparse sums are the dense products they replace, bit for bit (issue 12:
+"""The pair filter's sparse sums are the dense products they replace, bit for bit (a
 faster re-planning must not move a single plan value)."""
 
 from __future__ import annotations

@@ -186,7 +186,7 @@ def test_run_json_default_keys_unchanged(capsys):
 
 @pytest.mark.slow
 def test_mirl_run_default_tells_the_story_on_seeds_0_to_19(capsys):
-    """Done-when of issue 13: both patrollers seen in every run; J's left wheel the single
+    """The default protocol's promise: both patrollers seen in every run; J's left wheel the single
     lowest learned feature in most (measured 17 of 20)."""
     flagged = 0
     for seed in range(20):

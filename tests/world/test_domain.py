@@ -1,7 +1,7 @@
 """The patrol domain (ψ, ξ, φ, dead ends, detection) against hand-written references.
 
 The references below never use ``mirl``'s own tables: ψ is an explicit loop over cells and
-headings over a map parsed here from its text, ξ is the SPEC §2 table typed out by hand, and
+headings over a map parsed here from its text, ξ is the design's table typed out by hand, and
 success probabilities are products computed with ``math.prod``.
 """
 

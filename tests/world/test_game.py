@@ -23,7 +23,7 @@ from mirl.world.game import (
 )
 from mirl.world.scenario import load_scenario, shipped_scenarios
 
-# SPEC §2 payoffs, typed out from the prose: (I's action, J's action) -> (I's payoff, J's payoff)
+# The paper's payoffs, typed from its prose: (I's action, J's action) -> (I's payoff, J's payoff)
 SPEC_PAYOFFS = {
     ("go", "go"): (-10, -10),
     ("go", "stop"): (2, 0),

@@ -1,8 +1,8 @@
 """``transition_matrix`` (Eq. 5) against a dense brute-force implementation with explicit loops.
 
 The reference builds T[s, a, s'] from a hand-written ψ (loop over cells and headings) and the
-SPEC §2 ξ table, adding mass action by action, so coinciding intended states (a forward into a
-wall lands where stop does) are summed exactly as Eq. 5 says.
+ξ table of docs/design.md, adding mass action by action, so coinciding intended states (a forward
+into a wall lands where stop does) are summed exactly as Eq. 5 says.
 """
 
 from __future__ import annotations

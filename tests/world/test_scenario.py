@@ -1,4 +1,4 @@
-"""Scenarios as TOML data: the shipped ones carry SPEC §2's values; every problem in a scenario
+"""Scenarios as TOML data: the shipped ones carry the paper's values; every problem in a scenario
 file is a ScenarioError naming the file and the field."""
 
 from __future__ import annotations
@@ -16,7 +16,6 @@ from mirl.world.scenario import (
     Scenario,
     ScenarioError,
     load_scenario,
-    parse_damage,
     shipped_scenarios,
 )
 
@@ -92,6 +91,8 @@ def test_with_damage():
 
 
 def test_parse_damage():
+    from mirl.cli.flags import parse_damage
+
     assert parse_damage("J:left_wheel=0.7") == ("J", "left_wheel", 0.7)
     assert parse_damage(" I : right_wheel = 0.5") == ("I", "right_wheel", 0.5)
     for bad in ("J-left_wheel=0.7", "J:left_wheel", "J:left_wheel=abc", ""):

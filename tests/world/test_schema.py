@@ -1,4 +1,4 @@
-"""Scenario files as data (issue 13/14): reward features of every kind with per-robot weights,
+"""Scenario files as data: reward features of every kind with per-robot weights,
 per-pair equilibria, and strict typed reading — every value of the wrong type, non-finite,
 fractional where a count belongs, off the map, or a section of the wrong shape is one
 ScenarioError naming the file and the field path; any bytes give a Scenario or a ScenarioError."""

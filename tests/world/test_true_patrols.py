@@ -1,4 +1,4 @@
-"""THE TRUE PATROL (SPEC §2): each patroller's optimal policy, followed with intended outcomes from
+"""The true patrol: each patroller's optimal policy, followed with intended outcomes from
 any state, settles into one back-and-forth cycle over the whole "[" of hallways; and that policy
 is optimal by an independent dense policy evaluation."""
 

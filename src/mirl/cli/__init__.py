@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from mirl._blas import one_blas_thread
 from mirl.cli.checks import UsageError
 from mirl.cli.commands import COMMANDS
+from mirl.cli.flags import in_flags
 from mirl.cli.parser import build_parser
 
 __all__ = ["main"]
@@ -31,7 +32,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         # domain errors (MapError, ScenarioError, TrajectoryError, ...) already name the file
         msg = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
-        print(f"mirl: error: {msg}", file=sys.stderr)
+        print(f"mirl: error: {in_flags(msg)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("mirl: interrupted", file=sys.stderr)

@@ -25,6 +25,7 @@ from mirl.cli.checks import (
     unique_lowest,
     warn,
 )
+from mirl.cli.flags import parse_damage, parse_topic
 from mirl.experiments.worlds import DEFAULT_WORLD, WorldSpec, get_world
 from mirl.learning.methods import METHODS
 
@@ -42,7 +43,7 @@ def command(name: str):
 
 
 def _load_scenario(args: argparse.Namespace):
-    from mirl.world.scenario import load_scenario, parse_damage
+    from mirl.world.scenario import load_scenario
 
     scenario = load_scenario(args.scenario)
     world = _world(getattr(args, "world", DEFAULT_WORLD))
@@ -171,7 +172,7 @@ def _write_poses(args: argparse.Namespace, scenario, observations) -> None:
 
 
 def _read_observations(args: argparse.Namespace, scenario, observability=None):
-    from mirl.observations.sources import load_observations, parse_topic
+    from mirl.observations.sources import load_observations
 
     return load_observations(
         args.observations,

@@ -5,6 +5,7 @@ must be an integer >= 0, got -1``), exit 2 and no usage dump."""
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from typing import NoReturn
 
@@ -127,3 +128,44 @@ def float_between(low: float, high: float, unit: str = ""):
 # seconds per time step: from a millisecond to an hour (a step of 1e-300 s or 1e308 s spans
 # more steps, or fewer poses, than any record holds)
 step_seconds = float_between(0.001, 3600.0, " s")
+
+
+def parse_topic(text: str) -> tuple[str, str]:
+    """``--topic TOPIC=ROBOT`` (``--topic /tb_i/amcl_pose=I``)."""
+    topic, sep, robot = text.rpartition("=")
+    if not sep or not topic.strip() or not robot.strip():
+        raise ValueError(f"--topic '{text}': expected TOPIC=ROBOT, e.g. /tb_i/amcl_pose=I")
+    return topic.strip(), robot.strip()
+
+
+def parse_damage(text: str) -> tuple[str, str, float]:
+    """``--damage ROBOT:FEATURE=P``."""
+    try:
+        robot, rest = text.split(":", 1)
+        feature, value = rest.split("=", 1)
+        return robot.strip(), feature.strip(), float(value)
+    except ValueError:
+        raise ValueError(
+            f"--damage '{text}': expected ROBOT:FEATURE=P, e.g. J:left_wheel=0.7"
+        ) from None
+
+
+# The library's errors name a parameter in backquotes (`step_seconds`); the command line says
+# which flag sets it.
+PARAMETER_FLAGS = {
+    "topics": "--topic",
+    "step_seconds": "--step-seconds",
+    "start_time": "--start-time",
+    "tolerance": "--tolerance",
+    "drop_off_map": "--drop-off-map",
+    "visible": "--visible",
+    "em_init": "--em-init",
+    "resume": "--resume",
+    "out": "--out",
+    "base_seed": "--seed",
+}
+
+
+def in_flags(message: str) -> str:
+    """A library error message with its `parameter` names replaced by their flags."""
+    return re.sub(r"`([a-z_]+)`", lambda m: PARAMETER_FLAGS.get(m.group(1), m.group(0)), message)

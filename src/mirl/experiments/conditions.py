@@ -1,4 +1,5 @@
-"""The paper's evaluation as data: conditions, experiment grids (SPEC §6) and run functions.
+"""The paper's evaluation as data: conditions, experiment grids (docs/design.md, "The paper's
+experiments as data") and run functions.
 
 How the grids are executed and stored is :mod:`mirl.experiments.sweep`.
 
@@ -220,7 +221,7 @@ def selftest_run(condition: Condition, seed: int) -> dict[str, Any]:
 
 
 # ---------------------------------------------------------------------------------------------
-# Grids (SPEC §6)
+# Grids (docs/design.md, "The paper's experiments as data")
 
 OBSERVABILITIES = (0.14, 0.3, 0.5, 0.75, 1.0)
 OBS_STEPS = (150, 300, 450, 900)
@@ -320,7 +321,7 @@ def with_em_init(exp: Experiment, init: str | None) -> Experiment:
     if init is None:
         return exp
     if not any(METHODS[c.method].uses_em_init for c in exp.conditions):
-        raise StoreError(f"--em-init: experiment {exp.name} has no dbn-em runs to initialise")
+        raise StoreError(f"`em_init`: experiment {exp.name} has no dbn-em runs to initialise")
     conditions = tuple(
         replace(c, em_init=init) if METHODS[c.method].uses_em_init else c for c in exp.conditions
     )

@@ -257,13 +257,13 @@ def open_store(path: str | Path, experiment: str, base_seed: int, *, resume: boo
         if n and not resume:
             raise StoreError(
                 f"{path} already holds {n} runs of {meta.get('experiment', '?')}; "
-                "pass --resume to continue it or choose another --out"
+                "resume it (`resume`) or choose another directory (`out`)"
             )
         if n and meta.get("experiment") != experiment:
             raise StoreError(f"{path} holds runs of {meta.get('experiment')}, not {experiment}")
         if n and meta.get("base_seed") != str(base_seed):
             raise StoreError(
-                f"{path} was started with --seed {meta.get('base_seed')}, not {base_seed}"
+                f"{path} was started with `base_seed` {meta.get('base_seed')}, not {base_seed}"
             )
         store.set_meta(experiment=experiment, base_seed=str(base_seed))
     except BaseException:

@@ -1,4 +1,5 @@
-"""The DBN-EM baseline of SPEC §5 (the random observer is :mod:`mirl.planning.random_go`).
+"""The DBN-EM baseline (docs/design.md, "DBN-EM"; the random observer is in
+:mod:`mirl.experiments.episode`).
 
 **dbn-em** (:func:`em_transition_model`): each patroller is a two-slice state–action–state
 dynamic Bayesian network s_t → a_t → s_{t+1} with parameters π(a | s) and a tabular

@@ -33,9 +33,9 @@ A method that does not relabel learns its T from the first labels (its labels co
 T) and its reward once. The equilibria are weighed by the joint filter once, for the final
 models.
 
-Every learned policy is the greedy policy of hard value iteration with the learned weights and
-that robot's T. ``behavior_accuracy`` (SPEC §6) is filled in from the scenario's truth when
-``score=True``.
+Every learned policy is the greedy policy of hard value iteration with the learned weights and that
+robot's T. ``behavior_accuracy`` (docs/design.md, "Behaviour accuracy") is filled in from the
+scenario's truth when ``score=True``.
 """
 
 from __future__ import annotations
@@ -132,7 +132,8 @@ def learn(
         Seeds every random choice (the IRL's restarts); None counts as 0, so learning is
         deterministic.
     score : bool, default True
-        Fill in each model's ``behavior_accuracy`` (SPEC §6) from the scenario's truth.
+        Fill in each model's ``behavior_accuracy`` (docs/design.md, "Behaviour accuracy") from the
+        scenario's truth.
     trace : LoopTrace, optional
         An empty trace to receive the labels, estimators and weighings of every round.
     em_init : {"intended", "uniform"}, default "intended"
@@ -509,8 +510,9 @@ def irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.nd
             ).fit(x, labels[i], exclude=setup.exclude, initial_weights=init)
             weights.append(irl.weights_)
             estimators.append(irl)
-    # A robot L never saw gets the mean reward of those it saw — the patrollers are robots of
-    # one kind on one route (SPEC §2); its T stays at the uninformed maximum-entropy solution.
+    # A robot L never saw gets the mean reward of those it saw — the patrollers are robots of one
+    # kind on one route (docs/design.md, "A robot L never saw"); its T stays at the uninformed
+    # maximum-entropy solution.
     seen = [w for w in weights if w is not None]
     fill = np.mean(seen, axis=0) if seen else np.zeros(len(d.reward_feature_names))
     unseen = [setup.scenario.robot_names[i] for i, w in enumerate(weights) if w is None]

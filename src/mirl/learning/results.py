@@ -37,8 +37,8 @@ class RobotModel:
     policy : ndarray of shape (S,)
         The greedy action in each state.
     behavior_accuracy : float or None
-        Share of states where ``policy`` is optimal under the truth (SPEC §6); None when the
-        truth was not used to score it.
+        Share of states where ``policy`` is optimal under the truth (docs/design.md, "Behaviour
+        accuracy"); None when the truth was not used to score it.
     """
 
     name: str
@@ -104,7 +104,8 @@ class LearnResult:
 
 def behavior_accuracy(scenario: Scenario, robot: int, policy: np.ndarray) -> float:
     """Share of the robot's states where ``policy`` takes an action optimal under the truth
-    (SPEC §6); where the true policy has tied optimal actions, any of them counts."""
+    (docs/design.md, "Behaviour accuracy"); where the true policy has tied optimal actions, any of
+    them counts."""
     optimal = optimal_action_mask(scenario.true_q(robot), rtol=1e-9, atol=1e-9)
     policy = np.asarray(policy, dtype=int)
     return float(optimal[np.arange(len(policy)), policy].mean())

@@ -55,9 +55,10 @@ def policy_labels(
     policies: Sequence[np.ndarray],
     equilibrium: Equilibrium,
 ) -> list[np.ndarray]:
-    """Label every observed time step of every robot with the action its (learned or true)
-    policy prescribes — or, where two robots are both observed and their intended moves meet
-    (SPEC §2), with the action of the equilibrium's most likely game action (Sec. 3.6).
+    """Label every observed time step of every robot with the action its (learned or true) policy
+    prescribes — or, where two robots are both observed and their intended moves meet
+    (docs/design.md, "The meeting rule"), with the action of the equilibrium's most likely game
+    action (Sec. 3.6).
 
     A meeting with a robot L cannot see is invisible to L, so such steps keep the policy's
     action; they may then count as failures, a bias confined to the edge of the visible region.
@@ -105,7 +106,7 @@ def count_subsets(
     domain: PatrolDomain, s: np.ndarray, a: np.ndarray, s_next: np.ndarray
 ) -> SubsetCounts:
     """Pool labelled steps by ξ(s, a): success when s_{t+1} = ψ(s_t, a_t). Unlabelled steps
-    (a = -1) are left out. Counts are pooled, not probabilities (SPEC §3)."""
+    (a = -1) are left out. Counts are pooled, not probabilities (docs/design.md, "Counting")."""
     s, a, s_next = (np.asarray(v, dtype=int) for v in (s, a, s_next))
     keep = a >= 0
     s, a, s_next = s[keep], a[keep], s_next[keep]

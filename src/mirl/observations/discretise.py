@@ -193,7 +193,7 @@ def _steps_spanned(tracks: PoseTracks, start: float, last: float, step_seconds: 
         raise DiscretisationError(
             f"{tracks.source}: the poses span {last - start:.6g} s from t = {start:.6g} s, "
             f"{span:.3g} steps of {step_seconds:g} s, more than the limit of {MAX_TIME} steps "
-            "(mixed clocks, e.g. epoch and simulation time? or a later --start-time)"
+            "(mixed clocks, e.g. epoch and simulation time? or a later `start_time`)"
         )
     return max(int(np.floor(span + 0.5)) + 1, 0)
 

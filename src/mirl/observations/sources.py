@@ -18,7 +18,7 @@ from mirl.observations.poses import PoseError, PoseTracks, read_pose_csv
 from mirl.observations.trajectories import Trajectories, TrajectoryError, read_csv
 from mirl.world.scenario import Scenario
 
-__all__ = ["LoadedObservations", "load_observations", "parse_topic", "observation_kind"]
+__all__ = ["LoadedObservations", "load_observations", "observation_kind"]
 
 
 @dataclass(frozen=True)
@@ -32,14 +32,6 @@ class LoadedObservations:
         return None if self.discretised is None else self.discretised.visible_states(scenario)
 
 
-def parse_topic(text: str) -> tuple[str, str]:
-    """``TOPIC=ROBOT`` (``--topic /tb_i/amcl_pose=I``)."""
-    topic, sep, robot = text.rpartition("=")
-    if not sep or not topic.strip() or not robot.strip():
-        raise ValueError(f"--topic '{text}': expected TOPIC=ROBOT, e.g. /tb_i/amcl_pose=I")
-    return topic.strip(), robot.strip()
-
-
 def _topic_map(topics: Mapping[str, str] | Sequence[tuple[str, str]] | None) -> dict[str, str]:
     """topic -> robot; a topic given twice is refused (a dict would keep the last silently)."""
     pairs = list(topics.items()) if isinstance(topics, Mapping) else list(topics or [])
@@ -47,7 +39,7 @@ def _topic_map(topics: Mapping[str, str] | Sequence[tuple[str, str]] | None) -> 
     for topic, robot in pairs:
         if topic in out:
             raise ValueError(
-                f"--topic {topic}: given twice ({topic}={out[topic]} and {topic}={robot})"
+                f"`topics`: {topic} given twice ({topic}={out[topic]} and {topic}={robot})"
             )
         out[topic] = robot
     return out
@@ -99,12 +91,12 @@ def load_observations(
         given = [
             flag
             for flag, value in (
-                ("--topic", topics or None),
-                ("--step-seconds", step_seconds),
-                ("--start-time", start_time),
-                ("--tolerance", tolerance),
-                ("--drop-off-map", drop_off_map or None),
-                ("--visible", visible),
+                ("`topics`", topics or None),
+                ("`step_seconds`", step_seconds),
+                ("`start_time`", start_time),
+                ("`tolerance`", tolerance),
+                ("`drop_off_map`", drop_off_map or None),
+                ("`visible`", visible),
             )
             if value is not None
         ]
@@ -116,7 +108,7 @@ def load_observations(
             found = bag_topics(path)
             poses = [f"{t} ({m})" for t, (m, _) in found.items() if m in SUPPORTED_TYPES]
             raise BagError(
-                f"{path}: say which topic is which robot with --topic TOPIC=ROBOT "
+                f"{path}: say which topic is which robot with `topics` TOPIC=ROBOT "
                 f"(pose topics in the bag: {', '.join(poses) or 'none'})"
             )
         tracks = read_bag(path, topics, robot_names=names)
@@ -142,7 +134,7 @@ def load_observations(
 def _rename(tracks: PoseTracks, mapping: Mapping[str, str]) -> PoseTracks:
     for old in mapping:
         if old not in tracks.robot_names:
-            raise PoseError(f"{tracks.source}: --topic {old}=...: no robot '{old}' in the file")
+            raise PoseError(f"{tracks.source}: `topics` {old}=...: no robot '{old}' in the file")
     names = [mapping.get(n, n) for n in tracks.robot_names]
     merged: list[str] = list(dict.fromkeys(names))
     lut = np.array([merged.index(n) for n in names], dtype=np.int64)

@@ -48,7 +48,7 @@ class PhysicsConfig:
     def with_strength(self, robot: str, wheel: str, value: float) -> PhysicsConfig:
         if wheel not in WHEELS:
             raise ValueError(
-                f"in the physics world --damage sets a wheel motor's strength: '{wheel}' is "
+                f"in the physics world damage is a wheel motor's strength: '{wheel}' is "
                 f"not one of {', '.join(WHEELS)}"
             )
         if not 0.0 <= value <= 1.0:

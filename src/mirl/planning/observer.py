@@ -1,7 +1,7 @@
-"""L's own MDP: states (row, col, heading) over every free cell of the map (hallways and rooms),
-the patrollers' four actions, L's failure (2.5 %: the robot stays put), its goal and the sparse
-**detection matrix** D (patroller states × L cells, SPEC §2: straight ahead along the heading, up
-to ``detect_distance`` cells, stopped by walls; room cells are never visible).
+"""L's own MDP: states (row, col, heading) over every free cell of the map (hallways and rooms), the
+patrollers' four actions, L's failure (2.5 %: the robot stays put), its goal and the sparse
+**detection matrix** D (patroller states × L cells, docs/design.md, "Detection": straight ahead
+along the heading, up to ``detect_distance`` cells, stopped by walls; room cells are never visible).
 """
 
 from __future__ import annotations

@@ -1,30 +1,28 @@
 """The pair filter's two sparse sums, computed over their non-zero terms only, bit for bit as
-the dense products they replace (each output adds the same non-zero terms in the same order,
-starting from 0; the dense products' other terms were exact zeros): the meeting part of a
+the dense products they stand for (each output adds the same non-zero terms in the same order,
+starting from 0; the dense products' other terms are exact zeros): the meeting part of a
 propagation step (:class:`MeetingStep`) and P(both robots see L's cell) (:class:`PairSightings`).
 The terms are listed in that order (CSR maps for scipy's mat-vec kernel, ``np.bincount``). A
-re-plan propagates ~100 steps of the S² joint and sums its sightings at each, and these two were
-half of it (issue 12)."""
+re-plan propagates ~100 steps of the S² joint and sums its sightings at each, and as dense
+products these two sums are half of a re-plan's time."""
 
 from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse import _sparsetools
 
-from mirl.sparse import linear_map
+from mirl.sparse import csr_block_matvec, linear_map
 
 __all__ = ["MeetingStep", "PairSightings"]
 
 
 class MeetingStep:
     """M_Iᵀ (B∘m) M_J for the few (~400 of 15 376 on boyd2) meeting states of m, bit for bit as
-    the two dense sparse products computed it (a re-plan propagates ~100 steps, and this was
-    30 % of each): each output element adds the same non-zero terms in the same order — the
-    CSR order of the row of M_Iᵀ, then of M_Jᵀ — starting from 0; the products' other terms
-    were exact zeros. Each stage is a fixed CSR map whose rows list their terms in that order,
-    which scipy's mat-vec kernel adds left to right from 0 (as ``np.bincount`` did before it,
-    at 1.7× the time)."""
+    the two sparse products compute it (as products, 30 % of a propagation step): each output
+    element adds the same non-zero terms in the same order — the CSR order of the row of M_Iᵀ,
+    then of M_Jᵀ — starting from 0; the products' other terms are exact zeros. Each stage is a
+    fixed CSR map whose rows list their terms in that order, which scipy's mat-vec kernel adds
+    left to right from 0 (``np.bincount`` gives the same sums at 1.7× the time)."""
 
     def __init__(self, meet: np.ndarray, mixed_T: list[sp.csr_array]) -> None:
         S = meet.shape[0]
@@ -63,10 +61,10 @@ class MeetingStep:
     def add_to(self, out_t: np.ndarray, met: np.ndarray) -> None:
         """``out_t`` (flat, transposed: [b·S + a]) += the meeting term for ``met`` = B at
         :attr:`at`."""
-        (n_x, n_met, *first), (n_out, _, *second) = self._maps
+        (n_x, n_met, ptr1, idx1, val1), (n_out, _, ptr2, idx2, val2) = self._maps
         x, y = np.zeros(n_x), np.zeros(n_out)
-        _sparsetools.csr_matvec(n_x, n_met, *first, met, x)
-        _sparsetools.csr_matvec(n_out, n_x, *second, x, y)
+        csr_block_matvec(n_x, n_met, 1, ptr1, idx1, val1, met, x)
+        csr_block_matvec(n_out, n_x, 1, ptr2, idx2, val2, x, y)
         out_t[self._out_at] += y  # unique positions: out + y, element by element
 
 

@@ -1,10 +1,10 @@
 """Belief propagation for teams of N ≥ 2 patrollers (used by :class:`~mirl.planning.belief.
 BeliefFilter` when the team is not a pair small enough for its S × S joint).
 
-**Meetings.** Robot i meets robot j when their policies' intended moves meet (SPEC §2); it then
-plays its side of the pair's equilibrium instead of its policy. A robot that meets two others
-in one step plays the game of its first pair in robot order ((0, 1), (0, 2), …, (1, 2), …), as
-the simulator does (:meth:`mirl.simulation.grid.PatrolSimulator.intended_actions`).
+**Meetings.** Robot i meets robot j when their policies' intended moves meet (docs/design.md, "The
+meeting rule"); it then plays its side of the pair's equilibrium instead of its policy. A robot that
+meets two others in one step plays the game of its first pair in robot order ((0, 1), (0, 2), …, (1,
+2), …), as the simulator does (:meth:`mirl.simulation.grid.PatrolSimulator.intended_actions`).
 
 **Exact** (:class:`ExactTeam`): the belief over the joint state, a tensor of S^N entries. Given
 the joint state the robots move independently, each with its policy's or its game's one-step

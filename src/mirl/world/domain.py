@@ -158,7 +158,8 @@ DEFAULT_FEATURE_MAP = FeatureMap(
 )
 
 
-REWARD_FEATURES: tuple[str, ...] = RewardSpec().names  # the paper's four (SPEC §2)
+# the paper's four (docs/design.md, "Reward features")
+REWARD_FEATURES: tuple[str, ...] = RewardSpec().names
 
 
 class PatrolDomain:
@@ -328,7 +329,7 @@ def detection_cells(
     gridmap: GridMap, row: int, col: int, heading: int, distance: int
 ) -> list[tuple[int, int]]:
     """Cells a patroller at (row, col, heading) sees: straight ahead, up to ``distance`` cells,
-    stopping at the first wall. L's room cells are never seen (SPEC §2)."""
+    stopping at the first wall. L's room cells are never seen (docs/design.md, "Detection")."""
     dr, dc = HEADING_DELTAS[heading]
     rows, cols = gridmap.shape
     out = [(row, col)]

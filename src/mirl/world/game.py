@@ -38,7 +38,7 @@ class Equilibrium:
         return f"{one(self.row)}/{one(self.col)}"
 
 
-# The paper's game (SPEC §2; every shipped scenario plays it).
+# The paper's game (docs/design.md, "The interaction game"; every shipped scenario plays it).
 _PAPER_ROW = ((-10.0, 2.0, 2.0), (0.0, 0.0, 0.0), (-1.0, -1.0, -1.0))
 _PAPER_COL = ((-10.0, 0.0, -1.0), (2.0, 0.0, -1.0), (2.0, 0.0, -1.0))
 
@@ -140,8 +140,8 @@ def game_action_to_action(game_action: ArrayLike, own_action: ArrayLike) -> np.n
 
 
 def meeting(domain: PatrolDomain, s_row, s_col, a_row, a_col) -> np.ndarray:
-    """Vectorised meeting rule (SPEC §2): the two robots' intended moves would put them in the same
-    cell (at least one of them entering it) or make them swap cells."""
+    """Vectorised meeting rule (docs/design.md, "The meeting rule"): the two robots' intended moves
+    would put them in the same cell (at least one of them entering it) or make them swap cells."""
     psi = domain.intended
     cell_r, cell_c = domain.state_cell(s_row), domain.state_cell(s_col)
     next_r = domain.state_cell(psi[s_row, a_row])

@@ -94,7 +94,8 @@ class MapFrame:
 
 @dataclass(frozen=True, eq=False)
 class GridMap:
-    """A grid of cells with L's start, goals, and the nested visibility order of SPEC §2."""
+    """A grid of cells with L's start, goals, and the nested visibility order of docs/design.md,
+    "The visibility order"."""
 
     name: str
     patroller: np.ndarray  # (rows, cols) bool: cells patrollers (and L) may occupy
@@ -160,9 +161,8 @@ def default_visibility_order(patroller: np.ndarray, start: tuple[int, int]) -> n
 
     First the cells on straight lines of sight from L's start (along rows and columns, nearest
     first, east/north/west/south), then the rest by breadth-first distance from the cells already
-    seen, ties broken row-major. On boyd2 this gives SPEC §2's order: (0,1)…(0,8), (1,1)…(16,1),
-    then the lower hallway.
-    """
+    seen, ties broken row-major. On boyd2 this gives the order of docs/design.md, "The visibility
+    order": (0,1)…(0,8), (1,1)…(16,1), then the lower hallway."""
     rows, cols = patroller.shape
     order: list[tuple[int, int]] = []
     seen = np.zeros_like(patroller, dtype=bool)

@@ -1,4 +1,5 @@
-"""A generated large office floor for scale tests (SPEC §2: e.g. 60 × 60 with ≥ 800 free cells).
+"""A generated large office floor for scale tests (docs/design.md, "Generated office maps": e.g. 60
+× 60 with ≥ 800 free cells).
 
 Design: horizontal and vertical one-cell-wide corridors, evenly spread about
 ``corridor_spacing`` cells apart (outermost ones one cell in from the border), each interior
@@ -93,9 +94,6 @@ def generate_office_map(
 
     At the defaults (60 × 60, spacing 6, 20% of segments removed) the floor has about 950
     hallway cells. Raises ``ValueError`` on impossible parameters.
-
-    Long because the generator's steps (corridors, rooms, doors, L's room, goals) share
-    one random stream and read best in order.
     """
     if rows < 5 or cols < 5:
         raise ValueError(f"office map must be at least 5x5 cells, got {rows}x{cols}")

@@ -60,7 +60,7 @@ class RewardFeature:
 def hallway_features(
     upper: Cells = (), lower: Cells = (), turn_around: Cells | None = None
 ) -> tuple[RewardFeature, ...]:
-    """The paper's four reward features (SPEC §2)."""
+    """The paper's four reward features (docs/design.md, "Reward features")."""
     return (
         RewardFeature("moved", "moved"),
         RewardFeature("upper_hallway", "region", tuple(upper)),

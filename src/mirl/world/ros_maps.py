@@ -208,9 +208,6 @@ def load_ros_map(
     than it. ``observer_start`` ``(row, col)`` and ``goals`` ``[(row, col), ...]`` are cell
     coordinates and override the YAML keys ``mirl_observer_start`` / ``mirl_goals``. Every
     problem raises a one-line :class:`MapError` starting with the YAML path.
-
-    Long because every map_server key is validated where it is read, each with its own
-    one-line message.
     """
     path = Path(yaml_path)
     data = _read_yaml(path)

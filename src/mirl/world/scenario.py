@@ -43,7 +43,6 @@ __all__ = [
     "load_scenario",
     "as_scenario",
     "shipped_scenarios",
-    "parse_damage",
     "HEALTHY_PROBABILITIES",
     "TRUE_WEIGHTS",
 ]
@@ -148,18 +147,6 @@ class Scenario:
 
     def with_options(self, **changes: Any) -> Scenario:
         return replace(self, **changes)
-
-
-def parse_damage(text: str) -> tuple[str, str, float]:
-    """Parse ``ROBOT:FEATURE=P``."""
-    try:
-        robot, rest = text.split(":", 1)
-        feature, value = rest.split("=", 1)
-        return robot.strip(), feature.strip(), float(value)
-    except ValueError:
-        raise ValueError(
-            f"--damage '{text}': expected ROBOT:FEATURE=P, e.g. J:left_wheel=0.7"
-        ) from None
 
 
 # ---- loading ---------------------------------------------------------------------------------
