@@ -151,13 +151,13 @@ def test_default_run_is_the_main_job(capsys):
 def test_l_replans_when_it_outlives_its_plan(boyd2):
     from mirl.experiments.execution import PlanFollower, execute
     from mirl.experiments.grid_world import GridRunWorld
+    from mirl.experiments.worlds import RunSetup
     from mirl.planning.belief import BeliefFilter
     from mirl.planning.go import solve_observer_mdp
 
     model = observer_model(boyd2)
-    world = GridRunWorld(  # both patrollers start in the lower hallway
-        boyd2, model, observability=0.14, seed=2, noise=np.random.SeedSequence(0)
-    )
+    setup = RunSetup(boyd2, model, 0.14, seed=2, noise=np.random.SeedSequence(0))
+    world = GridRunWorld(setup)  # both patrollers start in the lower hallway
     belief = BeliefFilter(boyd2.domain, oracle_models(boyd2), visible=world.visible)
     belief.update(world.seen[0])
     calls = []

@@ -28,6 +28,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Detection",
+    "RunSetup",
     "RunWorld",
     "WorldExtras",
     "WorldSpec",
@@ -46,6 +47,32 @@ class Detection:
     robot: str
     robot_state: tuple[int, int, int]
     observer_cell: tuple[int, int]
+
+
+@dataclass(frozen=True)
+class RunSetup:
+    """What a world is built from for one run.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The patrollers, their true models and L's map.
+    observer : ObserverModel
+        L's model: its start, goal, moves, action failure probability and who can see it.
+    observability : float
+        The degree of L's view from its room.
+    seed : int
+        Seeds the patrollers' world (random starts on their patrol cycles, outcomes).
+    noise : numpy.random.SeedSequence
+        Seeds L's own action failures where the world draws them, a stream apart from the
+        patrollers'.
+    """
+
+    scenario: Scenario
+    observer: ObserverModel
+    observability: float
+    seed: int
+    noise: np.random.SeedSequence
 
 
 class WorldExtras(Protocol):
@@ -113,8 +140,8 @@ class WorldSpec:
     name : str
         The name ``run_episode(world=...)`` and ``--world`` take.
     entry_point : str
-        ``"module:Class"`` of the class implementing :class:`RunWorld`. It is constructed as
-        ``Class(scenario, observer, observability=..., seed=..., noise=...)`` and also provides
+        ``"module:Class"`` of the class implementing :class:`RunWorld`. It is constructed from
+        a :class:`RunSetup` (``Class(setup)``) and also provides
         ``apply_damage(scenario, robot, feature, value)`` (what a ``--damage`` value means there)
         and ``version()`` (what, besides mirl, its results depend on; "" for nothing).
     description : str
@@ -193,7 +220,7 @@ def make_world(
     seed: int,
     noise: np.random.SeedSequence,
 ) -> RunWorld:
-    """A new world ``name`` for one run (see :class:`WorldSpec` for the arguments)."""
+    """A new world ``name`` for one run (the arguments are those of :class:`RunSetup`)."""
     cls = get_world(name).load()
-    world: RunWorld = cls(scenario, observer, observability=observability, seed=seed, noise=noise)
+    world: RunWorld = cls(RunSetup(scenario, observer, observability, seed, noise))
     return world
