@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = [
+    "dead_ends",
     "MAX_MAP_SIDE",
     "GridMap",
     "MapError",
@@ -237,3 +238,11 @@ def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> Grid
         goals=tuple(goals),
         source=source,
     )
+
+
+def dead_ends(gridmap: GridMap) -> tuple[tuple[int, int], ...]:
+    """Patroller cells with exactly one patroller neighbour: where a patrol must turn around."""
+    P = np.pad(gridmap.patroller, 1)
+    neighbours = P[:-2, 1:-1].astype(int) + P[2:, 1:-1] + P[1:-1, :-2] + P[1:-1, 2:]
+    ends = np.argwhere(gridmap.patroller & (neighbours == 1))
+    return tuple((int(r), int(c)) for r, c in ends)
