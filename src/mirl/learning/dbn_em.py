@@ -27,6 +27,11 @@ most four successors of each state. Where the dense (S, A, S) arrays would not f
 that support (:func:`em_fit_on_support`): the same updates, the chain P as a sparse matrix, so
 memory grows with S rather than S². Where the dense arrays fit they are used, and the two agree
 to rounding (tested).
+
+Under ``"intended"`` an observation that no sequence of the robot's moves reaches from the
+previous one in the steps between them (a discretised pose in the physical world can skip a
+cell) would make the data impossible for EM. :func:`em_transitions` leaves such observations
+out, as unseen, and counts them; the learner's message says how many.
 """
 
 from __future__ import annotations
@@ -41,6 +46,8 @@ from mirl.world.domain import PatrolDomain
 
 __all__ = [
     "EM_INITS",
+    "em_transitions",
+    "unreachable_observations",
     "MAX_DENSE_ENTRIES",
     "EMResult",
     "em_fit",
@@ -179,6 +186,59 @@ def em_fit(
     return EMResult(pi, T, tuple(history), it, converged)
 
 
+def unreachable_observations(domain: PatrolDomain, x: np.ndarray) -> np.ndarray:
+    """(horizon,) bool: the observations of ``x`` (state indices, -1 unseen) that no sequence of
+    intended moves reaches from the previous observation kept, in the steps between them."""
+    x = np.asarray(x, dtype=int)
+    S = domain.n_states
+    succ = sp.csr_array(
+        (np.ones(domain.intended.size), (np.repeat(np.arange(S), domain.n_actions),
+                                         domain.intended.ravel())), shape=(S, S)
+    ).T.tocsr()  # fmt: skip
+    out = np.zeros(len(x), dtype=bool)
+    seen = np.flatnonzero(x >= 0)
+    if len(seen) == 0:
+        return out
+    last_t, last_s = int(seen[0]), int(x[seen[0]])
+    for t in seen[1:]:
+        reach = np.zeros(S, dtype=bool)
+        reach[last_s] = True
+        for _ in range(int(t) - last_t):  # staying is a move (stop), so reach only grows
+            if reach[x[t]]:
+                break
+            reach = reach | ((succ @ reach.astype(float)) > 0)
+        if reach[x[t]]:
+            last_t, last_s = int(t), int(x[t])
+        else:
+            out[t] = True
+    return out
+
+
+def em_transitions(
+    domain: PatrolDomain,
+    series_list: Sequence[np.ndarray],
+    *,
+    n_iter: int = 20,
+    tol: float = 1e-4,
+    init: str = "intended",
+) -> tuple[sp.csr_array, int]:
+    """DBN-EM's T(s, a, s') as a CSR (S·A, S) matrix, and how many observations no sequence of
+    moves reaches were left out as unseen (``init="intended"`` only; see the module doc)."""
+    dropped = 0
+    if init == "intended":
+        cleaned = []
+        for x in _check_series(series_list, domain.n_states):
+            bad = unreachable_observations(domain, x)
+            dropped += int(bad.sum())
+            cleaned.append(np.where(bad, -1, x))
+        series_list = cleaned
+    S, A = domain.n_states, domain.n_actions
+    if init == "intended" and S * A * S > MAX_DENSE_ENTRIES:
+        return em_fit_on_support(domain, series_list, n_iter=n_iter, tol=tol)[0], dropped
+    fit = em_fit(domain, series_list, n_iter=n_iter, tol=tol, init=init)
+    return fit.transition_matrix(), dropped
+
+
 def em_transition_model(
     domain: PatrolDomain,
     series_list: Sequence[np.ndarray],
@@ -192,10 +252,7 @@ def em_transition_model(
     ``series_list``: one or more (horizon,) arrays of the same robot's state indices, -1 where
     it was occluded. See the module doc for the model and :func:`em_fit` for diagnostics.
     """
-    S, A = domain.n_states, domain.n_actions
-    if init == "intended" and S * A * S > MAX_DENSE_ENTRIES:
-        return em_fit_on_support(domain, series_list, n_iter=n_iter, tol=tol)[0]
-    return em_fit(domain, series_list, n_iter=n_iter, tol=tol, init=init).transition_matrix()
+    return em_transitions(domain, series_list, n_iter=n_iter, tol=tol, init=init)[0]
 
 
 def em_fit_on_support(

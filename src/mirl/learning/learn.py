@@ -11,7 +11,7 @@ and :func:`learn` builds them from those sources:
 * each robot's T: learned from labelled steps (mIRL*/T, its transition-feature probabilities,
   :class:`mirl.learning.transitions.TransitionFeatureLearner`), one success probability ``p``
   for every action (no per-feature probabilities: ``feature_probabilities = {}``, ``p`` in the
-  result's ``message``), DBN-EM (:func:`mirl.learning.dbn_em.em_transition_model`), or the
+  result's ``message``), DBN-EM (:func:`mirl.learning.dbn_em.em_transitions`), or the
   truth (:func:`mirl.learning.results.oracle_models`).
 
 Steps are labelled with actions by perception (the action whose intended state is s_{t+1},
@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.dbn_em import EM_INITS, em_transition_model
+from mirl.learning.dbn_em import EM_INITS, em_transitions
 from mirl.learning.equilibria import (
     EquilibriumWeights,
     TeamEquilibria,
@@ -289,11 +289,15 @@ def _transitions(setup: RoundSetup, source: str, labels, p: float):
             message = f"fixed success probability p={p:g} for every action"
             return [T] * n, [{} for _ in range(n)], message
         if source == "em":
-            em = [
-                sp.csr_array(em_transition_model(setup.domain, [x], init=setup.em_init))
-                for x in setup.series
-            ]
-            return em, [{} for _ in range(n)], "tabular T from DBN-EM"
+            fits = [em_transitions(setup.domain, [x], init=setup.em_init) for x in setup.series]
+            em = [sp.csr_array(T) for T, _ in fits]
+            dropped = sum(d for _, d in fits)
+            message = "tabular T from DBN-EM" + (
+                f" ({dropped} observations no sequence of moves reaches left out as unseen)"
+                if dropped
+                else ""
+            )
+            return em, [{} for _ in range(n)], message
     raise ValueError(f"no models of transitions from '{source}'")
 
 
