@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -14,9 +15,10 @@ from scipy import ndimage
 
 from mirl.viz.maps import draw_map, map_to_text, save_map_png
 from mirl.world.catalog import load_map, shipped_maps
-from mirl.world.maps import GridMap, MapError, parse_map
+from mirl.world.maps import GridMap, MapError, line_of_sight, parse_map
 from mirl.world.office_maps import generate_office_map, office_map_from_name
 from mirl.world.ros_maps import load_ros_map
+from tests.references.line_of_sight import line_of_sight as reference_line_of_sight
 
 # the reference maps in ../shared beside the checkout (where CI and the developers have them)
 SHARED_MAPS = Path(__file__).resolve().parents[3] / "shared" / "maps"
@@ -435,3 +437,84 @@ def test_map_to_text_boyd2_014():
     m = load_map("boyd2")
     first = map_to_text(m, m.visible_mask(0.14)).splitlines()[0]
     assert first == "Loooo...."
+
+
+# ---- line of sight ---------------------------------------------------------------------------
+def test_line_of_sight_is_blocked_by_walls_and_diagonal_squeezes():
+    grid = parse_map(
+        textwrap.dedent(
+            """\
+            L....
+            .#...
+            ..#..
+            ....G"""
+        )
+    )
+    sight = line_of_sight(grid.free, (0, 0))
+    assert sight[0].all() and sight[:, 0].all()  # straight along the open row and column
+    assert not sight[1, 1] and not sight[2, 2]  # walls are never in sight
+    assert not sight[3, 3]  # behind the diagonal of walls (1,1), (2,2)
+    assert not sight[1, 2]  # the ray to (1, 2) crosses the interior of the wall (1, 1)
+    assert sight[1, 3]  # the ray to (1, 3) only touches its corner
+    squeeze = np.array([[1, 0, 1], [0, 1, 1], [1, 1, 1]], dtype=bool)
+    assert not line_of_sight(squeeze, (0, 0))[1, 1]  # between two walls meeting at a corner
+    touch = np.array([[1, 1, 1], [0, 1, 1], [1, 1, 1]], dtype=bool)
+    assert line_of_sight(touch, (0, 0))[1, 1]  # touching one wall's corner does not block
+
+
+def test_line_of_sight_range_in_cells():
+    open_cells = np.ones((1, 10), dtype=bool)
+    assert line_of_sight(open_cells, (0, 0), max_range=3.0)[0].tolist() == [True] * 4 + [False] * 6
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    bits=st.lists(st.booleans(), min_size=42, max_size=42),
+    r0=st.integers(0, 5),
+    c0=st.integers(0, 6),
+)
+def test_line_of_sight_matches_the_geometric_reference(bits, r0, c0):
+    open_cells = np.array(bits, dtype=bool).reshape(6, 7)
+    open_cells[r0, c0] = True
+    assert np.array_equal(
+        line_of_sight(open_cells, (r0, c0)), reference_line_of_sight(open_cells, (r0, c0))
+    )
+
+
+@pytest.mark.parametrize("name", ["boyd2", "boydright", "office-60x60-s2"])
+def test_visibility_order_puts_the_cells_in_line_of_sight_first(name):
+    m = load_map(name)
+    sight = m.in_line_of_sight()
+    ranks = sight[m.visibility_order[:, 0], m.visibility_order[:, 1]]
+    k = int(ranks.sum())
+    assert k > 0 and ranks[:k].all() and not ranks[k:].any()
+
+
+def test_shipped_view_is_in_line_of_sight_and_unchanged():
+    # the shipped scenarios' view at their observability (0.14): all in L's line of sight
+    for name, cells in {
+        "boyd2": {(0, 1), (0, 2), (0, 3), (0, 4)},
+        "boydright": {(0, 16), (0, 15), (0, 14), (0, 13), (0, 12), (0, 11)},
+    }.items():
+        m = load_map(name)
+        mask = m.visible_mask(0.14)
+        assert set(map(tuple, np.argwhere(mask).tolist())) == cells
+        assert not (mask & ~m.in_line_of_sight()).any()
+
+
+def test_line_of_sight_hides_a_room_behind_a_corner():
+    m = parse_map(
+        textwrap.dedent(
+            """\
+            #########
+            #L......#
+            #######.#
+            #G......#
+            #########"""
+        )
+    )
+    assert m.in_line_of_sight()[1].sum() == 6  # the upper corridor
+    assert not m.in_line_of_sight()[2:].any()  # around the corner, out of sight
+    k = int(m.in_line_of_sight().sum())
+    assert m.visible_mask(k / m.n_patroller_cells).sum() == k
+    assert not (m.visible_mask(k / m.n_patroller_cells) & ~m.in_line_of_sight()).any()

@@ -262,3 +262,27 @@ def test_missing_scenario_file(tmp_path):
     with pytest.raises(ScenarioError, match="absent.toml") as info:
         load_scenario(path)
     assert "boyd2" in str(info.value)  # lists the shipped scenarios
+
+
+def test_observer_start_from_the_scenario_sets_what_l_sees():
+    base = load_scenario("boyd2")
+    moved = base.with_options(observer_start=(0, 5))
+    assert moved.map.observer_start == (0, 5) and moved.map.goals[0] == (9, 1)
+    seen = set(map(tuple, np.argwhere(moved.map.visible_mask(0.14)).tolist()))
+    assert seen == {(0, 6), (0, 7), (0, 8), (0, 4)}  # east of L first, then west
+    assert seen != set(map(tuple, np.argwhere(base.map.visible_mask(0.14)).tolist()))
+    assert moved.domain.visible_states(0.14).sum() == 4 * len(seen)
+
+
+def test_observer_start_and_goal_read_from_toml(tmp_path):
+    from mirl.world._resources import read_shipped_or_file
+
+    text, _, _ = read_shipped_or_file("boyd2", "scenarios", ".toml", ScenarioError, "scenario")
+    path = tmp_path / "moved.toml"
+    path.write_text(text.replace("start = [0, 0]", "start = [0, 5]").replace(
+        "goal = [9, 1]", "goal = [16, 2]"
+    ))  # fmt: skip
+    sc = load_scenario(path)
+    assert (sc.observer_start, sc.goal) == ((0, 5), (16, 2))
+    assert (sc.map.observer_start, sc.map.goals[0]) == ((0, 5), (16, 2))
+    assert sc.map.visible_mask(0.14)[0, 6]

@@ -77,6 +77,10 @@ class Scenario:
             object.__setattr__(self, "observer_start", self.map.observer_start)
         if self.goal is None:
             object.__setattr__(self, "goal", self.map.goals[0])
+        # the map's own L and G marks are defaults: the scenario's map carries its start and
+        # goal, so that L's view, plans, reports and drawings all read the same ones
+        start, goal = self.observer_start, self.goal
+        object.__setattr__(self, "map", self.map.with_observer(start, goal))  # type: ignore[arg-type]
         if self.error_model not in ERROR_MODELS:
             raise ScenarioError(
                 f"{self.source}: error_model: '{self.error_model}' is not one of {ERROR_MODELS}"
