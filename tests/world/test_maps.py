@@ -210,12 +210,40 @@ def test_ros_roundtrip_boyd2(tmp_path, plain):
     assert np.array_equal(r2.patroller, m.patroller)
 
 
-def test_ros_default_cell_size_is_resolution(tmp_path):
+def test_ros_default_cell_size_is_half_a_metre(tmp_path):
     m = load_map("boyd2")
-    yml = _write_ros(tmp_path, _scaled_free_pixels(m, 2))
+    yml = _write_ros(tmp_path, _scaled_free_pixels(m, 2))  # 0.5 m a pixel
     r = load_ros_map(yml, observer_start=(0, 0), goals=[(18, 2)])
-    assert r.shape == (34, 18)
+    assert r.shape == (34, 18) and r.frame.cell_size == 0.5
     assert r.n_patroller_cells == 4 * m.free.sum() - 1
+    fine = _write_ros(tmp_path, _scaled_free_pixels(m, 20), name="fine", extra={"resolution": 0.05})
+    r = load_ros_map(fine)  # 0.05 m a pixel: cells of 0.5 m, not of a pixel
+    assert r.shape == (34, 18) and r.frame.cell_size == 0.5
+    coarse = _write_ros(
+        tmp_path, _scaled_free_pixels(m, 1), name="coarse", extra={"resolution": 1.0}
+    )
+    assert load_ros_map(coarse).frame.cell_size == 1.0  # never finer than a pixel
+
+
+def test_ros_plain_map_is_unmarked(tmp_path):
+    m = load_map("boyd2")
+    r = load_ros_map(_write_ros(tmp_path, _scaled_free_pixels(m, 2)), cell_size=1.0)
+    assert not r.marked
+    assert np.array_equal(r.patroller, m.free)  # L's room is a free cell like any other
+    assert not r.observer_only.any()
+    assert "L" not in r.to_text() and "G" not in r.to_text()
+    marked = r.with_observer((0, 0), (9, 1))
+    assert marked.marked and marked.observer_start == (0, 0) and marked.goals == ((9, 1),)
+
+
+def test_ros_grid_limit_counts_cells_and_names_a_cell_size_that_fits(tmp_path):
+    px = np.ones((20, 1200), dtype=bool)  # 60 m wide at 0.05 m a pixel
+    yml = _write_ros(tmp_path, px, name="long", extra={"resolution": 0.05})
+    assert load_ros_map(yml).shape == (2, 120)  # 1200 pixels a side are 120 cells of 0.5 m
+    msg = _ros_error(yml, cell_size=0.05)
+    assert "`cell_size` 0.05 m" in msg and "1200 cells a side" in msg
+    assert "`cell_size` of at least 0.1 m" in msg
+    assert load_ros_map(yml, cell_size=0.1).shape[1] <= 1000
 
 
 def test_ros_cell_free_only_if_all_pixels_free(tmp_path):
@@ -317,9 +345,9 @@ def test_ros_errors(tmp_path):
     assert "smaller than the map resolution" in _ros_error(yml, cell_size=0.25)
 
     nolg = _write_ros(tmp_path, px, name="nolg")
-    msg = _ros_error(nolg, cell_size=1.0)
-    assert "mirl_observer_start" in msg and "mirl_goals" in msg
-    assert "mirl_goals" in _ros_error(nolg, cell_size=1.0, observer_start=(0, 0))
+    msg = _ros_error(nolg, cell_size=1.0, observer_start=(0, 0))
+    assert "marks L's start but not its goal" in msg and "[observer]" in msg
+    assert "mirl_goals" in msg
 
     assert "not a free cell" in _ros_error(yml, cell_size=1.0, observer_start=(5, 5))
     assert "outside" in _ros_error(yml, cell_size=1.0, goals=[(40, 1)])

@@ -107,6 +107,9 @@ class GridMap:
     visibility_order: np.ndarray = field(default=None)  # type: ignore[arg-type]
     source: str = "<memory>"
     frame: MapFrame = field(default_factory=MapFrame)  # metric placement (poses, physics)
+    # whether the map marks L's start and goal itself; a plain ROS map does not, and its
+    # observer_start and goals are placeholders until a scenario gives them
+    marked: bool = True
 
     def __post_init__(self) -> None:
         rows, cols = self.patroller.shape
@@ -157,24 +160,28 @@ class GridMap:
         only defaults); the visibility order is computed again from the new start. The map's
         rooms stay L-only cells; ``self`` is returned when nothing changes."""
         start, goal = (int(start[0]), int(start[1])), (int(goal[0]), int(goal[1]))
-        if start == self.observer_start and goal == self.goals[0]:
+        if start == self.observer_start and goal == self.goals[0] and self.marked:
             return self
-        goals = (goal, *(g for g in self.goals if g != goal))
+        others = (g for g in self.goals if g != goal) if self.marked else ()  # not placeholders
+        goals = (goal, *others)
         same_start = start == self.observer_start
         return replace(
             self,
             observer_start=start,
             goals=goals,
             visibility_order=self.visibility_order if same_start else None,
+            marked=True,
         )
 
     def to_text(self) -> str:
+        """The map in the text format (an unmarked map without its placeholder L and G)."""
         chars = np.full(self.shape, "#")
         chars[self.patroller] = "."
         chars[self.observer_only] = "."
-        for r, c in self.goals:
-            chars[r, c] = "G" if self.patroller[r, c] else "g"
-        chars[self.observer_start] = "L"
+        if self.marked:
+            for r, c in self.goals:
+                chars[r, c] = "G" if self.patroller[r, c] else "g"
+            chars[self.observer_start] = "L"
         return "\n".join("".join(row) for row in chars)
 
 
