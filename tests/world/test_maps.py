@@ -546,3 +546,12 @@ def test_line_of_sight_hides_a_room_behind_a_corner():
     k = int(m.in_line_of_sight().sum())
     assert m.visible_mask(k / m.n_patroller_cells).sum() == k
     assert not (m.visible_mask(k / m.n_patroller_cells) & ~m.in_line_of_sight()).any()
+
+
+def test_ros_wall_one_pixel_thick_still_separates_rooms(tmp_path):
+    px = np.ones((40, 40), dtype=bool)  # 2 m x 2 m at 0.05 m a pixel
+    px[:, 23] = False  # a wall 5 cm thick, inside the third column of 0.5 m cells
+    r = load_ros_map(_write_ros(tmp_path, px, name="thin", extra={"resolution": 0.05}))
+    assert r.shape == (4, 4)
+    assert not r.patroller[:, 2].any()  # the cells the wall crosses are walls
+    assert r.patroller[:, [0, 1, 3]].all()  # and the rooms either side stay whole

@@ -205,8 +205,9 @@ def map_figure(
         draw_routes(ax, routes)
     if metres:
         draw_metres(ax, gridmap)
-        if ax.get_legend() is not None:  # clear of the metre axis on the right
-            ax.get_legend().set_bbox_to_anchor((1.16, 1.0))
+        shown = ax.get_legend()
+        if shown is not None:  # clear of the metre axis on the right
+            shown.set_bbox_to_anchor((1.16, 1.0))
     title = gridmap.name
     if visible_mask is not None:
         n = int(_checked_mask(gridmap, visible_mask).sum())

@@ -169,7 +169,7 @@ class GridMap:
             self,
             observer_start=start,
             goals=goals,
-            visibility_order=self.visibility_order if same_start else None,
+            visibility_order=self.visibility_order if same_start else None,  # type: ignore[arg-type]
             marked=True,
         )
 
