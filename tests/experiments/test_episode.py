@@ -171,3 +171,15 @@ def test_l_replans_when_it_outlives_its_plan(boyd2):
     outcome, path, _ = execute(world, model, follower, belief, 200)
     assert calls[0] == 2 and follower.plan is not short
     assert outcome in OUTCOMES and len(path) > 3
+
+
+def test_scenario_observer_start_reaches_the_view_and_the_report(boyd2):
+    moved = boyd2.with_options(observer_start=(0, 5))
+    r = run_episode(moved, "oracle", seed=0, **FAST)
+    report = format_report(moved, r)
+    assert "L hides in its room at (0, 5)" in " ".join(report.split())
+    assert "(4/31 cells)" in report
+    seen = {
+        tuple(moved.domain.states[s][:2]) for s in np.flatnonzero(moved.domain.visible_states(0.14))
+    }
+    assert seen == {(0, 4), (0, 6), (0, 7), (0, 8)}

@@ -67,30 +67,105 @@ def _world(name: str) -> WorldSpec:
     return world
 
 
+# a text map is printed along with --png only if it fits a terminal
+TEXT_MAP_LIMIT = (60, 100)  # rows, columns
+
+
 @command("show-map")
 def _show_map(args: argparse.Namespace) -> int:
     from mirl.viz.maps import map_to_text, save_map_png
-    from mirl.world.catalog import load_map
+    from mirl.world.catalog import is_ros_map, load_map
 
     if args.png:
         check_output(args.png, "--png", FIGURE_SUFFIXES)
-    if args.cell_size is not None and Path(args.map).suffix.lower() not in (".yaml", ".yml"):
+    scenario = None
+    if Path(args.map).suffix.lower() == ".toml":
+        from mirl.world.scenario import load_scenario
+
+        if args.cell_size is not None:
+            raise UsageError(
+                f"--cell-size applies to a map, not to the scenario {args.map} "
+                "(a scenario sets its ROS map's cell size in [frame] cell_size)"
+            )
+        scenario = load_scenario(args.map)
+        gridmap = scenario.map
+    else:
+        if args.cell_size is not None and not is_ros_map(args.map):
+            raise UsageError(
+                f"--cell-size applies to ROS map_server maps (.yaml), not to {args.map} "
+                "(a text map's cells are its characters)"
+            )
+        gridmap = load_map(args.map, cell_size=args.cell_size)
+    degree = args.observability
+    if degree is None and scenario is not None:
+        degree = scenario.observability
+    if degree is not None and not gridmap.marked:
         raise UsageError(
-            f"--cell-size applies to ROS map_server maps (.yaml), not to {args.map} "
-            "(a text map's cells are its characters)"
+            f"--observability: the map {args.map} does not mark L's start; show a scenario "
+            "(.toml) that gives it in [observer]"
         )
-    gridmap = load_map(args.map, cell_size=args.cell_size)
-    mask = gridmap.visible_mask(args.observability) if args.observability is not None else None
-    print(map_to_text(gridmap, mask))
-    n = gridmap.n_patroller_cells
-    line = f"{gridmap.name}: {gridmap.shape[0]}x{gridmap.shape[1]}, {n} patroller cells"
-    if mask is not None:
-        line += f", {int(mask.sum())} visible at observability {args.observability:g}"
-    print(line)
+    mask = gridmap.visible_mask(degree) if degree is not None else None
+    rows, cols = gridmap.shape
+    if not args.png or (rows <= TEXT_MAP_LIMIT[0] and cols <= TEXT_MAP_LIMIT[1]):
+        print(map_to_text(gridmap, mask))
+    for line in _map_summary(gridmap, mask, degree):
+        print(line)
+    routes = {}
+    if scenario is not None:
+        for i, name in enumerate(scenario.robot_names):
+            routes[name] = scenario.patrol_route(i)
+        print(*_scenario_summary(scenario, routes), sep="\n")
     if args.png:
-        save_map_png(gridmap, args.png, observability=args.observability)
+        save_map_png(gridmap, args.png, observability=degree, routes=routes)
         print(f"wrote {args.png}")
     return 0
+
+
+def _map_summary(gridmap, mask, degree) -> list[str]:
+    """What show-map says of a map: cells, states, frame and L's view."""
+    import numpy as np
+
+    n = gridmap.n_patroller_cells
+    rows, cols = gridmap.shape
+    f = gridmap.frame
+    lines = [
+        f"{gridmap.name}: {rows}x{cols} cells of {f.cell_size:g} m, {n} patroller cells, "
+        f"{4 * n} patroller states (cell x heading)"
+    ]
+    (x0, x1), (y1, y0) = f.cell_centre(np.array([0, rows - 1]), np.array([0, cols - 1]))
+    half = f.cell_size / 2
+    lines.append(
+        f"  frame: cell (0, 0) is centred at x = {float(x0):g}, y = {float(y1):g} m; the grid "
+        f"spans x {float(x0) - half:g} to {float(x1) + half:g} m, "
+        f"y {float(y0) - half:g} to {float(y1) + half:g} m"
+    )
+    if not gridmap.marked:
+        lines.append("  L's start and goal: not marked (a scenario gives them in [observer])")
+    if mask is not None:
+        k = int(mask.sum())
+        sight = int((mask & gridmap.in_line_of_sight()).sum())
+        lines.append(
+            f"  L's view at observability {degree:g}: {k} of {n} patroller cells, {sight} of "
+            "them in L's line of sight"
+            + ("" if sight == k else " (the others stand for cameras elsewhere)")
+        )
+    return lines
+
+
+def _scenario_summary(scenario, routes) -> list[str]:
+    f = scenario.map.frame
+    lines = [f"scenario {scenario.name}:"]
+    for what, cell in (("start", scenario.observer_start), ("goal", scenario.goal)):
+        x, y = f.cell_centre(*cell)
+        lines.append(f"  L's {what}: cell {tuple(cell)}, x = {float(x):g}, y = {float(y):g} m")
+    headings = ("east", "north", "west", "south")
+    for robot, (name, route) in zip(scenario.robots, routes.items(), strict=True):
+        r, c, h = robot.start
+        lines.append(
+            f"  {name}: starts on cell ({r}, {c}) facing {headings[h]}; its true policy "
+            f"covers {len({tuple(x) for x in route.tolist()})} cells"
+        )
+    return lines
 
 
 @command("simulate")

@@ -163,6 +163,7 @@ PARAMETER_FLAGS = {
     "resume": "--resume",
     "out": "--out",
     "base_seed": "--seed",
+    "cell_size": "--cell-size",
 }
 
 

@@ -286,17 +286,26 @@ def _em_init_arg(sp: argparse.ArgumentParser) -> None:
 
 def _show_map_parser(sub) -> None:
     """``mirl show-map``."""
-    sm = sub.add_parser("show-map", help="print a map (and draw it with --png)")
-    sm.add_argument(
-        "map", metavar="NAME_OR_PATH", help="shipped name, office-RxC[-sK], text map or ROS YAML"
+    sm = sub.add_parser(
+        "show-map",
+        help="print a map or a scenario's map (and draw it with --png)",
+        description="Print a map's cells and states; for a scenario (.toml) also L's start, "
+        "view and goal and the patrol routes. --png draws it, with axes in metres.",
     )
-    _observability_arg(sm, "shade the cells visible to L at degree D")
+    sm.add_argument(
+        "map",
+        metavar="NAME_OR_PATH",
+        help="shipped map name, office-RxC[-sK], text map, ROS map_server YAML or scenario TOML",
+    )
+    _observability_arg(sm, "shade the cells visible to L at degree D (a scenario: its own)")
     sm.add_argument("--png", metavar="FILE", help="also draw the map to a PNG file")
     sm.add_argument(
         "--cell-size",
         type=positive_float,
         default=None,
-        help="cell size in metres for ROS map_server maps (None: the YAML's resolution)",
+        metavar="METRES",
+        help="cell size in metres for a ROS map_server map (None: 0.5, or the resolution if "
+        "coarser)",
     )
 
 

@@ -134,7 +134,7 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         f"({n_vis}/{scenario.map.n_patroller_cells} cells), seed {result.seed}",
         _wrapped(
             f"{result.method} ({paper} in the paper's figures): {meaning}. L hides in its room at "
-            f"{scenario.map.observer_start} and wants to reach {scenario.goal} unseen; cells "
+            f"{scenario.observer_start} and wants to reach {scenario.goal} unseen; cells "
             "are (row, col), a patroller's state is its cell and the way it faces; a step is 2 s."
         ),
         "",

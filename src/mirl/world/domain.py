@@ -107,11 +107,12 @@ class FeatureMap:
 
     @classmethod
     def from_dict(
-        cls, data: Mapping, *, where: str = "transition_features", shape=None
+        cls, data: Mapping, *, where: str = "transition_features", shape=None, frame=None
     ) -> FeatureMap:
         """ξ from a ``[transition_features]`` table (``features``, ``actions``, optional
         ``override`` list), every value type-checked (:mod:`mirl.world.schema`; override cells
-        on a map of ``shape`` if given); problems are ``FieldError`` naming the field path."""
+        on a map of ``shape`` if given, in metres of ``frame`` if given); problems are
+        ``FieldError`` naming the field path."""
         data = schema.table(
             data, where, ("features", "actions", "override"), ("features", "actions")
         )
@@ -126,7 +127,10 @@ class FeatureMap:
             cells = None
             if "cells" in ov:
                 items = schema.array(ov["cells"], f"{p}.cells")
-                cells = tuple(schema.cell(c, f"{p}.cells[{k}]", shape) for k, c in enumerate(items))
+                cells = tuple(
+                    schema.cell(c, f"{p}.cells[{k}]", shape, frame=frame)
+                    for k, c in enumerate(items)
+                )
             overrides.append(
                 FeatureOverride(
                     cells=cells,

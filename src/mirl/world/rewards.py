@@ -3,7 +3,8 @@ every patroller its own true weights over them (so two robots can patrol differe
 
 Kinds are the rows of :data:`KINDS`: the fields a scenario gives a feature of that kind and
 what it rewards, in one place (``cells`` is a region: a list whose entries are cells ``[r, c]``
-or inclusive rectangles ``{from = [r, c], to = [r, c]}``, or one such rectangle):
+or inclusive rectangles ``{from = [r, c], to = [r, c]}``, or one such rectangle; on a map, a cell
+may also be a point ``{x, y}`` in metres, and a rectangle covers the hallway cells inside it):
 
 ============================ ==================================================================
 ``moved``                    a forward that changes cell
@@ -185,28 +186,44 @@ class RewardSpec:
         return self.features[self.names.index(name)]
 
 
-def read_region(value: Any, path: str, shape: tuple[int, int]) -> Cells:
-    """A region (module doc) as a tuple of cells, rectangles expanded row by row."""
-    if isinstance(value, dict):
-        return _rectangle(value, path, shape)
+def read_region(
+    value: Any, path: str, shape: tuple[int, int], gridmap: GridMap | None = None
+) -> Cells:
+    """A region (module doc) as a tuple of cells, rectangles expanded row by row. With the
+    ``gridmap``, positions may be in metres of its frame, and a rectangle's corners must be
+    hallway cells and it covers the hallway cells inside it."""
+    frame = None if gridmap is None else gridmap.frame
+    if isinstance(value, dict) and set(value) - {"x", "y"}:
+        return _rectangle(value, path, shape, gridmap)
+    if isinstance(value, dict):  # one point in metres
+        return (schema.cell(value, path, shape, frame=frame),)
     out: list[tuple[int, int]] = []
     for i, item in enumerate(schema.array(value, path)):
-        if isinstance(item, dict):
-            out.extend(_rectangle(item, f"{path}[{i}]", shape))
+        if isinstance(item, dict) and set(item) - {"x", "y"}:
+            out.extend(_rectangle(item, f"{path}[{i}]", shape, gridmap))
         else:
-            out.append(schema.cell(item, f"{path}[{i}]", shape))
+            out.append(schema.cell(item, f"{path}[{i}]", shape, frame=frame))
     return tuple(out)
 
 
-def _rectangle(value: dict, path: str, shape: tuple[int, int]) -> Cells:
+def _rectangle(value: dict, path: str, shape: tuple[int, int], gridmap: GridMap | None) -> Cells:
     value = schema.table(value, path, ("from", "to"), required=("from", "to"))
-    r0, c0 = schema.cell(value["from"], f"{path}.from", shape)
-    r1, c1 = schema.cell(value["to"], f"{path}.to", shape)
-    return tuple(
+    frame = None if gridmap is None else gridmap.frame
+    corners = []
+    for key in ("from", "to"):
+        corner = schema.cell(value[key], f"{path}.{key}", shape, frame=frame)
+        if gridmap is not None and not gridmap.patroller[corner]:
+            raise schema.FieldError(f"{path}.{key}", f"{list(corner)} is not a hallway cell")
+        corners.append(corner)
+    (r0, c0), (r1, c1) = corners
+    cells = (
         (r, c)
         for r in range(min(r0, r1), max(r0, r1) + 1)
         for c in range(min(c0, c1), max(c0, c1) + 1)
     )
+    if gridmap is None:
+        return tuple(cells)
+    return tuple(cell for cell in cells if gridmap.patroller[cell])
 
 
 def _headings(value: Any, path: str) -> tuple[int, ...]:
@@ -219,7 +236,9 @@ def _headings(value: Any, path: str) -> tuple[int, ...]:
     return tuple(sorted(set(out)))
 
 
-def _feature(value: Any, path: str, shape: tuple[int, int]) -> RewardFeature:
+def _feature(
+    value: Any, path: str, shape: tuple[int, int], gridmap: GridMap | None
+) -> RewardFeature:
     value = schema.table(value, path, ("name", "kind", "cells", "headings"), ("name", "kind"))
     name = schema.string(value["name"], f"{path}.name")
     kind = schema.string(value["kind"], f"{path}.kind", tuple(KINDS))
@@ -229,16 +248,21 @@ def _feature(value: Any, path: str, shape: tuple[int, int]) -> RewardFeature:
     for key in KINDS[kind].needs:
         if key not in value:
             raise schema.FieldError(path, f"a '{kind}' feature needs {key}")
-    cells = read_region(value["cells"], f"{path}.cells", shape) if "cells" in value else None
+    cells = None
+    if "cells" in value:
+        cells = read_region(value["cells"], f"{path}.cells", shape, gridmap)
     headings: tuple[int, ...] = ()
     if "headings" in value:
         headings = _headings(value["headings"], f"{path}.headings")
     return RewardFeature(name, kind, cells, headings)
 
 
-def read_reward_spec(reward: dict, shape: tuple[int, int]) -> tuple[RewardSpec, bool]:
+def read_reward_spec(
+    reward: dict, shape: tuple[int, int], gridmap: GridMap | None = None
+) -> tuple[RewardSpec, bool]:
     """The ``[reward]`` table's features and whether they came in the older fixed form
-    (``upper_hallway`` / ``lower_hallway`` / ``turn_around`` keys)."""
+    (``upper_hallway`` / ``lower_hallway`` / ``turn_around`` keys); cells on ``gridmap`` if
+    given (:func:`read_region`)."""
     reward = schema.table(reward, "reward", ("features", "weights", *LEGACY_KEYS))
     legacy = [k for k in LEGACY_KEYS if k in reward]
     if "features" in reward:
@@ -247,14 +271,16 @@ def read_reward_spec(reward: dict, shape: tuple[int, int]) -> tuple[RewardSpec, 
                 f"reward.{legacy[0]}", "give either reward.features or the fixed hallway keys"
             )
         items = schema.array(reward["features"], "reward.features", min_length=1)
-        feats = tuple(_feature(f, f"reward.features[{i}]", shape) for i, f in enumerate(items))
+        feats = tuple(
+            _feature(f, f"reward.features[{i}]", shape, gridmap) for i, f in enumerate(items)
+        )
         names = [f.name for f in feats]
         for i, name in enumerate(names):
             if name in names[:i]:
                 raise schema.FieldError(f"reward.features[{i}].name", f"'{name}' is used twice")
         return RewardSpec(feats), False
     regions = {
-        k: read_region(reward[k], f"reward.{k}", shape) if k in reward else None
+        k: read_region(reward[k], f"reward.{k}", shape, gridmap) if k in reward else None
         for k in LEGACY_KEYS
     }
     return RewardSpec(
