@@ -160,6 +160,8 @@ PARAMETER_FLAGS = {
     "drop_off_map": "--drop-off-map",
     "visible": "--visible",
     "em_init": "--em-init",
+    "go_rule": "--go-rule",
+    "learn_once": "--learn-once",
     "resume": "--resume",
     "out": "--out",
     "base_seed": "--seed",
