@@ -249,7 +249,7 @@ def run_episode(
         result,
         watch_until_seen=watch_until_seen,
         predicted_success=going.predicted_success,
-        relearns=going.relearns if learner is not None else None,
+        relearns=going.relearns if learner is not None and learner.growth is not None else None,
     )
 
 

@@ -59,7 +59,7 @@ def success_probability(
         raise ValueError("the filter has no belief yet: call update() first")
     dom = model.domain
     A = dom.n_actions
-    T = model.transitions
+    T = model.transitions.tocsr()  # row s·A + a: the outcomes of L doing a in s
     fallback = shortest_path_policy(model)
     not_seeing = _NotSeeing(model)
     mix: dict[int, tuple[float, np.ndarray]] = {model.start_state: (1.0, belief)}
@@ -71,8 +71,8 @@ def success_probability(
         for s, (w, b) in mix.items():
             a = int(plan.policy[k, s]) if k < plan.horizon else int(fallback[s])
             moved = belief_filter.propagate(b)
-            row = T[[s * A + a]]
-            for s2, q in zip(row.indices, row.data, strict=True):
+            lo, hi = T.indptr[s * A + a], T.indptr[s * A + a + 1]
+            for s2, q in zip(T.indices[lo:hi], T.data[lo:hi], strict=True):
                 post, kept = belief_filter.condition_unseen(moved, not_seeing(int(s2)))
                 mass = w * float(q)
                 detected += mass * (1.0 - kept)
@@ -87,7 +87,8 @@ def success_probability(
         if not mix:
             break
     unfinished = dropped + sum(w for w, _ in mix.values())
-    return SuccessEstimate(success, detected, unfinished, belief_filter.joint)
+    exact = belief_filter.joint or belief_filter.n_robots == 1  # one robot: nothing to factor
+    return SuccessEstimate(success, detected, unfinished, exact)
 
 
 def _merge(mix: dict[int, tuple[float, np.ndarray]], s: int, w: float, b: np.ndarray) -> None:
