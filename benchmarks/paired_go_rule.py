@@ -2,9 +2,11 @@
 run_seed(base seed, i)): the published protocol against the current default, per condition;
 and the calibration of the stated P(success) per decile.
 
-    mirl experiment fig4a --runs 200 --workers 2 --learn-once --go-rule value --out results/published
+    mirl experiment fig4a --runs 200 --workers 2 --learn-once --go-rule value \
+        --out results/published
     mirl experiment fig4a --runs 200 --workers 2 --out results/adaptive
-    python benchmarks/paired_go_rule.py results/published/results.sqlite results/adaptive/results.sqlite
+    python benchmarks/paired_go_rule.py results/published/results.sqlite \
+        results/adaptive/results.sqlite
 
 Either argument may also be a JSON-lines file of runs ({"m", "d", "p", "i", "outcome", "ps",
 "cpu"} per line). Prints markdown tables: success, detected and timed-out rates of both, wins
@@ -66,7 +68,10 @@ def main(first: str, second: str) -> None:
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for cond, keys in sorted(by_cond.items(), key=lambda kv: (kv[0][1], str(kv[0]))):
         ra, rb = [a[k] for k in keys], [b[k] for k in keys]
-        wins = sum(x["outcome"] != "success" and y["outcome"] == "success" for x, y in zip(ra, rb))
+        wins = sum(
+            x["outcome"] != "success" and y["outcome"] == "success"
+            for x, y in zip(ra, rb, strict=True)
+        )
         losses = sum(
             x["outcome"] == "success" and y["outcome"] != "success" for x, y in zip(ra, rb)
         )
