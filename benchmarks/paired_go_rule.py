@@ -73,7 +73,8 @@ def main(first: str, second: str) -> None:
             for x, y in zip(ra, rb, strict=True)
         )
         losses = sum(
-            x["outcome"] == "success" and y["outcome"] != "success" for x, y in zip(ra, rb, strict=True)
+            x["outcome"] == "success" and y["outcome"] != "success"
+            for x, y in zip(ra, rb, strict=True)
         )
         ca = [x["cpu"] for x in ra if x.get("cpu")]
         cb = [y["cpu"] for y in rb if y.get("cpu")]
