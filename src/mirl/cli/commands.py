@@ -340,11 +340,17 @@ def _learn_transitions(args: argparse.Namespace) -> int:
 
 @command("experiment")
 def _experiment(args: argparse.Namespace) -> int:
-    from mirl.experiments.conditions import get_experiment, in_world, with_em_init
+    from mirl.experiments.conditions import (
+        get_experiment,
+        in_world,
+        with_em_init,
+        with_protocol,
+    )
     from mirl.experiments.sweep import run_experiment
 
     check_experiment_flags(args)
     exp = with_em_init(get_experiment(args.name), args.em_init)  # unknown: one line, exit 2
+    exp = with_protocol(exp, args.go_rule, args.relearn)
     _world(args.world)
     exp = in_world(exp, args.world)
     suffix = "" if args.world == DEFAULT_WORLD else f"-{args.world}"
@@ -406,6 +412,8 @@ def _run(args: argparse.Namespace) -> int:
         max_wait=args.max_wait,
         learn_options={"em_init": args.em_init} if args.em_init else None,
         world=args.world,
+        go_rule=args.go_rule,
+        relearn=args.relearn,
     )
     if args.json:
         print_json(result.to_dict())

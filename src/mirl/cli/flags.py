@@ -160,6 +160,8 @@ PARAMETER_FLAGS = {
     "drop_off_map": "--drop-off-map",
     "visible": "--visible",
     "em_init": "--em-init",
+    "go_rule": "--go-rule",
+    "relearn": "--relearn",
     "resume": "--resume",
     "out": "--out",
     "base_seed": "--seed",

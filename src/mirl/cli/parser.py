@@ -145,6 +145,7 @@ def _run_parser(sub) -> None:
         help="steps L may wait after observing (450: 25 min in all with 300 observed)",
     )
     _em_init_arg(ru)
+    _protocol_args(ru)
     ru.add_argument("--json", action="store_true", help="print the run as one JSON object")
     ru.add_argument("--plot", metavar="FILE.png", help="draw the run (.png, .pdf or .svg)")
     ru.add_argument(
@@ -202,8 +203,32 @@ def _experiment_parsers(sub) -> None:
         help="when output is not a terminal, a progress line every N runs (None: ~every 5%%)",
     )
     _em_init_arg(ex)
+    _protocol_args(ex)
     rp = sub.add_parser("report", help="figures and DIR/report.md from an experiment's results")
     rp.add_argument("dir", metavar="DIR", help="an experiment's results directory (or parent)")
+
+
+# mirl.planning.go.GO_RULES, spelled out so that building the parser imports no numpy (a test
+# checks that the two agree)
+GO_RULE_CHOICES = ("adaptive", "value")
+
+
+def _protocol_args(sp: argparse.ArgumentParser) -> None:
+    """How L decides to go and whether it keeps learning while it waits; the defaults are the
+    paper's protocol."""
+    sp.add_argument(
+        "--go-rule",
+        choices=GO_RULE_CHOICES,
+        default="value",
+        help="value: the published rule (the best plan value in the window, if positive); "
+        "adaptive: go when the stated P(success) beats the value of waiting until the deadline",
+    )
+    sp.add_argument(
+        "--relearn",
+        action="store_true",
+        help="re-learn while waiting, whenever the record has grown 1.5x (default: learn once "
+        "after observing, as published)",
+    )
 
 
 def _scenario_args(sp: argparse.ArgumentParser, default: str | None = None) -> None:

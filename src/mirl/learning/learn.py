@@ -93,6 +93,7 @@ def learn(
     score: bool = True,
     trace: LoopTrace | None = None,
     em_init: str = "intended",
+    initial_weights: list[np.ndarray] | None = None,
 ) -> LearnResult:
     """Learn models of the scenario's patrollers from L's ``observations`` with ``method``.
 
@@ -138,6 +139,10 @@ def learn(
         An empty trace to receive the labels, estimators and weighings of every round.
     em_init : {"intended", "uniform"}, default "intended"
         DBN-EM's initial T (:mod:`mirl.learning.dbn_em`).
+    initial_weights : list of ndarray, optional
+        One reward weight vector per robot from an earlier solution (a re-learn on a longer
+        record): the first IRL starts there, once, instead of ``n_restarts`` times from zero,
+        as the relabelling rounds after the first do.
 
     Returns
     -------
@@ -172,6 +177,8 @@ def learn(
     setup = _round_setup(
         observations, scenario, visible, observability, irl_options, random_state, em_init
     )
+    if initial_weights is not None:
+        setup.initial_weights = [np.asarray(w, dtype=float) for w in initial_weights]
     clock = setup.clock
     trace = LoopTrace() if trace is None else trace
     weights, transitions, probs, eq, message = _method_models(
@@ -258,7 +265,7 @@ def _method_models(
         trace.labels.append(labels)
     transitions, probs, message = _transitions(setup, row.transitions, labels, p)
     if row.reward == "learned":  # once, against the T just found
-        weights = irl_round(setup, transitions, labels, None, 1, trace)
+        weights = irl_round(setup, transitions, labels, setup.initial_weights, 1, trace)
         eq = None
     else:
         weights = [np.asarray(r.weights, dtype=float) for r in scenario.robots]
@@ -356,7 +363,7 @@ def relabel_loop(
     with clock("labels"):
         labels = perception(setup)
     n_labelled = sum(len(observed_steps(x)[0]) for x in setup.series)
-    weights: list[np.ndarray] | None = None  # previous round's, for warm starts
+    weights = setup.initial_weights  # previous round's (or solution's), for warm starts
     trace.message = "stopped at max_iterations"
     for round_ in range(1, max_iterations + 1):
         trace.labels.append(labels)
@@ -444,6 +451,7 @@ class RoundSetup:
     irl_options: dict
     random_state: int | None
     em_init: str = "intended"
+    initial_weights: list[np.ndarray] | None = None  # an earlier solution's, for a warm start
 
     @property
     def domain(self):

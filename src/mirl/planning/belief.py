@@ -216,6 +216,37 @@ class BeliefFilter:
                 post, z = np.ones_like(prior), float(len(prior))
         return post / z
 
+    def propagate(self, belief: np.ndarray) -> np.ndarray:
+        """``belief`` (in this filter's form) one step later, without evidence."""
+        return self._propagate(belief)
+
+    def condition_unseen(
+        self, belief: np.ndarray, not_seeing: np.ndarray
+    ) -> tuple[np.ndarray, float]:
+        """``belief`` conditioned on no patroller seeing L, and the probability of that.
+
+        ``not_seeing`` is (S,): 1 where a patroller in that state does not see L's cell. Exact
+        for the joint forms; the factored filter conditions each marginal alone and multiplies
+        the robots' probabilities (its independence approximation).
+        """
+        g = np.asarray(not_seeing, dtype=float)
+        if self.mode == "pair":
+            B = belief.reshape(self.n_states, self.n_states)
+            post = B * g[:, None] * g[None, :]
+        elif self.mode == "team":
+            post = belief.copy()
+            for axis in range(self.n_robots):
+                shape = [1] * self.n_robots
+                shape[axis] = self.n_states
+                post *= g.reshape(shape)
+        else:
+            kept = belief @ g
+            ok = kept > 1e-300
+            post = np.where(ok[:, None], belief * g / np.where(ok, kept, 1.0)[:, None], belief)
+            return post, float(np.prod(kept))
+        z = float(post.sum())
+        return (post / z if z > 1e-300 else post).reshape(belief.shape), z
+
     def _detection_parts(self, model: ObserverModel):
         """Dense D (S, C), G = 1 − D, per robot G[:, c'] ∘ (P G)[:, c] over L's moves c' → c
         (P G: P(not seeing c one step later | s)) and G[:, c'], and the pair's sightings

@@ -35,7 +35,12 @@ from mirl.planning.belief import Prediction
 from mirl.planning.observer import ObserverModel
 from mirl.world.domain import STOP
 
-__all__ = ["ObserverPlan", "solve_observer_mdp"]
+__all__ = ["GO_RULES", "ObserverPlan", "solve_observer_mdp", "waiting_value"]
+
+GO_RULES = ("adaptive", "value")
+"""How L decides to go (docs/design.md, "The go rule"): ``adaptive`` stops on its stated
+probability of success against the value of waiting; ``value`` is the published rule (the best
+go value in the window, if positive)."""
 
 
 # ---- planning --------------------------------------------------------------------------------
@@ -140,3 +145,23 @@ def _build_start_cell_mask(model: ObserverModel) -> np.ndarray:
     mask = np.zeros((dom.n_states, dom.n_actions))
     mask[(cell == start_cell)[:, None] & ~allowed] = -np.inf
     return mask
+
+
+# ---- the adaptive rule's value of waiting ----------------------------------------------------
+def waiting_value(chances, opportunities: int) -> float:
+    """The chance of success L can expect by waiting for ``opportunities`` more chances to go,
+    each drawn from the empirical distribution ``chances`` (the success probabilities it has
+    stated so far), taking the first one better than what waiting on would bring, and going
+    at the last one whatever it is — the finite-horizon optimal-stopping recursion
+    v₀ = 0, vⱼ = E[max(X, vⱼ₋₁)]. Zero when no opportunity is left (L goes now) or nothing
+    was stated yet."""
+    x = np.asarray(chances, dtype=float)
+    v = 0.0
+    if x.size == 0:
+        return v
+    for _ in range(max(0, int(opportunities))):
+        new = float(np.maximum(x, v).mean())
+        if new <= v + 1e-12:  # converged: the best chance stated
+            break
+        v = new
+    return v
