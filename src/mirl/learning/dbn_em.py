@@ -150,6 +150,21 @@ def expected_counts(
     return pair[:, None, :] * share, loglik
 
 
+def _m_step(
+    N: np.ndarray, T: np.ndarray, pi: np.ndarray, min_count: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """M-step from expected counts N (S, A, K): T(s, a, ·) ∝ N(s, a, ·) and π(a | s) ∝ N(s, a);
+    an (s, a) or s with no expected count keeps its previous parameters. K is S for the dense
+    T, the successor slots on T's support."""
+    n_sa = N.sum(axis=2)
+    seen_sa = n_sa > min_count
+    T = np.where(seen_sa[:, :, None], N / np.where(seen_sa, n_sa, 1.0)[:, :, None], T)
+    n_s = n_sa.sum(axis=1)
+    seen_s = n_s > min_count
+    pi = np.where(seen_s[:, None], n_sa / np.where(seen_s, n_s, 1.0)[:, None], pi)
+    return T, pi
+
+
 def em_fit(
     domain: PatrolDomain,
     series_list: Sequence[np.ndarray],
@@ -174,12 +189,7 @@ def em_fit(
     for it in range(1, n_iter + 1):  # noqa: B007 - reported
         N, ll = expected_counts(pi, T, series_list, hidden_states=hidden_states)
         history.append(ll)
-        n_sa = N.sum(axis=2)
-        seen_sa = n_sa > min_count
-        T = np.where(seen_sa[:, :, None], N / np.where(seen_sa, n_sa, 1.0)[:, :, None], T)
-        n_s = n_sa.sum(axis=1)
-        seen_s = n_s > min_count
-        pi = np.where(seen_s[:, None], n_sa / np.where(seen_s, n_s, 1.0)[:, None], pi)
+        T, pi = _m_step(N, T, pi, min_count)
         if len(history) > 1 and history[-1] - history[-2] < tol:
             converged = True
             break
@@ -300,12 +310,7 @@ def em_fit_on_support(
         with np.errstate(divide="ignore", invalid="ignore"):
             share = np.where(Pk[:, None, :] > 0, pi[:, :, None] * T / Pk[:, None, :], 0.0)
         N = pair[:, None, :] * share  # (S, A, K)
-        n_sa = N.sum(axis=2)
-        seen_sa = n_sa > min_count
-        T = np.where(seen_sa[:, :, None], N / np.where(seen_sa, n_sa, 1.0)[:, :, None], T)
-        n_s = n_sa.sum(axis=1)
-        seen_s = n_s > min_count
-        pi = np.where(seen_s[:, None], n_sa / np.where(seen_s, n_s, 1.0)[:, None], pi)
+        T, pi = _m_step(N, T, pi, min_count)
         if len(history) > 1 and history[-1] - history[-2] < tol:
             break
     data = T.reshape(S * A, K)
