@@ -284,7 +284,7 @@ def test_backward_induction_matches_recursive_dp_with_failures():
     model = observer_model(sc)  # 2.5 % failure
     K = 7
     pred = _random_prediction(model, K, 4)
-    plan = solve_observer_mdp(model, pred, goal_reward=1.0, detection_penalty=0.5)
+    plan = solve_observer_mdp(model, pred, goal_reward=1.0, detection_penalty=0.5, keep_values=True)
     dom = model.domain
     cell = dom.state_cell(np.arange(dom.n_states))
     pair_index = {tuple(p): j for j, p in enumerate(pred.pairs.tolist())}
