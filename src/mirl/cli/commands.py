@@ -320,6 +320,7 @@ def _run(args: argparse.Namespace) -> int:
     if fixed and args.watch_until_seen is not None:
         raise UsageError("--obs-steps (a fixed time) and --watch-until-seen exclude each other")
     scenario = _load_scenario(args)
+    _check_cost(args, scenario, "run", args.obs_steps if fixed else DEFAULT_OBS_STEPS)
     result = run_episode(
         scenario,
         args.method,
@@ -365,6 +366,7 @@ def _learn(args: argparse.Namespace) -> int:
     obs = loaded.trajectories
     _check_em_init(args)
     check_observations(args.observations, obs, scenario.domain)
+    _check_cost(args, scenario, "learn", obs.horizon)
     visible = loaded.visible_states(scenario)
     if visible is None:  # grid data (pose data's summary counts the rows outside the view)
         seen = scenario.domain.visible_states(degree)
@@ -391,6 +393,15 @@ def _learn(args: argparse.Namespace) -> int:
             print(f"{args.observations}: " + loaded.discretised.summary())
         print_learn(out, result, scenario.name)
     return 0
+
+
+def _check_cost(args: argparse.Namespace, scenario, command: str, steps: int) -> None:
+    """Refuse at once, in one line, a command whose estimated memory exceeds --max-memory
+    (docs/design.md, "Cost before work")."""
+    from mirl.experiments.cost import check_budget, default_max_memory, estimate_cost
+
+    budget = args.max_memory if args.max_memory is not None else default_max_memory()
+    check_budget(scenario, estimate_cost(scenario, command, steps=steps), budget)
 
 
 def _check_em_init(args: argparse.Namespace) -> None:

@@ -20,6 +20,7 @@ __all__ = [
     "float_between",
     "step_seconds",
     "seed",
+    "memory_size",
     "MAX_STEPS",
     "MAX_OBS_STEPS",
     "MAX_WAIT_STEPS",
@@ -130,6 +131,23 @@ def float_between(low: float, high: float, unit: str = ""):
 step_seconds = float_between(0.001, 3600.0, " s")
 
 
+_SIZE_UNITS = {"": 1, "B": 1, "K": 2**10, "KB": 2**10, "M": 2**20, "MB": 2**20, "G": 2**30,
+               "GB": 2**30, "T": 2**40, "TB": 2**40}  # fmt: skip
+
+
+def memory_size(text: str) -> int:
+    """An argparse type: a memory size, ``4G``, ``500MB``, ``1.5 GB`` (binary units; no unit:
+    bytes), at least 64 MB (less than the interpreter with numpy alone)."""
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+)\s*([A-Za-z]*)\s*", text)
+    unit = m.group(2).upper() if m else ""
+    if m is None or unit not in _SIZE_UNITS:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a size such as 4G or 500M")
+    v = int(float(m.group(1)) * _SIZE_UNITS[unit])
+    if v < 64 * 2**20:
+        raise argparse.ArgumentTypeError(f"must be at least 64M, got {text}")
+    return v
+
+
 def parse_topic(text: str) -> tuple[str, str]:
     """``--topic TOPIC=ROBOT`` (``--topic /tb_i/amcl_pose=I``)."""
     topic, sep, robot = text.rpartition("=")
@@ -163,6 +181,7 @@ PARAMETER_FLAGS = {
     "resume": "--resume",
     "out": "--out",
     "base_seed": "--seed",
+    "max_memory": "--max-memory",
 }
 
 

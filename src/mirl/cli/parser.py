@@ -14,6 +14,7 @@ from mirl.cli.flags import (
     finite_float,
     float_between,
     fraction,
+    memory_size,
     non_negative_float,
     positive_float,
     seed,
@@ -94,6 +95,7 @@ def _learn_parser(sub) -> None:
         help="IRL optimiser (paper: nelder-mead)",
     )
     _em_init_arg(le)
+    _max_memory_arg(le)
     le.add_argument("--seed", type=seed, default=0, help="seed of the learner's random choices")
     le.add_argument("--json", action="store_true", help="print the result as one JSON object")
 
@@ -145,6 +147,7 @@ def _run_parser(sub) -> None:
         help="steps L may wait after observing (450: 25 min in all with 300 observed)",
     )
     _em_init_arg(ru)
+    _max_memory_arg(ru)
     ru.add_argument("--json", action="store_true", help="print the run as one JSON object")
     ru.add_argument("--plot", metavar="FILE.png", help="draw the run (.png, .pdf or .svg)")
     ru.add_argument(
@@ -271,6 +274,17 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
         default=None,
         help="cells L could see: default the observability degree's; 'observed': every cell "
         "a robot was observed on",
+    )
+
+
+def _max_memory_arg(sp: argparse.ArgumentParser) -> None:
+    sp.add_argument(
+        "--max-memory",
+        type=memory_size,
+        default=None,
+        metavar="SIZE",
+        help="refuse at once if the estimated peak memory exceeds SIZE (4G, 500M; None: half "
+        "of this machine's memory)",
     )
 
 
