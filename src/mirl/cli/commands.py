@@ -371,10 +371,12 @@ def _learn(args: argparse.Namespace) -> int:
     if visible is None:  # grid data (pose data's summary counts the rows outside the view)
         seen = scenario.domain.visible_states(degree)
         check_visible(args.observations, obs, scenario.domain, seen, degree)
+    truth = _scored_against_truth(args, loaded.kind)
     result = learn(
         obs,
         scenario,
         args.method,
+        score=truth,
         p=check_fixed_p(args),
         visible=visible,
         observability=degree,
@@ -385,7 +387,17 @@ def _learn(args: argparse.Namespace) -> int:
         random_state=args.seed,
         em_init=args.em_init or "intended",
     )
-    out = learn_record(result, scenario, str(args.observations), obs.horizon, degree)
+    agreement = None
+    if not truth:  # robot data: the scenario is the user's description, not a truth
+        from mirl.learning.results import observed_agreement
+
+        agreement = {
+            r.name: observed_agreement(
+                scenario.domain, obs.state_series(scenario.domain, i), r.policy
+            )
+            for i, r in enumerate(result.robots)
+        }
+    out = learn_record(result, scenario, str(args.observations), obs.horizon, degree, agreement)
     if args.json:
         print_json(out)
     else:
@@ -393,6 +405,17 @@ def _learn(args: argparse.Namespace) -> int:
             print(f"{args.observations}: " + loaded.discretised.summary())
         print_learn(out, result, scenario.name)
     return 0
+
+
+def _scored_against_truth(args: argparse.Namespace, kind: str) -> bool:
+    """Whether ``learn`` scores against the scenario's truth (docs/design.md, "Reports on data
+    without a truth"): ``--compare truth`` or ``observed``, or by default for mirl's grid CSVs
+    only — what ``mirl simulate`` writes — and never for robot data (bags, pose CSVs)."""
+    if args.compare != "auto":
+        return args.compare == "truth"
+    from mirl.observations.sources import ROBOT_DATA_KINDS
+
+    return kind not in ROBOT_DATA_KINDS
 
 
 def _check_cost(args: argparse.Namespace, scenario, command: str, steps: int) -> None:

@@ -96,6 +96,14 @@ def _learn_parser(sub) -> None:
     )
     _em_init_arg(le)
     _max_memory_arg(le)
+    le.add_argument(
+        "--compare",
+        choices=("auto", "truth", "observed"),
+        default="auto",
+        help="score the learned policies against the scenario's truth (data simulated from it) "
+        "or against the observed moves only (robot data); auto: truth for grid CSVs such as "
+        "mirl simulate writes, observed for bags and pose CSVs",
+    )
     le.add_argument("--seed", type=seed, default=0, help="seed of the learner's random choices")
     le.add_argument("--json", action="store_true", help="print the result as one JSON object")
 

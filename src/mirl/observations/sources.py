@@ -18,7 +18,10 @@ from mirl.observations.poses import PoseError, PoseTracks, read_pose_csv
 from mirl.observations.trajectories import Trajectories, TrajectoryError, read_csv
 from mirl.world.scenario import Scenario
 
-__all__ = ["LoadedObservations", "load_observations", "observation_kind"]
+__all__ = ["LoadedObservations", "load_observations", "observation_kind", "ROBOT_DATA_KINDS"]
+
+# kinds of observation file that hold robot data (measured poses), not a simulation of a scenario
+ROBOT_DATA_KINDS = ("pose-csv", "bag")
 
 
 @dataclass(frozen=True)
