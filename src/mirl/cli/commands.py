@@ -25,7 +25,7 @@ from mirl.cli.checks import (
     unique_lowest,
     warn,
 )
-from mirl.cli.flags import parse_damage, parse_topic
+from mirl.cli.flags import parse_damage, parse_same_frame, parse_topic
 from mirl.experiments.worlds import DEFAULT_WORLD, WorldSpec, get_world
 from mirl.learning.methods import METHODS
 
@@ -184,6 +184,7 @@ def _read_observations(args: argparse.Namespace, scenario, observability=None):
         drop_off_map=args.drop_off_map,
         visible=args.visible,
         observability=observability,
+        same_frames=dict(parse_same_frame(t) for t in getattr(args, "same_frame", None) or []),
     )
 
 
@@ -197,8 +198,7 @@ def _convert(args: argparse.Namespace) -> int:
     if len(loaded.trajectories) == 0:  # an empty record is never what a conversion is for
         d = loaded.discretised
         why = (
-            f"none of its {sum(r.read for r in d.report)} poses fell on a step "
-            f"({d.summary().splitlines()[0]})"
+            _nothing_placed(d.report) + f" ({d.summary().splitlines()[0]})"
             if d is not None
             else "it has a header and no rows"
         )
@@ -210,6 +210,17 @@ def _convert(args: argparse.Namespace) -> int:
         print(f"{args.input}: grid observations, {loaded.trajectories.horizon} steps")
     print(f"wrote {args.output} ({len(loaded.trajectories)} rows)")
     return 0
+
+
+def _nothing_placed(report) -> str:
+    """Why no pose of a record became an observation, by the drop reasons counted."""
+    drops: dict[str, int] = {}
+    for r in report:
+        for why, n in r.drops().items():
+            drops[why] = drops.get(why, 0) + n
+    total = sum(r.read + r.unplaced for r in report)
+    reasons = ", ".join(f"{n} {why}" for why, n in drops.items() if n)
+    return f"none of its {total} poses was placed on a step and cell: dropped {reasons or 'none'}"
 
 
 @command("learn-transitions")

@@ -149,11 +149,23 @@ def memory_size(text: str) -> int:
 
 
 def parse_topic(text: str) -> tuple[str, str]:
-    """``--topic TOPIC=ROBOT`` (``--topic /tb_i/amcl_pose=I``)."""
+    """``--topic TOPIC=ROBOT`` (``--topic /tb_i/amcl_pose=I``, or for a robot recorded only as
+    a TF frame ``--topic /tf:base_footprint=I``)."""
     topic, sep, robot = text.rpartition("=")
     if not sep or not topic.strip() or not robot.strip():
-        raise ValueError(f"--topic '{text}': expected TOPIC=ROBOT, e.g. /tb_i/amcl_pose=I")
+        raise ValueError(
+            f"--topic '{text}': expected TOPIC=ROBOT, e.g. /tb_i/amcl_pose=I or "
+            "/tf:base_footprint=I"
+        )
     return topic.strip(), robot.strip()
+
+
+def parse_same_frame(text: str) -> tuple[str, str]:
+    """``--same-frame FRAME=MAP_FRAME`` (``--same-frame odom=map``)."""
+    frame, sep, other = text.partition("=")
+    if not sep or not frame.strip() or not other.strip():
+        raise ValueError(f"--same-frame '{text}': expected FRAME=FRAME, e.g. odom=map")
+    return frame.strip().lstrip("/"), other.strip().lstrip("/")
 
 
 def parse_damage(text: str) -> tuple[str, str, float]:
@@ -182,6 +194,7 @@ PARAMETER_FLAGS = {
     "out": "--out",
     "base_seed": "--seed",
     "max_memory": "--max-memory",
+    "same_frames": "--same-frame",
 }
 
 

@@ -248,7 +248,16 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
         action="append",
         metavar="TOPIC=ROBOT",
         help="a pose topic and the scenario robot it is (repeatable), e.g. /tb_i/amcl_pose=I; "
+        "a robot recorded only in the transforms is TF_TOPIC:CHILD_FRAME, e.g. "
+        "/tf:base_footprint=I (composed up to the map frame, /tf_static included); "
         "for a pose CSV, renames a robot of the file",
+    )
+    g.add_argument(
+        "--same-frame",
+        action="append",
+        metavar="FRAME=FRAME",
+        help="two frames that coincide (repeatable), e.g. odom=map: only then are topics "
+        "recorded in both mixed",
     )
     g.add_argument(
         "--step-seconds",

@@ -32,15 +32,15 @@ __all__ = [
 ]
 
 # bytes: the interpreter with numpy, scipy and mirl's stages imported
-BASE_MEMORY = 250 * 2**20
+BASE_MEMORY = 120 * 2**20
 # bytes per patroller state and robot: learning (transitions, features, per-robot solvers)
-LEARN_BYTES_PER_STATE = 3_000
+LEARN_BYTES_PER_STATE = 2_500
 # bytes per state of L and the patrollers while planning: the factored filter's checkpoints and
 # block of hazards, L's transition entries and one step of its values
-PLAN_BYTES_PER_STATE = 12_000
+PLAN_BYTES_PER_STATE = 6_000
 # seconds per state and observed step (learning) and per state and planned step (planning)
 LEARN_SECONDS_PER_STATE_STEP = 1.0e-6
-PLAN_SECONDS_PER_STATE_STEP = 1.0e-6
+PLAN_SECONDS_PER_STATE_STEP = 1.5e-7
 # the run's planning window and the shortest horizon after it (mirl.experiments.episode)
 WINDOW, MIN_TRAVEL = 60, 20
 
