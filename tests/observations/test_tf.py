@@ -49,7 +49,8 @@ def _records(ros2: bool, with_localiser: bool = True):
 
 @pytest.mark.parametrize("fmt", ["ros1", "mcap"])
 def test_a_tf_only_bag_gives_the_robot_frame_in_the_map_frame(tmp_path, fmt):
-    bag = write_bag(tmp_path / ("b.bag" if fmt == "ros1" else "b"), _records(fmt != "ros1"), fmt=fmt)
+    name = "b.bag" if fmt == "ros1" else "b"
+    bag = write_bag(tmp_path / name, _records(fmt != "ros1"), fmt=fmt)
     tracks = read_bag(bag, {"/tf:base_link": "I"})
     assert len(tracks) == 51
     d = 0.2 * np.arange(51)

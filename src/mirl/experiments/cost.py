@@ -81,8 +81,9 @@ def default_max_memory() -> int:
 
 
 def planning_horizon(scenario: Scenario) -> int:
-    """L's planning horizon of a run: the go window plus 3 × its shortest path in cells (at
-    least 20), by a breadth-first search over the free cells (no states built)."""
+    """About L's planning horizon of a run: the go window plus 3 × its shortest path (at least
+    20), the path in cells by a breadth-first search over the free cells (no states built; the
+    run's path also counts L's turns, a few per cent more)."""
     gm = scenario.map
     free = gm.patroller | gm.observer_only
     dist = _cell_distances(free, scenario.observer_start)

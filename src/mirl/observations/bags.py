@@ -242,7 +242,13 @@ def _tf_parts(path: Path, reader, tf_robots, same, map_frame: str) -> list[PoseT
             raise BagError(f"{path}: topic {topic}: transform stamps go backwards")
         parts.append(
             PoseTracks(
-                (robot,), t, np.zeros(len(t), dtype=np.int64), x, y, yaw, str(path),
+                (robot,),
+                t,
+                np.zeros(len(t), dtype=np.int64),
+                x,
+                y,
+                yaw,
+                str(path),
                 {robot: f"{map_frame} via {topic.split(':')[0]} from {child}"},
                 {robot: unplaced},
             )  # fmt: skip

@@ -110,7 +110,14 @@ class PoseTracks:
                 raise PoseError(f"{self.source}: robot '{n}' is not in the scenario ({known})")
             lut[i] = names.index(n)
         return PoseTracks(
-            names, self.t, lut[self.robot], self.x, self.y, self.yaw, self.source, self.frames,
+            names,
+            self.t,
+            lut[self.robot],
+            self.x,
+            self.y,
+            self.yaw,
+            self.source,
+            self.frames,
             self.unplaced,
         ).sorted()
 
