@@ -86,6 +86,7 @@ def planning_horizon(scenario: Scenario) -> int:
     run's path also counts L's turns, a few per cent more)."""
     gm = scenario.map
     free = gm.patroller | gm.observer_only
+    assert scenario.observer_start is not None and scenario.goal is not None  # set by Scenario
     dist = _cell_distances(free, scenario.observer_start)
     path = dist[scenario.goal]
     return WINDOW + max(MIN_TRAVEL, 3 * int(path if path >= 0 else free.sum()))

@@ -19,7 +19,7 @@ Problems are one-line :class:`DiscretisationError` messages naming the source an
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -181,7 +181,7 @@ def discretise(
         count(~vis[traj.row, traj.col], traj.robot),
     )
     report = tuple(
-        RobotCounts(name, *(c[i] for c in columns), tracks.unplaced.get(name, 0))
+        replace(RobotCounts(name, *(c[i] for c in columns)), unplaced=tracks.unplaced.get(name, 0))
         for i, name in enumerate(tracks.robot_names)
     )
     return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis)

@@ -55,16 +55,17 @@ class Transforms:
     """Every transform of a bag's TF topics, per (parent, child) link, sorted by stamp."""
 
     def __init__(self, rows: list[tuple[str, str, float, float, float, float, bool]]) -> None:
-        by_link: dict[tuple[str, str], list] = {}
-        for parent, child, *values in rows:
-            by_link.setdefault((parent.lstrip("/"), child.lstrip("/")), []).append(values)
+        by_link: dict[tuple[str, str], list[tuple[tuple[float, ...], bool]]] = {}
+        for parent, child, t, x, y, yaw, is_static in rows:
+            key = (parent.lstrip("/"), child.lstrip("/"))
+            by_link.setdefault(key, []).append(((t, x, y, yaw), is_static))
         self.links: dict[tuple[str, str], _Link] = {}
         self.parent: dict[str, str] = {}
         for (parent, child), values in by_link.items():
-            a = np.array([v[:4] for v in values], dtype=float)
+            a = np.array([v for v, _ in values], dtype=float)
             order = np.argsort(a[:, 0], kind="stable")
             a = a[order]
-            static = any(v[4] for v in values)
+            static = any(st for _, st in values)
             self.links[(parent, child)] = _Link(a[:, 0], a[:, 1], a[:, 2], a[:, 3], static)
             self.parent.setdefault(child, parent)  # a frame has one parent in a TF tree
 
@@ -94,7 +95,8 @@ class Transforms:
     def chain(self, child: str, map_frame: str) -> list[tuple[str, str]]:
         """The links from ``map_frame`` down to ``child``, top first; a ValueError naming the
         frames reached when the map frame is not above the child."""
-        links, frame, seen = [], child, {child}
+        links: list[tuple[str, str]] = []
+        frame, seen = child, {child}
         while frame != map_frame:
             parent = self.parent.get(frame)
             if parent is None or parent in seen:
@@ -122,7 +124,7 @@ def compose_track(
     :data:`TF_TOLERANCE` (module doc). ``same_frames`` names frames that coincide with the map
     frame (frame -> map frame): the chain may stop at one of them."""
     stops = {map_frame, *(f for f, m in (same_frames or {}).items() if m == map_frame)}
-    frame, links = child, []
+    frame, links = child, list[tuple[str, str]]()
     while frame not in stops:
         parent = transforms.parent.get(frame)
         if parent is None or (parent, frame) in links:
