@@ -25,7 +25,7 @@ from mirl.cli.checks import (
     unique_lowest,
     warn,
 )
-from mirl.cli.flags import parse_damage, parse_topic
+from mirl.cli.flags import parse_damage, parse_same_frame, parse_topic
 from mirl.experiments.worlds import DEFAULT_WORLD, WorldSpec, get_world
 from mirl.learning.methods import METHODS
 
@@ -259,6 +259,7 @@ def _read_observations(args: argparse.Namespace, scenario, observability=None):
         drop_off_map=args.drop_off_map,
         visible=args.visible,
         observability=observability,
+        same_frames=dict(parse_same_frame(t) for t in getattr(args, "same_frame", None) or []),
     )
 
 
@@ -272,8 +273,7 @@ def _convert(args: argparse.Namespace) -> int:
     if len(loaded.trajectories) == 0:  # an empty record is never what a conversion is for
         d = loaded.discretised
         why = (
-            f"none of its {sum(r.read for r in d.report)} poses fell on a step "
-            f"({d.summary().splitlines()[0]})"
+            _nothing_placed(d.report) + f" ({d.summary().splitlines()[0]})"
             if d is not None
             else "it has a header and no rows"
         )
@@ -285,6 +285,17 @@ def _convert(args: argparse.Namespace) -> int:
         print(f"{args.input}: grid observations, {loaded.trajectories.horizon} steps")
     print(f"wrote {args.output} ({len(loaded.trajectories)} rows)")
     return 0
+
+
+def _nothing_placed(report) -> str:
+    """Why no pose of a record became an observation, by the drop reasons counted."""
+    drops: dict[str, int] = {}
+    for r in report:
+        for why, n in r.drops().items():
+            drops[why] = drops.get(why, 0) + n
+    total = sum(r.read + r.unplaced for r in report)
+    reasons = ", ".join(f"{n} {why}" for why, n in drops.items() if n)
+    return f"none of its {total} poses was placed on a step and cell: dropped {reasons or 'none'}"
 
 
 @command("learn-transitions")
@@ -401,6 +412,7 @@ def _run(args: argparse.Namespace) -> int:
     if fixed and args.watch_until_seen is not None:
         raise UsageError("--obs-steps (a fixed time) and --watch-until-seen exclude each other")
     scenario = _load_scenario(args)
+    _check_cost(args, scenario, "run", args.obs_steps if fixed else DEFAULT_OBS_STEPS)
     result = run_episode(
         scenario,
         args.method,
@@ -448,14 +460,17 @@ def _learn(args: argparse.Namespace) -> int:
     obs = loaded.trajectories
     _check_em_init(args)
     check_observations(args.observations, obs, scenario.domain)
+    _check_cost(args, scenario, "learn", obs.horizon)
     visible = loaded.visible_states(scenario)
     if visible is None:  # grid data (pose data's summary counts the rows outside the view)
         seen = scenario.domain.visible_states(degree)
         check_visible(args.observations, obs, scenario.domain, seen, degree)
+    truth = _scored_against_truth(args, loaded.kind)
     result = learn(
         obs,
         scenario,
         args.method,
+        score=truth,
         p=check_fixed_p(args),
         visible=visible,
         observability=degree,
@@ -466,7 +481,17 @@ def _learn(args: argparse.Namespace) -> int:
         random_state=args.seed,
         em_init=args.em_init or "intended",
     )
-    out = learn_record(result, scenario, str(args.observations), obs.horizon, degree)
+    agreement = None
+    if not truth:  # robot data: the scenario is the user's description, not a truth
+        from mirl.learning.results import observed_agreement
+
+        agreement = {
+            r.name: observed_agreement(
+                scenario.domain, obs.state_series(scenario.domain, i), r.policy
+            )
+            for i, r in enumerate(result.robots)
+        }
+    out = learn_record(result, scenario, str(args.observations), obs.horizon, degree, agreement)
     if args.json:
         print_json(out)
     else:
@@ -474,6 +499,26 @@ def _learn(args: argparse.Namespace) -> int:
             print(f"{args.observations}: " + loaded.discretised.summary())
         print_learn(out, result, scenario.name)
     return 0
+
+
+def _scored_against_truth(args: argparse.Namespace, kind: str) -> bool:
+    """Whether ``learn`` scores against the scenario's truth (docs/design.md, "Reports on data
+    without a truth"): ``--compare truth`` or ``observed``, or by default for mirl's grid CSVs
+    only — what ``mirl simulate`` writes — and never for robot data (bags, pose CSVs)."""
+    if args.compare != "auto":
+        return args.compare == "truth"
+    from mirl.observations.sources import ROBOT_DATA_KINDS
+
+    return kind not in ROBOT_DATA_KINDS
+
+
+def _check_cost(args: argparse.Namespace, scenario, command: str, steps: int) -> None:
+    """Refuse at once, in one line, a command whose estimated memory exceeds --max-memory
+    (docs/design.md, "Cost before work")."""
+    from mirl.experiments.cost import check_budget, default_max_memory, estimate_cost
+
+    budget = args.max_memory if args.max_memory is not None else default_max_memory()
+    check_budget(scenario, estimate_cost(scenario, command, steps=steps), budget)
 
 
 def _check_em_init(args: argparse.Namespace) -> None:

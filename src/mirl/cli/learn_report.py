@@ -6,11 +6,18 @@ from __future__ import annotations
 __all__ = ["learn_record", "print_learn"]
 
 
-def learn_record(result, scenario, observations: str, steps: int, degree: float) -> dict:
+def learn_record(
+    result, scenario, observations: str, steps: int, degree: float, agreement=None
+) -> dict:
     """The JSON-ready record of ``result`` (a :class:`~mirl.learning.results.LearnResult`)
-    learned on ``scenario`` from ``observations`` (``steps`` long, at observability ``degree``)."""
+    learned on ``scenario`` from ``observations`` (``steps`` long, at observability ``degree``).
+
+    ``agreement`` (robot name -> :class:`~mirl.learning.results.ObservedAgreement`) is given
+    when the data has no truth: each robot's record then scores its policy against the observed
+    moves only (``observed_moves``) and has no ``behavior_accuracy`` against the scenario.
+    """
     names = scenario.domain.reward_feature_names
-    robots = {
+    robots: dict[str, dict] = {
         r.name: {
             "weights": dict(zip(names, map(float, r.weights), strict=True)),
             "feature_probabilities": {k: float(v) for k, v in r.feature_probabilities.items()},
@@ -18,6 +25,13 @@ def learn_record(result, scenario, observations: str, steps: int, degree: float)
         }
         for r in result.robots
     }
+    for name, a in (agreement or {}).items():
+        robots[name]["observed_moves"] = {
+            "moves": a.moves,
+            "followed": a.followed,
+            "share": a.share,
+            "unexplained": a.unexplained,
+        }
     candidates = scenario.game.equilibria()
     eq_weights = result.equilibrium_weights or (None,) * len(candidates)
     return {
@@ -42,6 +56,17 @@ def learn_record(result, scenario, observations: str, steps: int, degree: float)
         "message": result.message,
         "timings": {k: round(v, 4) for k, v in result.timings.items()},
     }
+
+
+def _observed_line(m: dict) -> str:
+    """A robot's score against its observed moves (data without a truth)."""
+    if not m["moves"]:
+        return "behaviour     no observed moves (never seen at two consecutive steps)"
+    return (
+        f"behaviour     {m['followed']} of {m['moves']} observed moves follow the learned "
+        f"policy ({m['share']:.3f}; against the observed steps only, the data has no truth); "
+        f"{m['unexplained']} explained by no action"
+    )
 
 
 def _pair_labels(result, scenario) -> dict:
@@ -71,6 +96,8 @@ def print_learn(out: dict, result, scenario_name: str) -> None:
         print(f"  features      {line}")
         if r["behavior_accuracy"] is not None:
             print(f"  behaviour accuracy {r['behavior_accuracy']:.3f} (vs the scenario's truth)")
+        if "observed_moves" in r:
+            print("  " + _observed_line(r["observed_moves"]))
     weights = ", ".join(
         f"{c['label']} {c['weight']:.2f}"
         for c in out["equilibrium"]["candidates"]

@@ -14,6 +14,7 @@ from mirl.cli.flags import (
     finite_float,
     float_between,
     fraction,
+    memory_size,
     non_negative_float,
     positive_float,
     seed,
@@ -94,6 +95,15 @@ def _learn_parser(sub) -> None:
         help="IRL optimiser (paper: nelder-mead)",
     )
     _em_init_arg(le)
+    _max_memory_arg(le)
+    le.add_argument(
+        "--compare",
+        choices=("auto", "truth", "observed"),
+        default="auto",
+        help="score the learned policies against the scenario's truth (data simulated from it) "
+        "or against the observed moves only (robot data); auto: truth for grid CSVs such as "
+        "mirl simulate writes, observed for bags and pose CSVs",
+    )
     le.add_argument("--seed", type=seed, default=0, help="seed of the learner's random choices")
     le.add_argument("--json", action="store_true", help="print the result as one JSON object")
 
@@ -146,6 +156,7 @@ def _run_parser(sub) -> None:
     )
     _em_init_arg(ru)
     _protocol_args(ru)
+    _max_memory_arg(ru)
     ru.add_argument("--json", action="store_true", help="print the run as one JSON object")
     ru.add_argument("--plot", metavar="FILE.png", help="draw the run (.png, .pdf or .svg)")
     ru.add_argument(
@@ -262,7 +273,16 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
         action="append",
         metavar="TOPIC=ROBOT",
         help="a pose topic and the scenario robot it is (repeatable), e.g. /tb_i/amcl_pose=I; "
+        "a robot recorded only in the transforms is TF_TOPIC:CHILD_FRAME, e.g. "
+        "/tf:base_footprint=I (composed up to the map frame, /tf_static included); "
         "for a pose CSV, renames a robot of the file",
+    )
+    g.add_argument(
+        "--same-frame",
+        action="append",
+        metavar="FRAME=FRAME",
+        help="two frames that coincide (repeatable), e.g. odom=map: only then are topics "
+        "recorded in both mixed",
     )
     g.add_argument(
         "--step-seconds",
@@ -296,6 +316,17 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
         default=None,
         help="cells L could see: default the observability degree's; 'observed': every cell "
         "a robot was observed on",
+    )
+
+
+def _max_memory_arg(sp: argparse.ArgumentParser) -> None:
+    sp.add_argument(
+        "--max-memory",
+        type=memory_size,
+        default=None,
+        metavar="SIZE",
+        help="refuse at once if the estimated peak memory exceeds SIZE (4G, 500M; None: half "
+        "of this machine's memory)",
     )
 
 

@@ -48,6 +48,10 @@ class PhysicsExtras:
         weak = [f"{r}:{w}={s:g}" for r, ws in strengths.items() for w, s in ws.items() if s < 1]
         return f"physics, motor strength: {', '.join(weak) or 'all motors healthy'}"
 
+    def damaged(self) -> bool:
+        strengths = self.world.cfg.motor_strength
+        return any(s < 1 for ws in strengths.values() for s in ws.values())
+
 
 class PhysicsRunWorld:
     """A :class:`~mirl.physics.patrol.PhysicalWorld` behind the run interface.

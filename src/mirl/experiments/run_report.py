@@ -145,6 +145,24 @@ def _relearn_lines(result: RunResult) -> list[str]:
     return lines
 
 
+def _truth_damaged(scenario: Scenario, result: RunResult) -> bool:
+    """Whether the run's truth has a damaged part (as :func:`_truth` states it)."""
+    world = result.extras.damaged() if result.extras is not None else None
+    if world is not None:
+        return world
+    return any(p < 0.9 for r in scenario.robots for p in r.feature_probabilities.values())
+
+
+def _lowest_meaning(scenario: Scenario, result: RunResult) -> str:
+    """What the report says of the single lowest learned feature. The hook for a fault verdict
+    with its confidence: until the learner gives one, the lowest feature is called L's guess of
+    the damaged part only when the truth has a damaged part; with none, a lowest feature is the
+    spread of estimates from healthy parts, and the report says so instead of naming a fault."""
+    if _truth_damaged(scenario, result):
+        return "L's guess of the damaged part"
+    return "no part is damaged in the truth, so this is no fault"
+
+
 def format_report(scenario: Scenario, result: RunResult) -> str:
     """The short readable report printed by ``mirl run``."""
     dom = scenario.domain
@@ -181,7 +199,7 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
             lines.append(f"            {name:<5}{cells}{unseen}")
         if low is not None:
             lines.append(
-                f"            * lowest: {low[0]}'s {low[1]} — L's guess of the damaged part"
+                f"            * lowest: {low[0]}'s {low[1]} — {_lowest_meaning(scenario, result)}"
             )
         else:
             lines.append(f"            no single lowest feature ({ranked[0][0]:.3f} is shared)")

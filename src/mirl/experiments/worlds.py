@@ -88,6 +88,10 @@ class WorldExtras(Protocol):
         """What is really damaged in this world, for the run report (None: the scenario's)."""
         ...
 
+    def damaged(self) -> bool | None:
+        """Whether some part is really damaged in this world (None: as in the scenario)."""
+        ...
+
 
 class RunWorld(Protocol):
     """A world as a run sees it: the patrollers moving, L watching from its room, then L moving.

@@ -15,10 +15,14 @@ from mirl.observations._csv import csv_header
 from mirl.observations.bags import SUPPORTED_TYPES, BagError, bag_topics, is_bag, read_bag
 from mirl.observations.discretise import Discretised, discretise
 from mirl.observations.poses import PoseError, PoseTracks, read_pose_csv
+from mirl.observations.tf import TF_TYPE
 from mirl.observations.trajectories import Trajectories, TrajectoryError, read_csv
 from mirl.world.scenario import Scenario
 
-__all__ = ["LoadedObservations", "load_observations", "observation_kind"]
+__all__ = ["LoadedObservations", "load_observations", "observation_kind", "ROBOT_DATA_KINDS"]
+
+# kinds of observation file that hold robot data (measured poses), not a simulation of a scenario
+ROBOT_DATA_KINDS = ("pose-csv", "bag")
 
 
 @dataclass(frozen=True)
@@ -73,6 +77,7 @@ def load_observations(
     drop_off_map: bool = False,
     visible: str | np.ndarray | None = None,
     observability: float | None = None,
+    same_frames: Mapping[str, str] | None = None,
 ) -> LoadedObservations:
     """Read observations of ``scenario``'s robots from ``path`` (kind told by the file).
 
@@ -81,7 +86,9 @@ def load_observations(
     for a grid CSV is an error rather than silently ignored. ``visible`` (pose data): the cells
     L could see, handed to the learner — by default those of ``observability`` (default: the
     scenario's degree) along the map's visibility order; ``"observed"``: every cell a robot was
-    observed on; or a (rows, cols) bool mask.
+    observed on; or a (rows, cols) bool mask. ``same_frames`` (bags): frames that coincide
+    (frame -> frame), so that topics recorded in both may be mixed (:func:`~mirl.observations.
+    bags.read_bag`).
     """
     path = Path(path)
     topics = _topic_map(topics)
@@ -97,6 +104,7 @@ def load_observations(
                 ("`tolerance`", tolerance),
                 ("`drop_off_map`", drop_off_map or None),
                 ("`visible`", visible),
+                ("`same_frames`", same_frames or None),
             )
             if value is not None
         ]
@@ -107,12 +115,15 @@ def load_observations(
         if not topics:
             found = bag_topics(path)
             poses = [f"{t} ({m})" for t, (m, _) in found.items() if m in SUPPORTED_TYPES]
+            poses += [f"{t}:CHILD_FRAME ({m})" for t, (m, _) in found.items() if m == TF_TYPE]
             raise BagError(
                 f"{path}: say which topic is which robot with `topics` TOPIC=ROBOT "
                 f"(pose topics in the bag: {', '.join(poses) or 'none'})"
             )
-        tracks = read_bag(path, topics, robot_names=names)
+        tracks = read_bag(path, topics, robot_names=names, same_frames=same_frames)
     else:
+        if same_frames:
+            raise ValueError(f"{path}: `same_frames` applies to bags; a pose CSV has no frames")
         tracks = read_pose_csv(path)
         if topics:
             tracks = _rename(tracks, topics)
