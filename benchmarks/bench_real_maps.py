@@ -305,6 +305,9 @@ def main() -> None:
                     print(f"{'':<24}{cell:>7g}{cells:>8}{states:>8}  {name:<10}  skipped: "
                           "no simulated data", flush=True)  # fmt: skip
                     continue
+                if name == "simulate":  # fresh outputs (mirl never overwrites an MCAP)
+                    obs.unlink(missing_ok=True)
+                    bag.unlink(missing_ok=True)
                 rc, wall, cpu, rss, out, err = mirl(commands[name], args.timeout, args.limit_gb)
                 if name == "show-map" and rc == 0:
                     cells, states = states_of(out)
