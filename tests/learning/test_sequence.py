@@ -151,3 +151,20 @@ def test_unknown_gradient_mode_is_refused():
     sc = load_scenario("boyd2")
     with pytest.raises(ValueError, match="unknown gradient 'adjoint'"):
         OccludedMaxEntIRL(sc.domain.reward_features, sc.true_transitions(0), gradient="adjoint")
+
+
+def test_a_robot_seen_on_one_step_only_has_no_observed_move():
+    """Found on Willow Garage at 0.5 m (a patroller seen once in 300 steps): on a sparse model
+    (more than _DENSE_LIMIT states) no pair of consecutive observations used to fail in scipy's
+    empty fancy indexing with "cannot reshape array of size 1 into shape (0,4)"."""
+    sc = load_scenario("office")
+    d = sc.domain
+    dyn = _Dynamics(sc.true_transitions(0), d.n_actions)
+    assert dyn.dense is None
+    x = np.full(50, -1)
+    x[10] = int(np.flatnonzero(d.visible_states(0.14))[0])
+    seq = ObservedSequence(x, np.ones(len(x), bool), dyn, d.n_states)
+    assert seq._Tab.shape == (0, d.n_actions)
+    pi = np.full((d.n_states, d.n_actions), 1.0 / d.n_actions)
+    value, _ = seq.loglik(pi, dyn.transposed_policy(pi), d.visible_states(0.14))
+    assert np.isfinite(value)

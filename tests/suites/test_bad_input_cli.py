@@ -40,6 +40,7 @@ BAD = [
     (S + ["--observations", "{d}/o.csv", "--poses", "{d}/o.csv"], "the same file"),
     (S + ["--poses", "{d}/no/dir/p.mcap"], "--poses"),
     (S + ["--poses", "{d}/p.bag"], "ROS 1 bags are read"),
+    (S + ["--poses", "{d}/old.mcap"], "not overwriting"),  # was refused after the simulation
     (["convert", "{d}/good.csv", "{d}/good.csv", "--scenario", "boyd2"], "the same file"),
     (["convert", "{d}/good.csv", "{d}/no/dir/out.csv", "--scenario", "boyd2"], "OUT"),
     (["learn", "--scenario", "boyd2", "--observations", "{d}/good.csv", "--p", "0.3"], "--p"),
@@ -68,6 +69,7 @@ BAD = [
 def files(tmp_path_factory):
     d = tmp_path_factory.mktemp("badcli")
     (d / "good.csv").write_text(GOOD_CSV)
+    (d / "old.mcap").write_bytes(b"")
     return d
 
 

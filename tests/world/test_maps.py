@@ -555,3 +555,38 @@ def test_ros_wall_one_pixel_thick_still_separates_rooms(tmp_path):
     assert r.shape == (4, 4)
     assert not r.patroller[:, 2].any()  # the cells the wall crosses are walls
     assert r.patroller[:, [0, 1, 3]].all()  # and the rooms either side stay whole
+
+
+def test_line_of_sight_in_batches_is_the_same(monkeypatch):
+    """The rays are cast a few million grid crossings at a time (a real map at its native
+    resolution took 5 GB at once); batches of a few crossings give the same cells."""
+    from mirl.world import maps as maps_module
+
+    m = office_map_from_name("office-30x45-s5")
+    assert m is not None
+    cells = np.argwhere(m.patroller)
+    origin = (int(cells[len(cells) // 2][0]), int(cells[len(cells) // 2][1]))  # a hallway
+    whole = maps_module.line_of_sight(m.free, origin)
+    monkeypatch.setattr(maps_module, "_LOS_CHUNK", 7)
+    assert np.array_equal(maps_module.line_of_sight(m.free, origin), whole)
+    assert whole.sum() > 10
+
+
+def test_visibility_order_is_computed_on_first_use_only(monkeypatch):
+    """A map loaded only to be measured or refused, or whose placeholder start a scenario
+    replaces, casts no rays (Willow Garage at 0.1 m: loading took 17 s and 5 GB, now 0.4 s)."""
+    from mirl.world import maps as maps_module
+
+    calls = []
+    real = maps_module.default_visibility_order
+    monkeypatch.setattr(
+        maps_module, "default_visibility_order", lambda *a: calls.append(a) or real(*a)
+    )
+    m = parse_map("L..\n#.#\n.G.\n")
+    moved = m.with_observer((0, 2), (2, 1))
+    assert calls == []
+    order = moved.visibility_order
+    assert len(calls) == 1 and order[0].tolist() == [0, 1]
+    assert moved.visibility_order is order and len(calls) == 1  # kept
+    given = parse_map("L..\n#.#\n.G.\n")
+    assert given.with_observer((0, 0), (2, 1)) is given  # unchanged map: the same object

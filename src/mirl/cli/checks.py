@@ -139,6 +139,8 @@ def check_poses_output(path: str | None, world: str) -> None:
         )  # fmt: skip
     if out.suffix:
         check_output(out, "--poses")
+        if out.suffix.lower() == ".mcap" and out.exists():  # the writer never overwrites one
+            raise UsageError(f"--poses {out}: exists already, not overwriting an MCAP file")
     elif not (out.parent.is_dir() and os.access(out.parent, os.W_OK)) or out.exists():
         raise UsageError(f"--poses {out}: cannot create a bag directory there")
 

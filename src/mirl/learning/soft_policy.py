@@ -63,6 +63,8 @@ class _Dynamics:
         """T(s_i, a, s_next_i) for every action, (n, A)."""
         if self.dense is not None:
             return self.dense[s, :, s_next]
+        if len(s) == 0:  # scipy returns an empty sparse array, not an ndarray, for no index
+            return np.zeros((0, self.A))
         rows = (np.asarray(s)[:, None] * self.A + np.arange(self.A)).ravel()
         cols = np.repeat(np.asarray(s_next), self.A)  # entries looked up, not rows densified
         return np.asarray(self.T[rows, cols]).reshape(len(s), self.A)

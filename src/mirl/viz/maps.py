@@ -86,7 +86,9 @@ def draw_map(ax, gridmap: GridMap, visible_mask: np.ndarray | None = None, *, le
         ax.set_yticks(np.arange(-0.5, rows, 1.0), minor=True)
         ax.grid(which="minor", color=MAP_COLORS["grid"], linewidth=0.4)
         ax.tick_params(which="minor", length=0)
-    size = max(4.0, 160.0 / max(rows, cols))
+    # about 5 cells on small maps; on large ones (real floor plans, 100+ cells a side) no smaller
+    # than a legible symbol, outlined to stand out on the amber view and the routes
+    size = max(9.0, 160.0 / max(rows, cols))
     if not gridmap.marked:  # placeholders only: nothing of L's to draw
         ax.set_xlim(-0.5, cols - 0.5)
         ax.set_ylim(rows - 0.5, -0.5)
@@ -96,8 +98,9 @@ def draw_map(ax, gridmap: GridMap, visible_mask: np.ndarray | None = None, *, le
         return ax
     sr, sc = gridmap.observer_start
     ax.plot(
-        [sc], [sr], marker="^", color=MAP_COLORS["start"], markersize=size, linestyle="", zorder=3
-    )
+        [sc], [sr], marker="^", color=MAP_COLORS["start"], markersize=size, linestyle="",
+        markeredgecolor="white", markeredgewidth=0.8, zorder=5,
+    )  # fmt: skip
     if gridmap.goals:
         gr, gc = np.asarray(gridmap.goals).T
         ax.plot(
@@ -107,7 +110,9 @@ def draw_map(ax, gridmap: GridMap, visible_mask: np.ndarray | None = None, *, le
             color=MAP_COLORS["goal"],
             markersize=size * 1.3,
             linestyle="",
-            zorder=3,
+            markeredgecolor="black",
+            markeredgewidth=0.6,
+            zorder=5,
         )
     ax.set_xlim(-0.5, cols - 0.5)
     ax.set_ylim(rows - 0.5, -0.5)
@@ -170,7 +175,10 @@ def draw_routes(ax, routes: Mapping[str, np.ndarray]) -> None:
         if len(cells) == 0:
             continue
         offset = 0.12 * (i - (len(routes) - 1) / 2)  # routes over the same cells side by side
-        line = ax.plot(cells[:, 1] + offset, cells[:, 0] + offset, linewidth=1.5, zorder=2)[0]
+        line = ax.plot(
+            cells[:, 1] + offset, cells[:, 0] + offset, linewidth=1.5, zorder=2,
+            label=f"{name}'s patrol",
+        )[0]  # fmt: skip
         ax.plot(
             [cells[0, 1]], [cells[0, 0]], marker="o", color=line.get_color(), linestyle="",
             zorder=3,
@@ -203,6 +211,16 @@ def map_figure(
     draw_map(ax, gridmap, visible_mask, legend=legend)
     if routes:
         draw_routes(ax, routes)
+        shown = ax.get_legend()
+        if shown is not None:  # the routes join the legend: which line is which patroller
+            lines = [ln for ln in ax.get_lines() if str(ln.get_label()).endswith("'s patrol")]
+            ax.legend(
+                handles=[*shown.legend_handles, *lines],
+                loc="upper left",
+                bbox_to_anchor=(1.01, 1.0),
+                fontsize="small",
+                frameon=False,
+            )
     if metres:
         draw_metres(ax, gridmap)
         shown = ax.get_legend()

@@ -9,6 +9,7 @@ Legend (one character per cell, row 0 at the top): ``.`` hallway (patrollers and
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -94,6 +95,25 @@ class MapFrame:
         return np.rint(row).astype(int), np.rint(col).astype(int)
 
 
+class _LazyVisibilityOrder:
+    """GridMap.visibility_order: the order given, or computed from the map on first use (a ray
+    cast to every free cell: seconds and, unchunked, gigabytes on a real map at its native
+    resolution, so a map loaded only to be measured or refused, or whose placeholder start a
+    scenario replaces, never pays for it)."""
+
+    def __get__(self, obj: Any, objtype: Any = None) -> Any:
+        if obj is None:
+            return None  # the dataclass field's default: compute from the map
+        order = obj.__dict__.get("_visibility_order")
+        if order is None:
+            order = default_visibility_order(obj.patroller, obj.observer_start, obj.free)
+            obj.__dict__["_visibility_order"] = order
+        return order
+
+    def __set__(self, obj: Any, value: np.ndarray | None) -> None:
+        obj.__dict__["_visibility_order"] = value
+
+
 @dataclass(frozen=True, eq=False)
 class GridMap:
     """A grid of cells with L's start, goals, and the nested visibility order of docs/design.md,
@@ -105,7 +125,7 @@ class GridMap:
     observer_start: tuple[int, int]
     goals: tuple[tuple[int, int], ...]
     # (n, 2) patroller cells, most exposed first; None: computed from the map
-    visibility_order: np.ndarray = field(default=None)  # type: ignore[arg-type]
+    visibility_order: _LazyVisibilityOrder = _LazyVisibilityOrder()
     source: str = "<memory>"
     frame: MapFrame = field(default_factory=MapFrame)  # metric placement (poses, physics)
     # whether the map marks L's start and goal itself; a plain ROS map does not, and its
@@ -119,9 +139,6 @@ class GridMap:
                 f"{self.source}: map of {rows}x{cols} cells is larger than the limit of "
                 f"{MAX_MAP_SIDE}x{MAX_MAP_SIDE}"
             )
-        if self.visibility_order is None:
-            order = default_visibility_order(self.patroller, self.observer_start, self.free)
-            object.__setattr__(self, "visibility_order", order)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -170,7 +187,7 @@ class GridMap:
             self,
             observer_start=start,
             goals=goals,
-            visibility_order=self.visibility_order if same_start else None,  # type: ignore[arg-type]
+            visibility_order=self.__dict__.get("_visibility_order") if same_start else None,
             marked=True,
         )
 
@@ -273,11 +290,31 @@ def line_of_sight(
         near = np.hypot(dr, dc) <= max_range + 1e-9
         targets, dr, dc = targets[near], dr[near], dc[near]
     blocked = np.zeros(len(targets), dtype=bool)
+    # a few million crossings at a time: every target at once takes gigabytes on a real map at
+    # its native resolution (10^5 cells, hundreds of crossings each)
+    crossings = np.cumsum(np.abs(dr) + np.abs(dc))
+    total = int(crossings[-1]) if len(crossings) else 0
+    bounds = np.searchsorted(crossings, np.arange(_LOS_CHUNK, total, _LOS_CHUNK))
+    for lo, hi in zip([0, *bounds.tolist()], [*bounds.tolist(), len(targets)], strict=True):
+        if hi > lo:
+            blocked[lo:hi] = _rays_blocked(passable, r0, c0, dr[lo:hi], dc[lo:hi])
+    seen = targets[~blocked]
+    out[seen[:, 0], seen[:, 1]] = True
+    return out
+
+
+_LOS_CHUNK = 2_000_000  # grid-line crossings per batch of rays (about 0.3 GB of temporaries)
+
+
+def _rays_blocked(passable: np.ndarray, r0: int, c0: int, dr: np.ndarray, dc: np.ndarray):
+    """(n,) bool: whether the segment from (r0, c0) to each (r0 + dr, c0 + dc) is blocked, over
+    ``passable`` (the grid padded by one closed cell)."""
+    blocked = np.zeros(len(dr), dtype=bool)
     # crossings of the grid's vertical lines (axis 1) and horizontal lines (axis 0), in integer
     # arithmetic: the j-th crossing (j = 1..|d|) lies at parameter t = (2j - 1) / (2|d|)
     for along, across in ((dc, dr), (dr, dc)):
         n = np.abs(along)
-        k = np.repeat(np.arange(len(targets)), n)
+        k = np.repeat(np.arange(len(dr)), n)
         if len(k) == 0:
             continue
         j = np.arange(len(k)) - np.repeat(np.cumsum(n) - n, n) + 1
@@ -304,9 +341,7 @@ def line_of_sight(
         side_1 = np.where(toward_up, ua | b, a | ub)  # one of the touched pair must be open
         ok = np.where(at_corner, diag_1 & side_1, a & b)
         np.logical_or.at(blocked, k[~ok], True)
-    seen = targets[~blocked]
-    out[seen[:, 0], seen[:, 1]] = True
-    return out
+    return blocked
 
 
 def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> GridMap:
