@@ -3,7 +3,15 @@ text form printed without ``--json``."""
 
 from __future__ import annotations
 
-__all__ = ["learn_record", "print_learn"]
+__all__ = ["learn_record", "print_learn", "verdict_sentence"]
+
+
+def verdict_sentence(robot: str, record: dict) -> str:
+    """A verdict's JSON record (:meth:`~mirl.learning.verdicts.Verdict.to_dict`) in words."""
+    from mirl.learning.verdicts import Verdict
+
+    verdict = Verdict(record["part"], record["confidence"], tuple(record["candidates"]))
+    return verdict.sentence(robot)
 
 
 def learn_record(result, scenario, observations: str, steps: int, degree: float) -> dict:
@@ -15,6 +23,7 @@ def learn_record(result, scenario, observations: str, steps: int, degree: float)
             "weights": dict(zip(names, map(float, r.weights), strict=True)),
             "feature_probabilities": {k: float(v) for k, v in r.feature_probabilities.items()},
             "behavior_accuracy": r.behavior_accuracy,
+            **_uncertainty(r),
         }
         for r in result.robots
     }
@@ -44,6 +53,19 @@ def learn_record(result, scenario, observations: str, steps: int, degree: float)
     }
 
 
+def _uncertainty(robot) -> dict:
+    """``feature_intervals`` (95 %, [lo, hi]) and ``verdict`` of a model that has them."""
+    if robot.verdict is None:
+        return {}
+    return {
+        "feature_intervals": {
+            f: [round(float(lo), 4), round(float(hi), 4)]
+            for f, (lo, hi) in robot.feature_intervals.items()
+        },
+        "verdict": robot.verdict.to_dict(),
+    }
+
+
 def _pair_labels(result, scenario) -> dict:
     """Teams of three or more: the equilibrium learned for each pair L saw meet."""
     if len(scenario.robots) <= 2:
@@ -69,6 +91,10 @@ def print_learn(out: dict, result, scenario_name: str) -> None:
         probs = r["feature_probabilities"]
         line = "  ".join(f"{k}={v:.3f}" for k, v in probs.items()) if probs else result.message
         print(f"  features      {line}")
+        if "feature_intervals" in r:
+            spans = "  ".join(f"{k} {lo:.2f}–{hi:.2f}" for k, (lo, hi) in r["feature_intervals"].items())
+            print(f"  95 % interval {spans}")
+            print(f"  verdict       {verdict_sentence(name, r['verdict'])}")
         if r["behavior_accuracy"] is not None:
             print(f"  behaviour accuracy {r['behavior_accuracy']:.3f} (vs the scenario's truth)")
     weights = ", ".join(
