@@ -121,7 +121,8 @@ class Verdict:
         if wheels and len(self.candidates) == 2:
             what = f"one of {robot}'s wheels is weak (or both)"
         else:
-            what = f"one of {robot}'s " + " / ".join(map(_words, self.candidates)) + " is damaged"
+            parts = ", ".join(map(_words, self.candidates))
+            what = f"one of {robot}'s parts ({parts}) is damaged"
         return f"{what}; the observations cannot tell which {conf}"
 
 
