@@ -36,7 +36,9 @@ def _grid_posterior(obs, healthy, prior, m=600):
 
     def prior_pdf(x, h):
         k = prior.strength
-        return (1 - prior.damaged_share) * beta_dist.pdf(x, k * h, k * (1 - h)) + prior.damaged_share
+        return (1 - prior.damaged_share) * beta_dist.pdf(
+            x, k * h, k * (1 - h)
+        ) + prior.damaged_share
 
     log = np.log(prior_pdf(pa, healthy["a"])) + np.log(prior_pdf(pb, healthy["b"]))
     for subset, k, n in obs:
@@ -81,7 +83,9 @@ def _obs(forward, left, right, stop):
 
 
 def test_a_damaged_left_wheel_is_named():
-    u = feature_uncertainty(FEATURES, _obs((70, 100), (48, 50), (35, 50), (50, 50)), DamageDefinition())
+    u = feature_uncertainty(
+        FEATURES, _obs((70, 100), (48, 50), (35, 50), (50, 50)), DamageDefinition()
+    )
     assert u.verdict.part == "left_wheel"
     assert u.verdict.confidence > 0.85
     lo, hi = u.intervals["left_wheel"]
@@ -99,7 +103,9 @@ def test_forward_steps_alone_cannot_tell_the_wheels_apart():
 
 
 def test_healthy_data_give_no_part():
-    u = feature_uncertainty(FEATURES, _obs((190, 200), (48, 50), (48, 50), (50, 50)), DamageDefinition())
+    u = feature_uncertainty(
+        FEATURES, _obs((190, 200), (48, 50), (48, 50), (50, 50)), DamageDefinition()
+    )
     assert u.verdict.part is None and not u.verdict.candidates
     assert u.verdict.confidence > 0.95
     assert u.verdict.sentence("I").startswith("no part of I is damaged")
@@ -209,7 +215,7 @@ def test_learn_returns_intervals_and_verdicts():
     res = learn(obs, scenario, "mirl-t", observability=1.0)
     j = res.robot("J")
     assert set(j.feature_intervals) == set(FEATURES)
-    for f, (lo, hi) in j.feature_intervals.items():
+    for lo, hi in j.feature_intervals.values():
         assert 0 <= lo <= hi <= 1
     assert j.verdict is not None and j.verdict.part == "left_wheel"
     assert "verdicts" in res.timings

@@ -92,7 +92,9 @@ def print_learn(out: dict, result, scenario_name: str) -> None:
         line = "  ".join(f"{k}={v:.3f}" for k, v in probs.items()) if probs else result.message
         print(f"  features      {line}")
         if "feature_intervals" in r:
-            spans = "  ".join(f"{k} {lo:.2f}–{hi:.2f}" for k, (lo, hi) in r["feature_intervals"].items())
+            spans = "  ".join(
+                f"{k} {lo:.2f}–{hi:.2f}" for k, (lo, hi) in r["feature_intervals"].items()
+            )
             print(f"  95 % interval {spans}")
             print(f"  verdict       {verdict_sentence(name, r['verdict'])}")
         if r["behavior_accuracy"] is not None:

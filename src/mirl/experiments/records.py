@@ -116,7 +116,10 @@ def _uncertainty(learned: LearnResult | None) -> dict[str, Any]:
         return {}
     return {
         "feature_intervals": {
-            r.name: {f: [round(float(lo), 4), round(float(hi), 4)] for f, (lo, hi) in r.feature_intervals.items()}
+            r.name: {
+                f: [round(float(lo), 4), round(float(hi), 4)]
+                for f, (lo, hi) in r.feature_intervals.items()
+            }
             for r in robots
         },
         "verdicts": {r.name: r.verdict.to_dict() for r in robots if r.verdict is not None},

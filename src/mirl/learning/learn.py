@@ -193,11 +193,12 @@ def learn(
     robots = []
     for i, r in enumerate(scenario.robots):
         acc = behavior_accuracy(scenario, i, policies[i]) if score else None
+        u = sure[i]
         robots.append(
             RobotModel(
                 r.name, weights[i], probs[i], transitions[i], policies[i], acc,
-                feature_intervals=sure[i].intervals if sure[i] else {},
-                verdict=sure[i].verdict if sure[i] else None,
+                feature_intervals=u.intervals if u is not None else {},
+                verdict=u.verdict if u is not None else None,
             )
         )  # fmt: skip
     clock.timings["total"] = time.perf_counter() - start
@@ -288,7 +289,8 @@ def _uncertainties(
     irl = trace.irl + [None] * (len(setup.series) - len(trace.irl))
     out: list[FeatureUncertainty | None] = []
     for i, x in enumerate(setup.series):
-        soft = irl[i].soft_policy_ if row.relabels and irl[i] is not None else None
+        estimator = irl[i]
+        soft = estimator.soft_policy_ if row.relabels and estimator is not None else None
         out.append(
             robot_uncertainty(
                 setup.domain, x, labels[i], transitions[i], probs[i], setup.scenario.faults,

@@ -362,7 +362,8 @@ def _systematic(rng, w: np.ndarray, n: int) -> np.ndarray:
 def _quantile(values: np.ndarray, w: np.ndarray, q: float) -> float:
     order = np.argsort(values)
     cdf = np.cumsum(w[order])
-    return float(values[order][min(np.searchsorted(cdf, q), len(values) - 1)])
+    k = min(int(np.searchsorted(cdf, q)), len(values) - 1)
+    return float(values[order[k]])
 
 
 # ---- the verdict ------------------------------------------------------------------------------

@@ -159,9 +159,7 @@ def rates_markdown(items: Sequence[VerdictItem]) -> str:
     ]
     keys = sorted({(i.world, i.observability, i.damage or "") for i in items})
     for world, d, damage in keys:
-        sel = [
-            i for i in items if (i.world, i.observability, i.damage or "") == (world, d, damage)
-        ]
+        sel = [i for i in items if (i.world, i.observability, i.damage or "") == (world, d, damage)]
         if not damage:
             healthy = _share([not i.verdict for i in sel])
             lines.append(
@@ -225,7 +223,7 @@ def verdicts_markdown(gs: list[Group], figdir: Path) -> str:
         f"{len(runs)} ({len(wrong_runs) / len(runs):.3f}); healthy robots: {len(healthy)}.",
         "",
         "Verdict rates for the damaged robot (and how often the other, healthy robot gets "
-        "\"no part is damaged\"):",
+        '"no part is damaged"):',
         "",
         rates_markdown(items),
     ]

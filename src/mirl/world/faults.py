@@ -73,9 +73,7 @@ def read_faults(data: Any, features: tuple[str, ...]) -> DamageDefinition:
     healthy = {f: default.healthy.get(f, DEFAULT_HEALTHY) for f in features}
     for name, value in schema.table(faults.get("healthy", {}), "faults.healthy", features).items():
         healthy[name] = schema.number(value, f"faults.healthy.{name}", low=0.0, high=1.0)
-    margin = schema.number(
-        faults.get("margin", DEFAULT_MARGIN), "faults.margin", low=0.0, high=1.0
-    )
+    margin = schema.number(faults.get("margin", DEFAULT_MARGIN), "faults.margin", low=0.0, high=1.0)
     try:
         return DamageDefinition(healthy, margin)
     except ValueError as exc:
