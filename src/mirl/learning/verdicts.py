@@ -19,7 +19,7 @@ two corrections for what the point estimate takes as certain:
 
 The posterior over the features' success probabilities is then the product of the pooled
 binomial likelihood (Eq. 2: a subset succeeds with ∏_{τ∈ξ} p_τ) and a prior saying that most
-parts are healthy: for each feature, with probability 0.8 a Beta(20 h, 20 (1 − h)) around its
+parts are healthy: for each feature, with probability 0.8 a Beta(50 h, 50 (1 − h)) around its
 healthy level h, else uniform on [0, 1]. It is sampled by population Monte Carlo in logit space
 (adaptive importance sampling with a defensive mixture component, Cappé, Guillin, Marin & Robert
 2004): draws from the prior, then two rounds from Gaussian kernels around resampled draws. The
