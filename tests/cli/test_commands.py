@@ -138,7 +138,10 @@ def test_show_map_with_observability(capsys):
     expected = BOYD2_TEXT.splitlines()
     expected[0] = "Loooo...."
     assert grid == expected
-    assert out[-1] == "boyd2: 17x9, 31 patroller cells, 4 visible at observability 0.14"
+    assert "boyd2: 17x9 cells of 1 m, 31 patroller cells, 124 patroller states" in out[-3]
+    assert out[-1] == (
+        "  L's view at observability 0.14: 4 of 31 patroller cells, 4 of them in L's line of sight"
+    )
     assert "; visible: 4 of 31 patroller cells (0.13)" in out
 
 
@@ -146,7 +149,43 @@ def test_show_map_plain(capsys):
     assert main(["show-map", "boyd2"]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out[:17] == BOYD2_TEXT.splitlines()
-    assert out[-1] == "boyd2: 17x9, 31 patroller cells"
+    assert (
+        out[-2]
+        == "boyd2: 17x9 cells of 1 m, 31 patroller cells, 124 patroller states (cell x heading)"
+    )
+    assert out[-1] == (
+        "  frame: cell (0, 0) is centred at x = 0, y = 0 m; the grid spans x -0.5 to 8.5 m, "
+        "y -16.5 to 0.5 m"
+    )
+
+
+def test_show_map_plain_ros_map(tmp_path, capsys):
+    assert main(["show-map", "turtlebot3_world", "--png", str(tmp_path / "m.png")]) == 0
+    out = capsys.readouterr().out
+    assert "turtlebot3_world: 39x39 cells of 0.5 m, 40 patroller cells, 160 patroller states" in out
+    assert "L's start and goal: not marked" in out and "L" not in out.split(";")[0]
+    assert (tmp_path / "m.png").stat().st_size > 0
+    assert main(["show-map", "turtlebot3_world", "--cell-size", "0.25"]) == 0
+    assert "77x77 cells of 0.25 m, 255 patroller cells" in capsys.readouterr().out
+
+
+def test_show_map_scenario(capsys):
+    toml = str(Path(mirl.__file__).parent / "data" / "scenarios" / "boyd2.toml")
+    assert main(["show-map", toml]) == 0
+    out = capsys.readouterr().out
+    assert "L's view at observability 0.14: 4 of 31 patroller cells" in out  # the scenario's
+    assert "L's start: cell (0, 0), x = 0, y = 0 m" in out and "L's goal: cell (9, 1)" in out
+    assert "I: starts on cell (0, 8) facing west" in out
+    assert main(["show-map", toml, "--cell-size", "0.5"]) == 2
+    assert "[frame] cell_size" in capsys.readouterr().err
+
+
+def test_show_map_big_text_map_not_printed_with_png(tmp_path, capsys):
+    assert main(["show-map", "office-80x80", "--png", str(tmp_path / "o.png")]) == 0
+    out = capsys.readouterr().out
+    assert "#" not in out and "office-80x80: 80x80 cells" in out
+    assert main(["show-map", "office-40x30"]) == 0
+    assert capsys.readouterr().out.count("\n") > 40  # small enough: printed
 
 
 def test_damage_accepted(tmp_path, monkeypatch, capsys):

@@ -33,8 +33,11 @@ def test_convert_hand_built_bag(tmp_path, capsys, fmt):
     text = capsys.readouterr().out
     assert code == 0
     assert "7 steps of 2 s from t = 100.000 s (tolerance 1 s); 4 cells visible to L" in text
-    assert "I: 6 poses read, 6 binned, 1 snapped, 0 dropped, 5 steps observed" in text
-    assert "J: 4 poses read, 4 binned, 0 snapped, 0 dropped, 4 steps observed" in text
+    assert (
+        "I: 6 poses read, 6 binned, 1 snapped, 5 steps observed, 3 outside L's visible cells; "
+        "dropped: 1 duplicate of a step (the nearest kept)" in text
+    )
+    assert "J: 4 poses read, 4 binned, 0 snapped, 4 steps observed" in text
     rows = [line.split(",") for line in out.read_text().splitlines()[1:]]
     got = [(int(t), "IJ".index(r), int(a), int(b), int(h)) for t, r, a, b, h in rows]
     assert got == EXPECTED
@@ -62,7 +65,8 @@ def test_simulate_poses_and_round_trip_json(tmp_path, capsys):
         ["--observations", str(d / "p.mcap"), "--topic", "/I/pose=I", "--topic", "/J/pose=J"],
         ["--observations", str(d / "p.csv")],
     ):
-        start = ["--start-time", "0"] if "o.csv" not in extra[1] else []
+        # poses simulated from the scenario: their truth is the scenario's, if asked for
+        start = ["--start-time", "0", "--compare", "truth"] if "o.csv" not in extra[1] else []
         assert main([*learn, *extra, *start]) == 0
         res = json.loads(capsys.readouterr().out)
         for key in ("observations", "timings"):
@@ -70,6 +74,12 @@ def test_simulate_poses_and_round_trip_json(tmp_path, capsys):
         results.append(res)
     assert results[1] == results[0]
     assert results[2] == results[0]  # 5 cm / 3 degrees never moves a pose to another cell
+    # robot data is not compared with a truth unless asked: scored on the observed moves
+    assert main([*learn, "--observations", str(d / "p.csv"), "--start-time", "0"]) == 0
+    robot = json.loads(capsys.readouterr().out)["robots"]["I"]
+    assert robot["behavior_accuracy"] is None
+    moves = robot["observed_moves"]
+    assert 0 < moves["followed"] <= moves["moves"] and moves["unexplained"] >= 0
 
 
 def test_learn_transitions_from_pose_csv(tmp_path, capsys):
@@ -120,7 +130,7 @@ def test_bad_robot_data_one_line_exit_2(tmp_path, capsys):
     args = ["convert", str(csv), str(tmp_path / "o.csv"), "--scenario", "boyd2"]
     one_error_line(capsys, main(args), csv, "robot I", "more than 0.5 cell")
     assert main([*args, "--drop-off-map"]) == 0
-    assert "I: 2 poses read, 2 binned, 0 snapped, 1 dropped, 1 steps observed" in (
+    assert "I: 2 poses read, 2 binned, 0 snapped, 1 steps observed; dropped: 1 off-map" in (
         capsys.readouterr().out
     )
     sim = ["simulate", "--scenario", "boyd2", "--steps", "5", "--poses", str(tmp_path / "s.bag")]

@@ -110,3 +110,10 @@ def test_cli_limits_blas_threads_before_numpy_loads():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip().splitlines()[-1] == "1"
+
+
+def test_parser_go_rules_are_the_planners():
+    from mirl.cli.parser import GO_RULE_CHOICES
+    from mirl.planning.go import GO_RULES
+
+    assert set(GO_RULE_CHOICES) == set(GO_RULES)

@@ -81,7 +81,9 @@ def dom_state(model, s):
 
 
 def test_timeout_when_no_plan_is_ever_good_enough(boyd2):
-    r = run_episode(boyd2, "oracle", seed=1, detection_penalty=1e6, replan_every=7, **FAST)
+    r = run_episode(
+        boyd2, "oracle", seed=1, go_rule="value", detection_penalty=1e6, replan_every=7, **FAST
+    )
     assert r.outcome == "timeout" and r.go_time is None and r.plan_value is None
     times = [a.t for a in r.attempts]
     assert times[0] == FAST["obs_steps"] - 1
@@ -151,13 +153,13 @@ def test_default_run_is_the_main_job(capsys):
 def test_l_replans_when_it_outlives_its_plan(boyd2):
     from mirl.experiments.execution import PlanFollower, execute
     from mirl.experiments.grid_world import GridRunWorld
+    from mirl.experiments.worlds import RunSetup
     from mirl.planning.belief import BeliefFilter
     from mirl.planning.go import solve_observer_mdp
 
     model = observer_model(boyd2)
-    world = GridRunWorld(  # both patrollers start in the lower hallway
-        boyd2, model, observability=0.14, seed=2, noise=np.random.SeedSequence(0)
-    )
+    setup = RunSetup(boyd2, model, 0.14, seed=2, noise=np.random.SeedSequence(0))
+    world = GridRunWorld(setup)  # both patrollers start in the lower hallway
     belief = BeliefFilter(boyd2.domain, oracle_models(boyd2), visible=world.visible)
     belief.update(world.seen[0])
     calls = []
@@ -171,3 +173,54 @@ def test_l_replans_when_it_outlives_its_plan(boyd2):
     outcome, path, _ = execute(world, model, follower, belief, 200)
     assert calls[0] == 2 and follower.plan is not short
     assert outcome in OUTCOMES and len(path) > 3
+
+
+def test_scenario_observer_start_reaches_the_view_and_the_report(boyd2):
+    moved = boyd2.with_options(observer_start=(0, 5))
+    r = run_episode(moved, "oracle", seed=0, **FAST)
+    report = format_report(moved, r)
+    assert "L hides in its room at (0, 5)" in " ".join(report.split())
+    assert "(4/31 cells)" in report
+    seen = {
+        tuple(moved.domain.states[s][:2]) for s in np.flatnonzero(moved.domain.visible_states(0.14))
+    }
+    assert seen == {(0, 4), (0, 6), (0, 7), (0, 8)}
+
+
+# ---- the adaptive rule and learning while waiting ----------------------------------------------
+def test_adaptive_rule_states_its_chance_and_goes_by_the_deadline(boyd2):
+    for seed in range(3):
+        r = run_episode(boyd2, "oracle", seed=seed, go_rule="adaptive", relearn=True, **FAST)
+        assert r.outcome != "timeout" and r.go_time is not None
+        assert 0.0 <= r.predicted_success <= 1.0
+        assert r.attempts[-1].predicted_success == r.predicted_success
+        assert r.relearns is None  # the oracle has nothing to learn
+        assert r.to_dict()["predicted_success"] == r.predicted_success
+
+
+def test_published_protocol_states_no_chance_and_learns_once(boyd2):
+    r = run_episode(boyd2, "mirl-t", seed=0, **FAST)  # the defaults
+    d = r.to_dict()
+    assert r.predicted_success is None and r.relearns is None
+    assert "predicted_success" not in d and "relearns" not in d
+
+
+def test_learner_relearns_on_a_grown_record_while_waiting(boyd2):
+    # full view and a rule that never goes before the deadline: the record grows by 1.5× twice
+    r = run_episode(
+        boyd2, "mirl-t", seed=1, observability=1.0, obs_steps=80, max_wait=120,
+        relearn=True, detection_penalty=1e6,
+    )  # fmt: skip
+    assert r.outcome == "timeout"
+    assert len(r.relearns) >= 2
+    steps = [x.observed_steps for x in r.relearns]
+    assert all(b >= 1.5 * a for a, b in zip(steps, steps[1:], strict=False))
+    assert r.relearns[-1].feature_probabilities == r.feature_probabilities
+    assert [x["t"] for x in r.to_dict()["relearns"]] == [x.t for x in r.relearns]
+
+
+def test_go_rule_and_relearn_growth_are_checked(boyd2):
+    with pytest.raises(ValueError, match="`go_rule`"):
+        run_episode(boyd2, "oracle", go_rule="bold", **FAST)
+    with pytest.raises(ValueError, match="`relearn_growth`"):
+        run_episode(boyd2, "oracle", relearn=True, relearn_growth=1.0, **FAST)

@@ -28,9 +28,18 @@ _NUMPY = {
 
 
 def typestore(ros2: bool):
-    from rosbags.typesys import Stores, get_typestore
+    """rosbags' type store of the ROS release, with tf2_msgs/msg/TFMessage (which neither
+    store ships) registered, for TF-only bags."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-    return get_typestore(Stores.ROS2_HUMBLE if ros2 else Stores.ROS1_NOETIC)
+    ts = get_typestore(Stores.ROS2_HUMBLE if ros2 else Stores.ROS1_NOETIC)
+    if "tf2_msgs/msg/TFMessage" not in ts.types:
+        ts.register(
+            get_types_from_msg(
+                "geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"
+            )
+        )
+    return ts
 
 
 def default_message(ts, typename: str):

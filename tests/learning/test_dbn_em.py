@@ -125,3 +125,39 @@ def test_random_go_is_uniform_over_the_window():
     draws = np.array([_random_going(model, 0, 5, rng).go_time for _ in range(3000)])
     assert draws.min() == 0 and draws.max() == 5
     assert np.bincount(draws) / len(draws) == pytest.approx(np.full(6, 1 / 6), abs=0.03)
+
+
+def test_em_on_the_support_is_the_dense_em():
+    """Where the dense T does not fit, EM runs on the intended successors only: the same
+    updates, so on a map where both fit they agree to rounding, iteration by iteration."""
+    from mirl.learning.dbn_em import em_fit_on_support
+
+    sc = load_scenario("boyd2")
+    runs = [simulate(sc, 300, seed=k, observability=0.5).observations for k in (1, 2)]
+    for robot, obs in itertools.product(range(2), runs):
+        xs = [obs.state_series(sc.domain, robot)]
+        dense = em_fit(sc.domain, xs, n_iter=6, tol=-np.inf)
+        sparse, history = em_fit_on_support(sc.domain, xs, n_iter=6, tol=-np.inf)
+        expected = dense.transition_matrix().toarray()
+        np.testing.assert_allclose(sparse.toarray(), expected, atol=1e-12)
+        np.testing.assert_allclose(history, dense.log_likelihood, rtol=1e-12)
+
+
+def test_observations_no_move_reaches_are_left_out_and_counted():
+    """A skipped cell (a pose discretised two cells on) would make the data impossible for EM:
+    that observation is left out as unseen and counted; a simulated record loses nothing."""
+    from mirl.learning.dbn_em import em_transitions, unreachable_observations
+
+    sc = load_scenario("boyd2")
+    obs = simulate(sc, 300, seed=3, observability=0.5).observations
+    x = obs.state_series(sc.domain, 0)
+    assert not unreachable_observations(sc.domain, x).any()
+    t = int(np.flatnonzero((x[:-1] >= 0) & (x[1:] >= 0))[0])  # two observed steps in a row
+    far = int(np.argmax(np.abs(sc.domain.states[:, 0] - sc.domain.states[x[t], 0])))
+    jumped = x.copy()
+    jumped[t + 1] = far  # rows away in one step: no move reaches it
+    assert np.flatnonzero(unreachable_observations(sc.domain, jumped)).tolist() == [t + 1]
+    T, dropped = em_transitions(sc.domain, [jumped], n_iter=3)
+    assert dropped == 1 and T.shape == (sc.domain.n_states * 4, sc.domain.n_states)
+    with pytest.raises(ValueError, match="impossible"):
+        em_fit(sc.domain, [jumped], n_iter=1)

@@ -284,7 +284,7 @@ def test_backward_induction_matches_recursive_dp_with_failures():
     model = observer_model(sc)  # 2.5 % failure
     K = 7
     pred = _random_prediction(model, K, 4)
-    plan = solve_observer_mdp(model, pred, goal_reward=1.0, detection_penalty=0.5)
+    plan = solve_observer_mdp(model, pred, goal_reward=1.0, detection_penalty=0.5, keep_values=True)
     dom = model.domain
     cell = dom.state_cell(np.arange(dom.n_states))
     pair_index = {tuple(p): j for j, p in enumerate(pred.pairs.tolist())}
@@ -330,3 +330,47 @@ def test_go_time_is_best_positive_in_window():
     assert plan.go_time == 5  # the first step into the hallway lands at t = 6
     assert np.all(plan.go_values[:5] < 0)
     assert solve_observer_mdp(model, pred, window=4).go_time is None
+
+
+def test_streamed_prediction_and_timed_policy_are_the_full_arrays_bit_for_bit():
+    # the factored filter's checkpointed prediction and the policy kept as its changes give
+    # exactly the arrays of computing every step at once
+    from mirl.planning.team_filter import factored_detection
+
+    sc = load_scenario("office")
+    lr = oracle_models(sc)
+    model = observer_model(sc)
+    f = BeliefFilter(sc.domain, lr, visible=sc.domain.visible_states(0.14), joint=False)
+    for _ in range(5):
+        f.update(np.full(len(lr.robots), UNSEEN))
+    pred = f.predict(40, model)
+    occ = np.empty((41, *f.belief.shape))
+    occ[0] = f.belief
+    for k in range(40):
+        occ[k + 1] = f._propagate(occ[k])
+    det, haz = factored_detection(occ, model.detection, f._step_T, model.cell_pairs)
+    assert np.array_equal(pred.occupancy, occ)
+    assert np.array_equal(pred.detection, np.clip(det, 0, 1))
+    assert np.array_equal(pred.hazard, np.clip(haz, 0, 1))
+    assert np.array_equal(pred.hazard_rows(7, 19), np.clip(haz, 0, 1)[7:19])
+    full = Prediction(pred.t0, occ, np.clip(det, 0, 1), np.clip(haz, 0, 1), model.cell_pairs)
+    a = solve_observer_mdp(model, pred, keep_values=True)
+    b = solve_observer_mdp(model, full, keep_values=True)
+    assert np.array_equal(a.values, b.values) and np.array_equal(a.go_values, b.go_values)
+    assert a.policy.n_changes < 40 * model.n_states / 4  # kept as changes, not the table
+
+
+def test_timed_policy_answers_as_the_table():
+    from mirl.planning.go import TimedPolicy
+
+    rng = np.random.default_rng(0)
+    table = rng.integers(0, 4, (6, 9)).astype(np.int8)
+    table[:3] = table[3]  # steps whose actions do not change
+    pol = TimedPolicy(6, 9)
+    for k in range(5, -1, -1):
+        pol._record(k, table[k])
+    pol._finish()
+    assert np.array_equal(pol.to_array(), table)
+    assert pol.n_changes == 9 + int((table[:-1] != table[1:]).sum())
+    with pytest.raises(IndexError):
+        pol[6, 0]

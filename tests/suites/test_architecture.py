@@ -27,6 +27,8 @@ LONG_ON_PURPOSE = {  # "path/in/package.py" or "path.py:function" -> the reason
     "learning/feature_solver.py": "one algorithm, the Eq. 4 solver: its maximum-entropy form "
     "(with the maximum-likelihood face it searches) and the paper's procedure share the pooling "
     "of counts, the result record and the report",
+    "experiments/run_report.py:format_report": "one printed page, written line by line in the "
+    "order it reads",
     "world/ros_maps.py:load_ros_map": "checks each field of a map_server YAML where it is read, "
     "in the order of the format, each refusal one line naming the field",
 }

@@ -69,7 +69,8 @@ def test_a_conversion_with_no_steps_writes_nothing(tmp_path, capsys):
     argv = ["convert", str(tmp_path / "p.csv"), str(out), "--scenario", "boyd2"]
     assert main([*argv, "--start-time=100"]) == 2  # every pose before step 0
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "nothing to convert: none of its 2 poses fell on a step" in err[0]
+    assert len(err) == 1 and "nothing to convert: none of its 2 poses was placed" in err[0]
+    assert "dropped 2 no step within the tolerance" in err[0]  # the reason, counted
     assert not out.exists()
     assert main(argv) == 0 and out.read_text().count("\n") == 3
 

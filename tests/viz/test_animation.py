@@ -60,7 +60,7 @@ def test_a_short_span_has_one_frame_a_step(boyd2, tmp_path):
 
 
 def test_timeout_run_animates_its_last_steps(boyd2, tmp_path):
-    result = run_episode(boyd2, "oracle", obs_steps=30, seed=3, max_wait=5)
+    result = run_episode(boyd2, "oracle", obs_steps=30, seed=3, max_wait=5, go_rule="value")
     assert result.outcome == "timeout" and result.go_time is None
     times = animation_times(result, context=6)
     assert list(times) == list(range(result.end_time - 6, result.end_time + 1))

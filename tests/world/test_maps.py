@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -14,9 +15,10 @@ from scipy import ndimage
 
 from mirl.viz.maps import draw_map, map_to_text, save_map_png
 from mirl.world.catalog import load_map, shipped_maps
-from mirl.world.maps import GridMap, MapError, parse_map
+from mirl.world.maps import GridMap, MapError, line_of_sight, parse_map
 from mirl.world.office_maps import generate_office_map, office_map_from_name
 from mirl.world.ros_maps import load_ros_map
+from tests.references.line_of_sight import line_of_sight as reference_line_of_sight
 
 # the reference maps in ../shared beside the checkout (where CI and the developers have them)
 SHARED_MAPS = Path(__file__).resolve().parents[3] / "shared" / "maps"
@@ -208,12 +210,40 @@ def test_ros_roundtrip_boyd2(tmp_path, plain):
     assert np.array_equal(r2.patroller, m.patroller)
 
 
-def test_ros_default_cell_size_is_resolution(tmp_path):
+def test_ros_default_cell_size_is_half_a_metre(tmp_path):
     m = load_map("boyd2")
-    yml = _write_ros(tmp_path, _scaled_free_pixels(m, 2))
+    yml = _write_ros(tmp_path, _scaled_free_pixels(m, 2))  # 0.5 m a pixel
     r = load_ros_map(yml, observer_start=(0, 0), goals=[(18, 2)])
-    assert r.shape == (34, 18)
+    assert r.shape == (34, 18) and r.frame.cell_size == 0.5
     assert r.n_patroller_cells == 4 * m.free.sum() - 1
+    fine = _write_ros(tmp_path, _scaled_free_pixels(m, 20), name="fine", extra={"resolution": 0.05})
+    r = load_ros_map(fine)  # 0.05 m a pixel: cells of 0.5 m, not of a pixel
+    assert r.shape == (34, 18) and r.frame.cell_size == 0.5
+    coarse = _write_ros(
+        tmp_path, _scaled_free_pixels(m, 1), name="coarse", extra={"resolution": 1.0}
+    )
+    assert load_ros_map(coarse).frame.cell_size == 1.0  # never finer than a pixel
+
+
+def test_ros_plain_map_is_unmarked(tmp_path):
+    m = load_map("boyd2")
+    r = load_ros_map(_write_ros(tmp_path, _scaled_free_pixels(m, 2)), cell_size=1.0)
+    assert not r.marked
+    assert np.array_equal(r.patroller, m.free)  # L's room is a free cell like any other
+    assert not r.observer_only.any()
+    assert "L" not in r.to_text() and "G" not in r.to_text()
+    marked = r.with_observer((0, 0), (9, 1))
+    assert marked.marked and marked.observer_start == (0, 0) and marked.goals == ((9, 1),)
+
+
+def test_ros_grid_limit_counts_cells_and_names_a_cell_size_that_fits(tmp_path):
+    px = np.ones((20, 1200), dtype=bool)  # 60 m wide at 0.05 m a pixel
+    yml = _write_ros(tmp_path, px, name="long", extra={"resolution": 0.05})
+    assert load_ros_map(yml).shape == (2, 120)  # 1200 pixels a side are 120 cells of 0.5 m
+    msg = _ros_error(yml, cell_size=0.05)
+    assert "`cell_size` 0.05 m" in msg and "1200 cells a side" in msg
+    assert "`cell_size` of at least 0.1 m" in msg
+    assert load_ros_map(yml, cell_size=0.1).shape[1] <= 1000
 
 
 def test_ros_cell_free_only_if_all_pixels_free(tmp_path):
@@ -315,9 +345,9 @@ def test_ros_errors(tmp_path):
     assert "smaller than the map resolution" in _ros_error(yml, cell_size=0.25)
 
     nolg = _write_ros(tmp_path, px, name="nolg")
-    msg = _ros_error(nolg, cell_size=1.0)
-    assert "mirl_observer_start" in msg and "mirl_goals" in msg
-    assert "mirl_goals" in _ros_error(nolg, cell_size=1.0, observer_start=(0, 0))
+    msg = _ros_error(nolg, cell_size=1.0, observer_start=(0, 0))
+    assert "marks L's start but not its goal" in msg and "[observer]" in msg
+    assert "mirl_goals" in msg
 
     assert "not a free cell" in _ros_error(yml, cell_size=1.0, observer_start=(5, 5))
     assert "outside" in _ros_error(yml, cell_size=1.0, goals=[(40, 1)])
@@ -435,3 +465,93 @@ def test_map_to_text_boyd2_014():
     m = load_map("boyd2")
     first = map_to_text(m, m.visible_mask(0.14)).splitlines()[0]
     assert first == "Loooo...."
+
+
+# ---- line of sight ---------------------------------------------------------------------------
+def test_line_of_sight_is_blocked_by_walls_and_diagonal_squeezes():
+    grid = parse_map(
+        textwrap.dedent(
+            """\
+            L....
+            .#...
+            ..#..
+            ....G"""
+        )
+    )
+    sight = line_of_sight(grid.free, (0, 0))
+    assert sight[0].all() and sight[:, 0].all()  # straight along the open row and column
+    assert not sight[1, 1] and not sight[2, 2]  # walls are never in sight
+    assert not sight[3, 3]  # behind the diagonal of walls (1,1), (2,2)
+    assert not sight[1, 2]  # the ray to (1, 2) crosses the interior of the wall (1, 1)
+    assert sight[1, 3]  # the ray to (1, 3) only touches its corner
+    squeeze = np.array([[1, 0, 1], [0, 1, 1], [1, 1, 1]], dtype=bool)
+    assert not line_of_sight(squeeze, (0, 0))[1, 1]  # between two walls meeting at a corner
+    touch = np.array([[1, 1, 1], [0, 1, 1], [1, 1, 1]], dtype=bool)
+    assert line_of_sight(touch, (0, 0))[1, 1]  # touching one wall's corner does not block
+
+
+def test_line_of_sight_range_in_cells():
+    open_cells = np.ones((1, 10), dtype=bool)
+    assert line_of_sight(open_cells, (0, 0), max_range=3.0)[0].tolist() == [True] * 4 + [False] * 6
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    bits=st.lists(st.booleans(), min_size=42, max_size=42),
+    r0=st.integers(0, 5),
+    c0=st.integers(0, 6),
+)
+def test_line_of_sight_matches_the_geometric_reference(bits, r0, c0):
+    open_cells = np.array(bits, dtype=bool).reshape(6, 7)
+    open_cells[r0, c0] = True
+    assert np.array_equal(
+        line_of_sight(open_cells, (r0, c0)), reference_line_of_sight(open_cells, (r0, c0))
+    )
+
+
+@pytest.mark.parametrize("name", ["boyd2", "boydright", "office-60x60-s2"])
+def test_visibility_order_puts_the_cells_in_line_of_sight_first(name):
+    m = load_map(name)
+    sight = m.in_line_of_sight()
+    ranks = sight[m.visibility_order[:, 0], m.visibility_order[:, 1]]
+    k = int(ranks.sum())
+    assert k > 0 and ranks[:k].all() and not ranks[k:].any()
+
+
+def test_shipped_view_is_in_line_of_sight_and_unchanged():
+    # the shipped scenarios' view at their observability (0.14): all in L's line of sight
+    for name, cells in {
+        "boyd2": {(0, 1), (0, 2), (0, 3), (0, 4)},
+        "boydright": {(0, 16), (0, 15), (0, 14), (0, 13), (0, 12), (0, 11)},
+    }.items():
+        m = load_map(name)
+        mask = m.visible_mask(0.14)
+        assert set(map(tuple, np.argwhere(mask).tolist())) == cells
+        assert not (mask & ~m.in_line_of_sight()).any()
+
+
+def test_line_of_sight_hides_a_room_behind_a_corner():
+    m = parse_map(
+        textwrap.dedent(
+            """\
+            #########
+            #L......#
+            #######.#
+            #G......#
+            #########"""
+        )
+    )
+    assert m.in_line_of_sight()[1].sum() == 6  # the upper corridor
+    assert not m.in_line_of_sight()[2:].any()  # around the corner, out of sight
+    k = int(m.in_line_of_sight().sum())
+    assert m.visible_mask(k / m.n_patroller_cells).sum() == k
+    assert not (m.visible_mask(k / m.n_patroller_cells) & ~m.in_line_of_sight()).any()
+
+
+def test_ros_wall_one_pixel_thick_still_separates_rooms(tmp_path):
+    px = np.ones((40, 40), dtype=bool)  # 2 m x 2 m at 0.05 m a pixel
+    px[:, 23] = False  # a wall 5 cm thick, inside the third column of 0.5 m cells
+    r = load_ros_map(_write_ros(tmp_path, px, name="thin", extra={"resolution": 0.05}))
+    assert r.shape == (4, 4)
+    assert not r.patroller[:, 2].any()  # the cells the wall crosses are walls
+    assert r.patroller[:, [0, 1, 3]].all()  # and the rooms either side stay whole

@@ -262,3 +262,112 @@ def test_missing_scenario_file(tmp_path):
     with pytest.raises(ScenarioError, match="absent.toml") as info:
         load_scenario(path)
     assert "boyd2" in str(info.value)  # lists the shipped scenarios
+
+
+def test_observer_start_from_the_scenario_sets_what_l_sees():
+    base = load_scenario("boyd2")
+    moved = base.with_options(observer_start=(0, 5))
+    assert moved.map.observer_start == (0, 5) and moved.map.goals[0] == (9, 1)
+    seen = set(map(tuple, np.argwhere(moved.map.visible_mask(0.14)).tolist()))
+    assert seen == {(0, 6), (0, 7), (0, 8), (0, 4)}  # east of L first, then west
+    assert seen != set(map(tuple, np.argwhere(base.map.visible_mask(0.14)).tolist()))
+    assert moved.domain.visible_states(0.14).sum() == 4 * len(seen)
+
+
+def test_observer_start_and_goal_read_from_toml(tmp_path):
+    from mirl.world._resources import read_shipped_or_file
+
+    text, _, _ = read_shipped_or_file("boyd2", "scenarios", ".toml", ScenarioError, "scenario")
+    path = tmp_path / "moved.toml"
+    path.write_text(text.replace("start = [0, 0]", "start = [0, 5]").replace(
+        "goal = [9, 1]", "goal = [16, 2]"
+    ))  # fmt: skip
+    sc = load_scenario(path)
+    assert (sc.observer_start, sc.goal) == ((0, 5), (16, 2))
+    assert (sc.map.observer_start, sc.map.goals[0]) == ((0, 5), (16, 2))
+    assert sc.map.visible_mask(0.14)[0, 6]
+
+
+# ---- positions in metres and ROS maps' cell size -----------------------------------------------
+TB3 = (
+    Path(__file__).resolve().parents[2] / "docs" / "examples" / "turtlebot3-world.toml"
+).read_text()
+
+
+TB3_START = "start = { x = -2.25, y = 0.0 }   # L's hiding place, a nook off the west end\n"
+
+
+def _tb3(tmp_path, old="", new="") -> Path:
+    assert old in TB3
+    path = tmp_path / "tb3.toml"
+    path.write_text(TB3.replace(old, new) if old else TB3)
+    return path
+
+
+def test_ros_scenario_in_metres_at_any_cell_size(tmp_path):
+    half = load_scenario(_tb3(tmp_path))
+    assert half.map.frame.cell_size == 0.5 and half.map.shape == (39, 39)
+    assert (half.observer_start, half.goal) == ((18, 15), (19, 24))
+    assert half.robots[0].start == (17, 23, 2) and half.robots[1].start == (19, 23, 2)
+    quarter = load_scenario(_tb3(tmp_path, "cell_size = 0.5", "cell_size = 0.25"))
+    assert quarter.map.frame.cell_size == 0.25 and quarter.map.shape == (77, 77)
+    for coarse, fine in (
+        (half.observer_start, quarter.observer_start),
+        (half.robots[0].start[:2], quarter.robots[0].start[:2]),
+    ):  # the same point of the map frame, within a cell at either size
+        xy = np.array(half.map.frame.cell_centre(*coarse))
+        assert np.abs(xy - np.array(quarter.map.frame.cell_centre(*fine))).max() <= 0.25
+
+
+def test_ros_scenario_rectangle_in_metres_keeps_hallway_cells(tmp_path):
+    sc = load_scenario(_tb3(tmp_path))
+    north = sc.reward_spec.feature("north_aisle").cells
+    assert north == tuple((17, c) for c in range(16, 24))
+    wide = "cells = { from = { x = -1.75, y = 0.5 }, to = { x = 1.75, y = -0.5 } }"
+    sc = load_scenario(
+        _tb3(
+            tmp_path, "cells = { from = { x = -1.75, y = 0.5 }, to = { x = 1.75, y = 0.5 } }", wide
+        )
+    )
+    cells = set(sc.reward_spec.feature("north_aisle").cells)
+    assert cells == {c for c in cells if sc.map.patroller[c]} and (18, 16) in cells
+    assert (18, 17) not in cells  # a wall inside the rectangle is skipped
+
+
+@pytest.mark.parametrize(
+    "old, new, field, problem",
+    [
+        ("start = { x = -2.25, y = 0.0 }", "start = { x = -1.25, y = 0.0 }", "observer.start",
+         "not a free cell"),
+        ("goal = { x = 2.25, y = -0.5 }", "goal = { x = 40.0, y = -0.5 }", "observer.goal",
+         "off the map (x -10 to 9.5 m"),
+        ("start = { x = 1.75, y = 0.5, yaw = 180 }", "start = { x = 1.75, y = 0.5 }",
+         "robots[0].start", "missing field 'yaw'"),
+        ("to = { x = 1.75, y = 0.5 }", "to = { x = 1.25, y = 0.0 }",
+         "reward.features[1].cells.to", "not a hallway cell"),
+        ("cell_size = 0.5", "cell_size = 0.01", "frame.cell_size",
+         "smaller than the map resolution"),
+        ("cell_size = 0.5", "cell_size = 0.5\norigin = [0, 0]", "frame.origin", "YAML's 'origin'"),
+        (TB3_START, "", "observer",
+         "missing field 'start' (the map turtlebot3_world does not mark"),
+    ],
+)  # fmt: skip
+def test_ros_scenario_errors_name_the_field(tmp_path, old, new, field, problem):
+    with pytest.raises(ScenarioError) as exc:
+        load_scenario(_tb3(tmp_path, old, new))
+    msg = str(exc.value)
+    assert f": {field}: " in msg and problem in msg and "\n" not in msg
+    assert "`" not in msg  # a scenario's field, not a parameter the CLI would turn into a flag
+
+
+def test_text_map_positions_in_metres_use_its_frame(tmp_path):
+    from mirl.world._resources import read_shipped_or_file
+
+    text, _, _ = read_shipped_or_file("boyd2", "scenarios", ".toml", ScenarioError, "scenario")
+    metric = text.replace("start = [0, 8, 2]", "start = { x = 8.0, y = 0.2, yaw = 175 }")
+    metric = metric.replace("goal = [9, 1]", "goal = { x = 1.1, y = -9.0 }")
+    metric += "\n[frame]\ncell_size = 1.0\n"
+    path = tmp_path / "boyd2-metres.toml"
+    path.write_text(metric)
+    sc, ref = load_scenario(path), load_scenario("boyd2")
+    assert sc.robots[0].start == ref.robots[0].start and sc.goal == ref.goal

@@ -27,6 +27,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         return COMMANDS[args.command](args)
     except BrokenPipeError:
         return _reader_left()
+    except MemoryError:  # the estimate checked before the work was too low for this machine
+        print(
+            "mirl: error: out of memory; the estimate checked at the start was too low for "
+            "this map here: try a larger cell size or a smaller --max-memory share for others",
+            file=sys.stderr,
+        )
+        return 2
     except Exception as exc:
         if not isinstance(exc, (ValueError, OSError, UsageError, *_sqlite_errors())):
             raise

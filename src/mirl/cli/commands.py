@@ -25,7 +25,7 @@ from mirl.cli.checks import (
     unique_lowest,
     warn,
 )
-from mirl.cli.flags import parse_damage, parse_topic
+from mirl.cli.flags import parse_damage, parse_same_frame, parse_topic
 from mirl.experiments.worlds import DEFAULT_WORLD, WorldSpec, get_world
 from mirl.learning.methods import METHODS
 
@@ -67,30 +67,105 @@ def _world(name: str) -> WorldSpec:
     return world
 
 
+# a text map is printed along with --png only if it fits a terminal
+TEXT_MAP_LIMIT = (60, 100)  # rows, columns
+
+
 @command("show-map")
 def _show_map(args: argparse.Namespace) -> int:
     from mirl.viz.maps import map_to_text, save_map_png
-    from mirl.world.catalog import load_map
+    from mirl.world.catalog import is_ros_map, load_map
 
     if args.png:
         check_output(args.png, "--png", FIGURE_SUFFIXES)
-    if args.cell_size is not None and Path(args.map).suffix.lower() not in (".yaml", ".yml"):
+    scenario = None
+    if Path(args.map).suffix.lower() == ".toml":
+        from mirl.world.scenario import load_scenario
+
+        if args.cell_size is not None:
+            raise UsageError(
+                f"--cell-size applies to a map, not to the scenario {args.map} "
+                "(a scenario sets its ROS map's cell size in [frame] cell_size)"
+            )
+        scenario = load_scenario(args.map)
+        gridmap = scenario.map
+    else:
+        if args.cell_size is not None and not is_ros_map(args.map):
+            raise UsageError(
+                f"--cell-size applies to ROS map_server maps (.yaml), not to {args.map} "
+                "(a text map's cells are its characters)"
+            )
+        gridmap = load_map(args.map, cell_size=args.cell_size)
+    degree = args.observability
+    if degree is None and scenario is not None:
+        degree = scenario.observability
+    if degree is not None and not gridmap.marked:
         raise UsageError(
-            f"--cell-size applies to ROS map_server maps (.yaml), not to {args.map} "
-            "(a text map's cells are its characters)"
+            f"--observability: the map {args.map} does not mark L's start; show a scenario "
+            "(.toml) that gives it in [observer]"
         )
-    gridmap = load_map(args.map, cell_size=args.cell_size)
-    mask = gridmap.visible_mask(args.observability) if args.observability is not None else None
-    print(map_to_text(gridmap, mask))
-    n = gridmap.n_patroller_cells
-    line = f"{gridmap.name}: {gridmap.shape[0]}x{gridmap.shape[1]}, {n} patroller cells"
-    if mask is not None:
-        line += f", {int(mask.sum())} visible at observability {args.observability:g}"
-    print(line)
+    mask = gridmap.visible_mask(degree) if degree is not None else None
+    rows, cols = gridmap.shape
+    if not args.png or (rows <= TEXT_MAP_LIMIT[0] and cols <= TEXT_MAP_LIMIT[1]):
+        print(map_to_text(gridmap, mask))
+    for line in _map_summary(gridmap, mask, degree):
+        print(line)
+    routes = {}
+    if scenario is not None:
+        for i, name in enumerate(scenario.robot_names):
+            routes[name] = scenario.patrol_route(i)
+        print(*_scenario_summary(scenario, routes), sep="\n")
     if args.png:
-        save_map_png(gridmap, args.png, observability=args.observability)
+        save_map_png(gridmap, args.png, observability=degree, routes=routes)
         print(f"wrote {args.png}")
     return 0
+
+
+def _map_summary(gridmap, mask, degree) -> list[str]:
+    """What show-map says of a map: cells, states, frame and L's view."""
+    import numpy as np
+
+    n = gridmap.n_patroller_cells
+    rows, cols = gridmap.shape
+    f = gridmap.frame
+    lines = [
+        f"{gridmap.name}: {rows}x{cols} cells of {f.cell_size:g} m, {n} patroller cells, "
+        f"{4 * n} patroller states (cell x heading)"
+    ]
+    (x0, x1), (y1, y0) = f.cell_centre(np.array([0, rows - 1]), np.array([0, cols - 1]))
+    half = f.cell_size / 2
+    lines.append(
+        f"  frame: cell (0, 0) is centred at x = {float(x0):g}, y = {float(y1):g} m; the grid "
+        f"spans x {float(x0) - half:g} to {float(x1) + half:g} m, "
+        f"y {float(y0) - half:g} to {float(y1) + half:g} m"
+    )
+    if not gridmap.marked:
+        lines.append("  L's start and goal: not marked (a scenario gives them in [observer])")
+    if mask is not None:
+        k = int(mask.sum())
+        sight = int((mask & gridmap.in_line_of_sight()).sum())
+        lines.append(
+            f"  L's view at observability {degree:g}: {k} of {n} patroller cells, {sight} of "
+            "them in L's line of sight"
+            + ("" if sight == k else " (the others stand for cameras elsewhere)")
+        )
+    return lines
+
+
+def _scenario_summary(scenario, routes) -> list[str]:
+    f = scenario.map.frame
+    lines = [f"scenario {scenario.name}:"]
+    for what, cell in (("start", scenario.observer_start), ("goal", scenario.goal)):
+        x, y = f.cell_centre(*cell)
+        lines.append(f"  L's {what}: cell {tuple(cell)}, x = {float(x):g}, y = {float(y):g} m")
+    headings = ("east", "north", "west", "south")
+    for robot, (name, route) in zip(scenario.robots, routes.items(), strict=True):
+        r, c, h = robot.start
+        lines.append(
+            f"  {name}: starts on cell ({r}, {c}) facing {headings[h]}; its true policy "
+            f"covers {len({tuple(x) for x in route.tolist()})} cells"
+        )
+    return lines
 
 
 @command("simulate")
@@ -184,6 +259,7 @@ def _read_observations(args: argparse.Namespace, scenario, observability=None):
         drop_off_map=args.drop_off_map,
         visible=args.visible,
         observability=observability,
+        same_frames=dict(parse_same_frame(t) for t in getattr(args, "same_frame", None) or []),
     )
 
 
@@ -197,8 +273,7 @@ def _convert(args: argparse.Namespace) -> int:
     if len(loaded.trajectories) == 0:  # an empty record is never what a conversion is for
         d = loaded.discretised
         why = (
-            f"none of its {sum(r.read for r in d.report)} poses fell on a step "
-            f"({d.summary().splitlines()[0]})"
+            _nothing_placed(d.report) + f" ({d.summary().splitlines()[0]})"
             if d is not None
             else "it has a header and no rows"
         )
@@ -210,6 +285,17 @@ def _convert(args: argparse.Namespace) -> int:
         print(f"{args.input}: grid observations, {loaded.trajectories.horizon} steps")
     print(f"wrote {args.output} ({len(loaded.trajectories)} rows)")
     return 0
+
+
+def _nothing_placed(report) -> str:
+    """Why no pose of a record became an observation, by the drop reasons counted."""
+    drops: dict[str, int] = {}
+    for r in report:
+        for why, n in r.drops().items():
+            drops[why] = drops.get(why, 0) + n
+    total = sum(r.read + r.unplaced for r in report)
+    reasons = ", ".join(f"{n} {why}" for why, n in drops.items() if n)
+    return f"none of its {total} poses was placed on a step and cell: dropped {reasons or 'none'}"
 
 
 @command("learn-transitions")
@@ -265,11 +351,17 @@ def _learn_transitions(args: argparse.Namespace) -> int:
 
 @command("experiment")
 def _experiment(args: argparse.Namespace) -> int:
-    from mirl.experiments.conditions import get_experiment, in_world, with_em_init
+    from mirl.experiments.conditions import (
+        get_experiment,
+        in_world,
+        with_em_init,
+        with_protocol,
+    )
     from mirl.experiments.sweep import run_experiment
 
     check_experiment_flags(args)
     exp = with_em_init(get_experiment(args.name), args.em_init)  # unknown: one line, exit 2
+    exp = with_protocol(exp, args.go_rule, args.relearn)
     _world(args.world)
     exp = in_world(exp, args.world)
     suffix = "" if args.world == DEFAULT_WORLD else f"-{args.world}"
@@ -320,6 +412,7 @@ def _run(args: argparse.Namespace) -> int:
     if fixed and args.watch_until_seen is not None:
         raise UsageError("--obs-steps (a fixed time) and --watch-until-seen exclude each other")
     scenario = _load_scenario(args)
+    _check_cost(args, scenario, "run", args.obs_steps if fixed else DEFAULT_OBS_STEPS)
     result = run_episode(
         scenario,
         args.method,
@@ -331,6 +424,8 @@ def _run(args: argparse.Namespace) -> int:
         max_wait=args.max_wait,
         learn_options={"em_init": args.em_init} if args.em_init else None,
         world=args.world,
+        go_rule=args.go_rule,
+        relearn=args.relearn,
     )
     if args.json:
         print_json(result.to_dict())
@@ -365,14 +460,17 @@ def _learn(args: argparse.Namespace) -> int:
     obs = loaded.trajectories
     _check_em_init(args)
     check_observations(args.observations, obs, scenario.domain)
+    _check_cost(args, scenario, "learn", obs.horizon)
     visible = loaded.visible_states(scenario)
     if visible is None:  # grid data (pose data's summary counts the rows outside the view)
         seen = scenario.domain.visible_states(degree)
         check_visible(args.observations, obs, scenario.domain, seen, degree)
+    truth = _scored_against_truth(args, loaded.kind)
     result = learn(
         obs,
         scenario,
         args.method,
+        score=truth,
         p=check_fixed_p(args),
         visible=visible,
         observability=degree,
@@ -383,7 +481,17 @@ def _learn(args: argparse.Namespace) -> int:
         random_state=args.seed,
         em_init=args.em_init or "intended",
     )
-    out = learn_record(result, scenario, str(args.observations), obs.horizon, degree)
+    agreement = None
+    if not truth:  # robot data: the scenario is the user's description, not a truth
+        from mirl.learning.results import observed_agreement
+
+        agreement = {
+            r.name: observed_agreement(
+                scenario.domain, obs.state_series(scenario.domain, i), r.policy
+            )
+            for i, r in enumerate(result.robots)
+        }
+    out = learn_record(result, scenario, str(args.observations), obs.horizon, degree, agreement)
     if args.json:
         print_json(out)
     else:
@@ -391,6 +499,26 @@ def _learn(args: argparse.Namespace) -> int:
             print(f"{args.observations}: " + loaded.discretised.summary())
         print_learn(out, result, scenario.name)
     return 0
+
+
+def _scored_against_truth(args: argparse.Namespace, kind: str) -> bool:
+    """Whether ``learn`` scores against the scenario's truth (docs/design.md, "Reports on data
+    without a truth"): ``--compare truth`` or ``observed``, or by default for mirl's grid CSVs
+    only — what ``mirl simulate`` writes — and never for robot data (bags, pose CSVs)."""
+    if args.compare != "auto":
+        return args.compare == "truth"
+    from mirl.observations.sources import ROBOT_DATA_KINDS
+
+    return kind not in ROBOT_DATA_KINDS
+
+
+def _check_cost(args: argparse.Namespace, scenario, command: str, steps: int) -> None:
+    """Refuse at once, in one line, a command whose estimated memory exceeds --max-memory
+    (docs/design.md, "Cost before work")."""
+    from mirl.experiments.cost import check_budget, default_max_memory, estimate_cost
+
+    budget = args.max_memory if args.max_memory is not None else default_max_memory()
+    check_budget(scenario, estimate_cost(scenario, command, steps=steps), budget)
 
 
 def _check_em_init(args: argparse.Namespace) -> None:

@@ -20,6 +20,7 @@ __all__ = [
     "float_between",
     "step_seconds",
     "seed",
+    "memory_size",
     "MAX_STEPS",
     "MAX_OBS_STEPS",
     "MAX_WAIT_STEPS",
@@ -130,12 +131,41 @@ def float_between(low: float, high: float, unit: str = ""):
 step_seconds = float_between(0.001, 3600.0, " s")
 
 
+_SIZE_UNITS = {"": 1, "B": 1, "K": 2**10, "KB": 2**10, "M": 2**20, "MB": 2**20, "G": 2**30,
+               "GB": 2**30, "T": 2**40, "TB": 2**40}  # fmt: skip
+
+
+def memory_size(text: str) -> int:
+    """An argparse type: a memory size, ``4G``, ``500MB``, ``1.5 GB`` (binary units; no unit:
+    bytes), at least 64 MB (less than the interpreter with numpy alone)."""
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+)\s*([A-Za-z]*)\s*", text)
+    unit = m.group(2).upper() if m else ""
+    if m is None or unit not in _SIZE_UNITS:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a size such as 4G or 500M")
+    v = int(float(m.group(1)) * _SIZE_UNITS[unit])
+    if v < 64 * 2**20:
+        raise argparse.ArgumentTypeError(f"must be at least 64M, got {text}")
+    return v
+
+
 def parse_topic(text: str) -> tuple[str, str]:
-    """``--topic TOPIC=ROBOT`` (``--topic /tb_i/amcl_pose=I``)."""
+    """``--topic TOPIC=ROBOT`` (``--topic /tb_i/amcl_pose=I``, or for a robot recorded only as
+    a TF frame ``--topic /tf:base_footprint=I``)."""
     topic, sep, robot = text.rpartition("=")
     if not sep or not topic.strip() or not robot.strip():
-        raise ValueError(f"--topic '{text}': expected TOPIC=ROBOT, e.g. /tb_i/amcl_pose=I")
+        raise ValueError(
+            f"--topic '{text}': expected TOPIC=ROBOT, e.g. /tb_i/amcl_pose=I or "
+            "/tf:base_footprint=I"
+        )
     return topic.strip(), robot.strip()
+
+
+def parse_same_frame(text: str) -> tuple[str, str]:
+    """``--same-frame FRAME=MAP_FRAME`` (``--same-frame odom=map``)."""
+    frame, sep, other = text.partition("=")
+    if not sep or not frame.strip() or not other.strip():
+        raise ValueError(f"--same-frame '{text}': expected FRAME=FRAME, e.g. odom=map")
+    return frame.strip().lstrip("/"), other.strip().lstrip("/")
 
 
 def parse_damage(text: str) -> tuple[str, str, float]:
@@ -160,9 +190,14 @@ PARAMETER_FLAGS = {
     "drop_off_map": "--drop-off-map",
     "visible": "--visible",
     "em_init": "--em-init",
+    "go_rule": "--go-rule",
+    "relearn": "--relearn",
     "resume": "--resume",
     "out": "--out",
     "base_seed": "--seed",
+    "cell_size": "--cell-size",
+    "max_memory": "--max-memory",
+    "same_frames": "--same-frame",
 }
 
 

@@ -14,11 +14,18 @@ def verdict_sentence(robot: str, record: dict) -> str:
     return verdict.sentence(robot)
 
 
-def learn_record(result, scenario, observations: str, steps: int, degree: float) -> dict:
+def learn_record(
+    result, scenario, observations: str, steps: int, degree: float, agreement=None
+) -> dict:
     """The JSON-ready record of ``result`` (a :class:`~mirl.learning.results.LearnResult`)
-    learned on ``scenario`` from ``observations`` (``steps`` long, at observability ``degree``)."""
+    learned on ``scenario`` from ``observations`` (``steps`` long, at observability ``degree``).
+
+    ``agreement`` (robot name -> :class:`~mirl.learning.results.ObservedAgreement`) is given
+    when the data has no truth: each robot's record then scores its policy against the observed
+    moves only (``observed_moves``) and has no ``behavior_accuracy`` against the scenario.
+    """
     names = scenario.domain.reward_feature_names
-    robots = {
+    robots: dict[str, dict] = {
         r.name: {
             "weights": dict(zip(names, map(float, r.weights), strict=True)),
             "feature_probabilities": {k: float(v) for k, v in r.feature_probabilities.items()},
@@ -27,6 +34,13 @@ def learn_record(result, scenario, observations: str, steps: int, degree: float)
         }
         for r in result.robots
     }
+    for name, a in (agreement or {}).items():
+        robots[name]["observed_moves"] = {
+            "moves": a.moves,
+            "followed": a.followed,
+            "share": a.share,
+            "unexplained": a.unexplained,
+        }
     candidates = scenario.game.equilibria()
     eq_weights = result.equilibrium_weights or (None,) * len(candidates)
     return {
@@ -66,6 +80,17 @@ def _uncertainty(robot) -> dict:
     }
 
 
+def _observed_line(m: dict) -> str:
+    """A robot's score against its observed moves (data without a truth)."""
+    if not m["moves"]:
+        return "behaviour     no observed moves (never seen at two consecutive steps)"
+    return (
+        f"behaviour     {m['followed']} of {m['moves']} observed moves follow the learned "
+        f"policy ({m['share']:.3f}; against the observed steps only, the data has no truth); "
+        f"{m['unexplained']} explained by no action"
+    )
+
+
 def _pair_labels(result, scenario) -> dict:
     """Teams of three or more: the equilibrium learned for each pair L saw meet."""
     if len(scenario.robots) <= 2:
@@ -99,6 +124,8 @@ def print_learn(out: dict, result, scenario_name: str) -> None:
             print(f"  verdict       {verdict_sentence(name, r['verdict'])}")
         if r["behavior_accuracy"] is not None:
             print(f"  behaviour accuracy {r['behavior_accuracy']:.3f} (vs the scenario's truth)")
+        if "observed_moves" in r:
+            print("  " + _observed_line(r["observed_moves"]))
     weights = ", ".join(
         f"{c['label']} {c['weight']:.2f}"
         for c in out["equilibrium"]["candidates"]

@@ -14,6 +14,7 @@ from mirl.cli.flags import (
     finite_float,
     float_between,
     fraction,
+    memory_size,
     non_negative_float,
     positive_float,
     seed,
@@ -94,6 +95,15 @@ def _learn_parser(sub) -> None:
         help="IRL optimiser (paper: nelder-mead)",
     )
     _em_init_arg(le)
+    _max_memory_arg(le)
+    le.add_argument(
+        "--compare",
+        choices=("auto", "truth", "observed"),
+        default="auto",
+        help="score the learned policies against the scenario's truth (data simulated from it) "
+        "or against the observed moves only (robot data); auto: truth for grid CSVs such as "
+        "mirl simulate writes, observed for bags and pose CSVs",
+    )
     le.add_argument("--seed", type=seed, default=0, help="seed of the learner's random choices")
     le.add_argument("--json", action="store_true", help="print the result as one JSON object")
 
@@ -145,6 +155,8 @@ def _run_parser(sub) -> None:
         help="steps L may wait after observing (450: 25 min in all with 300 observed)",
     )
     _em_init_arg(ru)
+    _protocol_args(ru)
+    _max_memory_arg(ru)
     ru.add_argument("--json", action="store_true", help="print the run as one JSON object")
     ru.add_argument("--plot", metavar="FILE.png", help="draw the run (.png, .pdf or .svg)")
     ru.add_argument(
@@ -202,8 +214,32 @@ def _experiment_parsers(sub) -> None:
         help="when output is not a terminal, a progress line every N runs (None: ~every 5%%)",
     )
     _em_init_arg(ex)
+    _protocol_args(ex)
     rp = sub.add_parser("report", help="figures and DIR/report.md from an experiment's results")
     rp.add_argument("dir", metavar="DIR", help="an experiment's results directory (or parent)")
+
+
+# mirl.planning.go.GO_RULES, spelled out so that building the parser imports no numpy (a test
+# checks that the two agree)
+GO_RULE_CHOICES = ("adaptive", "value")
+
+
+def _protocol_args(sp: argparse.ArgumentParser) -> None:
+    """How L decides to go and whether it keeps learning while it waits; the defaults are the
+    paper's protocol."""
+    sp.add_argument(
+        "--go-rule",
+        choices=GO_RULE_CHOICES,
+        default="value",
+        help="value: the published rule (the best plan value in the window, if positive); "
+        "adaptive: go when the stated P(success) beats the value of waiting until the deadline",
+    )
+    sp.add_argument(
+        "--relearn",
+        action="store_true",
+        help="re-learn while waiting, whenever the record has grown 1.5x (default: learn once "
+        "after observing, as published)",
+    )
 
 
 def _scenario_args(sp: argparse.ArgumentParser, default: str | None = None) -> None:
@@ -237,7 +273,16 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
         action="append",
         metavar="TOPIC=ROBOT",
         help="a pose topic and the scenario robot it is (repeatable), e.g. /tb_i/amcl_pose=I; "
+        "a robot recorded only in the transforms is TF_TOPIC:CHILD_FRAME, e.g. "
+        "/tf:base_footprint=I (composed up to the map frame, /tf_static included); "
         "for a pose CSV, renames a robot of the file",
+    )
+    g.add_argument(
+        "--same-frame",
+        action="append",
+        metavar="FRAME=FRAME",
+        help="two frames that coincide (repeatable), e.g. odom=map: only then are topics "
+        "recorded in both mixed",
     )
     g.add_argument(
         "--step-seconds",
@@ -274,6 +319,17 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
     )
 
 
+def _max_memory_arg(sp: argparse.ArgumentParser) -> None:
+    sp.add_argument(
+        "--max-memory",
+        type=memory_size,
+        default=None,
+        metavar="SIZE",
+        help="refuse at once if the estimated peak memory exceeds SIZE (4G, 500M; None: half "
+        "of this machine's memory)",
+    )
+
+
 def _em_init_arg(sp: argparse.ArgumentParser) -> None:
     sp.add_argument(
         "--em-init",
@@ -286,17 +342,26 @@ def _em_init_arg(sp: argparse.ArgumentParser) -> None:
 
 def _show_map_parser(sub) -> None:
     """``mirl show-map``."""
-    sm = sub.add_parser("show-map", help="print a map (and draw it with --png)")
-    sm.add_argument(
-        "map", metavar="NAME_OR_PATH", help="shipped name, office-RxC[-sK], text map or ROS YAML"
+    sm = sub.add_parser(
+        "show-map",
+        help="print a map or a scenario's map (and draw it with --png)",
+        description="Print a map's cells and states; for a scenario (.toml) also L's start, "
+        "view and goal and the patrol routes. --png draws it, with axes in metres.",
     )
-    _observability_arg(sm, "shade the cells visible to L at degree D")
+    sm.add_argument(
+        "map",
+        metavar="NAME_OR_PATH",
+        help="shipped map name, office-RxC[-sK], text map, ROS map_server YAML or scenario TOML",
+    )
+    _observability_arg(sm, "shade the cells visible to L at degree D (a scenario: its own)")
     sm.add_argument("--png", metavar="FILE", help="also draw the map to a PNG file")
     sm.add_argument(
         "--cell-size",
         type=positive_float,
         default=None,
-        help="cell size in metres for ROS map_server maps (None: the YAML's resolution)",
+        metavar="METRES",
+        help="cell size in metres for a ROS map_server map (None: 0.5, or the resolution if "
+        "coarser)",
     )
 
 

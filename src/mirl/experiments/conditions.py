@@ -45,6 +45,7 @@ __all__ = [
 ]
 
 DEFAULT_OBS_STEPS = 300
+GO_RULE_DEFAULT = "value"  # the paper's rule, run_episode's default
 DEFAULT_RUNS = 200  # per point, as in the paper's simulations
 OUTCOMES = ("success", "detected", "timeout")
 
@@ -63,18 +64,23 @@ class Condition:
     p: float | None = None
     world: str = DEFAULT_WORLD  # a name in mirl.experiments.worlds.WORLDS
     em_init: str | None = None  # DBN-EM's initial T; None: the default ("intended")
+    go_rule: str | None = None  # how L decides to go; None: the default ("value", published)
+    relearn: bool = False  # True: L re-learns while it waits (the default learns once)
     damage: str | None = None  # "ROBOT:FEATURE" damaged in the world's way; None: as scenario
 
     @property
     def key(self) -> str:
         """Stable identity: JSON of the sorted fields (part of the database's primary key);
-        ``world`` only when it is not the grid and ``em_init`` and ``damage`` only when set, so
-        databases written before they existed keep their keys."""
+        ``world`` only when it is not the grid and ``em_init``, ``go_rule``, ``relearn`` and
+        ``damage`` only when set, so databases written before they existed keep their keys."""
+        defaults = {
+            "em_init": None, "go_rule": None, "relearn": False, "world": DEFAULT_WORLD,
+            "damage": None,
+        }  # fmt: skip
         fields = {
             k: v
             for k, v in asdict(self).items()
-            if not (k in ("em_init", "damage") and v is None)
-            and not (k == "world" and v == DEFAULT_WORLD)
+            if not (k in defaults and v == defaults[k] and type(v) is type(defaults[k]))
         }
         return json.dumps(fields, sort_keys=True, separators=(",", ":"))
 
@@ -85,7 +91,11 @@ class Condition:
     @property
     def label(self) -> str:
         label = self.method if self.p is None else f"{self.method} (p={self.p:g})"
-        label = label if self.em_init is None else f"{label} ({self.em_init} init)"
+        if self.em_init is not None:
+            label = f"{label} ({self.em_init} init)"
+        protocol = [f"{self.go_rule} rule"] if self.go_rule is not None else []
+        protocol += ["re-learning"] if self.relearn else []
+        label = f"{label} ({', '.join(protocol)})" if protocol else label
         return label if self.damage is None else f"{label}, {self.damage} damaged"
 
     def scenario_object(self):
@@ -173,6 +183,10 @@ def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
         kwargs["p"] = condition.p
     if condition.em_init is not None:
         kwargs["learn_options"] = {"em_init": condition.em_init}
+    if condition.go_rule is not None:
+        kwargs["go_rule"] = condition.go_rule
+    if condition.relearn:
+        kwargs["relearn"] = True
     scenario = condition.scenario_object()
     result = run_episode(
         scenario,
@@ -223,6 +237,10 @@ def _flatten_run_result(result: Any) -> dict[str, Any]:
     for robot, n in (getattr(result, "seen_steps", None) or {}).items():
         out[f"seen_steps_{robot}"] = int(n)
     out["plan_value"] = _maybe_float(getattr(result, "plan_value", None))
+    out["predicted_success"] = _maybe_float(getattr(result, "predicted_success", None))
+    relearns = getattr(result, "relearns", None)
+    if relearns is not None:
+        out["relearns"] = len(relearns)
     out["plan_attempts"] = len(getattr(result, "attempts", ()) or ())
     extras = getattr(result, "extras", None)
     if extras is not None:  # the world's own counts (the physics world's contact events)
@@ -381,4 +399,16 @@ def with_em_init(exp: Experiment, init: str | None) -> Experiment:
     conditions = tuple(
         replace(c, em_init=init) if METHODS[c.method].uses_em_init else c for c in exp.conditions
     )
+    return replace(exp, conditions=conditions)
+
+
+def with_protocol(exp: Experiment, go_rule: str, relearn: bool) -> Experiment:
+    """``exp`` with every condition deciding by ``go_rule`` and, with ``relearn``, re-learning
+    while L waits; ``go_rule="value", relearn=False`` is the paper's protocol (the default)."""
+    rule = None if go_rule == GO_RULE_DEFAULT else go_rule
+    if rule is None and not relearn:
+        return exp
+    if exp.run_function is not episode_run:
+        raise StoreError(f"`go_rule`: experiment {exp.name} has no runs of L to decide")
+    conditions = tuple(replace(c, go_rule=rule, relearn=relearn) for c in exp.conditions)
     return replace(exp, conditions=conditions)

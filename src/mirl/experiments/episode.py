@@ -48,19 +48,38 @@ from typing import Any
 
 import numpy as np
 
-from mirl.experiments.execution import PlanFollower, execute, wait_for_go
-from mirl.experiments.records import MAX_WAIT, WATCH_LIMIT, Detection, PlanAttempt, RunResult
+from mirl.experiments.execution import Decision, PlanFollower, execute, wait_for_go
+from mirl.experiments.records import (
+    MAX_WAIT,
+    WATCH_LIMIT,
+    Detection,
+    PlanAttempt,
+    Relearn,
+    RunResult,
+)
 from mirl.experiments.worlds import DEFAULT_WORLD, RunWorld, make_world
 from mirl.learning.learn import learn
-from mirl.learning.methods import get_method
+from mirl.learning.methods import Method, get_method
 from mirl.learning.results import LearnResult, behavior_accuracy, oracle_models
 from mirl.observations.trajectories import Trajectories
 from mirl.planning.belief import BeliefFilter
-from mirl.planning.go import ObserverPlan, solve_observer_mdp
+from mirl.planning.go import GO_RULES, ObserverPlan, solve_observer_mdp, waiting_value
 from mirl.planning.observer import ObserverModel, observer_model, shortest_path_policy
+from mirl.planning.success import success_probability
 from mirl.world.scenario import Scenario
 
-__all__ = ["run_episode"]
+__all__ = ["run_episode", "RELEARN_GROWTH", "OPPORTUNITY_STEPS"]
+
+# L re-learns while it waits once its record holds this factor more observed steps than at its
+# last learning (docs/design.md, "Learning while waiting")
+RELEARN_GROWTH = 1.5
+# the adaptive go rule counts one fresh chance to go per this many steps left after the window
+# (docs/design.md, "The go rule")
+OPPORTUNITY_STEPS = 30
+# the adaptive rule's first picture of its chances: what going would have promised every this
+# many steps of the observation phase, from this step on (the filter has settled by then)
+PAST_CHANCE_EVERY = 10
+PAST_CHANCE_FROM = 60
 
 
 @dataclass(frozen=True)
@@ -75,6 +94,8 @@ class _Planning:
     hazard: str
     goal_reward: float
     detection_penalty: float
+    go_rule: str = "value"
+    opportunity_steps: int = OPPORTUNITY_STEPS
 
 
 @dataclass
@@ -88,6 +109,9 @@ class _Going:
     attempts: tuple[PlanAttempt, ...] = ()
     plan_value: float | None = None
     belief: BeliefFilter | None = None
+    predicted_success: float | None = None
+    learned: LearnResult | None = None  # the models L went with (re-learned or not)
+    relearns: tuple[Relearn, ...] | None = None
 
 
 def run_episode(
@@ -113,6 +137,10 @@ def run_episode(
     watch_until_seen: int | None = None,
     max_obs_steps: int = WATCH_LIMIT,
     world: str = DEFAULT_WORLD,
+    go_rule: str = "value",
+    relearn: bool = False,
+    relearn_growth: float = RELEARN_GROWTH,
+    opportunity_steps: int = OPPORTUNITY_STEPS,
 ) -> RunResult:
     """Run one penetration (module doc). ``learned`` overrides learning (for tests and
     experiments with hand-made models). ``travel_steps`` is the part of the planning horizon
@@ -122,6 +150,13 @@ def run_episode(
     ``watch_until_seen=K`` (``mirl run``'s default; None here, so experiments keep the paper's
     fixed observation time): L observes at least ``obs_steps`` steps and then keeps watching
     until it has seen every patroller on K steps, or ``max_obs_steps`` have passed.
+
+    ``go_rule`` is one of :data:`~mirl.planning.go.GO_RULES`: ``"value"`` (default) is the
+    published rule (``detection_penalty`` applies to it alone); ``"adaptive"`` goes when its
+    stated probability of success beats the value of waiting (one fresh chance per
+    ``opportunity_steps`` steps left after the window). With ``relearn``, a method that learns
+    re-learns while L waits whenever its record holds ``relearn_growth`` times the observed
+    steps of its last learning. The defaults are the paper's protocol.
     """
     spec = get_method(method)
     if obs_steps < 1:
@@ -130,6 +165,12 @@ def run_episode(
         raise ValueError(f"watch_until_seen must be in [1, {max_obs_steps}]")
     if max_wait < 0 or window < 0 or replan_every < 1:
         raise ValueError("max_wait and window must be >= 0 and replan_every >= 1")
+    if go_rule not in GO_RULES:
+        raise ValueError(f"`go_rule` must be one of {', '.join(GO_RULES)}, got '{go_rule}'")
+    if not relearn_growth > 1.0:
+        raise ValueError(f"`relearn_growth` must be above 1, got {relearn_growth}")
+    if opportunity_steps < 1:
+        raise ValueError(f"`opportunity_steps` must be at least 1, got {opportunity_steps}")
     degree = scenario.observability if observability is None else float(observability)
     sim_seed, noise_seed, learn_seed, random_seed = np.random.SeedSequence(int(seed)).spawn(4)
     timings = dict.fromkeys(("observe", "learn", "plan", "execute"), 0.0)
@@ -146,16 +187,17 @@ def run_episode(
     timings["observe"] += time.perf_counter() - clock
 
     clock = time.perf_counter()
+    learner: _Learner | None = None
     if learned is None and spec.plans and not spec.learns:
         learned = oracle_models(scenario)
     elif learned is None and spec.learns:
-        observations = _observations(scenario, run_world, t_obs)
         learn_seed_int = int(learn_seed.generate_state(1)[0])
         kwargs: dict[str, Any] = {"method": method, "p": p, **(learn_options or {})}
         # the run's observability (maybe not the scenario's) and the run's learning stream
         kwargs.setdefault("visible", run_world.visible)
         kwargs.setdefault("random_state", learn_seed_int)
-        learned = learn(observations, scenario, **kwargs)
+        learner = _Learner(scenario, run_world, spec, kwargs, relearn_growth if relearn else None)
+        learned = learner.learn_now()
     timings["learn"] += time.perf_counter() - clock
 
     path_len = int(model.distance_to_goal[model.start_state])
@@ -168,14 +210,17 @@ def run_episode(
         hazard=hazard,
         goal_reward=goal_reward,
         detection_penalty=detection_penalty,
+        go_rule=go_rule,
+        opportunity_steps=opportunity_steps,
     )
     if not spec.plans:
         going = _random_going(model, t_obs, window, np.random.default_rng(random_seed))
     else:
         assert learned is not None
         visible = run_world.visible if negative_evidence else None
-        belief = BeliefFilter(scenario.domain, learned, visible=visible, joint=joint)
-        going = _planned_going(run_world, belief, model, planning, timings)
+        watcher = _Watcher(scenario, run_world, learned, learner, visible, joint, timings)
+        going = _planned_going(run_world, watcher, model, planning, timings)
+        learned = going.learned
 
     outcome, plan = "timeout", going.plan
     path: list[tuple[int, ...]] = []
@@ -198,7 +243,12 @@ def run_episode(
         scenario, method, int(seed), degree, t_obs + 1, run_world, t_obs, learned, going,
         (outcome, path, detections, plan), timings,
     )  # fmt: skip
-    return replace(result, watch_until_seen=watch_until_seen)
+    return replace(
+        result,
+        watch_until_seen=watch_until_seen,
+        predicted_success=going.predicted_success,
+        relearns=going.relearns if learner is not None and learner.growth is not None else None,
+    )
 
 
 def _observe(world: RunWorld, obs_steps: int, until_seen: int | None, limit: int) -> None:
@@ -227,47 +277,199 @@ def _random_going(
     return _Going(go_time=t_obs + int(rng.integers(0, window + 1)), policy=policy)
 
 
+class _Learner:
+    """L's learning from everything it has seen so far: once after observing, and again while it
+    waits (``growth``: whenever its record holds that factor more observed steps — steps with
+    both ends seen, summed over the patrollers — than at its last learning; None: never),
+    warm-started from the last solution's reward weights."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        world: RunWorld,
+        spec: Method,
+        kwargs: dict[str, Any],
+        growth: float | None,
+    ) -> None:
+        self.scenario, self.world, self.spec, self.kwargs = scenario, world, spec, kwargs
+        self.growth = growth
+        self.learned: LearnResult | None = None
+        self.learned_on = 0  # observed steps of the last learning
+        self.observed = 0  # observed steps so far
+        self.counted_to = 0  # the last step counted
+
+    def _count(self) -> int:
+        seen = self.world.seen
+        while self.counted_to < len(seen) - 1:
+            a, b = seen[self.counted_to], seen[self.counted_to + 1]
+            self.observed += int(((a >= 0) & (b >= 0)).sum())
+            self.counted_to += 1
+        return self.observed
+
+    def learn_now(self) -> LearnResult:
+        observations = _observations(self.scenario, self.world, self.world.t)
+        kwargs = dict(self.kwargs)
+        if self.learned is not None:
+            kwargs["initial_weights"] = [r.weights for r in self.learned.robots]
+        self.learned = learn(observations, self.scenario, **kwargs)
+        self.learned_on = self._count()
+        return self.learned
+
+    def due(self) -> bool:
+        """Whether the record has grown enough for a re-learn."""
+        if self.growth is None:
+            return False
+        return self._count() >= max(self.growth * self.learned_on, self.learned_on + 10)
+
+
+class _Watcher:
+    """L in its room: the belief filter over everything it has seen, under its current models,
+    re-learned (and the filter re-run over the whole record) when its :class:`_Learner` is due."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        world: RunWorld,
+        learned: LearnResult,
+        learner: _Learner | None,
+        visible: np.ndarray | None,
+        joint: bool | None,
+        timings: dict[str, float],
+    ) -> None:
+        self.scenario, self.world, self.learner = scenario, world, learner
+        self.visible, self.joint, self.timings = visible, joint, timings
+        self.relearns: list[Relearn] = []
+        self.learned = learned
+        self.past: list[np.ndarray] = []  # beliefs of the observation phase, for past chances
+        self.belief = self._filter(learned)
+
+    def _filter(self, learned: LearnResult) -> BeliefFilter:
+        clock = time.perf_counter()
+        belief = BeliefFilter(self.scenario.domain, learned, visible=self.visible, joint=self.joint)
+        self.past = []
+        for t, seen in enumerate(self.world.seen):
+            belief.update(seen)
+            if t >= PAST_CHANCE_FROM and t % PAST_CHANCE_EVERY == 0 and belief.belief is not None:
+                self.past.append(belief.belief)  # update() replaces, never mutates, the belief
+        self.timings["plan"] += time.perf_counter() - clock
+        return belief
+
+    def observe(self) -> bool:
+        """Take in the newest step; re-learn if due. Returns whether the models changed."""
+        if self.learner is not None and self.learner.due():
+            clock = time.perf_counter()
+            self.learned = self.learner.learn_now()
+            seconds = time.perf_counter() - clock
+            self.timings["learn"] += seconds
+            self.relearns.append(_relearn_record(self.world.t, self.learner, seconds))
+            self.belief = self._filter(self.learned)
+            return True
+        clock = time.perf_counter()
+        self.belief.update(self.world.seen[-1])
+        self.timings["plan"] += time.perf_counter() - clock
+        return False
+
+
+def _relearn_record(t: int, learner: _Learner, seconds: float) -> Relearn:
+    learned = learner.learned
+    assert learned is not None
+    probs = {
+        r.name: {k: float(v) for k, v in r.feature_probabilities.items()} for r in learned.robots
+    }
+    ranked = sorted((p, f"{n}:{f}") for n, fp in probs.items() for f, p in fp.items())
+    verdict = None
+    if len(ranked) == 1 or (len(ranked) > 1 and ranked[1][0] - ranked[0][0] > 1e-6):
+        verdict = ranked[0][1]
+    acc = [r.behavior_accuracy for r in learned.robots if r.behavior_accuracy is not None]
+    return Relearn(
+        t=t,
+        observed_steps=learner.learned_on,
+        feature_probabilities=probs,
+        verdict=verdict,
+        behavior_accuracy=float(np.mean(acc)) if acc else None,
+        seconds=seconds,
+    )
+
+
 def _planned_going(
     world: RunWorld,
-    belief: BeliefFilter,
+    watcher: _Watcher,
     model: ObserverModel,
     planning: _Planning,
     timings: dict[str, float],
 ) -> _Going:
-    """Filter everything L saw, then wait in the room re-planning until a go time (or the
-    deadline); the plan's time-indexed policy is how L will go."""
-    clock = time.perf_counter()
-    for seen in world.seen:
-        belief.update(seen)
-    timings["plan"] += time.perf_counter() - clock
+    """Wait in the room, deciding by the go rule until a go time (or the deadline); the plan's
+    time-indexed policy is how L will go."""
 
-    def solve(steps: int, window: int) -> ObserverPlan:
+    def solve(steps: int, window: int, penalty: float, min_value: float = 0.0) -> ObserverPlan:
         return solve_observer_mdp(
             model,
-            belief.predict(steps, model),
+            watcher.belief.predict(steps, model),
             window=window,
             goal_reward=planning.goal_reward,
-            detection_penalty=planning.detection_penalty,
+            detection_penalty=penalty,
+            min_value=min_value,
             hazard=planning.hazard,
         )
 
-    def make_plan() -> ObserverPlan:
+    def decide_value() -> Decision:
+        """The published rule: the best go value in the window, if positive."""
         win = min(planning.window, planning.deadline - world.t)
-        return solve(win + planning.travel, win)
+        plan = solve(win + planning.travel, win, planning.detection_penalty)
+        go_time = None if plan.go_time is None else world.t + plan.go_time
+        attempt = PlanAttempt(world.t, float(plan.go_values.max()), go_time)
+        next_round = world.t + planning.replan_every if go_time is None else planning.deadline + 1
+        return Decision(plan, go_time, next_round, attempt)
 
-    def replan() -> ObserverPlan:
-        # L out in the hallway: the same MDP (its start-cell rule does not matter there)
-        return solve(planning.travel, 0)
+    stated: list[float] = []  # the chances of going now L has stated, one per round
+    chance: dict[int, float] = {}  # by step
 
+    def decide_adaptive() -> Decision:
+        """Go now when the stated P(success) of going now beats both the best go time the
+        window offers and the value of the chances still to come before the deadline."""
+        t = world.t
+        win = min(planning.window, planning.deadline - t)
+        plan = solve(win + planning.travel, win, 0.0, min_value=-1.0)  # P(success) objective
+        now = success_probability(watcher.belief, model, plan, extra=planning.travel).success
+        if watcher.past:  # the chances the record promised, under the current models
+            past = [
+                success_probability(watcher.belief, model, plan, extra=planning.travel, belief=b)
+                for b in watcher.past
+            ]
+            stated[:] = [e.success for e in past]
+            watcher.past = []
+        stated.append(now)
+        chance[t] = now
+        later = (planning.deadline - t - win) // planning.opportunity_steps
+        bar = waiting_value(stated, later)
+        best = plan.go_time if plan.go_time is not None else 0
+        go = win == 0 or (best == 0 and now >= bar)
+        go_time = t if go else None
+        step = best if 0 < best < planning.replan_every else planning.replan_every
+        attempt = PlanAttempt(t, float(plan.go_values.max()), go_time, now)
+        return Decision(plan, go_time, t + step, attempt)
+
+    decide = decide_adaptive if planning.go_rule == "adaptive" else decide_value
     plan, go_time, attempts = wait_for_go(
-        world, belief, make_plan, planning.deadline, planning.replan_every, planning.commit, timings
+        world, decide, watcher.observe, planning.deadline, planning.commit, timings
     )
     plan_value = None if go_time is None else float(plan.go_values[go_time - plan.t0])
+    belief = watcher.belief
 
     def policy(k: int, s: int) -> int:
         return int(plan.policy[k, s])
 
-    return _Going(go_time, policy, replan, plan, tuple(attempts), plan_value, belief)
+    def replan() -> ObserverPlan:
+        # L out in the hallway: the same MDP (its start-cell rule does not matter there)
+        penalty = planning.detection_penalty if planning.go_rule == "value" else 0.0
+        return solve(planning.travel, 0, penalty)
+
+    return _Going(
+        go_time, policy, replan, plan, tuple(attempts), plan_value, belief,
+        predicted_success=None if go_time is None else chance.get(go_time),
+        learned=watcher.learned,
+        relearns=tuple(watcher.relearns),
+    )  # fmt: skip
 
 
 def _run_result(

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -15,38 +16,54 @@ from mirl.planning.belief import NOT_WATCHING, BeliefFilter
 from mirl.planning.go import ObserverPlan
 from mirl.planning.observer import ObserverModel
 
-__all__ = ["wait_for_go", "execute", "PlanFollower", "propagate_blind"]
+__all__ = ["Decision", "wait_for_go", "execute", "PlanFollower", "propagate_blind"]
+
+
+@dataclass(frozen=True)
+class Decision:
+    """One planning round's outcome: the plan, the absolute go time (None: not yet), the step
+    of the next round unless something happens first, and the round's record."""
+
+    plan: ObserverPlan
+    go_time: int | None
+    next_round: int
+    attempt: PlanAttempt
 
 
 def wait_for_go(
     world: RunWorld,
-    belief: BeliefFilter,
-    make_plan: Callable[[], ObserverPlan],
+    decide: Callable[[], Decision],
+    observe: Callable[[], bool],
     deadline: int,
-    replan_every: int,
     commit: bool,
     timings: dict[str, float],
 ) -> tuple[ObserverPlan, int | None, list[PlanAttempt]]:
-    """L in its room: plan, then keep watching until the go time or the deadline.
+    """L in its room: decide, then keep watching until the go time or the deadline.
 
-    L re-plans every ``replan_every`` steps while it has no go time and — unless ``commit`` —
-    also whenever a patroller leaves its view (the moment its belief about that robot is
-    sharpest), so a newer plan can move or cancel the go time. Returns the plan to execute, the
-    absolute go time (None: timed out) and every planning round.
+    ``decide`` is one planning round (the go rule); ``observe`` takes in the newest step's
+    sightings and says whether L's models changed (a re-learn), which calls a new round. A
+    round also comes at the step the last one named and — unless ``commit`` holds a go time —
+    whenever a patroller leaves L's view (the moment its belief about that robot is sharpest),
+    so a newer plan can move or cancel the go time. Returns the plan to execute, the absolute
+    go time (None: timed out) and every planning round.
     """
     attempts: list[PlanAttempt] = []
     plan: ObserverPlan | None = None
     go_time: int | None = None
     next_plan = world.t
+    changed = False
     while True:
         left_view = world.t > 0 and np.any((world.seen[-2] >= 0) & (world.seen[-1] < 0))
-        if world.t >= next_plan or (left_view and not (commit and go_time is not None)):
+        if (
+            world.t >= next_plan
+            or (left_view and not (commit and go_time is not None))
+            or (changed and go_time is None)
+        ):
             clock = time.perf_counter()
-            plan = make_plan()
+            decision = decide()
             timings["plan"] += time.perf_counter() - clock
-            go_time = None if plan.go_time is None else world.t + plan.go_time
-            attempts.append(PlanAttempt(world.t, float(plan.go_values.max()), go_time))
-            next_plan = world.t + replan_every if go_time is None else deadline + 1
+            plan, go_time, next_plan = decision.plan, decision.go_time, decision.next_round
+            attempts.append(decision.attempt)
         assert plan is not None
         if go_time is not None and world.t >= go_time:
             return plan, go_time, attempts
@@ -55,9 +72,7 @@ def wait_for_go(
         clock = time.perf_counter()
         world.step()
         timings["observe"] += time.perf_counter() - clock
-        clock = time.perf_counter()
-        belief.update(world.seen[-1])
-        timings["plan"] += time.perf_counter() - clock
+        changed = observe()
 
 
 def execute(

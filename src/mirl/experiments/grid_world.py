@@ -7,8 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mirl.experiments.worlds import Detection
-from mirl.planning.observer import ObserverModel
+from mirl.experiments.worlds import Detection, RunSetup
 from mirl.simulation.grid import PatrolSimulator
 from mirl.world.scenario import Scenario
 
@@ -20,35 +19,20 @@ class GridRunWorld:
 
     Parameters
     ----------
-    scenario : Scenario
-        The patrollers, their true models and L's map.
-    observer : ObserverModel
-        L's model: its start, goal, moves, action failure probability and who can see it.
-    observability : float
-        The degree of L's view from its room.
-    seed : int
-        Seeds the patrollers' simulator (random starts on their patrol cycles, outcomes).
-    noise : numpy.random.SeedSequence
-        Seeds L's own action failures, a stream apart from the patrollers'.
+    setup : RunSetup
+        The scenario, L's model, L's view, the patrollers' seed and L's failure stream.
     """
 
-    def __init__(
-        self,
-        scenario: Scenario,
-        observer: ObserverModel,
-        *,
-        observability: float,
-        seed: int,
-        noise: np.random.SeedSequence,
-    ) -> None:
-        self.sim = PatrolSimulator(scenario, observability=observability)
-        obs, info = self.sim.reset(seed=seed, options={"random_starts": True})
+    def __init__(self, setup: RunSetup) -> None:
+        scenario, observer = setup.scenario, setup.observer
+        self.sim = PatrolSimulator(scenario, observability=setup.observability)
+        obs, info = self.sim.reset(seed=setup.seed, options={"random_starts": True})
         self.visible = self.sim.visible
         self.domain = scenario.domain
         self.names = scenario.robot_names
         self.observer = observer
         self._observer_state = observer.start_state
-        self._noise = np.random.default_rng(noise)
+        self._noise = np.random.default_rng(setup.noise)
         self.true: list[np.ndarray] = [info["states"].copy()]
         self.seen: list[np.ndarray] = [self._seen(obs)]
         self._t = 0

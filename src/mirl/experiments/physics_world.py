@@ -16,11 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from mirl.experiments.worlds import Detection
+from mirl.experiments.worlds import Detection, RunSetup
 from mirl.physics import mujoco_version
 from mirl.physics.config import WHEELS, physics_config, with_motor_strength
 from mirl.physics.patrol import PhysicalWorld
-from mirl.planning.observer import ObserverModel
 from mirl.world.scenario import Scenario
 
 __all__ = ["PhysicsRunWorld", "PhysicsExtras"]
@@ -49,28 +48,28 @@ class PhysicsExtras:
         weak = [f"{r}:{w}={s:g}" for r, ws in strengths.items() for w, s in ws.items() if s < 1]
         return f"physics, motor strength: {', '.join(weak) or 'all motors healthy'}"
 
+    def damaged(self) -> bool:
+        strengths = self.world.cfg.motor_strength
+        return any(s < 1 for ws in strengths.values() for s in ws.values())
+
 
 class PhysicsRunWorld:
     """A :class:`~mirl.physics.patrol.PhysicalWorld` behind the run interface.
 
-    Parameters are those of :class:`~mirl.experiments.grid_world.GridRunWorld`; ``noise`` is
-    unused, since L's failures here are physical.
+    Parameters
+    ----------
+    setup : RunSetup
+        As for the grid world; its ``noise`` stream is unused, since L's failures here are
+        physical.
     """
 
-    def __init__(
-        self,
-        scenario: Scenario,
-        observer: ObserverModel,
-        *,
-        observability: float,
-        seed: int,
-        noise: np.random.SeedSequence,
-    ) -> None:
+    def __init__(self, setup: RunSetup) -> None:
+        scenario, observer = setup.scenario, setup.observer
         start_heading = int(observer.domain.states[observer.start_state][2])
         self.physics = PhysicalWorld(
             scenario,
-            observability=observability,
-            seed=seed,
+            observability=setup.observability,
+            seed=setup.seed,
             random_starts=True,
             observer_heading=start_heading,
         )

@@ -22,6 +22,7 @@ __all__ = [
     "WATCH_LIMIT",
     "Detection",
     "PlanAttempt",
+    "Relearn",
     "RunResult",
 ]
 
@@ -43,6 +44,39 @@ class PlanAttempt:
     t: int
     best_value: float
     go_time: int | None
+    predicted_success: float | None = None  # the adaptive rule: P(success) of going now
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "t": self.t,
+            "best_value": self.best_value,
+            "go_time": self.go_time,
+            **_if_set(predicted_success=self.predicted_success),
+        }
+
+
+@dataclass(frozen=True)
+class Relearn:
+    """One re-learn while L waited: when, on how many observed steps (both ends seen, summed
+    over the patrollers), and what it changed to — the feature probabilities, the verdict (the
+    lowest feature, ``robot:feature``; None when none is lowest alone), the behaviour accuracy
+    (mean over the patrollers) — and its wall time."""
+
+    t: int
+    observed_steps: int
+    feature_probabilities: dict[str, dict[str, float]]
+    verdict: str | None
+    behavior_accuracy: float | None
+    seconds: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "t": self.t,
+            "observed_steps": self.observed_steps,
+            "feature_probabilities": self.feature_probabilities,
+            "verdict": self.verdict,
+            "behavior_accuracy": self.behavior_accuracy,
+        }
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,6 +107,8 @@ class RunResult:
     seen_steps: dict[str, int] = field(default_factory=dict)  # observation-phase sightings
     extras: WorldExtras | None = None  # what the run's world records beyond the interface
     watch_until_seen: int | None = None  # the observation rule of `mirl run` (None: fixed)
+    predicted_success: float | None = None  # the adaptive rule's P(success) at the go time
+    relearns: tuple[Relearn, ...] | None = None  # None: L learned once
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -85,15 +121,17 @@ class RunResult:
             "outcome": self.outcome,
             "go_time": self.go_time,
             "plan_value": self.plan_value,
+            **_if_set(predicted_success=self.predicted_success),
             "behavior_accuracy": self.behavior_accuracy,
             "behavior_accuracy_per_robot": self.behavior_accuracy_per_robot,
             "feature_probabilities": self.feature_probabilities,
             **_uncertainty(self.learned),
             "timings": self.timings,
             "seen_steps": self.seen_steps,
-            "plan_attempts": [
-                {"t": a.t, "best_value": a.best_value, "go_time": a.go_time} for a in self.attempts
-            ],
+            "plan_attempts": [a.to_dict() for a in self.attempts],
+            **_if_set(
+                relearns=None if self.relearns is None else [r.to_dict() for r in self.relearns]
+            ),
             "detections": [
                 {
                     "t": d.t,

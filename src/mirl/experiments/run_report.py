@@ -123,6 +123,28 @@ def _truth(scenario: Scenario, result: RunResult) -> str:
     return f"truth: {', '.join(damaged) or 'no damage'}"
 
 
+def _relearn_lines(result: RunResult) -> list[str]:
+    """What re-learning while L waited changed (nothing when L learned once)."""
+    if result.relearns is None:
+        return []
+    if not result.relearns:
+        return ["relearned never while waiting (its record did not grow enough before it went)"]
+    steps = ", ".join(str(r.t) for r in result.relearns)
+    last = result.relearns[-1]
+    acc = (
+        ""
+        if last.behavior_accuracy is None
+        else f", behaviour accuracy {last.behavior_accuracy:.2f}"
+    )
+    lowest = last.verdict.replace(":", "'s ") if last.verdict else "no single lowest feature"
+    lines = [f"relearned {len(result.relearns)} times while waiting (t = {steps}), warm-started"]
+    lines.append(
+        f"          last on {last.observed_steps} observed steps: lowest {lowest}{acc} "
+        "(the models above are the last ones)"
+    )
+    return lines
+
+
 def format_report(scenario: Scenario, result: RunResult) -> str:
     """The short readable report printed by ``mirl run``."""
     dom = scenario.domain
@@ -134,7 +156,7 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         f"({n_vis}/{scenario.map.n_patroller_cells} cells), seed {result.seed}",
         _wrapped(
             f"{result.method} ({paper} in the paper's figures): {meaning}. L hides in its room at "
-            f"{scenario.map.observer_start} and wants to reach {scenario.goal} unseen; cells "
+            f"{scenario.observer_start} and wants to reach {scenario.goal} unseen; cells "
             "are (row, col), a patroller's state is its cell and the way it faces; a step is 2 s."
         ),
         "",
@@ -177,6 +199,7 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
             where = f"turning around at {ends}" if ends else "without turning around"
             lines.append(f"          patrol of {r.name}: a {len(cyc)}-step loop {where} ({same})")
         lines += _equilibrium_lines(learned, list(scenario.robot_names))
+    lines += _relearn_lines(result)
     if result.go_time is None:
         lines.append(
             f"planned   {len(result.attempts)} rounds, no go time with a positive value "
@@ -186,6 +209,16 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         )
     elif result.plan_value is None:
         lines.append(f"went      at t={result.go_time} (a random time)")
+    elif result.predicted_success is not None:
+        lines.append(
+            f"went      L went at t = {result.go_time} expecting to get through with probability "
+            f"{result.predicted_success:.2f} ({result.go_time - (result.obs_steps - 1)} steps "
+            f"after observing, {len(result.attempts)} planning rounds)"
+        )
+        lines.append(
+            "          (P(goal reached unseen) along its plan under its models and belief; L goes "
+            "when it beats the chance it can expect by waiting until its deadline)"
+        )
     else:
         lines.append(
             f"went      at t={result.go_time}, {result.go_time - (result.obs_steps - 1)} steps "

@@ -28,6 +28,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Detection",
+    "RunSetup",
     "RunWorld",
     "WorldExtras",
     "WorldSpec",
@@ -48,6 +49,32 @@ class Detection:
     observer_cell: tuple[int, int]
 
 
+@dataclass(frozen=True)
+class RunSetup:
+    """What a world is built from for one run.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The patrollers, their true models and L's map.
+    observer : ObserverModel
+        L's model: its start, goal, moves, action failure probability and who can see it.
+    observability : float
+        The degree of L's view from its room.
+    seed : int
+        Seeds the patrollers' world (random starts on their patrol cycles, outcomes).
+    noise : numpy.random.SeedSequence
+        Seeds L's own action failures where the world draws them, a stream apart from the
+        patrollers'.
+    """
+
+    scenario: Scenario
+    observer: ObserverModel
+    observability: float
+    seed: int
+    noise: np.random.SeedSequence
+
+
 class WorldExtras(Protocol):
     """What a world records beyond the interface (the physics world's contacts, its MuJoCo
     version and its continuous tracks); kept in :attr:`RunResult.extras
@@ -59,6 +86,10 @@ class WorldExtras(Protocol):
 
     def truth(self) -> str | None:
         """What is really damaged in this world, for the run report (None: the scenario's)."""
+        ...
+
+    def damaged(self) -> bool | None:
+        """Whether some part is really damaged in this world (None: as in the scenario)."""
         ...
 
 
@@ -113,8 +144,8 @@ class WorldSpec:
     name : str
         The name ``run_episode(world=...)`` and ``--world`` take.
     entry_point : str
-        ``"module:Class"`` of the class implementing :class:`RunWorld`. It is constructed as
-        ``Class(scenario, observer, observability=..., seed=..., noise=...)`` and also provides
+        ``"module:Class"`` of the class implementing :class:`RunWorld`. It is constructed from
+        a :class:`RunSetup` (``Class(setup)``) and also provides
         ``apply_damage(scenario, robot, feature, value)`` (what a ``--damage`` value means there),
         ``damaged_parts(scenario)`` (per robot, the parts that are really damaged there) and
         ``version()`` (what, besides mirl, its results depend on; "" for nothing).
@@ -200,7 +231,7 @@ def make_world(
     seed: int,
     noise: np.random.SeedSequence,
 ) -> RunWorld:
-    """A new world ``name`` for one run (see :class:`WorldSpec` for the arguments)."""
+    """A new world ``name`` for one run (the arguments are those of :class:`RunSetup`)."""
     cls = get_world(name).load()
-    world: RunWorld = cls(scenario, observer, observability=observability, seed=seed, noise=noise)
+    world: RunWorld = cls(RunSetup(scenario, observer, observability, seed, noise))
     return world

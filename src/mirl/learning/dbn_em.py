@@ -20,6 +20,18 @@ apart: EM keeps T(s, a, ·) = T(s, a', ·) for ever and learns the state chain P
 the weakness the paper reports — no feature is shared between actions or states, so where the
 robot was never seen T stays at its uninformative initialisation. ``"intended"`` at least keeps
 the robot's physical reach (four successors); ``"uniform"`` lets a robot jump anywhere.
+
+EM never gives mass to a successor the initial T excludes, so with ``"intended"`` T lives on at
+most four successors of each state. Where the dense (S, A, S) arrays would not fit
+(:data:`MAX_DENSE_ENTRIES`, e.g. the 3 804 states of the generated office), the same EM runs on
+that support (:func:`em_fit_on_support`): the same updates, the chain P as a sparse matrix, so
+memory grows with S rather than S². Where the dense arrays fit they are used, and the two agree
+to rounding (tested).
+
+Under ``"intended"`` an observation that no sequence of the robot's moves reaches from the
+previous one in the steps between them (a discretised pose in the physical world can skip a
+cell) would make the data impossible for EM. :func:`em_transitions` leaves such observations
+out, as unseen, and counts them; the learner's message says how many.
 """
 
 from __future__ import annotations
@@ -32,7 +44,19 @@ import scipy.sparse as sp
 
 from mirl.world.domain import PatrolDomain
 
-__all__ = ["EM_INITS", "EMResult", "em_fit", "em_transition_model", "expected_counts"]
+__all__ = [
+    "EM_INITS",
+    "em_transitions",
+    "unreachable_observations",
+    "MAX_DENSE_ENTRIES",
+    "EMResult",
+    "em_fit",
+    "em_fit_on_support",
+    "em_transition_model",
+    "expected_counts",
+]
+
+MAX_DENSE_ENTRIES = 50_000_000  # S·A·S floats of the dense T: 400 MB
 
 
 @dataclass(frozen=True)
@@ -126,6 +150,21 @@ def expected_counts(
     return pair[:, None, :] * share, loglik
 
 
+def _m_step(
+    N: np.ndarray, T: np.ndarray, pi: np.ndarray, min_count: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """M-step from expected counts N (S, A, K): T(s, a, ·) ∝ N(s, a, ·) and π(a | s) ∝ N(s, a);
+    an (s, a) or s with no expected count keeps its previous parameters. K is S for the dense
+    T, the successor slots on T's support."""
+    n_sa = N.sum(axis=2)
+    seen_sa = n_sa > min_count
+    T = np.where(seen_sa[:, :, None], N / np.where(seen_sa, n_sa, 1.0)[:, :, None], T)
+    n_s = n_sa.sum(axis=1)
+    seen_s = n_s > min_count
+    pi = np.where(seen_s[:, None], n_sa / np.where(seen_s, n_s, 1.0)[:, None], pi)
+    return T, pi
+
+
 def em_fit(
     domain: PatrolDomain,
     series_list: Sequence[np.ndarray],
@@ -138,8 +177,10 @@ def em_fit(
 ) -> EMResult:
     """EM for π and T of one robot (module doc); stops when the log-likelihood gains < ``tol``."""
     S, A = domain.n_states, domain.n_actions
-    if S * S * A > 50_000_000:
-        raise ValueError(f"dbn-em keeps a dense T of {S}×{A}×{S}; too large for this map")
+    if S * S * A > MAX_DENSE_ENTRIES:
+        raise ValueError(
+            f"dbn-em with `init` {init} keeps a dense T of {S}×{A}×{S}; too large for this map"
+        )
     T = initial_transitions(domain, init)
     pi = np.full((S, A), 1.0 / A)
     history: list[float] = []
@@ -148,16 +189,64 @@ def em_fit(
     for it in range(1, n_iter + 1):  # noqa: B007 - reported
         N, ll = expected_counts(pi, T, series_list, hidden_states=hidden_states)
         history.append(ll)
-        n_sa = N.sum(axis=2)
-        seen_sa = n_sa > min_count
-        T = np.where(seen_sa[:, :, None], N / np.where(seen_sa, n_sa, 1.0)[:, :, None], T)
-        n_s = n_sa.sum(axis=1)
-        seen_s = n_s > min_count
-        pi = np.where(seen_s[:, None], n_sa / np.where(seen_s, n_s, 1.0)[:, None], pi)
+        T, pi = _m_step(N, T, pi, min_count)
         if len(history) > 1 and history[-1] - history[-2] < tol:
             converged = True
             break
     return EMResult(pi, T, tuple(history), it, converged)
+
+
+def unreachable_observations(domain: PatrolDomain, x: np.ndarray) -> np.ndarray:
+    """(horizon,) bool: the observations of ``x`` (state indices, -1 unseen) that no sequence of
+    intended moves reaches from the previous observation kept, in the steps between them."""
+    x = np.asarray(x, dtype=int)
+    S = domain.n_states
+    succ = sp.csr_array(
+        (np.ones(domain.intended.size), (np.repeat(np.arange(S), domain.n_actions),
+                                         domain.intended.ravel())), shape=(S, S)
+    ).T.tocsr()  # fmt: skip
+    out = np.zeros(len(x), dtype=bool)
+    seen = np.flatnonzero(x >= 0)
+    if len(seen) == 0:
+        return out
+    last_t, last_s = int(seen[0]), int(x[seen[0]])
+    for t in seen[1:]:
+        reach = np.zeros(S, dtype=bool)
+        reach[last_s] = True
+        for _ in range(int(t) - last_t):  # staying is a move (stop), so reach only grows
+            if reach[x[t]]:
+                break
+            reach = reach | ((succ @ reach.astype(float)) > 0)
+        if reach[x[t]]:
+            last_t, last_s = int(t), int(x[t])
+        else:
+            out[t] = True
+    return out
+
+
+def em_transitions(
+    domain: PatrolDomain,
+    series_list: Sequence[np.ndarray],
+    *,
+    n_iter: int = 20,
+    tol: float = 1e-4,
+    init: str = "intended",
+) -> tuple[sp.csr_array, int]:
+    """DBN-EM's T(s, a, s') as a CSR (S·A, S) matrix, and how many observations no sequence of
+    moves reaches were left out as unseen (``init="intended"`` only; see the module doc)."""
+    dropped = 0
+    if init == "intended":
+        cleaned = []
+        for x in _check_series(series_list, domain.n_states):
+            bad = unreachable_observations(domain, x)
+            dropped += int(bad.sum())
+            cleaned.append(np.where(bad, -1, x))
+        series_list = cleaned
+    S, A = domain.n_states, domain.n_actions
+    if init == "intended" and S * A * S > MAX_DENSE_ENTRIES:
+        return em_fit_on_support(domain, series_list, n_iter=n_iter, tol=tol)[0], dropped
+    fit = em_fit(domain, series_list, n_iter=n_iter, tol=tol, init=init)
+    return fit.transition_matrix(), dropped
 
 
 def em_transition_model(
@@ -173,4 +262,89 @@ def em_transition_model(
     ``series_list``: one or more (horizon,) arrays of the same robot's state indices, -1 where
     it was occluded. See the module doc for the model and :func:`em_fit` for diagnostics.
     """
-    return em_fit(domain, series_list, n_iter=n_iter, tol=tol, init=init).transition_matrix()
+    return em_transitions(domain, series_list, n_iter=n_iter, tol=tol, init=init)[0]
+
+
+def em_fit_on_support(
+    domain: PatrolDomain,
+    series_list: Sequence[np.ndarray],
+    *,
+    n_iter: int = 20,
+    tol: float = 1e-4,
+    min_count: float = 1e-9,
+) -> tuple[sp.csr_array, tuple[float, ...]]:
+    """:func:`em_fit` with ``init="intended"`` on T's support: each state's distinct intended
+    successors {ψ(s, a')}, the only states EM can ever give mass to.
+
+    Returns
+    -------
+    transitions : scipy.sparse.csr_array of shape (S·A, S)
+        T(s, a, s'), as :meth:`EMResult.transition_matrix` gives it.
+    log_likelihood : tuple of float
+        After the E-step of each iteration.
+    """
+    S, A = domain.n_states, domain.n_actions
+    succ = np.sort(domain.intended, axis=1)  # (S, A): successors, repeats kept last
+    distinct = np.ones_like(succ, dtype=bool)
+    distinct[:, 1:] = succ[:, 1:] != succ[:, :-1]
+    K = A
+    # T[s, a, k] over the k-th successor slot; repeated slots carry no mass
+    T = np.repeat((distinct / distinct.sum(axis=1, keepdims=True))[:, None, :], A, axis=1)
+    pi = np.full((S, A), 1.0 / A)
+    rows = np.repeat(np.arange(S), K)
+    series = _check_series(series_list, S)
+    history: list[float] = []
+    for _ in range(n_iter):
+        Pk = np.einsum("sa,sak->sk", pi, T)  # (S, K) chain P(s, succ[s, k])
+        chain = sp.csr_array((Pk.ravel(), (rows, succ.ravel())), shape=(S, S))
+        pair = np.zeros((S, K))
+        loglik = 0.0
+        for x in series:
+            alpha, scale, b = _forward_backward_sparse(chain, x, S)
+            loglik += float(np.log(scale).sum())
+            for k in range(K):
+                pair[:, k] += np.einsum("ts,ts->s", alpha[:-1], b[:, succ[:, k]])
+        # a repeated successor slot shares its state's pair count: keep it once
+        pair = np.where(distinct, pair * Pk, 0.0)
+        history.append(loglik)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = np.where(Pk[:, None, :] > 0, pi[:, :, None] * T / Pk[:, None, :], 0.0)
+        N = pair[:, None, :] * share  # (S, A, K)
+        T, pi = _m_step(N, T, pi, min_count)
+        if len(history) > 1 and history[-1] - history[-2] < tol:
+            break
+    data = T.reshape(S * A, K)
+    cols = np.repeat(succ, A, axis=0)  # (S·A, K)
+    matrix = sp.csr_array(
+        (data.ravel(), (np.repeat(np.arange(S * A), K), cols.ravel())), shape=(S * A, S)
+    )
+    matrix.eliminate_zeros()
+    return matrix, tuple(history)
+
+
+def _forward_backward_sparse(
+    chain: sp.csr_array, x: np.ndarray, S: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Scaled forward–backward of :func:`expected_counts` with a sparse chain (uniform prior,
+    occluded steps free): α (n, S), the scales (n,) and e_{t+1}·β_{t+1}/c_{t+1} (n−1, S). An
+    observed step's evidence keeps one state, so it is applied by index, not as an (n, S) mask.
+    """
+    n = len(x)
+    chain_t = chain.T.tocsr()
+    alpha, scale = np.empty((n, S)), np.empty(n)
+    for t in range(n):
+        a = np.full(S, 1.0 / S) if t == 0 else chain_t @ alpha[t - 1]
+        if x[t] >= 0:
+            a = np.where(np.arange(S) == x[t], a, 0.0)
+        scale[t] = a.sum()
+        if scale[t] <= 0:
+            raise ValueError(f"observations impossible under the model at t={t}")
+        alpha[t] = a / scale[t]
+    b = np.empty((n - 1, S))  # e_{t+1}·β_{t+1}/c_{t+1}
+    beta = np.ones(S)
+    for t in range(n - 2, -1, -1):
+        if x[t + 1] >= 0:
+            beta = np.where(np.arange(S) == x[t + 1], beta, 0.0)
+        b[t] = beta / scale[t + 1]
+        beta = chain @ b[t]
+    return alpha, scale, b

@@ -11,7 +11,7 @@ and :func:`learn` builds them from those sources:
 * each robot's T: learned from labelled steps (mIRL*/T, its transition-feature probabilities,
   :class:`mirl.learning.transitions.TransitionFeatureLearner`), one success probability ``p``
   for every action (no per-feature probabilities: ``feature_probabilities = {}``, ``p`` in the
-  result's ``message``), DBN-EM (:func:`mirl.learning.dbn_em.em_transition_model`), or the
+  result's ``message``), DBN-EM (:func:`mirl.learning.dbn_em.em_transitions`), or the
   truth (:func:`mirl.learning.results.oracle_models`).
 
 Steps are labelled with actions by perception (the action whose intended state is s_{t+1},
@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.dbn_em import EM_INITS, em_transition_model
+from mirl.learning.dbn_em import EM_INITS, em_transitions
 from mirl.learning.equilibria import (
     EquilibriumWeights,
     TeamEquilibria,
@@ -94,6 +94,7 @@ def learn(
     score: bool = True,
     trace: LoopTrace | None = None,
     em_init: str = "intended",
+    initial_weights: list[np.ndarray] | None = None,
 ) -> LearnResult:
     """Learn models of the scenario's patrollers from L's ``observations`` with ``method``.
 
@@ -139,6 +140,10 @@ def learn(
         An empty trace to receive the labels, estimators and weighings of every round.
     em_init : {"intended", "uniform"}, default "intended"
         DBN-EM's initial T (:mod:`mirl.learning.dbn_em`).
+    initial_weights : list of ndarray, optional
+        One reward weight vector per robot from an earlier solution (a re-learn on a longer
+        record): the first IRL starts there, once, instead of ``n_restarts`` times from zero,
+        as the relabelling rounds after the first do.
 
     Returns
     -------
@@ -173,6 +178,8 @@ def learn(
     setup = _round_setup(
         observations, scenario, visible, observability, irl_options, random_state, em_init
     )
+    if initial_weights is not None:
+        setup.initial_weights = [np.asarray(w, dtype=float) for w in initial_weights]
     clock = setup.clock
     trace = LoopTrace() if trace is None else trace
     weights, transitions, probs, eq, message = _method_models(
@@ -268,7 +275,7 @@ def _method_models(
         trace.labels.append(labels)
     transitions, probs, message = _transitions(setup, row.transitions, labels, p)
     if row.reward == "learned":  # once, against the T just found
-        weights = irl_round(setup, transitions, labels, None, 1, trace)
+        weights = irl_round(setup, transitions, labels, setup.initial_weights, 1, trace)
         eq = None
     else:
         weights = [np.asarray(r.weights, dtype=float) for r in scenario.robots]
@@ -323,11 +330,15 @@ def _transitions(setup: RoundSetup, source: str, labels, p: float):
             message = f"fixed success probability p={p:g} for every action"
             return [T] * n, [{} for _ in range(n)], message
         if source == "em":
-            em = [
-                sp.csr_array(em_transition_model(setup.domain, [x], init=setup.em_init))
-                for x in setup.series
-            ]
-            return em, [{} for _ in range(n)], "tabular T from DBN-EM"
+            fits = [em_transitions(setup.domain, [x], init=setup.em_init) for x in setup.series]
+            em = [sp.csr_array(T) for T, _ in fits]
+            dropped = sum(d for _, d in fits)
+            message = "tabular T from DBN-EM" + (
+                f" ({dropped} observations no sequence of moves reaches left out as unseen)"
+                if dropped
+                else ""
+            )
+            return em, [{} for _ in range(n)], message
     raise ValueError(f"no models of transitions from '{source}'")
 
 
@@ -386,7 +397,7 @@ def relabel_loop(
     with clock("labels"):
         labels = perception(setup)
     n_labelled = sum(len(observed_steps(x)[0]) for x in setup.series)
-    weights: list[np.ndarray] | None = None  # previous round's, for warm starts
+    weights = setup.initial_weights  # previous round's (or solution's), for warm starts
     trace.message = "stopped at max_iterations"
     for round_ in range(1, max_iterations + 1):
         trace.labels.append(labels)
@@ -474,6 +485,7 @@ class RoundSetup:
     irl_options: dict
     random_state: int | None
     em_init: str = "intended"
+    initial_weights: list[np.ndarray] | None = None  # an earlier solution's, for a warm start
 
     @property
     def domain(self):

@@ -17,7 +17,14 @@ from mirl.mdp import optimal_action_mask
 from mirl.world.game import Equilibrium
 from mirl.world.scenario import Scenario
 
-__all__ = ["RobotModel", "LearnResult", "behavior_accuracy", "oracle_models"]
+__all__ = [
+    "RobotModel",
+    "LearnResult",
+    "behavior_accuracy",
+    "ObservedAgreement",
+    "observed_agreement",
+    "oracle_models",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,6 +125,34 @@ def behavior_accuracy(scenario: Scenario, robot: int, policy: np.ndarray) -> flo
     optimal = optimal_action_mask(scenario.true_q(robot), rtol=1e-9, atol=1e-9)
     policy = np.asarray(policy, dtype=int)
     return float(optimal[np.arange(len(policy)), policy].mean())
+
+
+@dataclass(frozen=True)
+class ObservedAgreement:
+    """How a learned policy agrees with the moves L saw — the only score data without a truth
+    supports (docs/design.md, "Reports on data without a truth"). A *move* is a pair of
+    consecutive steps at which the robot was seen at both."""
+
+    moves: int  # observed moves
+    followed: int  # moves to where the learned policy's action was meant to go
+    unexplained: int  # moves to a state no action was meant to reach (explained by nothing)
+
+    @property
+    def share(self) -> float | None:
+        return self.followed / self.moves if self.moves else None
+
+
+def observed_agreement(domain, series: np.ndarray, policy: np.ndarray) -> ObservedAgreement:
+    """Score ``policy`` against one robot's observed moves (``series``: (T,) states, -1 where
+    unseen): how many went where its action was meant to go, and how many went where no
+    action was meant to go."""
+    x = np.asarray(series, dtype=int)
+    t = np.flatnonzero((x[:-1] >= 0) & (x[1:] >= 0))
+    s, nxt = x[t], x[t + 1]
+    intended = domain.intended[s]  # (moves, A)
+    followed = intended[np.arange(len(s)), np.asarray(policy, dtype=int)[s]] == nxt
+    explained = (intended == nxt[:, None]).any(axis=1)
+    return ObservedAgreement(len(t), int(followed.sum()), int((~explained).sum()))
 
 
 def oracle_models(scenario: Scenario, method: str = "oracle") -> LearnResult:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import shutil
 import tempfile
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +37,7 @@ from mirl.observations.poses import (
     far_quaternion,
     yaw_from_quaternion,
 )
+from mirl.observations.tf import TF_STATIC, TF_TYPE, Transforms, compose_track, split_tf_topic
 
 __all__ = ["BagError", "read_bag", "write_mcap", "bag_topics", "SUPPORTED_TYPES", "is_bag"]
 
@@ -105,8 +107,16 @@ def read_bag(
     *,
     robot_names: Sequence[str] | None = None,
     decode: str = "fast",
+    same_frames: Mapping[str, str] | None = None,
+    map_frame: str = "map",
 ) -> PoseTracks:
     """Poses of the ``topics`` (topic -> robot name) of a bag, sorted by (robot, t).
+
+    A topic ``/tf:CHILD`` (a ``tf2_msgs/msg/TFMessage`` topic and a child frame) reads robot
+    CHILD's pose from the bag's transforms (:mod:`mirl.observations.tf`, ``/tf_static``
+    included), composed up to ``map_frame``. Pose topics must all be in one frame: topics in
+    different frames are refused unless ``same_frames`` (frame -> the frame it coincides with)
+    says how they relate.
 
     ``robot_names``, when given (the scenario's robots), is checked first: a topic mapped to a
     robot not in it is an error naming the topic, and the result is indexed into it. Several
@@ -125,11 +135,15 @@ def read_bag(
                 raise BagError(
                     f"{path}: topic {topic}: robot '{robot}' is not in the scenario ({known})"
                 )
+    same = dict(same_frames or {})
+    tf_robots = {t: r for t, r in topics.items() if split_tf_topic(t) is not None}
+    topics = {t: r for t, r in topics.items() if t not in tf_robots}
     reader, ros2 = _reader(path)
     raws: dict[str, list[bytes]] = {topic: [] for topic in topics}
     try:
         with reader:
             available = reader.topics
+            parts = _tf_parts(path, reader, tf_robots, same, map_frame) if tf_robots else []
             for topic in topics:
                 if topic not in available:
                     have = ", ".join(sorted(available)) or "none"
@@ -141,9 +155,10 @@ def read_bag(
                         f"(supported: {', '.join(SUPPORTED_TYPES)})"
                     )
             conns = [c for c in reader.connections if c.topic in raws]
-            for conn, _, raw in reader.messages(connections=conns):
+            # no connections would read every message (rosbags' default): none are wanted
+            for conn, _, raw in reader.messages(connections=conns) if conns else ():
                 raws[conn.topic].append(raw)
-            parts = []
+            topic_frames: dict[str, str] = {}
             for topic, robot in topics.items():
                 msgtype = available[topic].msgtype
                 cols, frames = _decode(reader, raws[topic], msgtype, ros2, decode)
@@ -152,7 +167,13 @@ def read_bag(
                         f"{path}: topic {topic}: messages in {len(frames)} frames "
                         f"({', '.join(sorted(frames)[:4])}); its poses must all be in the map frame"
                     )
-                parts.append(_check(path, topic, robot, cols))
+                part = _check(path, topic, robot, cols)
+                if frames:
+                    frame = next(iter(frames)).lstrip("/")
+                    topic_frames[topic] = frame
+                    part = replace(part, frames={robot: frame})
+                parts.append(part)
+            _check_one_frame(path, topic_frames, same, map_frame if tf_robots else None)
     except BagError:
         raise
     except Exception as exc:  # truncated or corrupt bag: rosbags, struct, zstd, lz4 errors
@@ -161,6 +182,78 @@ def read_bag(
     if robot_names is not None:
         tracks = tracks.with_robot_names(robot_names)
     return tracks
+
+
+def _check_one_frame(
+    path: Path, topic_frames: Mapping[str, str], same: Mapping[str, str], tf_frame: str | None
+) -> None:
+    """Pose topics (and TF robots, placed in ``tf_frame``) must share one frame, up to the
+    frames ``same`` declares to coincide: a pose in ``odom`` and one in ``map`` are not on
+    one grid unless the user says so."""
+    canon = {t: same.get(f, f) for t, f in topic_frames.items()}
+    if tf_frame is not None:
+        canon["(transforms)"] = same.get(tf_frame, tf_frame)
+    if len(set(canon.values())) <= 1:
+        return
+    listed = ", ".join(f"{t} in '{topic_frames.get(t, tf_frame)}'" for t in canon)
+    a, b = sorted(set(canon.values()))[:2]
+    raise BagError(
+        f"{path}: poses in different frames ({listed}); mirl places them on one map only if "
+        f"you say how the frames relate: `same_frames` {a}={b} if they coincide"
+    )
+
+
+def _tf_parts(path: Path, reader, tf_robots, same, map_frame: str) -> list[PoseTracks]:
+    """Each TF robot's track, composed through the bag's transforms (:mod:`mirl.observations.
+    tf`); a robot frame the transforms never mention is an error naming the frames they do."""
+    available = reader.topics
+    tf_topics = {split_tf_topic(t)[0] for t in tf_robots}  # type: ignore[index]
+    for topic in sorted(tf_topics):
+        if topic not in available:
+            have = ", ".join(sorted(available)) or "none"
+            raise BagError(f"{path}: topic {topic}: not in the bag (topics: {have})")
+        if available[topic].msgtype != TF_TYPE:
+            raise BagError(
+                f"{path}: topic {topic}: a child frame (TOPIC:FRAME) needs a {TF_TYPE} topic, "
+                f"not {available[topic].msgtype}"
+            )
+    if TF_STATIC in available and available[TF_STATIC].msgtype == TF_TYPE:
+        tf_topics.add(TF_STATIC)
+    conns = [c for c in reader.connections if c.topic in tf_topics]  # never empty: checked
+    transforms = Transforms.from_messages(
+        (conn.topic, reader.deserialize(raw, conn.msgtype))
+        for conn, _, raw in reader.messages(connections=conns)
+    )
+    parts = []
+    for topic, robot in tf_robots.items():
+        _, child = split_tf_topic(topic)  # type: ignore[misc]
+        if child not in transforms.parent:
+            frames = ", ".join(sorted(transforms.parent)[:8]) or "none"
+            raise BagError(
+                f"{path}: topic {topic}: no transform into frame '{child}' "
+                f"(child frames in the bag: {frames})"
+            )
+        try:
+            t, x, y, yaw, unplaced = compose_track(transforms, child, map_frame, same)
+        except ValueError as exc:
+            raise BagError(f"{path}: topic {topic}: {exc}") from None
+        back = np.flatnonzero(np.diff(t) < 0)
+        if back.size:  # sorted per link: only equal stamps remain, which binning handles
+            raise BagError(f"{path}: topic {topic}: transform stamps go backwards")
+        parts.append(
+            PoseTracks(
+                (robot,),
+                t,
+                np.zeros(len(t), dtype=np.int64),
+                x,
+                y,
+                yaw,
+                str(path),
+                {robot: f"{map_frame} via {topic.split(':')[0]} from {child}"},
+                {robot: unplaced},
+            )  # fmt: skip
+        )
+    return parts
 
 
 def _check(path: Path, topic: str, robot: str, cols: np.ndarray) -> PoseTracks:

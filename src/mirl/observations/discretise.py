@@ -19,7 +19,7 @@ Problems are one-line :class:`DiscretisationError` messages naming the source an
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -54,14 +54,36 @@ class RobotCounts:
     dropped: int  # binned poses too far off the hallway, dropped (drop_off_map=True only)
     observed_steps: int  # steps with a pose: each takes its nearest binned pose
     outside_visible: int = 0  # observed steps on cells outside L's visible cells
+    unplaced: int = 0  # stamps read but not placed in the map frame (no transform in time)
+
+    @property
+    def no_step(self) -> int:
+        """Poses with no step within the tolerance (or outside the watch)."""
+        return self.read - self.binned
+
+    @property
+    def duplicates(self) -> int:
+        """Binned poses of a step that already had a nearer one."""
+        return self.binned - self.dropped - self.observed_steps
+
+    def drops(self) -> dict[str, int]:
+        """Poses dropped, by reason (docs/design.md, "Frames and TF")."""
+        return {
+            "off-map": self.dropped,
+            "no step within the tolerance": self.no_step,
+            "duplicate of a step (the nearest kept)": self.duplicates,
+            "no transform to the map frame": self.unplaced,
+        }
 
     def line(self) -> str:
         extra = (
             f", {self.outside_visible} outside L's visible cells" if self.outside_visible else ""
         )
+        drops = ", ".join(f"{n} {why}" for why, n in self.drops().items() if n)
         return (
-            f"{self.robot}: {self.read} poses read, {self.binned} binned, {self.snapped} snapped, "
-            f"{self.dropped} dropped, {self.observed_steps} steps observed{extra}"
+            f"{self.robot}: {self.read + self.unplaced} poses read, {self.binned} binned, "
+            f"{self.snapped} snapped, {self.observed_steps} steps observed{extra}; "
+            f"dropped: {drops or 'none'}"
         )
 
 
@@ -128,7 +150,9 @@ def discretise(
         i = int(np.argmax(off))
         raise DiscretisationError(
             f"{tracks.source}: robot {tracks.robot_names[tracks.robot[i]]}: pose "
-            f"({tracks.x[i]:.3f}, {tracks.y[i]:.3f}) m at t = {tracks.t[i]:.3f} s is more than "
+            f"({tracks.x[i]:.3f}, {tracks.y[i]:.3f}) m"
+            f"{tracks.frame_of(tracks.robot_names[tracks.robot[i]])} at t = {tracks.t[i]:.3f} s "
+            "is more than "
             f"{SNAP_CELLS:g} cell from the hallway (cell {int(np.floor(rf[i] + 0.5))}, "
             f"{int(np.floor(cf[i] + 0.5))}); check the map frame, or drop such poses explicitly"
         )
@@ -157,7 +181,8 @@ def discretise(
         count(~vis[traj.row, traj.col], traj.robot),
     )
     report = tuple(
-        RobotCounts(name, *(c[i] for c in columns)) for i, name in enumerate(tracks.robot_names)
+        replace(RobotCounts(name, *(c[i] for c in columns)), unplaced=tracks.unplaced.get(name, 0))
+        for i, name in enumerate(tracks.robot_names)
     )
     return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis)
 

@@ -9,8 +9,8 @@ C++; see :mod:`mirl.observations` for the measurements). Every problem is a one-
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +51,16 @@ class PoseTracks:
     y: np.ndarray
     yaw: np.ndarray
     source: str = "<memory>"
+    # robot name -> the frame its poses were read in, as errors name it ("map", or "map via /tf
+    # from base_footprint"); empty when the source says nothing (a pose CSV)
+    frames: Mapping[str, str] = field(default_factory=dict)
+    # robot name -> stamps read but not placed in the map frame (a TF link with no transform)
+    unplaced: Mapping[str, int] = field(default_factory=dict)
+
+    def frame_of(self, robot: str) -> str:
+        """`` in frame F`` for messages, or nothing when the frame is unknown."""
+        frame = self.frames.get(robot)
+        return f" in frame '{frame}'" if frame else ""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "robot_names", tuple(self.robot_names))
@@ -75,6 +85,8 @@ class PoseTracks:
             self.y[mask],
             self.yaw[mask],
             self.source,
+            self.frames,
+            self.unplaced,
         )
 
     def sorted(self) -> PoseTracks:
@@ -98,7 +110,15 @@ class PoseTracks:
                 raise PoseError(f"{self.source}: robot '{n}' is not in the scenario ({known})")
             lut[i] = names.index(n)
         return PoseTracks(
-            names, self.t, lut[self.robot], self.x, self.y, self.yaw, self.source
+            names,
+            self.t,
+            lut[self.robot],
+            self.x,
+            self.y,
+            self.yaw,
+            self.source,
+            self.frames,
+            self.unplaced,
         ).sorted()
 
     @classmethod
@@ -130,6 +150,8 @@ class PoseTracks:
             cat("y"),
             cat("yaw"),
             source or parts[0].source,
+            {k: v for p in parts for k, v in p.frames.items()},
+            {k: v for p in parts for k, v in p.unplaced.items()},
         ).sorted()
 
 

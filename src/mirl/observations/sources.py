@@ -1,11 +1,15 @@
-"""One entry point for L's observations from any file: a grid CSV (``t,robot,row,col,heading``),
-a pose CSV (``t,robot,x,y,yaw`` or ``qz,qw``), a ROS 1 ``.bag``, a ROS 2 bag directory or an
-``.mcap`` file. Pose data is discretised onto the scenario's map (:mod:`mirl.discretise`).
+"""One entry point for L's observations from any file, and the table of input formats.
+
+Each format is a row of :data:`FORMATS`: how its files are recognised, whether they hold robot
+data (measured poses, discretised onto the scenario's map by :mod:`mirl.observations.discretise`)
+or grid observations, and its reader. Today: a grid CSV (``t,robot,row,col,heading``), a pose
+CSV (``t,robot,x,y,yaw`` or ``qz,qw``), and a bag (a ROS 1 ``.bag``, a ROS 2 bag directory or an
+``.mcap`` file). Adding a format is its reader and a row.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,10 +19,18 @@ from mirl.observations._csv import csv_header
 from mirl.observations.bags import SUPPORTED_TYPES, BagError, bag_topics, is_bag, read_bag
 from mirl.observations.discretise import Discretised, discretise
 from mirl.observations.poses import PoseError, PoseTracks, read_pose_csv
+from mirl.observations.tf import TF_TYPE
 from mirl.observations.trajectories import Trajectories, TrajectoryError, read_csv
 from mirl.world.scenario import Scenario
 
-__all__ = ["LoadedObservations", "load_observations", "observation_kind"]
+__all__ = [
+    "FORMATS",
+    "InputFormat",
+    "LoadedObservations",
+    "load_observations",
+    "observation_kind",
+    "ROBOT_DATA_KINDS",
+]
 
 
 @dataclass(frozen=True)
@@ -45,21 +57,107 @@ def _topic_map(topics: Mapping[str, str] | Sequence[tuple[str, str]] | None) -> 
     return out
 
 
-def observation_kind(path: str | Path) -> str:
-    """``bag``, ``grid-csv`` or ``pose-csv`` (by the header), or a one-line error."""
+@dataclass(frozen=True)
+class _ReadOptions:
+    topics: dict[str, str]
+    robot_names: tuple[str, ...]
+    same_frames: Mapping[str, str] | None
+
+
+@dataclass(frozen=True)
+class InputFormat:
+    """One row of the table of input formats.
+
+    Parameters
+    ----------
+    name : str
+        The format's name (``LoadedObservations.kind``).
+    description : str
+        What its files hold, for messages.
+    recognises : callable
+        ``recognises(path, header)`` -> bool, with ``header`` the CSV header's column names
+        (empty for a directory or a file that is not text).
+    robot_data : bool
+        Whether it holds measured poses (robot data, discretised onto the map), not a
+        simulation's grid observations.
+    read : callable
+        ``read(path, scenario, options)`` -> :class:`~mirl.observations.poses.PoseTracks`
+        (robot data) or :class:`~mirl.observations.trajectories.Trajectories`.
+    """
+
+    name: str
+    description: str
+    recognises: Callable[[Path, tuple[str, ...]], bool]
+    robot_data: bool
+    read: Callable[[Path, Scenario, _ReadOptions], PoseTracks | Trajectories]
+
+
+def _read_bag(path: Path, scenario: Scenario, options: _ReadOptions) -> PoseTracks:
+    if not options.topics:
+        found = bag_topics(path)
+        poses = [f"{t} ({m})" for t, (m, _) in found.items() if m in SUPPORTED_TYPES]
+        poses += [f"{t}:CHILD_FRAME ({m})" for t, (m, _) in found.items() if m == TF_TYPE]
+        raise BagError(
+            f"{path}: say which topic is which robot with `topics` TOPIC=ROBOT "
+            f"(pose topics in the bag: {', '.join(poses) or 'none'})"
+        )
+    return read_bag(
+        path, options.topics, robot_names=options.robot_names, same_frames=options.same_frames
+    )
+
+
+def _read_pose_csv(path: Path, scenario: Scenario, options: _ReadOptions) -> PoseTracks:
+    if options.same_frames:
+        raise ValueError(f"{path}: `same_frames` applies to bags; a pose CSV has no frames")
+    tracks = read_pose_csv(path)
+    return _rename(tracks, options.topics) if options.topics else tracks
+
+
+def _read_grid_csv(path: Path, scenario: Scenario, options: _ReadOptions) -> Trajectories:
+    return read_csv(path, scenario.domain, options.robot_names)
+
+
+FORMATS: tuple[InputFormat, ...] = (
+    InputFormat(
+        "bag", "a ROS 1 .bag, a ROS 2 bag directory or an .mcap file",
+        lambda path, header: is_bag(path), robot_data=True, read=_read_bag,
+    ),
+    InputFormat(
+        "grid-csv", "a grid CSV (t,robot,row,col,heading)",
+        lambda path, header: "row" in header and "col" in header, robot_data=False,
+        read=_read_grid_csv,
+    ),
+    InputFormat(
+        "pose-csv", "a pose CSV (t,robot,x,y,yaw)",
+        lambda path, header: "x" in header and "y" in header, robot_data=True,
+        read=_read_pose_csv,
+    ),
+)  # fmt: skip
+"""Every input format, tried in this order."""
+
+ROBOT_DATA_KINDS = tuple(f.name for f in FORMATS if f.robot_data)
+"""The formats that hold robot data (measured poses), not a simulation of a scenario."""
+
+
+def input_format(path: str | Path) -> InputFormat:
+    """The format of ``path`` (told by the file), or a one-line error."""
     path = Path(path)
     if is_bag(path):
-        return "bag"
-    if path.is_dir():
+        header: tuple[str, ...] = ()
+    elif path.is_dir():
         raise PoseError(f"{path}: a directory but not a ROS 2 bag (no metadata.yaml)")
-    header = csv_header(path, TrajectoryError)
-    if "row" in header and "col" in header:
-        return "grid-csv"
-    if "x" in header and "y" in header:
-        return "pose-csv"
-    raise TrajectoryError(
-        f"{path}: line 1: not a grid CSV (t,robot,row,col,heading) nor a pose CSV (t,robot,x,y,yaw)"
-    )
+    else:
+        header = tuple(csv_header(path, TrajectoryError))
+    for fmt in FORMATS:
+        if fmt.recognises(path, header):
+            return fmt
+    known = "; ".join(f.description for f in FORMATS)
+    raise TrajectoryError(f"{path}: line 1: not a file of observations mirl reads ({known})")
+
+
+def observation_kind(path: str | Path) -> str:
+    """The name of ``path``'s input format (:func:`input_format`)."""
+    return input_format(path).name
 
 
 def load_observations(
@@ -73,6 +171,7 @@ def load_observations(
     drop_off_map: bool = False,
     visible: str | np.ndarray | None = None,
     observability: float | None = None,
+    same_frames: Mapping[str, str] | None = None,
 ) -> LoadedObservations:
     """Read observations of ``scenario``'s robots from ``path`` (kind told by the file).
 
@@ -81,41 +180,34 @@ def load_observations(
     for a grid CSV is an error rather than silently ignored. ``visible`` (pose data): the cells
     L could see, handed to the learner — by default those of ``observability`` (default: the
     scenario's degree) along the map's visibility order; ``"observed"``: every cell a robot was
-    observed on; or a (rows, cols) bool mask.
+    observed on; or a (rows, cols) bool mask. ``same_frames`` (bags): frames that coincide
+    (frame -> frame), so that topics recorded in both may be mixed (:func:`~mirl.observations.
+    bags.read_bag`).
     """
     path = Path(path)
-    topics = _topic_map(topics)
-    kind = observation_kind(path)
-    names = scenario.robot_names
-    if kind == "grid-csv":
+    fmt = input_format(path)
+    options = _ReadOptions(_topic_map(topics), scenario.robot_names, same_frames)
+    if not fmt.robot_data:
         given = [
             flag
             for flag, value in (
-                ("`topics`", topics or None),
+                ("`topics`", options.topics or None),
                 ("`step_seconds`", step_seconds),
                 ("`start_time`", start_time),
                 ("`tolerance`", tolerance),
                 ("`drop_off_map`", drop_off_map or None),
                 ("`visible`", visible),
+                ("`same_frames`", same_frames or None),
             )
             if value is not None
         ]
         if given:
-            raise ValueError(f"{path}: {given[0]} applies to pose data; this is a grid CSV")
-        return LoadedObservations(read_csv(path, scenario.domain, names), kind)
-    if kind == "bag":
-        if not topics:
-            found = bag_topics(path)
-            poses = [f"{t} ({m})" for t, (m, _) in found.items() if m in SUPPORTED_TYPES]
-            raise BagError(
-                f"{path}: say which topic is which robot with `topics` TOPIC=ROBOT "
-                f"(pose topics in the bag: {', '.join(poses) or 'none'})"
-            )
-        tracks = read_bag(path, topics, robot_names=names)
-    else:
-        tracks = read_pose_csv(path)
-        if topics:
-            tracks = _rename(tracks, topics)
+            raise ValueError(f"{path}: {given[0]} applies to pose data; this is {fmt.description}")
+        grid = fmt.read(path, scenario, options)
+        assert isinstance(grid, Trajectories)
+        return LoadedObservations(grid, fmt.name)
+    tracks = fmt.read(path, scenario, options)
+    assert isinstance(tracks, PoseTracks)
     if visible is None:
         degree = scenario.observability if observability is None else observability
         visible = scenario.map.visible_mask(degree)
@@ -128,7 +220,7 @@ def load_observations(
         drop_off_map=drop_off_map,
         visible=visible,
     )
-    return LoadedObservations(d.trajectories, kind, d)
+    return LoadedObservations(d.trajectories, fmt.name, d)
 
 
 def _rename(tracks: PoseTracks, mapping: Mapping[str, str]) -> PoseTracks:

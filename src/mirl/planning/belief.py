@@ -26,12 +26,12 @@ from mirl.learning.results import LearnResult
 from mirl.mdp import policy_matrix
 from mirl.planning.observer import ObserverModel
 from mirl.planning.pair_sums import MeetingStep, PairSightings
-from mirl.planning.team_filter import ExactTeam, FactoredTeam, TeamParts, factored_detection
+from mirl.planning.team_filter import ExactTeam, FactoredDetection, FactoredTeam, TeamParts
 from mirl.sparse import csr_matmul
 from mirl.world.domain import N_HEADINGS, STOP, TURN_LEFT, PatrolDomain
 from mirl.world.game import Equilibrium, meeting
 
-__all__ = ["UNSEEN", "NOT_WATCHING", "BeliefFilter", "Prediction"]
+__all__ = ["UNSEEN", "NOT_WATCHING", "BeliefFilter", "Prediction", "StreamedPrediction"]
 
 MAX_EXACT_STATES = 20_000_000  # an S^N joint tensor beyond this does not fit comfortably
 UNSEEN = -1  # BeliefFilter.update: L watched and did not see the robot
@@ -58,6 +58,81 @@ class Prediction:
     @property
     def steps(self) -> int:
         return self.detection.shape[0] - 1
+
+    def hazard_rows(self, lo: int, hi: int) -> np.ndarray:
+        return self.hazard[lo:hi]
+
+    def detection_rows(self, lo: int, hi: int) -> np.ndarray:
+        return self.detection[lo:hi]
+
+
+class StreamedPrediction:
+    """A :class:`Prediction` of the factored filter that keeps only checkpoints: the marginals
+    at every ``every``-th step. Rows of occupancy, detection and hazard are recomputed from the
+    checkpoint before them when asked for (``*_rows``), with the same arithmetic as computing
+    them all at once, so they are bit for bit those of the full arrays. Memory: K / every + every
+    steps of (N, S) marginals instead of K, and a block of hazards instead of K × pairs — with
+    ``every`` ≈ √K both are O(√K · S). The full arrays (:attr:`occupancy`, :attr:`detection`,
+    :attr:`hazard`) are computed on access, for tests and small maps."""
+
+    def __init__(
+        self,
+        t0: int,
+        steps: int,
+        start: np.ndarray,
+        propagate,
+        detection: FactoredDetection,
+        pairs: np.ndarray,
+    ) -> None:
+        self.t0, self.steps, self.pairs = t0, int(steps), pairs
+        self.every = max(1, int(np.ceil(np.sqrt(max(steps, 1)))))
+        self._propagate, self._detection = propagate, detection
+        self._checkpoints = [start]
+        b = start
+        for k in range(1, self.steps + 1):
+            b = propagate(b)
+            if k % self.every == 0:
+                self._checkpoints.append(b)
+        self._cache: tuple[int, int, np.ndarray, np.ndarray] | None = None
+
+    def occupancy_rows(self, lo: int, hi: int) -> np.ndarray:
+        """(hi − lo, N, S) marginals of steps lo … hi − 1."""
+        first = lo // self.every
+        b = self._checkpoints[first]
+        out = np.empty((hi - lo, *b.shape))
+        for k in range(first * self.every, hi):
+            if k >= lo:
+                out[k - lo] = b
+            if k + 1 < hi:
+                b = self._propagate(b)
+        return out
+
+    def _rows(self, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
+        if self._cache is not None and self._cache[:2] == (lo, hi):
+            return self._cache[2], self._cache[3]
+        start = max(lo - 1, 0)  # a hazard row needs the step before it
+        det, haz = self._detection.rows(self.occupancy_rows(start, hi))
+        det, haz = np.clip(det[lo - start :], 0, 1), np.clip(haz[lo - start :], 0, 1)
+        self._cache = (lo, hi, det, haz)
+        return det, haz
+
+    def detection_rows(self, lo: int, hi: int) -> np.ndarray:
+        return self._rows(lo, hi)[0]
+
+    def hazard_rows(self, lo: int, hi: int) -> np.ndarray:
+        return self._rows(lo, hi)[1]
+
+    @property
+    def occupancy(self) -> np.ndarray:
+        return self.occupancy_rows(0, self.steps + 1)
+
+    @property
+    def detection(self) -> np.ndarray:
+        return self.detection_rows(0, self.steps + 1)
+
+    @property
+    def hazard(self) -> np.ndarray:
+        return self.hazard_rows(0, self.steps + 1)
 
 
 class BeliefFilter:
@@ -216,6 +291,45 @@ class BeliefFilter:
                 post, z = np.ones_like(prior), float(len(prior))
         return post / z
 
+    def propagate(self, belief: np.ndarray) -> np.ndarray:
+        """``belief`` (in this filter's form) one step later, without evidence."""
+        return self._propagate(belief)
+
+    def condition_unseen(
+        self, belief: np.ndarray, not_seeing: np.ndarray
+    ) -> tuple[np.ndarray, float]:
+        """``belief`` conditioned on no patroller seeing L, and the probability of that.
+
+        ``not_seeing`` is (S,): 1 where a patroller in that state does not see L's cell. Exact
+        for the joint forms; the factored filter conditions each marginal alone and multiplies
+        the robots' probabilities (its independence approximation).
+        """
+        g = np.asarray(not_seeing, dtype=float)
+        if self.mode == "pair":
+            B = belief.reshape(self.n_states, self.n_states)
+            post = B * g[:, None] * g[None, :]
+        elif self.mode == "team":
+            post = belief.copy()
+            for axis in range(self.n_robots):
+                shape = [1] * self.n_robots
+                shape[axis] = self.n_states
+                post *= g.reshape(shape)
+        else:
+            kept = belief @ g
+            ok = kept > 1e-300
+            post = np.where(ok[:, None], belief * g / np.where(ok, kept, 1.0)[:, None], belief)
+            return post, float(np.prod(kept))
+        z = float(post.sum())
+        return (post / z if z > 1e-300 else post).reshape(belief.shape), z
+
+    def _factored_detection(self, model: ObserverModel) -> FactoredDetection:
+        """The factored filter's sparse detection parts for L's ``model`` (built once)."""
+        cached = self._static.get(id(model))
+        if cached is None or cached[0] is not model:
+            parts = FactoredDetection(model.detection, self._step_T, model.cell_pairs)
+            cached = self._static[id(model)] = (model, parts)
+        return cached[1]
+
     def _detection_parts(self, model: ObserverModel):
         """Dense D (S, C), G = 1 − D, per robot G[:, c'] ∘ (P G)[:, c] over L's moves c' → c
         (P G: P(not seeing c one step later | s)) and G[:, c'], and the pair's sightings
@@ -230,21 +344,21 @@ class BeliefFilter:
             cached = self._static[id(model)] = (model, Dd, G, moves, G[:, prev], pair)
         return cached[1:]
 
-    def predict(self, steps: int, model: ObserverModel) -> Prediction:
+    def predict(self, steps: int, model: ObserverModel) -> Prediction | StreamedPrediction:
         """Occupancies, detection probabilities and hazards for t = now … now + ``steps``.
 
         The only sequential part is the propagation (one sparse product per step); detection
-        and hazards are then computed for all steps at once.
+        and hazards are then computed for all steps at once — or, for the factored filter, a
+        block of steps at a time from checkpoints (:class:`StreamedPrediction`), so that its
+        memory grows with √steps × states rather than steps × (states + L's cell pairs).
         """
         if self.belief is None:
             raise ValueError("predict() before any update(): the filter has no belief yet")
         if self.mode == "factored":
-            occ = np.empty((steps + 1, *self.belief.shape))
-            occ[0] = self.belief
-            for k in range(steps):
-                occ[k + 1] = self._propagate(occ[k])
-            det, haz = factored_detection(occ, model.detection, self._step_T, model.cell_pairs)
-            return Prediction(self.t, occ, np.clip(det, 0, 1), np.clip(haz, 0, 1), model.cell_pairs)
+            return StreamedPrediction(
+                self.t, steps, self.belief, self._propagate, self._factored_detection(model),
+                model.cell_pairs,
+            )  # fmt: skip
         Dd, G, moves, G_prev, pair = self._detection_parts(model)
         if self.mode == "team":
             occ, none = self._predict_team(steps, G)

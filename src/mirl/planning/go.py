@@ -31,11 +31,72 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mirl.planning.belief import Prediction
+from mirl.planning.belief import Prediction, StreamedPrediction
 from mirl.planning.observer import ObserverModel
 from mirl.world.domain import STOP
 
-__all__ = ["ObserverPlan", "solve_observer_mdp"]
+__all__ = ["GO_RULES", "ObserverPlan", "TimedPolicy", "solve_observer_mdp", "waiting_value"]
+
+GO_RULES = ("adaptive", "value")
+"""How L decides to go (docs/design.md, "The go rule"): ``adaptive`` stops on its stated
+probability of success against the value of waiting; ``value`` is the published rule (the best
+go value in the window, if positive)."""
+
+# hazard rows fetched from a prediction at once by the backward pass (a streamed prediction
+# computes them block by block from its checkpoints, so its blocks bound the memory)
+_ROWS_AT_ONCE = 64
+
+
+class TimedPolicy:
+    """L's greedy action at each (step k, state s) of a plan, kept as the changes between
+    consecutive steps: the last step's row in full, then per earlier step only the states whose
+    action differs from the step after. Most states keep their action from one step to the next,
+    so this holds O(S + changes) instead of the K × S table; ``policy[k, s]`` is the action."""
+
+    def __init__(self, K: int, S: int) -> None:
+        self.shape = (K, S)
+        self._steps: list[np.ndarray] = []
+        self._states: list[np.ndarray] = []
+        self._actions: list[np.ndarray] = []
+        self._last: np.ndarray | None = None
+        self._keys: np.ndarray | None = None
+
+    def _record(self, k: int, row: np.ndarray) -> None:
+        """The row of step k; rows come in from the last step down to step 0."""
+        changed = np.arange(len(row)) if self._last is None else np.flatnonzero(row != self._last)
+        self._steps.append(np.full(len(changed), k, dtype=np.int64))
+        self._states.append(changed)
+        self._actions.append(row[changed].astype(np.int8))
+        self._last = row.copy()
+
+    def _finish(self) -> None:
+        K, _ = self.shape
+        steps, states = np.concatenate(self._steps), np.concatenate(self._states)
+        keys = states.astype(np.int64) * K + steps
+        order = np.argsort(keys, kind="stable")
+        self._keys, self.actions = keys[order], np.concatenate(self._actions)[order]
+        self._steps = self._states = self._actions = []
+        self._last = None
+
+    @property
+    def n_changes(self) -> int:
+        """Entries kept: the last step's row and every later change."""
+        assert self._keys is not None
+        return len(self._keys)
+
+    def __getitem__(self, index: tuple[int, int]) -> int:
+        k, s = index
+        K, S = self.shape
+        if not (0 <= k < K and 0 <= s < S):
+            raise IndexError(f"policy index {index} outside {self.shape}")
+        assert self._keys is not None
+        # the first kept entry of state s at a step >= k: every state has one at step K - 1
+        return int(self.actions[np.searchsorted(self._keys, s * K + k)])
+
+    def to_array(self) -> np.ndarray:
+        """The (K, S) table (for small plans and tests)."""
+        K, S = self.shape
+        return np.array([[self[k, s] for s in range(S)] for k in range(K)], dtype=np.int8)
 
 
 # ---- planning --------------------------------------------------------------------------------
@@ -48,8 +109,8 @@ class ObserverPlan:
     """
 
     t0: int
-    values: np.ndarray  # (K+1, S_L)
-    policy: np.ndarray  # (K, S_L) greedy action at each step
+    values: np.ndarray | None  # (K+1, S_L) when asked for (``keep_values``), else None
+    policy: TimedPolicy  # greedy action at each step: ``policy[k, s]``
     go_values: np.ndarray  # (window+1,)
     go_time: int | None
 
@@ -68,51 +129,72 @@ class ObserverPlan:
 
 def solve_observer_mdp(
     model: ObserverModel,
-    prediction: Prediction,
+    prediction: Prediction | StreamedPrediction,
     *,
     window: int | None = None,
     goal_reward: float = 1.0,
     detection_penalty: float = 1.0,
     min_value: float = 0.0,
     hazard: str = "markov",
+    keep_values: bool = False,
 ) -> ObserverPlan:
     """Backward induction over K = ``prediction.steps`` steps (see the module doc).
 
     ``window`` bounds the go times considered (default: all k < K); a go time needs a go value
     above ``min_value``. ``hazard`` is ``"markov"`` (first-order hazard, default) or
     ``"independent"`` (per-step detection probabilities taken as independent).
+    ``keep_values`` keeps the (K+1, S_L) values in the plan; without it the pass holds one
+    step's values at a time, the hazards a block of rows at a time, and the policy as its
+    changes (:class:`TimedPolicy`), so its memory does not grow with K × S_L.
     """
     K = prediction.steps
     if K < 1:
         raise ValueError("the plan needs at least one step of prediction")
-    if hazard == "markov":
-        H = prediction.hazard
-    elif hazard == "independent":
-        H = prediction.detection[:, prediction.pairs[:, 1]]
-    else:
+    if hazard not in ("markov", "independent"):
         raise ValueError(f"unknown hazard model '{hazard}' (known: markov, independent)")
     window = K - 1 if window is None else min(int(window), K - 1)
     dom = model.domain
     S, A = dom.n_states, dom.n_actions
     rows, cols, probs, pair = model._transition_entries
     mask = _start_cell_mask(model)  # cached per model: re-plans do not rebuild it
-    V = np.zeros((K + 1, S))
-    V[K, model.goal] = goal_reward
-    policy = np.empty((K, S), dtype=np.int8)
+    values = np.zeros((K + 1, S)) if keep_values else None
+    V = np.zeros(S)
+    V[model.goal] = goal_reward
+    if values is not None:
+        values[K] = V
+    go_values = np.empty(window + 1)
+    policy = TimedPolicy(K, S)
+    block, lo = np.empty((0, 0)), K + 1  # hazard rows lo … lo + len(block) − 1
     for k in range(K - 1, -1, -1):
-        h = H[k + 1, pair]
-        cont = V[k + 1, cols]  # the goal is absorbing: V[·, goal] = goal_reward
+        if k + 1 < lo:  # the next block of rows, going back in time
+            lo = max(1, k + 2 - _ROWS_AT_ONCE)
+            block = _hazard_rows(prediction, hazard, lo, k + 2)
+        h = block[k + 1 - lo, pair]
+        cont = V[cols]  # the goal is absorbing: V[goal] = goal_reward
         Q = np.bincount(
             rows, weights=probs * ((1.0 - h) * cont - detection_penalty * h), minlength=S * A
         ).reshape(S, A)
         Q += mask
-        policy[k] = Q.argmax(axis=1)  # first maximum: forward wins ties
-        V[k] = Q.max(axis=1)
-        V[k, model.goal] = goal_reward
-    go_values = V[: window + 1, model.start_state].copy()
+        policy._record(k, Q.argmax(axis=1))  # first maximum: forward wins ties
+        V = Q.max(axis=1)
+        V[model.goal] = goal_reward
+        if values is not None:
+            values[k] = V
+        if k <= window:
+            go_values[k] = V[model.start_state]
+    policy._finish()
     best = int(np.argmax(go_values))
     go_time = best if go_values[best] > min_value else None
-    return ObserverPlan(prediction.t0, V, policy, go_values, go_time)
+    return ObserverPlan(prediction.t0, values, policy, go_values, go_time)
+
+
+def _hazard_rows(
+    prediction: Prediction | StreamedPrediction, hazard: str, lo: int, hi: int
+) -> np.ndarray:
+    """Rows lo … hi − 1 of the hazard the pass uses, indexed by L's cell pairs."""
+    if hazard == "markov":
+        return prediction.hazard_rows(lo, hi)
+    return prediction.detection_rows(lo, hi)[:, prediction.pairs[:, 1]]
 
 
 _MASKS: dict[int, tuple[ObserverModel, np.ndarray]] = {}
@@ -140,3 +222,23 @@ def _build_start_cell_mask(model: ObserverModel) -> np.ndarray:
     mask = np.zeros((dom.n_states, dom.n_actions))
     mask[(cell == start_cell)[:, None] & ~allowed] = -np.inf
     return mask
+
+
+# ---- the adaptive rule's value of waiting ----------------------------------------------------
+def waiting_value(chances, opportunities: int) -> float:
+    """The chance of success L can expect by waiting for ``opportunities`` more chances to go,
+    each drawn from the empirical distribution ``chances`` (the success probabilities it has
+    stated so far), taking the first one better than what waiting on would bring, and going
+    at the last one whatever it is — the finite-horizon optimal-stopping recursion
+    v₀ = 0, vⱼ = E[max(X, vⱼ₋₁)]. Zero when no opportunity is left (L goes now) or nothing
+    was stated yet."""
+    x = np.asarray(chances, dtype=float)
+    v = 0.0
+    if x.size == 0:
+        return v
+    for _ in range(max(0, int(opportunities))):
+        new = float(np.maximum(x, v).mean())
+        if new <= v + 1e-12:  # converged: the best chance stated
+            break
+        v = new
+    return v

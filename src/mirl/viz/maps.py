@@ -8,13 +8,23 @@ used, so importing this module never switches the global matplotlib backend.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
 from mirl.world.maps import GridMap
 
-__all__ = ["MAP_COLORS", "TEXT_LEGEND", "draw_map", "map_figure", "map_to_text", "save_map_png"]
+__all__ = [
+    "MAP_COLORS",
+    "TEXT_LEGEND",
+    "draw_map",
+    "draw_metres",
+    "draw_routes",
+    "map_figure",
+    "map_to_text",
+    "save_map_png",
+]
 
 MAP_COLORS = {
     "wall": "#2b2b2b",
@@ -77,6 +87,13 @@ def draw_map(ax, gridmap: GridMap, visible_mask: np.ndarray | None = None, *, le
         ax.grid(which="minor", color=MAP_COLORS["grid"], linewidth=0.4)
         ax.tick_params(which="minor", length=0)
     size = max(4.0, 160.0 / max(rows, cols))
+    if not gridmap.marked:  # placeholders only: nothing of L's to draw
+        ax.set_xlim(-0.5, cols - 0.5)
+        ax.set_ylim(rows - 0.5, -0.5)
+        ax.set_aspect("equal")
+        ax.set_xlabel("col")
+        ax.set_ylabel("row")
+        return ax
     sr, sc = gridmap.observer_start
     ax.plot(
         [sc], [sr], marker="^", color=MAP_COLORS["start"], markersize=size, linestyle="", zorder=3
@@ -117,15 +134,80 @@ def draw_map(ax, gridmap: GridMap, visible_mask: np.ndarray | None = None, *, le
     return ax
 
 
-def map_figure(gridmap: GridMap, visible_mask: np.ndarray | None = None, *, legend: bool = True):
-    """A new ``Figure`` (no pyplot, no global backend) with the map drawn; returns ``(fig, ax)``."""
+def draw_metres(ax, gridmap: GridMap) -> None:
+    """Axes in metres of the map frame (top and right, beside the cells' own) and the frame's
+    origin as RViz draws it (x red, y green, 1 m) where it lies on the grid."""
+    f = gridmap.frame
+    top = ax.secondary_xaxis(
+        "top",
+        functions=(
+            lambda c: f.origin_x + c * f.cell_size,
+            lambda x: (x - f.origin_x) / f.cell_size,
+        ),
+    )
+    right = ax.secondary_yaxis(
+        "right",
+        functions=(
+            lambda r: f.origin_y - r * f.cell_size,
+            lambda y: (f.origin_y - y) / f.cell_size,
+        ),
+    )
+    top.set_xlabel("x (m)")
+    right.set_ylabel("y (m)")
+    r0, c0 = f.cell_coordinates(0.0, 0.0)
+    rows, cols = gridmap.shape
+    if -0.5 <= r0 <= rows - 0.5 and -0.5 <= c0 <= cols - 0.5:
+        unit = 1.0 / f.cell_size
+        head = 0.15 * unit
+        ax.arrow(c0, r0, unit, 0, color="#d62728", width=0.02 * unit, head_width=head, zorder=4)
+        ax.arrow(c0, r0, 0, -unit, color="#2ca02c", width=0.02 * unit, head_width=head, zorder=4)
+
+
+def draw_routes(ax, routes: Mapping[str, np.ndarray]) -> None:
+    """Each patroller's route, (k, 2) cells, as a line with its name at the start."""
+    for i, (name, cells) in enumerate(routes.items()):
+        cells = np.asarray(cells, dtype=float)
+        if len(cells) == 0:
+            continue
+        offset = 0.12 * (i - (len(routes) - 1) / 2)  # routes over the same cells side by side
+        line = ax.plot(cells[:, 1] + offset, cells[:, 0] + offset, linewidth=1.5, zorder=2)[0]
+        ax.plot(
+            [cells[0, 1]], [cells[0, 0]], marker="o", color=line.get_color(), linestyle="",
+            zorder=3,
+        )  # fmt: skip
+        ax.annotate(name, (cells[0, 1], cells[0, 0]), xytext=(3, 3), textcoords="offset points",
+                    color=line.get_color(), fontsize="small", zorder=4)  # fmt: skip
+
+
+def map_figure(
+    gridmap: GridMap,
+    visible_mask: np.ndarray | None = None,
+    *,
+    legend: bool = True,
+    routes: Mapping[str, np.ndarray] | None = None,
+    metres: bool = False,
+):
+    """A new ``Figure`` (no pyplot, no global backend) with the map drawn; returns ``(fig, ax)``.
+
+    ``routes`` (name -> (k, 2) cells) are drawn as lines; ``metres`` adds axes in metres of the
+    map frame and its origin (:func:`draw_metres`)."""
     from matplotlib.figure import Figure
 
     rows, cols = gridmap.shape
     scale = 0.3 if max(rows, cols) <= 30 else 9.0 / max(rows, cols)
-    fig = Figure(figsize=(cols * scale + (2.2 if legend else 0.8), rows * scale + 0.8))
+    extra = 0.6 if metres else 0.0
+    fig = Figure(
+        figsize=(cols * scale + (2.2 if legend else 0.8) + extra, rows * scale + 0.8 + extra)
+    )
     ax = fig.add_subplot(1, 1, 1)
     draw_map(ax, gridmap, visible_mask, legend=legend)
+    if routes:
+        draw_routes(ax, routes)
+    if metres:
+        draw_metres(ax, gridmap)
+        shown = ax.get_legend()
+        if shown is not None:  # clear of the metre axis on the right
+            shown.set_bbox_to_anchor((1.16, 1.0))
     title = gridmap.name
     if visible_mask is not None:
         n = int(_checked_mask(gridmap, visible_mask).sum())
@@ -135,14 +217,22 @@ def map_figure(gridmap: GridMap, visible_mask: np.ndarray | None = None, *, lege
     return fig, ax
 
 
-def save_map_png(gridmap: GridMap, path: str | Path, observability: float | None = None) -> Path:
-    """Write the map as an image; the format follows the suffix (``.png`` default, ``.svg``…).
+def save_map_png(
+    gridmap: GridMap,
+    path: str | Path,
+    observability: float | None = None,
+    *,
+    routes: Mapping[str, np.ndarray] | None = None,
+) -> Path:
+    """Write the map as an image, with axes in metres of its frame; the format follows the
+    suffix (``.png`` default, ``.svg``…).
 
-    ``observability`` (a degree in [0, 1]) shades the cells L sees at that degree.
+    ``observability`` (a degree in [0, 1]) shades the cells L sees at that degree; ``routes``
+    (name -> (k, 2) cells) are drawn as lines.
     """
     path = Path(path)
     mask = None if observability is None else gridmap.visible_mask(observability)
-    fig, _ = map_figure(gridmap, mask)
+    fig, _ = map_figure(gridmap, mask, routes=routes, metres=True)
     fmt = path.suffix.lstrip(".").lower() or "png"
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, format=fmt, dpi=150)

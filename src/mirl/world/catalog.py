@@ -1,27 +1,39 @@
-"""Every way to name a map: a shipped text map, a text map file, a ROS ``map_server`` YAML file,
-or a generated office (``office-60x60``, ``office-40x30-s7``).
+"""Every way to name a map: a shipped map (text or ROS), a text map file, a ROS ``map_server``
+YAML file, or a generated office (``office-60x60``, ``office-40x30-s7``).
 
 The ROS reader (PyYAML, Pillow) and the office generator (``scipy.ndimage``) are imported only
-when such a map is asked for, so loading a shipped map stays cheap.
+when such a map is asked for, so loading a shipped text map stays cheap.
 """
 
 from __future__ import annotations
 
+from importlib import resources
 from pathlib import Path
 
 from mirl.world._resources import read_shipped_or_file, shipped_names
 from mirl.world.maps import GridMap, MapError, parse_map
 
-__all__ = ["load_map", "shipped_maps"]
+__all__ = ["is_ros_map", "load_map", "shipped_maps"]
+
+_YAML = (".yaml", ".yml")
 
 
 def shipped_maps() -> list[str]:
-    return shipped_names("maps", ".txt")
+    return sorted(shipped_names("maps", ".txt") + shipped_names("maps", ".yaml"))
+
+
+def is_ros_map(name_or_path: str | Path) -> bool:
+    """Whether ``name_or_path`` names a ROS map_server map: a shipped one or a YAML file."""
+    name = str(name_or_path)
+    if name in shipped_names("maps", ".yaml"):
+        return True
+    return name not in shipped_maps() and Path(name).suffix.lower() in _YAML
 
 
 def load_map(name_or_path: str | Path, *, cell_size: float | None = None) -> GridMap:
     """Load a generated office by name, a shipped map by name, a plain-text map file, or a ROS
-    map_server YAML file (``cell_size`` metres per cell for ROS maps)."""
+    map_server YAML file (``cell_size`` metres per cell for ROS maps; None: the default of
+    :func:`~mirl.world.ros_maps.load_ros_map`)."""
     name = str(name_or_path)
     if name.startswith("office"):
         from mirl.world.office_maps import office_map_from_name
@@ -29,10 +41,14 @@ def load_map(name_or_path: str | Path, *, cell_size: float | None = None) -> Gri
         office = office_map_from_name(name)
         if office is not None:
             return office
-    path = Path(name_or_path)
-    if name not in shipped_maps() and path.suffix.lower() in {".yaml", ".yml"}:
+    if is_ros_map(name_or_path):
         from mirl.world.ros_maps import load_ros_map
 
-        return load_ros_map(path, cell_size=cell_size)
+        if name in shipped_names("maps", ".yaml"):
+            shipped = resources.files("mirl") / "data" / "maps" / f"{name}.yaml"
+            with resources.as_file(shipped) as path:
+                gridmap = load_ros_map(path, cell_size=cell_size)
+            return gridmap
+        return load_ros_map(Path(name_or_path), cell_size=cell_size)
     text, source, file = read_shipped_or_file(name_or_path, "maps", ".txt", MapError, "map")
-    return parse_map(text, name=path.stem if file else name, source=source)
+    return parse_map(text, name=Path(name).stem if file else name, source=source)

@@ -14,8 +14,9 @@ from functools import cached_property
 import numpy as np
 
 from mirl.world import schema
-from mirl.world.maps import HEADING_DELTAS, GridMap
-from mirl.world.rewards import RewardFeature, RewardSpec
+from mirl.world.actions import ACTIONS, FORWARD, N_HEADINGS, STOP, TURN_LEFT, TURN_RIGHT
+from mirl.world.maps import HEADING_DELTAS, GridMap, dead_ends
+from mirl.world.rewards import KINDS, RewardFeature, RewardSpec
 
 __all__ = [
     "ACTIONS",
@@ -23,6 +24,8 @@ __all__ = [
     "TURN_LEFT",
     "TURN_RIGHT",
     "STOP",
+    "N_HEADINGS",
+    "dead_ends",
     "FeatureOverride",
     "FeatureMap",
     "DEFAULT_FEATURE_MAP",
@@ -32,10 +35,6 @@ __all__ = [
     "PatrolDomain",
     "detection_cells",
 ]
-
-ACTIONS: tuple[str, ...] = ("forward", "turn_left", "turn_right", "stop")
-FORWARD, TURN_LEFT, TURN_RIGHT, STOP = range(4)
-N_HEADINGS = 4
 
 
 @dataclass(frozen=True)
@@ -108,11 +107,12 @@ class FeatureMap:
 
     @classmethod
     def from_dict(
-        cls, data: Mapping, *, where: str = "transition_features", shape=None
+        cls, data: Mapping, *, where: str = "transition_features", shape=None, frame=None
     ) -> FeatureMap:
         """ξ from a ``[transition_features]`` table (``features``, ``actions``, optional
         ``override`` list), every value type-checked (:mod:`mirl.world.schema`; override cells
-        on a map of ``shape`` if given); problems are ``FieldError`` naming the field path."""
+        on a map of ``shape`` if given, in metres of ``frame`` if given); problems are
+        ``FieldError`` naming the field path."""
         data = schema.table(
             data, where, ("features", "actions", "override"), ("features", "actions")
         )
@@ -127,7 +127,10 @@ class FeatureMap:
             cells = None
             if "cells" in ov:
                 items = schema.array(ov["cells"], f"{p}.cells")
-                cells = tuple(schema.cell(c, f"{p}.cells[{k}]", shape) for k, c in enumerate(items))
+                cells = tuple(
+                    schema.cell(c, f"{p}.cells[{k}]", shape, frame=frame)
+                    for k, c in enumerate(items)
+                )
             overrides.append(
                 FeatureOverride(
                     cells=cells,
@@ -261,7 +264,9 @@ class PatrolDomain:
                 return f.cells
         return dead_ends(self.map)
 
-    def _cell_mask(self, cells: Sequence[tuple[int, int]]) -> np.ndarray:
+    def cell_mask(self, cells: Sequence[tuple[int, int]]) -> np.ndarray:
+        """(S,) bool: the states on ``cells`` (every heading); a cell off the hallway is an
+        error."""
         mask = np.zeros(self.n_states, dtype=bool)
         if len(cells):
             arr = np.asarray(cells, dtype=int)
@@ -272,31 +277,13 @@ class PatrolDomain:
             mask[(idx[:, None] * N_HEADINGS + np.arange(N_HEADINGS)).ravel()] = True
         return mask
 
-    def _feature_values(self, feature: RewardFeature) -> np.ndarray:
-        """(S, A) values of one reward feature (kinds in :mod:`mirl.world.rewards`)."""
-        out = np.zeros((self.n_states, self.n_actions))
-        if feature.kind == "moved":
-            cell_of = self.state_cell(np.arange(self.n_states))
-            out[:, FORWARD] = self.state_cell(self.intended[:, FORWARD]) != cell_of
-        elif feature.kind == "turn_around":
-            cells = dead_ends(self.map) if feature.cells is None else feature.cells
-            ends = self._cell_mask(cells)
-            out[:, TURN_LEFT] = ends
-            out[:, TURN_RIGHT] = ends
-        else:
-            mask = self._cell_mask(feature.cells or ())
-            if feature.kind == "heading_in_region":
-                mask &= np.isin(self.states[:, 2], feature.headings)
-            out[:, :] = mask[:, None]
-        return out
-
     @cached_property
     def reward_features(self) -> np.ndarray:
         """φ as an (S, A, K) array over :attr:`reward_feature_names`."""
         feats = self.reward_spec.features
         phi = np.zeros((self.n_states, self.n_actions, len(feats)))
         for k, f in enumerate(feats):
-            phi[:, :, k] = self._feature_values(f)
+            phi[:, :, k] = KINDS[f.kind].values(self, f)
         return phi
 
     @property
@@ -315,14 +302,6 @@ class PatrolDomain:
         """(S,) bool: states whose cell is visible to L at observability ``degree``."""
         mask = self.map.visible_mask(degree)
         return np.repeat(mask[self.cells[:, 0], self.cells[:, 1]], N_HEADINGS)
-
-
-def dead_ends(gridmap: GridMap) -> tuple[tuple[int, int], ...]:
-    """Patroller cells with exactly one patroller neighbour: where a patrol must turn around."""
-    P = np.pad(gridmap.patroller, 1)
-    neighbours = P[:-2, 1:-1].astype(int) + P[2:, 1:-1] + P[1:-1, :-2] + P[1:-1, 2:]
-    ends = np.argwhere(gridmap.patroller & (neighbours == 1))
-    return tuple((int(r), int(c)) for r, c in ends)
 
 
 def detection_cells(

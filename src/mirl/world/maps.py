@@ -8,16 +8,18 @@ Legend (one character per cell, row 0 at the top): ``.`` hallway (patrollers and
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 __all__ = [
+    "dead_ends",
     "MAX_MAP_SIDE",
     "GridMap",
     "MapError",
     "MapFrame",
     "parse_map",
+    "line_of_sight",
     "HEADING_DELTAS",
     "HEADING_YAWS",
 ]
@@ -106,6 +108,9 @@ class GridMap:
     visibility_order: np.ndarray = field(default=None)  # type: ignore[arg-type]
     source: str = "<memory>"
     frame: MapFrame = field(default_factory=MapFrame)  # metric placement (poses, physics)
+    # whether the map marks L's start and goal itself; a plain ROS map does not, and its
+    # observer_start and goals are placeholders until a scenario gives them
+    marked: bool = True
 
     def __post_init__(self) -> None:
         rows, cols = self.patroller.shape
@@ -115,7 +120,7 @@ class GridMap:
                 f"{MAX_MAP_SIDE}x{MAX_MAP_SIDE}"
             )
         if self.visibility_order is None:
-            order = default_visibility_order(self.patroller, self.observer_start)
+            order = default_visibility_order(self.patroller, self.observer_start, self.free)
             object.__setattr__(self, "visibility_order", order)
 
     @property
@@ -146,23 +151,65 @@ class GridMap:
         mask[cells[:, 0], cells[:, 1]] = True
         return mask
 
+    def in_line_of_sight(self) -> np.ndarray:
+        """(rows, cols) bool: the patroller cells in line of sight of L's start
+        (:func:`line_of_sight` over the map's free cells)."""
+        return line_of_sight(self.free, self.observer_start) & self.patroller
+
+    def with_observer(self, start: tuple[int, int], goal: tuple[int, int]) -> GridMap:
+        """The map with L's start at ``start`` and ``goal`` as its goal (the map's own marks are
+        only defaults); the visibility order is computed again from the new start. The map's
+        rooms stay L-only cells; ``self`` is returned when nothing changes."""
+        start, goal = (int(start[0]), int(start[1])), (int(goal[0]), int(goal[1]))
+        if start == self.observer_start and goal == self.goals[0] and self.marked:
+            return self
+        others = (g for g in self.goals if g != goal) if self.marked else ()  # not placeholders
+        goals = (goal, *others)
+        same_start = start == self.observer_start
+        return replace(
+            self,
+            observer_start=start,
+            goals=goals,
+            visibility_order=self.visibility_order if same_start else None,  # type: ignore[arg-type]
+            marked=True,
+        )
+
     def to_text(self) -> str:
+        """The map in the text format (an unmarked map without its placeholder L and G)."""
         chars = np.full(self.shape, "#")
         chars[self.patroller] = "."
         chars[self.observer_only] = "."
-        for r, c in self.goals:
-            chars[r, c] = "G" if self.patroller[r, c] else "g"
-        chars[self.observer_start] = "L"
+        if self.marked:
+            for r, c in self.goals:
+                chars[r, c] = "G" if self.patroller[r, c] else "g"
+            chars[self.observer_start] = "L"
         return "\n".join("".join(row) for row in chars)
 
 
-def default_visibility_order(patroller: np.ndarray, start: tuple[int, int]) -> np.ndarray:
-    """Order patroller cells by exposure to L's door.
+def default_visibility_order(
+    patroller: np.ndarray, start: tuple[int, int], free: np.ndarray | None = None
+) -> np.ndarray:
+    """Order patroller cells by exposure to L's start.
 
-    First the cells on straight lines of sight from L's start (along rows and columns, nearest
-    first, east/north/west/south), then the rest by breadth-first distance from the cells already
-    seen, ties broken row-major. On boyd2 this gives the order of docs/design.md, "The visibility
-    order": (0,1)…(0,8), (1,1)…(16,1), then the lower hallway."""
+    The cells in line of sight of L's start (:func:`line_of_sight` through the ``free`` cells;
+    ``patroller`` cells and L's start if not given) come first, then the others; within each
+    group the cells keep the exposure order: first the cells on straight lines from L's start
+    (along rows and columns, nearest first, east/north/west/south), then the rest by
+    breadth-first distance from the cells already seen, ties broken row-major. On boyd2 this
+    gives the order of docs/design.md, "The visibility order": (0,1)…(0,8), (1,1)…(16,1), then
+    the lower hallway."""
+    exposure = _exposure_order(patroller, start)
+    if len(exposure) == 0:
+        return exposure
+    if free is None:
+        free = patroller.copy()
+    sight = line_of_sight(free, start)
+    seen = sight[exposure[:, 0], exposure[:, 1]]
+    return np.concatenate([exposure[seen], exposure[~seen]])
+
+
+def _exposure_order(patroller: np.ndarray, start: tuple[int, int]) -> np.ndarray:
+    """Patroller cells by exposure: straight lines from ``start``, then breadth-first."""
     rows, cols = patroller.shape
     order: list[tuple[int, int]] = []
     seen = np.zeros_like(patroller, dtype=bool)
@@ -198,6 +245,68 @@ def default_visibility_order(patroller: np.ndarray, start: tuple[int, int]) -> n
     rest = [(int(r), int(c)) for r, c in np.argwhere(patroller & ~seen)]
     order.extend(rest)
     return np.asarray(order, dtype=int).reshape(-1, 2)
+
+
+def line_of_sight(
+    open_cells: np.ndarray, origin: tuple[int, int], max_range: float | None = None
+) -> np.ndarray:
+    """(rows, cols) bool: the cells whose centre the straight segment from the centre of
+    ``origin`` reaches without passing through a closed cell (``~open_cells``).
+
+    The rule of the physics world's cameras, which cast rays against wall boxes of one cell
+    each: the segment is blocked by a closed cell whose interior it crosses, and by two closed
+    cells that touch diagonally at a corner it passes through; it is not blocked by a closed
+    cell it only touches at a corner. ``max_range`` (cells, centre to centre) bounds the view.
+    Closed cells are never in sight; ``origin`` always is (when it lies on the grid).
+    """
+    open_cells = np.asarray(open_cells, dtype=bool)
+    rows, cols = open_cells.shape
+    out = np.zeros((rows, cols), dtype=bool)
+    r0, c0 = int(origin[0]), int(origin[1])
+    if not (0 <= r0 < rows and 0 <= c0 < cols):
+        return out
+    passable = np.pad(open_cells, 1)  # a border of closed cells: rays never leave the grid
+    passable[r0 + 1, c0 + 1] = True
+    targets = np.argwhere(open_cells)
+    dr, dc = targets[:, 0] - r0, targets[:, 1] - c0
+    if max_range is not None:
+        near = np.hypot(dr, dc) <= max_range + 1e-9
+        targets, dr, dc = targets[near], dr[near], dc[near]
+    blocked = np.zeros(len(targets), dtype=bool)
+    # crossings of the grid's vertical lines (axis 1) and horizontal lines (axis 0), in integer
+    # arithmetic: the j-th crossing (j = 1..|d|) lies at parameter t = (2j - 1) / (2|d|)
+    for along, across in ((dc, dr), (dr, dc)):
+        n = np.abs(along)
+        k = np.repeat(np.arange(len(targets)), n)
+        if len(k) == 0:
+            continue
+        j = np.arange(len(k)) - np.repeat(np.cumsum(n) - n, n) + 1
+        step = np.sign(along[k])
+        den = 2 * n[k]
+        num = across[k] * (2 * j - 1) + n[k]  # (position across + 0.5) * den
+        at_corner = num % den == 0
+        line = num // den  # the cell across (below the line at a corner)
+        before, after = (j - 1) * step, j * step  # the cells along, on either side
+        if along is dc:  # axis 1: 'along' is a column offset, 'across' a row offset
+            cell_a = (r0 + line + 1, c0 + before + 1)
+            cell_b = (r0 + line + 1, c0 + after + 1)
+            up_a, up_b = (r0 + line, c0 + before + 1), (r0 + line, c0 + after + 1)
+        else:
+            cell_a = (r0 + before + 1, c0 + line + 1)
+            cell_b = (r0 + after + 1, c0 + line + 1)
+            up_a, up_b = (r0 + before + 1, c0 + line), (r0 + after + 1, c0 + line)
+        a, b = passable[cell_a], passable[cell_b]
+        ua, ub = passable[up_a], passable[up_b]
+        # off a corner the segment crosses from cell a into cell b; at a corner it goes from
+        # one of the four cells around it to the diagonal one, and the other two are touched
+        toward_up = np.sign(across[k]) < 0
+        diag_1 = np.where(toward_up, a & ub, ua & b)  # the cells it passes through
+        side_1 = np.where(toward_up, ua | b, a | ub)  # one of the touched pair must be open
+        ok = np.where(at_corner, diag_1 & side_1, a & b)
+        np.logical_or.at(blocked, k[~ok], True)
+    seen = targets[~blocked]
+    out[seen[:, 0], seen[:, 1]] = True
+    return out
 
 
 def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> GridMap:
@@ -237,3 +346,11 @@ def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> Grid
         goals=tuple(goals),
         source=source,
     )
+
+
+def dead_ends(gridmap: GridMap) -> tuple[tuple[int, int], ...]:
+    """Patroller cells with exactly one patroller neighbour: where a patrol must turn around."""
+    P = np.pad(gridmap.patroller, 1)
+    neighbours = P[:-2, 1:-1].astype(int) + P[2:, 1:-1] + P[1:-1, :-2] + P[1:-1, 2:]
+    ends = np.argwhere(gridmap.patroller & (neighbours == 1))
+    return tuple((int(r), int(c)) for r, c in ends)

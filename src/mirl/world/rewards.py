@@ -1,8 +1,10 @@
 """Reward features φ as data: a scenario names any number of features, each of a *kind*, and gives
 every patroller its own true weights over them (so two robots can patrol different routes).
 
-Kinds (``cells`` is a region: a list whose entries are cells ``[r, c]`` or inclusive rectangles
-``{from = [r, c], to = [r, c]}``, or one such rectangle):
+Kinds are the rows of :data:`KINDS`: the fields a scenario gives a feature of that kind and
+what it rewards, in one place (``cells`` is a region: a list whose entries are cells ``[r, c]``
+or inclusive rectangles ``{from = [r, c], to = [r, c]}``, or one such rectangle; on a map, a cell
+may also be a point ``{x, y}`` in metres, and a rectangle covers the hallway cells inside it):
 
 ============================ ==================================================================
 ``moved``                    a forward that changes cell
@@ -19,14 +21,19 @@ are :func:`hallway_features`, which the older ``[reward]`` keys of a scenario st
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
+
+import numpy as np
 
 from mirl.world import schema
+from mirl.world.actions import FORWARD, TURN_LEFT, TURN_RIGHT
+from mirl.world.maps import GridMap, dead_ends
 
 __all__ = [
     "KINDS",
+    "FeatureKind",
     "HEADING_NAMES",
     "RewardFeature",
     "RewardSpec",
@@ -36,7 +43,6 @@ __all__ = [
     "read_weights",
 ]
 
-KINDS = ("moved", "region", "turn_around", "heading_in_region")
 HEADING_NAMES = ("east", "north", "west", "south")
 LEGACY_KEYS = ("upper_hallway", "lower_hallway", "turn_around")
 Cells = tuple[tuple[int, int], ...]
@@ -55,6 +61,96 @@ class RewardFeature:
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise ValueError(f"reward feature '{self.name}': unknown kind '{self.kind}'")
+
+
+class StateSpace(Protocol):
+    """What a kind needs of the domain to value its feature
+    (:class:`~mirl.world.domain.PatrolDomain` is one)."""
+
+    @property
+    def n_states(self) -> int: ...
+
+    @property
+    def n_actions(self) -> int: ...
+
+    @property
+    def states(self) -> np.ndarray:
+        """(S, 3): row, col, heading."""
+        ...
+
+    @property
+    def intended(self) -> np.ndarray:
+        """(S, A): ψ, the intended next state."""
+        ...
+
+    @property
+    def map(self) -> GridMap: ...
+
+    def state_cell(self, states: Any) -> np.ndarray: ...
+
+    def cell_mask(self, cells: Sequence[tuple[int, int]]) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class FeatureKind:
+    """One kind of reward feature.
+
+    Parameters
+    ----------
+    name : str
+        The ``kind`` a scenario writes.
+    takes : tuple of str
+        The fields a feature of this kind may have besides ``name`` and ``kind``.
+    needs : tuple of str
+        Those it must have.
+    values : callable
+        ``values(domain, feature)`` -> (S, A) array: the feature's value at every state and
+        action of ``domain`` (a :class:`StateSpace`).
+    """
+
+    name: str
+    takes: tuple[str, ...]
+    needs: tuple[str, ...]
+    values: Callable[[StateSpace, RewardFeature], np.ndarray]
+
+
+def _moved(domain: StateSpace, feature: RewardFeature) -> np.ndarray:
+    out = np.zeros((domain.n_states, domain.n_actions))
+    cell_of = domain.state_cell(np.arange(domain.n_states))
+    out[:, FORWARD] = domain.state_cell(domain.intended[:, FORWARD]) != cell_of
+    return out
+
+
+def _turn_around(domain: StateSpace, feature: RewardFeature) -> np.ndarray:
+    out = np.zeros((domain.n_states, domain.n_actions))
+    cells = dead_ends(domain.map) if feature.cells is None else feature.cells
+    ends = domain.cell_mask(cells)
+    out[:, TURN_LEFT] = ends
+    out[:, TURN_RIGHT] = ends
+    return out
+
+
+def _region(domain: StateSpace, feature: RewardFeature) -> np.ndarray:
+    mask = domain.cell_mask(feature.cells or ())
+    return np.repeat(mask[:, None].astype(float), domain.n_actions, axis=1)
+
+
+def _heading_in_region(domain: StateSpace, feature: RewardFeature) -> np.ndarray:
+    mask = domain.cell_mask(feature.cells or ()) & np.isin(domain.states[:, 2], feature.headings)
+    return np.repeat(mask[:, None].astype(float), domain.n_actions, axis=1)
+
+
+KINDS: dict[str, FeatureKind] = {
+    k.name: k
+    for k in (
+        FeatureKind("moved", (), (), _moved),
+        FeatureKind("region", ("cells",), ("cells",), _region),
+        FeatureKind("turn_around", ("cells",), (), _turn_around),
+        FeatureKind("heading_in_region", ("cells", "headings"), ("cells", "headings"),
+                    _heading_in_region),
+    )
+}  # fmt: skip
+"""Every kind of reward feature by name."""
 
 
 def hallway_features(
@@ -90,28 +186,44 @@ class RewardSpec:
         return self.features[self.names.index(name)]
 
 
-def read_region(value: Any, path: str, shape: tuple[int, int]) -> Cells:
-    """A region (module doc) as a tuple of cells, rectangles expanded row by row."""
-    if isinstance(value, dict):
-        return _rectangle(value, path, shape)
+def read_region(
+    value: Any, path: str, shape: tuple[int, int], gridmap: GridMap | None = None
+) -> Cells:
+    """A region (module doc) as a tuple of cells, rectangles expanded row by row. With the
+    ``gridmap``, positions may be in metres of its frame, and a rectangle's corners must be
+    hallway cells and it covers the hallway cells inside it."""
+    frame = None if gridmap is None else gridmap.frame
+    if isinstance(value, dict) and set(value) - {"x", "y"}:
+        return _rectangle(value, path, shape, gridmap)
+    if isinstance(value, dict):  # one point in metres
+        return (schema.cell(value, path, shape, frame=frame),)
     out: list[tuple[int, int]] = []
     for i, item in enumerate(schema.array(value, path)):
-        if isinstance(item, dict):
-            out.extend(_rectangle(item, f"{path}[{i}]", shape))
+        if isinstance(item, dict) and set(item) - {"x", "y"}:
+            out.extend(_rectangle(item, f"{path}[{i}]", shape, gridmap))
         else:
-            out.append(schema.cell(item, f"{path}[{i}]", shape))
+            out.append(schema.cell(item, f"{path}[{i}]", shape, frame=frame))
     return tuple(out)
 
 
-def _rectangle(value: dict, path: str, shape: tuple[int, int]) -> Cells:
+def _rectangle(value: dict, path: str, shape: tuple[int, int], gridmap: GridMap | None) -> Cells:
     value = schema.table(value, path, ("from", "to"), required=("from", "to"))
-    r0, c0 = schema.cell(value["from"], f"{path}.from", shape)
-    r1, c1 = schema.cell(value["to"], f"{path}.to", shape)
-    return tuple(
+    frame = None if gridmap is None else gridmap.frame
+    corners = []
+    for key in ("from", "to"):
+        corner = schema.cell(value[key], f"{path}.{key}", shape, frame=frame)
+        if gridmap is not None and not gridmap.patroller[corner]:
+            raise schema.FieldError(f"{path}.{key}", f"{list(corner)} is not a hallway cell")
+        corners.append(corner)
+    (r0, c0), (r1, c1) = corners
+    cells = (
         (r, c)
         for r in range(min(r0, r1), max(r0, r1) + 1)
         for c in range(min(c0, c1), max(c0, c1) + 1)
     )
+    if gridmap is None:
+        return tuple(cells)
+    return tuple(cell for cell in cells if gridmap.patroller[cell])
 
 
 def _headings(value: Any, path: str) -> tuple[int, ...]:
@@ -124,29 +236,33 @@ def _headings(value: Any, path: str) -> tuple[int, ...]:
     return tuple(sorted(set(out)))
 
 
-def _feature(value: Any, path: str, shape: tuple[int, int]) -> RewardFeature:
+def _feature(
+    value: Any, path: str, shape: tuple[int, int], gridmap: GridMap | None
+) -> RewardFeature:
     value = schema.table(value, path, ("name", "kind", "cells", "headings"), ("name", "kind"))
     name = schema.string(value["name"], f"{path}.name")
-    kind = schema.string(value["kind"], f"{path}.kind", KINDS)
-    allowed = {"moved": (), "region": ("cells",), "turn_around": ("cells",)}
-    allowed["heading_in_region"] = ("cells", "headings")
+    kind = schema.string(value["kind"], f"{path}.kind", tuple(KINDS))
     for key in ("cells", "headings"):
-        if key in value and key not in allowed[kind]:
+        if key in value and key not in KINDS[kind].takes:
             raise schema.FieldError(f"{path}.{key}", f"a '{kind}' feature takes no {key}")
-    if kind in ("region", "heading_in_region") and "cells" not in value:
-        raise schema.FieldError(path, f"a '{kind}' feature needs cells")
-    cells = read_region(value["cells"], f"{path}.cells", shape) if "cells" in value else None
+    for key in KINDS[kind].needs:
+        if key not in value:
+            raise schema.FieldError(path, f"a '{kind}' feature needs {key}")
+    cells = None
+    if "cells" in value:
+        cells = read_region(value["cells"], f"{path}.cells", shape, gridmap)
     headings: tuple[int, ...] = ()
-    if kind == "heading_in_region":
-        if "headings" not in value:
-            raise schema.FieldError(path, "a 'heading_in_region' feature needs headings")
+    if "headings" in value:
         headings = _headings(value["headings"], f"{path}.headings")
     return RewardFeature(name, kind, cells, headings)
 
 
-def read_reward_spec(reward: dict, shape: tuple[int, int]) -> tuple[RewardSpec, bool]:
+def read_reward_spec(
+    reward: dict, shape: tuple[int, int], gridmap: GridMap | None = None
+) -> tuple[RewardSpec, bool]:
     """The ``[reward]`` table's features and whether they came in the older fixed form
-    (``upper_hallway`` / ``lower_hallway`` / ``turn_around`` keys)."""
+    (``upper_hallway`` / ``lower_hallway`` / ``turn_around`` keys); cells on ``gridmap`` if
+    given (:func:`read_region`)."""
     reward = schema.table(reward, "reward", ("features", "weights", *LEGACY_KEYS))
     legacy = [k for k in LEGACY_KEYS if k in reward]
     if "features" in reward:
@@ -155,14 +271,16 @@ def read_reward_spec(reward: dict, shape: tuple[int, int]) -> tuple[RewardSpec, 
                 f"reward.{legacy[0]}", "give either reward.features or the fixed hallway keys"
             )
         items = schema.array(reward["features"], "reward.features", min_length=1)
-        feats = tuple(_feature(f, f"reward.features[{i}]", shape) for i, f in enumerate(items))
+        feats = tuple(
+            _feature(f, f"reward.features[{i}]", shape, gridmap) for i, f in enumerate(items)
+        )
         names = [f.name for f in feats]
         for i, name in enumerate(names):
             if name in names[:i]:
                 raise schema.FieldError(f"reward.features[{i}].name", f"'{name}' is used twice")
         return RewardSpec(feats), False
     regions = {
-        k: read_region(reward[k], f"reward.{k}", shape) if k in reward else None
+        k: read_region(reward[k], f"reward.{k}", shape, gridmap) if k in reward else None
         for k in LEGACY_KEYS
     }
     return RewardSpec(

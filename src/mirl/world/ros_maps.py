@@ -13,15 +13,18 @@ file), ``resolution`` (metres per pixel), ``origin`` ([x, y, yaw]), ``negate``,
   free when ``x / 100 < free_thresh``.
 
 Unknown and occupied pixels are both "not free". The image is cut into square cells of
-``cell_size`` metres starting at its top-left corner (row 0 of the grid is the top of the image,
-i.e. the largest map *y*); a pixel belongs to the cell containing its centre. A cell is hallway
-only if it is complete (lies wholly inside the image) and *all* its pixels are free — so a cell
-never straddles a wall, at the cost of thin passages narrower than a cell vanishing.
+``cell_size`` metres (the decision grid; :data:`DEFAULT_CELL_SIZE` unless chosen) starting at
+its top-left corner (row 0 of the grid is the top of the image, i.e. the largest map *y*); a
+pixel belongs to the cell containing its centre. A cell is hallway only if it is complete (lies
+wholly inside the image) and *all* its pixels are free — so a cell never straddles a wall, and a
+wall one pixel thick still separates two rooms, at the cost of passages narrower than about two
+cells vanishing (docs/design.md, "ROS maps").
 
-L is not in a ROS map, so its start and goals (in cell coordinates ``[row, col]``) come from the
-extra YAML keys ``mirl_observer_start: [row, col]`` and ``mirl_goals: [[row, col], ...]``, or from
-the keyword arguments of :func:`load_ros_map`, which win. The start cell becomes L's room
-(observer-only); goals stay hallway cells (``G``).
+A ROS map does not mark L: a plain map loads with placeholder marks (``marked`` is False), and a
+scenario gives L's start and goal. The extra YAML keys ``mirl_observer_start: [row, col]`` and
+``mirl_goals: [[row, col], ...]`` (cell coordinates at the chosen cell size), or the keyword
+arguments of :func:`load_ros_map`, which win, still mark them; the start cell then becomes L's
+room (observer-only) and goals stay hallway cells (``G``).
 """
 
 from __future__ import annotations
@@ -34,9 +37,20 @@ from typing import Any
 
 import numpy as np
 
-from mirl.world.maps import MAX_FRAME_ORIGIN, GridMap, MapError, MapFrame
+from mirl.world.maps import MAX_FRAME_ORIGIN, MAX_MAP_SIDE, GridMap, MapError, MapFrame
 
-__all__ = ["load_ros_map", "occupancy_free_mask", "discretise_free_mask", "ros_map_frame"]
+__all__ = [
+    "DEFAULT_CELL_SIZE",
+    "load_ros_map",
+    "occupancy_free_mask",
+    "discretise_free_mask",
+    "ros_map_frame",
+]
+
+# The decision grid of a ROS map when none is chosen: a TurtleBot (0.3-0.35 m across) fits in a
+# cell with room to spare, and at its patrol speed (0.2-0.26 m/s) it crosses about one cell in
+# a 2 s step, as mirl's motion model assumes (docs/design.md, "ROS maps")
+DEFAULT_CELL_SIZE = 0.5
 
 _MODES = ("trinary", "scale", "raw")
 # 64 M pixels: a 400 m x 400 m building at map_server's usual 5 cm a pixel (real maps are a few
@@ -204,10 +218,12 @@ def load_ros_map(
 ) -> GridMap:
     """Load a ROS ``map_server`` map and discretise it into cells of ``cell_size`` metres.
 
-    ``cell_size`` defaults to the map resolution (one pixel per cell) and may not be smaller
-    than it. ``observer_start`` ``(row, col)`` and ``goals`` ``[(row, col), ...]`` are cell
-    coordinates and override the YAML keys ``mirl_observer_start`` / ``mirl_goals``. Every
-    problem raises a one-line :class:`MapError` starting with the YAML path.
+    ``cell_size`` defaults to :data:`DEFAULT_CELL_SIZE` (or the map resolution, if coarser) and
+    may not be smaller than the resolution; the grid may have at most
+    :data:`~mirl.world.maps.MAX_MAP_SIDE` cells a side. ``observer_start`` ``(row, col)`` and
+    ``goals`` ``[(row, col), ...]`` are cell coordinates and override the YAML keys
+    ``mirl_observer_start`` / ``mirl_goals``; without either, the map is unmarked (module doc).
+    Every problem raises a one-line :class:`MapError` starting with the YAML path.
     """
     path = Path(yaml_path)
     data = _read_yaml(path)
@@ -253,18 +269,22 @@ def load_ros_map(
         raise MapError(f"{path}: unknown mode {data.get('mode')!r} (expected one of {_MODES})")
 
     if cell_size is None:
-        cell_size = resolution
+        cell_size = max(DEFAULT_CELL_SIZE, resolution)
     if not (isinstance(cell_size, int | float) and math.isfinite(cell_size) and cell_size > 0):
-        raise MapError(f"{path}: cell_size must be a positive number of metres, got {cell_size!r}")
+        raise MapError(
+            f"{path}: `cell_size` must be a positive number of metres, got {cell_size!r}"
+        )
     if cell_size < resolution * (1 - _EPS):
         raise MapError(
-            f"{path}: cell_size {cell_size} m is smaller than the map resolution {resolution} m"
+            f"{path}: `cell_size` {cell_size:g} m is smaller than the map resolution "
+            f"{resolution:g} m"
         )
 
     image_path = Path(data["image"])
     if not image_path.is_absolute():
         image_path = path.parent / image_path
     grey, alpha = _read_image(path, image_path)
+    _check_grid_size(path, grey.shape, resolution, float(cell_size))
     free_px = occupancy_free_mask(
         grey, negate=negate, free_thresh=free_thresh, mode=mode, alpha=alpha
     )
@@ -272,22 +292,28 @@ def load_ros_map(
     rows, cols = free.shape
 
     hint = (
-        "add 'mirl_observer_start: [row, col]' and 'mirl_goals: [[row, col], ...]' "
-        f"(cell coordinates, {rows}x{cols} cells of {cell_size} m) to the YAML, "
-        "or pass observer_start= and goals="
+        "give L's start and goal in a scenario's [observer] table, or add "
+        "'mirl_observer_start: [row, col]' and 'mirl_goals: [[row, col], ...]' "
+        f"(cell coordinates, {rows}x{cols} cells of {cell_size:g} m) to the YAML"
     )
     if observer_start is not None:
-        start = _cell(path, "observer_start", list(observer_start))
+        start = _cell(path, "observer start", list(observer_start))
     elif "mirl_observer_start" in data:
         start = _cell(path, "mirl_observer_start", data["mirl_observer_start"])
     else:
-        raise MapError(f"{path}: no observer start for L; {hint}")
+        start = None
     if goals is not None:
         goal_list = _cells(path, "goals", [list(g) for g in goals])
     elif "mirl_goals" in data:
         goal_list = _cells(path, "mirl_goals", data["mirl_goals"])
     else:
-        raise MapError(f"{path}: no goal for L; {hint}")
+        goal_list = None
+    if (start is None) != (goal_list is None):
+        given, missing = ("goal", "start") if start is None else ("start", "goal")
+        raise MapError(f"{path}: the map marks L's {given} but not its {missing}; {hint}")
+    frame = ros_map_frame(origin, resolution, grey.shape[0], float(cell_size))
+    if start is None or goal_list is None:
+        return _unmarked(path, free, frame, float(cell_size))
 
     def check(what: str, rc: tuple[int, int]) -> None:
         r, c = rc
@@ -295,7 +321,7 @@ def load_ros_map(
             raise MapError(f"{path}: {what} {list(rc)} is outside the {rows}x{cols} cell grid")
         if not free[r, c]:
             raise MapError(
-                f"{path}: {what} {list(rc)} is not a free cell at cell_size {cell_size} m"
+                f"{path}: {what} {list(rc)} is not a free cell at `cell_size` {cell_size:g} m"
             )
 
     check("observer start", start)
@@ -308,7 +334,7 @@ def load_ros_map(
     patroller = free.copy()
     patroller[start] = False
     if patroller.sum() < 2:
-        raise MapError(f"{path}: fewer than 2 free cells at cell_size {cell_size} m")
+        raise MapError(f"{path}: fewer than 2 free cells at `cell_size` {cell_size:g} m")
     observer_only = np.zeros_like(free)
     observer_only[start] = True
     return GridMap(
@@ -318,7 +344,40 @@ def load_ros_map(
         observer_start=start,
         goals=tuple(goal_list),
         source=str(path),
-        frame=ros_map_frame(origin, resolution, grey.shape[0], float(cell_size)),
+        frame=frame,
+    )
+
+
+def _unmarked(path: Path, free: np.ndarray, frame: MapFrame, cell_size: float) -> GridMap:
+    """A map without L's marks: every free cell is hallway, and the first and last free cells
+    (row-major) stand in for L's start and goal until a scenario gives them."""
+    cells = np.argwhere(free)
+    if len(cells) < 2:
+        raise MapError(f"{path}: fewer than 2 free cells at `cell_size` {cell_size:g} m")
+    return GridMap(
+        name=path.stem,
+        patroller=free,
+        observer_only=np.zeros_like(free),
+        observer_start=(int(cells[0][0]), int(cells[0][1])),
+        goals=((int(cells[-1][0]), int(cells[-1][1])),),
+        source=str(path),
+        frame=frame,
+        marked=False,
+    )
+
+
+def _check_grid_size(path: Path, shape_px: tuple[int, ...], resolution: float, cell: float):
+    """Refuse a grid of more than MAX_MAP_SIDE cells a side, naming a cell size that fits."""
+    height, width = shape_px[:2]
+    side_m = max(height, width) * resolution
+    cells = math.ceil(side_m / cell - _EPS)
+    if cells <= MAX_MAP_SIDE:
+        return
+    fits = math.ceil(side_m / MAX_MAP_SIDE / resolution - _EPS) * resolution
+    raise MapError(
+        f"{path}: the map is {width * resolution:g} x {height * resolution:g} m, {cells} cells "
+        f"a side at `cell_size` {cell:g} m, more than the limit of {MAX_MAP_SIDE}; choose a "
+        f"`cell_size` of at least {fits:g} m"
     )
 
 

@@ -79,6 +79,10 @@ class Scenario:
             object.__setattr__(self, "observer_start", self.map.observer_start)
         if self.goal is None:
             object.__setattr__(self, "goal", self.map.goals[0])
+        # the map's own L and G marks are defaults: the scenario's map carries its start and
+        # goal, so that L's view, plans, reports and drawings all read the same ones
+        start, goal = self.observer_start, self.goal
+        object.__setattr__(self, "map", self.map.with_observer(start, goal))  # type: ignore[arg-type]
         if self.error_model not in ERROR_MODELS:
             raise ScenarioError(
                 f"{self.source}: error_model: '{self.error_model}' is not one of {ERROR_MODELS}"
@@ -132,6 +136,23 @@ class Scenario:
             res = value_iteration(TabularMDP(T, self.domain.rewards(r.weights), self.discount))
             out.append((T, res))
         return out
+
+    def patrol_route(self, robot: int, max_steps: int | None = None) -> np.ndarray:
+        """(k, 2) cells ``robot`` visits from its start following its true policy when every
+        action succeeds, until a state repeats (its patrol loop) or ``max_steps`` (default 4
+        per patroller cell) have passed."""
+        dom = self.domain
+        state = int(dom.state_index(*self.robots[robot].start))
+        policy, intended = self.true_policy(robot), dom.intended
+        limit = dom.n_states if max_steps is None else max_steps
+        seen, states = {state}, [state]
+        for _ in range(limit):
+            state = int(intended[state, policy[state]])
+            states.append(state)
+            if state in seen:
+                break
+            seen.add(state)
+        return dom.states[np.asarray(states), :2]
 
     def with_damage(self, robot: str, feature: str, probability: float) -> Scenario:
         """A copy with one true feature probability overridden (``--damage I:right_wheel=0.7``)."""
@@ -211,8 +232,12 @@ def _observer(data: Any, gridmap: GridMap) -> tuple[tuple[int, int], tuple[int, 
     observer = schema.table(data, "observer", ("start", "goal"))
     spots = {}
     for key, default in (("start", gridmap.observer_start), ("goal", gridmap.goals[0])):
+        if key not in observer and not gridmap.marked:
+            raise schema.FieldError(
+                "observer", f"missing field '{key}' (the map {gridmap.name} does not mark L's)"
+            )
         spot = (
-            schema.cell(observer[key], f"observer.{key}", gridmap.shape)
+            schema.cell(observer[key], f"observer.{key}", gridmap.shape, frame=gridmap.frame)
             if key in observer
             else default
         )
@@ -237,7 +262,7 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         feature_map = read_feature_map(data["transition_features"], gridmap)
     reward = schema.table(data.get("reward", {}), "reward", ("features", "weights",
                           "upper_hallway", "lower_hallway", "turn_around"))  # fmt: skip
-    reward_spec, legacy = read_reward_spec(reward, shape)
+    reward_spec, legacy = read_reward_spec(reward, shape, gridmap)
     domain = PatrolDomain(gridmap, feature_map, reward_spec)
     for k, f in enumerate(reward_spec.features):
         for cell in f.cells or ():

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from mirl.world import schema
-from mirl.world.catalog import load_map
+from mirl.world.catalog import is_ros_map, load_map
 from mirl.world.domain import FeatureMap, PatrolDomain
 from mirl.world.game import GAME_ACTIONS, InteractionGame
 from mirl.world.maps import GridMap, MapError, MapFrame
@@ -46,22 +46,36 @@ class RobotSpec:
 
 def read_map(data: dict, base: Path | None) -> GridMap:
     """The scenario's map (relative paths are relative to the scenario file), placed in the
-    metric frame of the optional ``[frame]`` table (``cell_size``, ``origin = [x, y]``: the
-    map-frame position of the centre of cell (0, 0))."""
+    metric frame of the optional ``[frame]`` table: ``cell_size`` (metres) and, for a text map,
+    ``origin = [x, y]`` (the map-frame position of the centre of cell (0, 0)). A ROS map is
+    discretised at ``cell_size`` and keeps the origin of its YAML."""
     if "map" not in data:
         raise FieldError("map", "missing field")
     map_ref = schema.string(data["map"], "map")
     candidate = Path(map_ref)
     if base is not None and not candidate.is_absolute() and (base / candidate).exists():
         candidate = base / candidate
+    source = map_ref if not candidate.is_file() else candidate
+    frame = schema.table(data.get("frame", {}), "frame", ("cell_size", "origin"))
+    cell_size = None
+    if "cell_size" in frame:
+        cell_size = schema.number(frame["cell_size"], "frame.cell_size")
+    ros = is_ros_map(source)
     try:
-        gridmap = load_map(map_ref if not candidate.is_file() else candidate)
+        gridmap = load_map(source, cell_size=cell_size if ros else None)
     except (MapError, OSError, ValueError) as exc:
-        raise FieldError("map", str(exc).splitlines()[0] if str(exc) else "cannot load") from None
-    if "frame" not in data:
+        message = str(exc).splitlines()[0] if str(exc) else "cannot load"
+        where = "frame.cell_size" if cell_size is not None and "`cell_size`" in message else "map"
+        # the scenario's field, not the parameter (which the CLI would turn into a flag)
+        raise FieldError(where, message.replace("`cell_size`", "cell_size")) from None
+    if ros:
+        if "origin" in frame:
+            raise FieldError(
+                "frame.origin", "a ROS map's frame is its YAML's 'origin'; give only cell_size"
+            )
         return gridmap
-    frame = schema.table(data["frame"], "frame", ("cell_size", "origin"))
-    cell_size = schema.number(frame.get("cell_size", gridmap.frame.cell_size), "frame.cell_size")
+    if not frame:
+        return gridmap
     origin = schema.array(
         frame.get("origin", [gridmap.frame.origin_x, gridmap.frame.origin_y]),
         "frame.origin",
@@ -69,7 +83,7 @@ def read_map(data: dict, base: Path | None) -> GridMap:
     )
     x, y = (schema.number(v, f"frame.origin[{i}]") for i, v in enumerate(origin))
     try:
-        placed = MapFrame(cell_size, x, y)
+        placed = MapFrame(gridmap.frame.cell_size if cell_size is None else cell_size, x, y)
     except MapError as exc:
         raise FieldError("frame", str(exc)) from None
     return replace(gridmap, frame=placed)
@@ -79,7 +93,7 @@ def read_feature_map(data: Any, gridmap: GridMap) -> FeatureMap:
     """The ``[transition_features]`` table (ξ as data, :class:`~mirl.world.domain.FeatureMap`);
     an override's cells must be hallway cells (elsewhere no patroller acts, so it would be
     silently without effect)."""
-    feature_map = FeatureMap.from_dict(data, shape=gridmap.shape)
+    feature_map = FeatureMap.from_dict(data, shape=gridmap.shape, frame=gridmap.frame)
     for i, override in enumerate(feature_map.overrides):
         for k, (r, c) in enumerate(override.cells or ()):
             if not gridmap.patroller[r, c]:
@@ -124,7 +138,9 @@ def read_robots(
             raise FieldError(f"{where}.name", f"{name!r} is not a usable robot name")
         if "start" not in rd:
             raise FieldError(where, "missing field 'start'")
-        start = schema.cell(rd["start"], f"{where}.start", domain.map.shape, n=3)
+        start = schema.cell(
+            rd["start"], f"{where}.start", domain.map.shape, n=3, frame=domain.map.frame
+        )
         if domain.state_index(*start) < 0:
             raise FieldError(f"{where}.start", f"{list(start)} is not a hallway cell")
         same = [k for k, r in enumerate(robots) if r.start == start]

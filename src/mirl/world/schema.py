@@ -14,7 +14,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from mirl.world.maps import MapFrame
 
 __all__ = [
     "FieldError",
@@ -110,15 +113,30 @@ def array(value: Any, path: str, *, length: int | None = None, min_length: int =
     return value
 
 
-def cell(value: Any, path: str, shape: tuple[int, int] | None = None, n: int = 2) -> tuple:
+def cell(
+    value: Any,
+    path: str,
+    shape: tuple[int, int] | None = None,
+    n: int = 2,
+    frame: MapFrame | None = None,
+) -> tuple:
     """(row, col) — or (row, col, heading) with ``n = 3`` — of non-negative integers inside a
-    map of ``shape`` (a negative index must never wrap around to the other side)."""
+    map of ``shape`` (a negative index must never wrap around to the other side).
+
+    With a map ``frame``, a position may also be a point in metres: ``{x, y}`` for a cell,
+    ``{x, y, yaw}`` (yaw in degrees, rounded to the nearest heading) for a state; it is read as
+    the cell whose centre is nearest and must lie on the grid."""
+    if isinstance(value, dict) and frame is not None:
+        return _metric_cell(value, path, shape, n, frame)
     if (
         not isinstance(value, list | tuple)
         or len(value) != n
         or not all(isinstance(v, int) and not isinstance(v, bool) for v in value)
     ):
         what = "[row, col]" if n == 2 else "[row, col, heading]"
+        if frame is not None:
+            what += " as integers or " + ("{ x, y }" if n == 2 else "{ x, y, yaw }")
+            raise FieldError(path, f"expected {what} in metres, got {_show(value)}")
         raise FieldError(path, f"expected {what} as integers, got {_show(value)}")
     if any(v < 0 for v in value):
         raise FieldError(path, f"{list(value)} has a negative coordinate")
@@ -127,3 +145,27 @@ def cell(value: Any, path: str, shape: tuple[int, int] | None = None, n: int = 2
     if n == 3 and value[2] > 3:
         raise FieldError(path, f"heading {value[2]} is not 0-3 (east, north, west, south)")
     return tuple(int(v) for v in value)
+
+
+def _metric_cell(value: dict, path: str, shape, n: int, frame: MapFrame) -> tuple:
+    keys = ("x", "y") if n == 2 else ("x", "y", "yaw")
+    value = table(value, path, keys, required=keys)
+    # far beyond any building (maps.MAX_FRAME_ORIGIN), so that cell arithmetic cannot overflow
+    x = number(value["x"], f"{path}.x", low=-1e9, high=1e9)
+    y = number(value["y"], f"{path}.y", low=-1e9, high=1e9)
+    r, c = (int(v) for v in frame.cell_of(x, y))
+    if r < 0 or c < 0 or (shape is not None and (r >= shape[0] or c >= shape[1])):
+        where = ""
+        if shape is not None:
+            x0, y0 = frame.cell_centre(0, 0)
+            x1, y1 = frame.cell_centre(shape[0] - 1, shape[1] - 1)
+            half = frame.cell_size / 2
+            where = (
+                f" (x {float(x0) - half:g} to {float(x1) + half:g} m, "
+                f"y {float(y1) - half:g} to {float(y0) + half:g} m)"
+            )
+        raise FieldError(path, f"x = {x:g}, y = {y:g} m is off the map{where}")
+    if n == 2:
+        return (r, c)
+    yaw = number(value["yaw"], f"{path}.yaw")
+    return (r, c, int(round(yaw / 90.0)) % 4)

@@ -1,0 +1,116 @@
+"""The probability that L, going now along its plan, reaches its goal unseen: the belief filter
+propagated along L's policy (docs/design.md, "The stated probability of success").
+
+L's state and the patrollers' are tracked together as a mixture: for every state L may be in
+after k steps (its moves fail with its model's failure probability, leaving it in place), the
+probability of being there unseen and the belief about the patrollers given that. Each step the
+patrollers' belief is propagated by the filter's own step (the learned policies, T and the
+equilibrium at meetings), L moves, and the belief is conditioned on no patroller seeing L's new
+cell — the detection rule checked after every step of a run. Beliefs reaching the same L state
+are merged (their mixture is the exact conditional), so the work per step is one propagation per
+L state still carrying probability. With the joint filter (two patrollers, or a team whose joint
+fits) the result is exact under L's learned models up to ``prune`` (the probability of L states
+dropped, at most ``prune`` each, counted as failure); the factored filter multiplies the robots'
+probabilities of not seeing L as if independent. After the plan's last step L follows a shortest
+path (in a run it re-plans there), at most ``extra`` steps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mirl.planning.belief import BeliefFilter
+from mirl.planning.go import ObserverPlan
+from mirl.planning.observer import ObserverModel, shortest_path_policy
+
+__all__ = ["SuccessEstimate", "success_probability"]
+
+
+@dataclass(frozen=True)
+class SuccessEstimate:
+    """What going now along a plan leads to, under L's models: P(goal reached unseen),
+    P(seen first), the probability left on the way after the last step, and whether the
+    computation is exact (joint filter) or the factored approximation."""
+
+    success: float
+    detected: float
+    unfinished: float
+    exact: bool
+
+
+def success_probability(
+    belief_filter: BeliefFilter,
+    model: ObserverModel,
+    plan: ObserverPlan,
+    *,
+    k0: int = 0,
+    extra: int = 0,
+    prune: float = 1e-6,
+    belief: np.ndarray | None = None,
+) -> SuccessEstimate:
+    """P(L reaches its goal unseen) when it leaves its start cell now, at the plan's index
+    ``k0``, and follows ``plan.policy`` (module doc); the patrollers' belief is ``belief`` (in
+    the filter's form), by default the filter's current one."""
+    if belief is None:
+        belief = belief_filter.belief
+    if belief is None:
+        raise ValueError("the filter has no belief yet: call update() first")
+    dom = model.domain
+    A = dom.n_actions
+    T = model.transitions.tocsr()  # row s·A + a: the outcomes of L doing a in s
+    fallback = shortest_path_policy(model)
+    not_seeing = _NotSeeing(model)
+    mix: dict[int, tuple[float, np.ndarray]] = {model.start_state: (1.0, belief)}
+    success = detected = dropped = 0.0
+    steps = plan.horizon - k0 + extra
+    for j in range(steps):
+        k = k0 + j
+        nxt: dict[int, tuple[float, np.ndarray]] = {}
+        for s, (w, b) in mix.items():
+            a = int(plan.policy[k, s]) if k < plan.horizon else int(fallback[s])
+            moved = belief_filter.propagate(b)
+            lo, hi = T.indptr[s * A + a], T.indptr[s * A + a + 1]
+            for s2, q in zip(T.indices[lo:hi], T.data[lo:hi], strict=True):
+                post, kept = belief_filter.condition_unseen(moved, not_seeing(int(s2)))
+                mass = w * float(q)
+                detected += mass * (1.0 - kept)
+                mass *= kept
+                if model.goal[s2]:
+                    success += mass
+                elif mass > prune:
+                    _merge(nxt, int(s2), mass, post)
+                else:
+                    dropped += mass
+        mix = nxt
+        if not mix:
+            break
+    unfinished = dropped + sum(w for w, _ in mix.values())
+    exact = belief_filter.joint or belief_filter.n_robots == 1  # one robot: nothing to factor
+    return SuccessEstimate(success, detected, unfinished, exact)
+
+
+def _merge(mix: dict[int, tuple[float, np.ndarray]], s: int, w: float, b: np.ndarray) -> None:
+    """Add probability ``w`` with belief ``b`` to L's state ``s`` (the mixture's belief)."""
+    if s not in mix:
+        mix[s] = (w, b)
+        return
+    w0, b0 = mix[s]
+    mix[s] = (w0 + w, (w0 * b0 + w * b) / (w0 + w))
+
+
+class _NotSeeing:
+    """Per L state, the (S,) indicator of the patroller states that do not see its cell."""
+
+    def __init__(self, model: ObserverModel) -> None:
+        self.model = model
+        self.D = model.detection.tocsc()
+        self.cache: dict[int, np.ndarray] = {}
+
+    def __call__(self, s: int) -> np.ndarray:
+        c = int(self.model.cell_of(s))
+        g = self.cache.get(c)
+        if g is None:
+            g = self.cache[c] = 1.0 - self.D[:, [c]].toarray().ravel()
+        return g

@@ -1,0 +1,75 @@
+"""The stated probability of success: the belief filter propagated along L's plan."""
+
+from __future__ import annotations
+
+from math import comb
+
+import numpy as np
+import pytest
+
+from mirl.planning.belief import BeliefFilter
+from mirl.planning.go import solve_observer_mdp, waiting_value
+from mirl.planning.observer import OBSERVER_FAILURE, observer_model
+from mirl.planning.success import success_probability
+from tests.planning.test_planner import CORRIDOR, _scenario, _static
+
+
+def _estimate(starts, extra=0, steps=12, failure=OBSERVER_FAILURE):
+    sc = _scenario(CORRIDOR, starts)
+    dom = sc.domain
+    model = observer_model(sc, failure=failure)
+    belief = BeliefFilter(dom, _static(sc), visible=np.ones(dom.n_states, bool))
+    belief.update([dom.state_index(*s) for s in starts])
+    prediction = belief.predict(steps, model)
+    plan = solve_observer_mdp(model, prediction, window=0, detection_penalty=0.0)
+    return success_probability(belief, model, plan, extra=extra, prune=0.0), plan
+
+
+def test_unwatched_path_succeeds_unless_l_fails_too_often():
+    # L needs 2 steps; within the plan's n steps it gets there unless fewer than 2 moves work
+    est, plan = _estimate([(0, 4, 0)], extra=1, steps=3, failure=0.3)
+    n, q = plan.horizon + 1, 0.7
+    fewer_than_two = sum(comb(n, k) * q**k * (1 - q) ** (n - k) for k in range(2))
+    assert est.success == pytest.approx(1 - fewer_than_two, abs=1e-9)
+    assert est.detected == pytest.approx(0.0, abs=1e-12)
+    assert est.success + est.detected + est.unfinished == pytest.approx(1.0)
+    assert est.exact
+
+
+def test_a_patroller_watching_the_only_path_stops_every_attempt():
+    est, _ = _estimate([(0, 4, 2)])
+    assert est.success == pytest.approx(0.0, abs=1e-12)
+    assert est.detected == pytest.approx(1.0)
+
+
+def test_the_joint_filter_sees_one_blocker_of_two():
+    assert _estimate([(0, 5, 0), (0, 4, 2)])[0].success == pytest.approx(0.0, abs=1e-12)
+    assert _estimate([(0, 5, 0), (0, 4, 0)])[0].success > 0.99
+
+
+def test_conditioning_on_not_being_seen_is_exact_on_the_pair():
+    sc = _scenario(CORRIDOR, [(0, 4, 0), (0, 5, 0)])
+    dom = sc.domain
+    belief = BeliefFilter(dom, _static(sc), visible=np.zeros(dom.n_states, bool))
+    rng = np.random.default_rng(0)
+    b = rng.random(dom.n_states**2)
+    b /= b.sum()
+    g = (rng.random(dom.n_states) < 0.6).astype(float)
+    post, kept = belief.condition_unseen(b, g)
+    B = b.reshape(dom.n_states, dom.n_states)
+    expected = sum(
+        B[i, j] for i in range(dom.n_states) for j in range(dom.n_states) if g[i] and g[j]
+    )
+    assert kept == pytest.approx(expected)
+    assert post.sum() == pytest.approx(1.0)
+    assert np.all(post.reshape(B.shape)[g == 0] == 0)
+
+
+def test_waiting_value_is_the_finite_horizon_stopping_recursion():
+    chances = [0.1, 0.2, 0.6]
+    assert waiting_value(chances, 0) == 0.0  # no chance left: go now
+    assert waiting_value([], 5) == 0.0
+    assert waiting_value(chances, 1) == pytest.approx(0.3)  # the last chance, whatever it is
+    assert waiting_value(chances, 2) == pytest.approx((0.3 + 0.3 + 0.6) / 3)
+    values = [waiting_value(chances, n) for n in range(1, 40)]
+    assert np.all(np.diff(values) >= 0) and values[-1] == pytest.approx(0.6, abs=1e-6)
