@@ -114,8 +114,6 @@ def test_healthy_data_give_no_part():
 def test_no_data_is_no_confident_verdict():
     u = feature_uncertainty(FEATURES, [], DamageDefinition())
     assert u.verdict.confidence < 0.9
-    if u.verdict.candidates:  # every part a candidate: said as "cannot tell which, or whether"
-        assert "or whether" in u.verdict.sentence("J")
 
 
 def test_dispersion_widens_the_intervals():

@@ -117,11 +117,6 @@ class Verdict:
             return f"{robot}'s {_words(self.part)} is damaged {conf}"
         if not self.candidates:
             return f"no part of {robot} is damaged {conf}"
-        if len(self.candidates) > 2 and set(self.candidates) == set(self.damage_probabilities):
-            return (
-                f"some part of {robot} may be damaged; the observations cannot tell which, or "
-                f"whether (probability of damage {self.confidence:.2f})"
-            )
         wheels = all(c.endswith("_wheel") for c in self.candidates)
         if wheels and len(self.candidates) == 2:
             what = f"one of {robot}'s wheels is weak (or both)"
