@@ -267,3 +267,29 @@ def test_argparse_rejects_bad_numbers(capsys):
     with pytest.raises(SystemExit) as info:
         main(["simulate", "--scenario", "boyd2", "--observability", "1.5"])
     assert info.value.code == 2
+
+
+def test_learn_and_run_give_intervals_and_verdicts(tmp_path, capsys):
+    import json
+
+    obs = tmp_path / "obs.csv"
+    argv = ["simulate", "--scenario", "boyd2", "--steps", "300", "--seed", "1"]
+    assert main([*argv, "--observability", "1", "--observations", str(obs)]) == 0
+    capsys.readouterr()
+    learn = ["learn", "--scenario", "boyd2", "--observations", str(obs), "--observability", "1"]
+    assert main([*learn, "--json"]) == 0
+    j = json.loads(capsys.readouterr().out)["robots"]["J"]
+    assert set(j["feature_intervals"]) == set(j["feature_probabilities"])
+    assert all(0 <= lo <= hi <= 1 for lo, hi in j["feature_intervals"].values())
+    assert j["verdict"]["part"] == "left_wheel" and 0.5 < j["verdict"]["confidence"] <= 1
+    assert main(learn) == 0
+    text = capsys.readouterr().out
+    assert "J's left wheel is damaged (confidence" in text and "95 % interval" in text
+    assert main([*learn, "--method", "mirl", "--json"]) == 0  # no feature probabilities
+    assert "verdict" not in json.loads(capsys.readouterr().out)["robots"]["J"]
+    run = ["run", "--obs-steps", "100", "--seed", "0", "--max-wait", "20"]
+    assert main([*run, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert set(out["verdicts"]) == {"I", "J"} and set(out["feature_intervals"]) == {"I", "J"}
+    assert main(run) == 0
+    assert "verdict: " in capsys.readouterr().out

@@ -104,7 +104,7 @@ def test_given_models_replace_learning(boyd2):
     assert r.timings["learn"] < 0.05
     assert r.behavior_accuracy == 1.0
     assert r.feature_probabilities["J"]["left_wheel"] == pytest.approx(0.7)
-    assert "J's left_wheel" in format_report(boyd2, r)
+    assert "J's left wheel is damaged (confidence 1.00)" in format_report(boyd2, r)
 
 
 def test_learned_method_runs(boyd2):

@@ -3,7 +3,15 @@ text form printed without ``--json``."""
 
 from __future__ import annotations
 
-__all__ = ["learn_record", "print_learn"]
+__all__ = ["learn_record", "print_learn", "verdict_sentence"]
+
+
+def verdict_sentence(robot: str, record: dict) -> str:
+    """A verdict's JSON record (:meth:`~mirl.learning.verdicts.Verdict.to_dict`) in words."""
+    from mirl.learning.verdicts import Verdict
+
+    verdict = Verdict(record["part"], record["confidence"], tuple(record["candidates"]))
+    return verdict.sentence(robot)
 
 
 def learn_record(
@@ -22,6 +30,7 @@ def learn_record(
             "weights": dict(zip(names, map(float, r.weights), strict=True)),
             "feature_probabilities": {k: float(v) for k, v in r.feature_probabilities.items()},
             "behavior_accuracy": r.behavior_accuracy,
+            **_uncertainty(r),
         }
         for r in result.robots
     }
@@ -55,6 +64,19 @@ def learn_record(
         **_pair_labels(result, scenario),
         "message": result.message,
         "timings": {k: round(v, 4) for k, v in result.timings.items()},
+    }
+
+
+def _uncertainty(robot) -> dict:
+    """``feature_intervals`` (95 %, [lo, hi]) and ``verdict`` of a model that has them."""
+    if robot.verdict is None:
+        return {}
+    return {
+        "feature_intervals": {
+            f: [round(float(lo), 4), round(float(hi), 4)]
+            for f, (lo, hi) in robot.feature_intervals.items()
+        },
+        "verdict": robot.verdict.to_dict(),
     }
 
 
@@ -94,6 +116,12 @@ def print_learn(out: dict, result, scenario_name: str) -> None:
         probs = r["feature_probabilities"]
         line = "  ".join(f"{k}={v:.3f}" for k, v in probs.items()) if probs else result.message
         print(f"  features      {line}")
+        if "feature_intervals" in r:
+            spans = "  ".join(
+                f"{k} {lo:.2f}–{hi:.2f}" for k, (lo, hi) in r["feature_intervals"].items()
+            )
+            print(f"  95 % interval {spans}")
+            print(f"  verdict       {verdict_sentence(name, r['verdict'])}")
         if r["behavior_accuracy"] is not None:
             print(f"  behaviour accuracy {r['behavior_accuracy']:.3f} (vs the scenario's truth)")
         if "observed_moves" in r:

@@ -53,7 +53,9 @@ OUTCOMES = ("success", "detected", "timeout")
 @dataclass(frozen=True)
 class Condition:
     """One point of an experiment grid. ``p`` is the fixed success probability of the
-    fixed-T methods (``mirl``, ``known-r``); None for methods that learn or know T."""
+    fixed-T methods (``mirl``, ``known-r``); None for methods that learn or know T.
+    ``damage`` (``"ROBOT:FEATURE"``) damages one part of the scenario, to the world's
+    :attr:`~mirl.experiments.worlds.WorldSpec.experiment_damage`."""
 
     method: str
     scenario: str = "boyd2"
@@ -64,13 +66,17 @@ class Condition:
     em_init: str | None = None  # DBN-EM's initial T; None: the default ("intended")
     go_rule: str | None = None  # how L decides to go; None: the default ("value", published)
     relearn: bool = False  # True: L re-learns while it waits (the default learns once)
+    damage: str | None = None  # "ROBOT:FEATURE" damaged in the world's way; None: as scenario
 
     @property
     def key(self) -> str:
         """Stable identity: JSON of the sorted fields (part of the database's primary key);
-        ``world`` only when it is not the grid and ``em_init``, ``go_rule`` and ``relearn``
-        only when set, so databases written before they existed keep their keys."""
-        defaults = {"em_init": None, "go_rule": None, "relearn": False, "world": DEFAULT_WORLD}
+        ``world`` only when it is not the grid and ``em_init``, ``go_rule``, ``relearn`` and
+        ``damage`` only when set, so databases written before they existed keep their keys."""
+        defaults = {
+            "em_init": None, "go_rule": None, "relearn": False, "world": DEFAULT_WORLD,
+            "damage": None,
+        }  # fmt: skip
         fields = {
             k: v
             for k, v in asdict(self).items()
@@ -89,7 +95,17 @@ class Condition:
             label = f"{label} ({self.em_init} init)"
         protocol = [f"{self.go_rule} rule"] if self.go_rule is not None else []
         protocol += ["re-learning"] if self.relearn else []
-        return f"{label} ({', '.join(protocol)})" if protocol else label
+        label = f"{label} ({', '.join(protocol)})" if protocol else label
+        return label if self.damage is None else f"{label}, {self.damage} damaged"
+
+    def scenario_object(self):
+        """The condition's scenario, with its ``damage`` applied in its world."""
+        scenario = _scenario(self.scenario)
+        if self.damage is None:
+            return scenario
+        robot, feature = self.damage.split(":")
+        world = WORLDS[self.world]
+        return world.load().apply_damage(scenario, robot, feature, world.experiment_damage)
 
 
 def in_world(experiment: Experiment, world: str) -> Experiment:
@@ -100,6 +116,8 @@ def in_world(experiment: Experiment, world: str) -> Experiment:
         raise StoreError(f"unknown world '{world}' (known: {', '.join(WORLDS)})")
     if experiment.run_function is not episode_run:
         raise StoreError(f"experiment '{experiment.name}' has no physical version")
+    if any(c.world != DEFAULT_WORLD for c in experiment.conditions):
+        raise StoreError(f"experiment '{experiment.name}' runs in every world already")
     conds = tuple(replace(c, world=world) for c in experiment.conditions)
     desc = experiment.description.replace("on the grid simulator", f"in the {world} world")
     return replace(experiment, conditions=conds, description=f"{desc} ({world} world)")
@@ -169,8 +187,9 @@ def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
         kwargs["go_rule"] = condition.go_rule
     if condition.relearn:
         kwargs["relearn"] = True
+    scenario = condition.scenario_object()
     result = run_episode(
-        _scenario(condition.scenario),
+        scenario,
         condition.method,
         observability=condition.observability,
         obs_steps=condition.obs_steps,
@@ -178,7 +197,27 @@ def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
         world=condition.world,
         **kwargs,
     )
-    return _flatten_run_result(result)
+    out = _flatten_run_result(result)
+    if METHODS[condition.method].has_feature_probabilities and result.learned is not None:
+        truth = WORLDS[condition.world].load().damaged_parts(scenario)
+        out.update(_verdict_metrics(result.learned, truth))
+    return out
+
+
+def _verdict_metrics(learned: Any, truth: Mapping[str, tuple[str, ...]]) -> dict[str, Any]:
+    """Per robot the verdict, its confidence, the truly damaged parts and whether the verdict
+    is right; and the feature intervals (``ci.<robot>.<feature>``: [lo, hi])."""
+    out: dict[str, Any] = {}
+    for r in learned.robots:
+        v = r.verdict
+        if v is None:
+            continue
+        out[f"verdict.{r.name}"] = ",".join(v.named)
+        out[f"confidence.{r.name}"] = float(v.confidence)
+        out[f"truth.{r.name}"] = ",".join(truth[r.name])
+        out[f"right.{r.name}"] = int(v.is_right(truth[r.name]))
+        out.update({f"ci.{r.name}.{f}": list(iv) for f, iv in r.feature_intervals.items()})
+    return out
 
 
 def _flatten_run_result(result: Any) -> dict[str, Any]:
@@ -267,6 +306,18 @@ def _features(scenario: str) -> tuple[Condition, ...]:
     return tuple(Condition(m, scenario, d) for d in (0.14, 1.0) for m in ("mirl-t", "known-r-t"))
 
 
+def _verdicts() -> tuple[Condition, ...]:
+    """The calibration of the fault verdicts: both worlds, L's door and full view, no damage
+    and a damaged wheel on each robot and side (docs/design.md, "Fault verdicts")."""
+    damages = (None, "I:left_wheel", "I:right_wheel", "J:left_wheel", "J:right_wheel")
+    return tuple(
+        Condition("mirl-t", "boyd2-healthy", d, world=w, damage=x)
+        for w in WORLDS
+        for d in (0.14, 1.0)
+        for x in damages
+    )
+
+
 def _table1() -> tuple[Condition, ...]:
     return tuple(
         Condition(m, s, 0.14, p=p)
@@ -303,6 +354,13 @@ EXPERIMENTS: dict[str, Experiment] = {
         ),
         Experiment(
             "table1", "the physical-runs table on the grid simulator at 14%", _table1(), episode_run
+        ),
+        Experiment(
+            "verdicts",
+            "calibration of the fault verdicts in both worlds: no damage and each wheel damaged",
+            _verdicts(),
+            episode_run,
+            default_runs=10,
         ),
         Experiment(
             "selftest",

@@ -43,6 +43,14 @@ class GridRunWorld:
         return scenario.with_damage(robot, feature, value)
 
     @staticmethod
+    def damaged_parts(scenario: Scenario) -> dict[str, tuple[str, ...]]:
+        """Per robot, the features whose true success probability is damaged by the scenario's
+        definition (``scenario.faults``)."""
+        return {
+            r.name: scenario.faults.damaged_parts(r.feature_probabilities) for r in scenario.robots
+        }
+
+    @staticmethod
     def version() -> str:
         """The grid world's results depend on mirl alone."""
         return ""

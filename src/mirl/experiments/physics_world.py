@@ -18,7 +18,7 @@ import numpy as np
 
 from mirl.experiments.worlds import Detection, RunSetup
 from mirl.physics import mujoco_version
-from mirl.physics.config import with_motor_strength
+from mirl.physics.config import WHEELS, physics_config, with_motor_strength
 from mirl.physics.patrol import PhysicalWorld
 from mirl.world.scenario import Scenario
 
@@ -88,6 +88,16 @@ class PhysicsRunWorld:
     def apply_damage(scenario: Scenario, robot: str, feature: str, value: float) -> Scenario:
         """The scenario with ``robot``'s ``feature`` wheel motor at strength ``value``."""
         return with_motor_strength(scenario, robot, feature, value)
+
+    @staticmethod
+    def damaged_parts(scenario: Scenario) -> dict[str, tuple[str, ...]]:
+        """Per robot, the wheels whose motor is weaker than a healthy one (strength < 1): what
+        the grid calls a damaged wheel is, here, any weakened motor."""
+        strengths = physics_config(scenario.physics, scenario.source, scenario.robot_names)
+        return {
+            name: tuple(w for w in WHEELS if strengths.strength(name, w) < 1.0)
+            for name in scenario.robot_names
+        }
 
     @staticmethod
     def version() -> str:

@@ -125,6 +125,7 @@ class RunResult:
             "behavior_accuracy": self.behavior_accuracy,
             "behavior_accuracy_per_robot": self.behavior_accuracy_per_robot,
             "feature_probabilities": self.feature_probabilities,
+            **_uncertainty(self.learned),
             "timings": self.timings,
             "seen_steps": self.seen_steps,
             "plan_attempts": [a.to_dict() for a in self.attempts],
@@ -144,6 +145,23 @@ class RunResult:
             "end_time": self.end_time,
             **(self.extras.to_dict() if self.extras is not None else {}),
         }
+
+
+def _uncertainty(learned: LearnResult | None) -> dict[str, Any]:
+    """``feature_intervals`` and ``verdicts`` per robot, for models that have them."""
+    robots = [r for r in learned.robots if r.verdict is not None] if learned is not None else []
+    if not robots:
+        return {}
+    return {
+        "feature_intervals": {
+            r.name: {
+                f: [round(float(lo), 4), round(float(hi), 4)]
+                for f, (lo, hi) in r.feature_intervals.items()
+            }
+            for r in robots
+        },
+        "verdicts": {r.name: r.verdict.to_dict() for r in robots if r.verdict is not None},
+    }
 
 
 def _if_set(**values: Any) -> dict[str, Any]:

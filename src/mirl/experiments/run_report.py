@@ -145,24 +145,6 @@ def _relearn_lines(result: RunResult) -> list[str]:
     return lines
 
 
-def _truth_damaged(scenario: Scenario, result: RunResult) -> bool:
-    """Whether the run's truth has a damaged part (as :func:`_truth` states it)."""
-    world = result.extras.damaged() if result.extras is not None else None
-    if world is not None:
-        return world
-    return any(p < 0.9 for r in scenario.robots for p in r.feature_probabilities.values())
-
-
-def _lowest_meaning(scenario: Scenario, result: RunResult) -> str:
-    """What the report says of the single lowest learned feature. The hook for a fault verdict
-    with its confidence: until the learner gives one, the lowest feature is called L's guess of
-    the damaged part only when the truth has a damaged part; with none, a lowest feature is the
-    spread of estimates from healthy parts, and the report says so instead of naming a fault."""
-    if _truth_damaged(scenario, result):
-        return "L's guess of the damaged part"
-    return "no part is damaged in the truth, so this is no fault"
-
-
 def format_report(scenario: Scenario, result: RunResult) -> str:
     """The short readable report printed by ``mirl run``."""
     dom = scenario.domain
@@ -189,24 +171,22 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         lines.append(f"learned   transition-feature probabilities ({learned.method}):")
         lines.append("            robot" + "".join(f"{f:>13}" for f in feats))
         probs = result.feature_probabilities
-        ranked = sorted((probs[n][f], n, f) for n in probs for f in feats if f in probs[n])
-        low = ranked[0][1:] if ranked[1][0] - ranked[0][0] > 1e-6 else None  # a unique lowest
+        models = {r.name: r for r in learned.robots}
         for name, fp in probs.items():
-            cells = "".join(
-                f"{fp[f]:>12.3f}{'*' if (name, f) == low else ' '}" for f in feats if f in fp
-            )
+            cells = "".join(f"{fp[f]:>13.3f}" for f in feats if f in fp)
             unseen = " (never seen: maximum entropy)" if result.seen_steps.get(name) == 0 else ""
             lines.append(f"            {name:<5}{cells}{unseen}")
-        if low is not None:
-            lines.append(
-                f"            * lowest: {low[0]}'s {low[1]} — {_lowest_meaning(scenario, result)}"
-            )
-        else:
-            lines.append(f"            no single lowest feature ({ranked[0][0]:.3f} is shared)")
+            spans = models[name].feature_intervals
+            if spans:
+                cells = "".join(f"{f'{spans[f][0]:.2f}–{spans[f][1]:.2f}':>13}" for f in feats)
+                lines.append(f"            {'95 %':<5}{cells}")
         lines.append(
             "            (each is how often an action that relies on the part does what was "
-            "intended)"
+            "intended; below it, its 95 % interval)"
         )
+        for r in learned.robots:
+            if r.verdict is not None:
+                lines.append(f"          verdict: {r.verdict.sentence(r.name)}")
     if learned is not None:
         acc = ", ".join(f"{n} {a:.2f}" for n, a in result.behavior_accuracy_per_robot.items())
         lines.append(f"          behaviour accuracy: {acc} (mean {result.behavior_accuracy:.2f})")

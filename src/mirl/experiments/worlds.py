@@ -146,12 +146,16 @@ class WorldSpec:
     entry_point : str
         ``"module:Class"`` of the class implementing :class:`RunWorld`. It is constructed from
         a :class:`RunSetup` (``Class(setup)``) and also provides
-        ``apply_damage(scenario, robot, feature, value)`` (what a ``--damage`` value means there)
-        and ``version()`` (what, besides mirl, its results depend on; "" for nothing).
+        ``apply_damage(scenario, robot, feature, value)`` (what a ``--damage`` value means there),
+        ``damaged_parts(scenario)`` (per robot, the parts that are really damaged there) and
+        ``version()`` (what, besides mirl, its results depend on; "" for nothing).
     description : str
         One line for ``--help``.
     damage : str
         What a damage value sets in this world (for ``--help`` and messages).
+    experiment_damage : float
+        The value the experiments give a damaged part in this world (the calibration of the
+        fault verdicts, ``mirl experiment verdicts``).
     requirement : str or None
         ``"module:function"`` raising ImportError with a one-line message when the world's
         optional dependencies are missing; None when it has none.
@@ -166,6 +170,7 @@ class WorldSpec:
     entry_point: str
     description: str
     damage: str
+    experiment_damage: float
     requirement: str | None = None
     requirement_extra: str | None = None
     records_poses: bool = False
@@ -191,11 +196,13 @@ _ROWS = (
         "grid", "mirl.experiments.grid_world:GridRunWorld",
         "the grid simulator of the paper's simulations",
         damage="a transition feature's success probability",
+        experiment_damage=0.7,  # the paper's damaged wheel
     ),
     WorldSpec(
         "physics", "mirl.experiments.physics_world:PhysicsRunWorld",
         "differential-drive robots in MuJoCo, seen through cameras",
         damage="a wheel motor's strength (1 = healthy)",
+        experiment_damage=0.6,  # boyd2's weak motor
         requirement="mirl.physics:require_mujoco",
         requirement_extra="physics",
         records_poses=True,

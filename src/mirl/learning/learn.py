@@ -66,6 +66,7 @@ from mirl.learning.transitions import (
     perception_labels,
     policy_labels,
 )
+from mirl.learning.verdicts import FeatureUncertainty, robot_uncertainty
 from mirl.mdp import TabularMDP, value_iteration
 from mirl.observations.trajectories import Trajectories
 from mirl.world.game import Equilibrium
@@ -194,10 +195,19 @@ def learn(
             trace.equilibria = weigh(setup, policies, transitions, trace)
         eq = trace.equilibria.equilibrium
     message = "; ".join(m for m in (message, *sorted(trace.notes)) if m)
+    with clock("verdicts"):
+        sure = _uncertainties(setup, row, trace, transitions, probs, policies)
     robots = []
     for i, r in enumerate(scenario.robots):
         acc = behavior_accuracy(scenario, i, policies[i]) if score else None
-        robots.append(RobotModel(r.name, weights[i], probs[i], transitions[i], policies[i], acc))
+        u = sure[i]
+        robots.append(
+            RobotModel(
+                r.name, weights[i], probs[i], transitions[i], policies[i], acc,
+                feature_intervals=u.intervals if u is not None else {},
+                verdict=u.verdict if u is not None else None,
+            )
+        )  # fmt: skip
     clock.timings["total"] = time.perf_counter() - start
     eq_w = trace.equilibria
     team = trace.team_equilibria
@@ -272,6 +282,30 @@ def _method_models(
         eq = scenario.played_equilibrium
     trace.converged = True
     return weights, transitions, probs, eq, message
+
+
+def _uncertainties(
+    setup: RoundSetup, row: Method, trace: LoopTrace, transitions, probs, policies
+) -> list[FeatureUncertainty | None]:
+    """Per robot the intervals and verdict of its feature probabilities (None for a method
+    without them), from the labels they were learned from; a relabelling method's labels are
+    softened by its learned soft policies (:mod:`mirl.learning.verdicts`)."""
+    if not row.has_feature_probabilities or not trace.labels:
+        return [None] * len(setup.series)
+    labels = trace.labels[-1]
+    irl = trace.irl + [None] * (len(setup.series) - len(trace.irl))
+    out: list[FeatureUncertainty | None] = []
+    for i, x in enumerate(setup.series):
+        estimator = irl[i]
+        soft = estimator.soft_policy_ if row.relabels and estimator is not None else None
+        out.append(
+            robot_uncertainty(
+                setup.domain, x, labels[i], transitions[i], probs[i], setup.scenario.faults,
+                soft_policy=soft, own_policy=policies[i] if soft is not None else None,
+                random_state=setup.robot_seed(i, 0),
+            )
+        )  # fmt: skip
+    return out
 
 
 def _first_labels(setup: RoundSetup, row: Method) -> list[np.ndarray]:

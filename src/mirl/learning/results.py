@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from mirl.learning.verdicts import Verdict, point_verdict
 from mirl.mdp import optimal_action_mask
 from mirl.world.game import Equilibrium
 from mirl.world.scenario import Scenario
@@ -46,6 +47,12 @@ class RobotModel:
     behavior_accuracy : float or None
         Share of states where ``policy`` is optimal under the truth (docs/design.md, "Behaviour
         accuracy"); None when the truth was not used to score it.
+    feature_intervals : mapping of str to (float, float)
+        The 95 % interval of each feature probability (docs/design.md, "Fault verdicts");
+        empty where ``feature_probabilities`` is.
+    verdict : Verdict or None
+        Which part is damaged and how sure L is; None for methods without feature
+        probabilities.
     """
 
     name: str
@@ -54,6 +61,8 @@ class RobotModel:
     transitions: sp.csr_array
     policy: np.ndarray
     behavior_accuracy: float | None = None
+    feature_intervals: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    verdict: Verdict | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -156,6 +165,8 @@ def oracle_models(scenario: Scenario, method: str = "oracle") -> LearnResult:
             transitions=scenario.true_transitions(i),
             policy=scenario.true_policy(i),
             behavior_accuracy=1.0,
+            feature_intervals={f: (float(p), float(p)) for f, p in r.feature_probabilities.items()},
+            verdict=point_verdict(r.feature_probabilities, scenario.faults),
         )
         for i, r in enumerate(scenario.robots)
     )

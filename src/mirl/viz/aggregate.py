@@ -34,6 +34,8 @@ PAPER = {
     "fig4c": "With no damaged wheel the learned probabilities of I and J coincide, with small "
     "errors, close to those of Known R/T.",
     "table1": "10 physical runs per cell at about 14% observability.",
+    "verdicts": "Not in the paper, which reports J's left wheel below its right "
+    "(two-tailed t-test over runs, **p ≪ 0.001**) but no verdict of a single run.",
 }
 TABLE1_PAPER = {
     ("mirl-t", "boyd2"): 0.60,

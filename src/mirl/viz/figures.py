@@ -18,6 +18,7 @@ from scipy import stats
 
 from mirl.experiments.conditions import Condition
 from mirl.viz.aggregate import FIG4A_PAPER, PAPER_NAMES, TABLE1_PAPER, Group, method_name
+from mirl.viz.verdicts import verdicts_markdown
 
 __all__ = [
     "fig3",
@@ -284,7 +285,9 @@ def fig4bc_markdown(gs: list[Group], figdir: Path, stem: str) -> str:
         "| method | d | n | robot | " + " | ".join(feats) + " |",
         "| --- | --- | --- | --- |" + " --- |" * len(feats),
     ]
-    tests = []
+    tests: list[str] = []
+    interval_lines: list[str] = []
+    verdict_lines: list[str] = []
     for ax, g in zip(axes, gs, strict=True):
         c = g.condition
         truth = _true_probabilities(c.scenario)
@@ -303,12 +306,25 @@ def fig4bc_markdown(gs: list[Group], figdir: Path, stem: str) -> str:
                 color=f"C{k}",
                 error_kw={"ecolor": "dimgray", "elinewidth": 1},
             )
+            spans = _mean_intervals(g, robot, feats)
+            if spans is not None:  # the runs' mean 95 % interval, beside the runs' spread
+                # the interval need not contain the mean estimate (docs/design.md, "Fault
+                # verdicts"), so it is drawn as a span of its own, not as error bars
+                ax.vlines(xs + w * 0.3, spans[:, 0], spans[:, 1], color="black", lw=0.9,
+                          label="mean 95 % interval" if k == 0 else None)  # fmt: skip
+                for edge in (0, 1):
+                    ax.hlines(spans[:, edge], xs + w * 0.2, xs + w * 0.4, color="black", lw=0.9)
+                cells = " | ".join(f"{lo:.2f}–{hi:.2f}" for lo, hi in spans)
+                interval_lines.append(
+                    f"| {method_name(c)} | {c.observability:g} | {g.n} | {robot} | {cells} |"
+                )
             true = [truth.get(robot, {}).get(f, np.nan) for f in feats]
             ax.scatter(
                 xs, true, marker="D", s=22, color="red", zorder=5, label="true" if k == 0 else None
             )
             cells = " | ".join(_fmt(mean, sd, digits=3) for mean, sd in ms[: len(feats)])
             lines.append(f"| {method_name(c)} | {c.observability:g} | {g.n} | {robot} | {cells} |")
+        verdict_lines += _verdict_rates(g, method_name(c), robots)
         t, p, n = ttest(g, "J", "left_wheel", "right_wheel")
         tests.append(
             f"- {method_name(c)}, d = {c.observability:g}: J left vs right wheel "
@@ -325,7 +341,56 @@ def fig4bc_markdown(gs: list[Group], figdir: Path, stem: str) -> str:
     for ax in grid[::cols]:
         ax.set_ylabel("learned probability (mean ± std)")
     _save(fig, figdir, stem)
+    if interval_lines:
+        lines += [
+            "",
+            "Each run's 95 % interval of each probability, averaged over runs (the single run's "
+            "uncertainty, where the table above gives the runs' spread):",
+            "",
+            "| method | d | n | robot | " + " | ".join(feats) + " |",
+            "| --- | --- | --- | --- |" + " --- |" * len(feats),
+            *interval_lines,
+        ]
+    if verdict_lines:
+        lines += [
+            "",
+            'Each run\'s verdict (docs/design.md, "Fault verdicts"): the share of runs naming '
+            "each part, naming several it cannot tell apart, or none:",
+            "",
+            "| method | d | robot | verdicts (share of runs, mean confidence) |",
+            "| --- | --- | --- | --- |",
+            *verdict_lines,
+        ]
     return "\n".join(lines + ["", "Two-tailed Student's t-tests over runs:", "", *tests])
+
+
+def _mean_intervals(g: Group, robot: str, feats: list[str]) -> np.ndarray | None:
+    """(F, 2): each feature's stored 95 % interval averaged over the runs; None if unstored."""
+    spans = [[r.get(f"ci.{robot}.{f}") for r in g.rows] for f in feats]
+    if any(v is None for row in spans for v in row) or not g.rows:
+        return None
+    return np.array([np.mean(np.asarray(row, dtype=float), axis=0) for row in spans])
+
+
+def _verdict_rates(g: Group, label: str, robots: list[str]) -> list[str]:
+    """Per robot: how often each verdict was given (stored ``verdict.<robot>``)."""
+    out = []
+    for robot in robots:
+        given = [
+            (str(r.get(f"verdict.{robot}") or "no part"), float(r[f"confidence.{robot}"]))
+            for r in g.rows
+            if r.get(f"confidence.{robot}") is not None
+        ]
+        if not given:
+            continue
+        kinds = sorted({v for v, _ in given}, key=lambda v: -sum(x == v for x, _ in given))
+        cells = "; ".join(
+            f"{v.replace(',', ' or ').replace('_', ' ')} {sum(x == v for x, _ in given)}/"
+            f"{len(given)} ({np.mean([c for x, c in given if x == v]):.2f})"
+            for v in kinds
+        )
+        out.append(f"| {label} | {g.condition.observability:g} | {robot} | {cells} |")
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -373,12 +438,36 @@ def table1_markdown(gs: list[Group], figdir: Path) -> str:
         cells = []
         for s, _ in TABLE1_SCENARIOS:
             g = by.get((m, s))
-            ours = (
-                "–" if g is None else f"{_fmt(g.rate('success'), g.rate_se('success'))} (n={g.n})"
-            )
+            ours = "–" if g is None else f"{_fmt(g.rate('success'))} {_wilson(g)} (n={g.n})"
             cells += [ours, f"{TABLE1_PAPER[(m, s)]:.2f} (n=10)"]
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
-    return "\n".join(lines + ["", "Ours: success rate ± 1 s.e. over n simulated runs."])
+    verdicts = [
+        line
+        for g in gs
+        for line in _verdict_rates(
+            g, f"{method_name(g.condition)}, {g.condition.scenario}", ["I", "J"]
+        )
+    ]
+    lines += ["", "Ours: success rate [95 % Wilson interval] over n runs."]
+    if verdicts:
+        lines += [
+            "",
+            'Each run\'s fault verdict (docs/design.md, "Fault verdicts"), for the methods '
+            "that learn feature probabilities:",
+            "",
+            "| method, scenario | d | robot | verdicts (share of runs, mean confidence) |",
+            "| --- | --- | --- | --- |",
+            *verdicts,
+        ]
+    return "\n".join(lines)
+
+
+def _wilson(g: Group, z: float = 1.96) -> str:
+    """The 95 % Wilson score interval of the success rate (Wilson 1927)."""
+    n, p = g.n, g.rate("success")
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return f"[{max(centre - half, 0):.2f}, {min(centre + half, 1):.2f}]"
 
 
 def outcomes_markdown(gs: list[Group]) -> str:
@@ -403,4 +492,5 @@ SECTIONS: dict[str, Callable[[list[Group], Path], str]] = {
     "fig4b": lambda gs, d: fig4bc_markdown(gs, d, "fig4b"),
     "fig4c": lambda gs, d: fig4bc_markdown(gs, d, "fig4c"),
     "table1": table1_markdown,
+    "verdicts": verdicts_markdown,
 }

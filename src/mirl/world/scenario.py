@@ -21,6 +21,7 @@ from mirl.mdp import TabularMDP, value_iteration
 from mirl.world import schema
 from mirl.world._resources import read_shipped_or_file, shipped_names
 from mirl.world.domain import DEFAULT_FEATURE_MAP, FeatureMap, PatrolDomain
+from mirl.world.faults import DamageDefinition, read_faults
 from mirl.world.game import Equilibrium, InteractionGame
 from mirl.world.maps import GridMap
 from mirl.world.motion import ERROR_MODELS, transition_matrix
@@ -71,6 +72,7 @@ class Scenario:
     error_model: str = "uniform"
     source: str = "<memory>"
     physics: Mapping[str, Any] = field(default_factory=dict)  # [physics] table (mirl.physics)
+    faults: DamageDefinition = field(default_factory=DamageDefinition)  # what "damaged" means
 
     def __post_init__(self) -> None:
         if self.observer_start is None:
@@ -221,6 +223,7 @@ _TOP_KEYS = (
     "robots",
     "frame",
     "physics",
+    "faults",
 )
 
 
@@ -308,4 +311,5 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         source=source,
         # the physical world's parameters, checked by mirl.physics.config where they are used
         physics=schema.table(physics, "physics", physics if isinstance(physics, dict) else ()),
+        faults=read_faults(data.get("faults", {}), feature_map.features),
     )

@@ -1,0 +1,46 @@
+"""Conditions with a damaged part, and the verdicts experiment (mirl.experiments.conditions)."""
+
+from __future__ import annotations
+
+import pytest
+
+from mirl.experiments.conditions import Condition, StoreError, get_experiment, in_world
+from mirl.experiments.worlds import WORLDS
+
+
+def test_damage_is_part_of_the_key_only_when_set():
+    plain = Condition("mirl-t", "boyd2-healthy", 1.0)
+    assert "damage" not in plain.key
+    hurt = Condition("mirl-t", "boyd2-healthy", 1.0, damage="J:right_wheel")
+    assert Condition.from_key(hurt.key) == hurt
+    assert "J:right_wheel damaged" in hurt.label
+
+
+def test_a_grid_condition_damages_the_feature_probability():
+    c = Condition("mirl-t", "boyd2-healthy", 1.0, damage="I:right_wheel")
+    scenario = c.scenario_object()
+    assert (
+        scenario.robots[0].feature_probabilities["right_wheel"] == WORLDS["grid"].experiment_damage
+    )
+    parts = WORLDS["grid"].load().damaged_parts(scenario)
+    assert parts == {"I": ("right_wheel",), "J": ()}
+
+
+def test_a_physics_condition_weakens_the_motor():
+    pytest.importorskip("mujoco")
+    c = Condition("mirl-t", "boyd2-healthy", 1.0, world="physics", damage="J:left_wheel")
+    parts = WORLDS["physics"].load().damaged_parts(c.scenario_object())
+    assert parts == {"I": (), "J": ("left_wheel",)}
+    # the grid's probabilities are untouched: in physics the damage is the motor's
+    assert c.scenario_object().robots[1].feature_probabilities["left_wheel"] == 0.95
+
+
+def test_the_verdicts_experiment_spans_both_worlds_and_every_wheel():
+    exp = get_experiment("verdicts")
+    assert {c.world for c in exp.conditions} == set(WORLDS)
+    assert {c.observability for c in exp.conditions} == {0.14, 1.0}
+    damages = {c.damage for c in exp.conditions}
+    assert damages == {None, "I:left_wheel", "I:right_wheel", "J:left_wheel", "J:right_wheel"}
+    assert len(exp.conditions) * exp.default_runs >= 200
+    with pytest.raises(StoreError, match="every world already"):
+        in_world(exp, "physics")

@@ -1,0 +1,223 @@
+"""Intervals and fault verdicts (mirl.learning.verdicts), checked against a brute-force grid
+posterior, on simulated data, and through learn()."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import beta as beta_dist
+
+from mirl.learning.learn import learn
+from mirl.learning.transitions import count_subsets, observed_steps
+from mirl.learning.verdicts import (
+    PriorSpec,
+    Verdict,
+    failure_dispersion,
+    feature_uncertainty,
+    point_verdict,
+    posterior_draws,
+    soft_counts,
+    verdict_from_draws,
+)
+from mirl.simulation.grid import PatrolSimulator
+from mirl.world.faults import DamageDefinition
+from mirl.world.scenario import load_scenario
+
+FEATURES = ("left_wheel", "right_wheel", "navigation", "floor")
+FORWARD = FEATURES
+TURN_LEFT = ("right_wheel", "navigation", "floor")
+TURN_RIGHT = ("left_wheel", "navigation", "floor")
+
+
+def _grid_posterior(obs, healthy, prior, m=600):
+    """The posterior of two features (a, b) on an m × m grid of p, by direct evaluation."""
+    p = (np.arange(m) + 0.5) / m
+    pa, pb = np.meshgrid(p, p, indexing="ij")
+
+    def prior_pdf(x, h):
+        k = prior.strength
+        return (1 - prior.damaged_share) * beta_dist.pdf(
+            x, k * h, k * (1 - h)
+        ) + prior.damaged_share
+
+    log = np.log(prior_pdf(pa, healthy["a"])) + np.log(prior_pdf(pb, healthy["b"]))
+    for subset, k, n in obs:
+        q = (pa if "a" in subset else 1.0) * (pb if "b" in subset else 1.0)
+        log += k * np.log(q) + (n - k) * np.log1p(-q)
+    w = np.exp(log - log.max())
+    return pa, pb, w / w.sum()
+
+
+@pytest.mark.parametrize(
+    "obs",
+    [
+        [(("a", "b"), 14, 20), (("a",), 9, 10)],  # b identified through a
+        [(("a", "b"), 7, 10)],  # only the product: a ridge
+        [(("a", "b"), 40, 40)],
+    ],
+)
+def test_draws_match_a_brute_force_posterior(obs):
+    healthy = {"a": 0.95, "b": 0.9}
+    prior = PriorSpec()
+    definition = DamageDefinition(healthy, 0.15)
+    pa, pb, w = _grid_posterior(obs, healthy, prior)
+    p, weights = posterior_draws(("a", "b"), obs, healthy, n_draws=4000, random_state=3)
+    for i, grid in enumerate((pa, pb)):
+        exact = float((w * grid).sum())
+        assert weights @ p[:, i] == pytest.approx(exact, abs=0.02)
+    damaged_a = float(w[pa < definition.threshold("a")].sum())
+    verdict = verdict_from_draws(("a", "b"), p, weights, definition)
+    assert verdict.damage_probabilities["a"] == pytest.approx(damaged_a, abs=0.04)
+    none = float(w[(pa >= definition.threshold("a")) & (pb >= definition.threshold("b"))].sum())
+    if not verdict.names_damage:
+        assert verdict.confidence == pytest.approx(none, abs=0.04)
+
+
+def _obs(forward, left, right, stop):
+    return [
+        (FORWARD, *forward),
+        (TURN_LEFT, *left),
+        (TURN_RIGHT, *right),
+        (("floor",), *stop),
+    ]
+
+
+def test_a_damaged_left_wheel_is_named():
+    u = feature_uncertainty(
+        FEATURES, _obs((70, 100), (48, 50), (35, 50), (50, 50)), DamageDefinition()
+    )
+    assert u.verdict.part == "left_wheel"
+    assert u.verdict.confidence > 0.85
+    lo, hi = u.intervals["left_wheel"]
+    assert lo < 0.7 < hi < 0.85
+    assert "J's left wheel is damaged" in u.verdict.sentence("J")
+
+
+def test_forward_steps_alone_cannot_tell_the_wheels_apart():
+    u = feature_uncertainty(FEATURES, [(FORWARD, 30, 60)], DamageDefinition())
+    v = u.verdict
+    assert v.part is None and len(v.candidates) >= 2
+    assert {"left_wheel", "right_wheel"} <= set(v.candidates)
+    assert v.confidence > 0.9
+    assert "cannot tell which" in v.sentence("I")
+
+
+def test_healthy_data_give_no_part():
+    u = feature_uncertainty(
+        FEATURES, _obs((190, 200), (48, 50), (48, 50), (50, 50)), DamageDefinition()
+    )
+    assert u.verdict.part is None and not u.verdict.candidates
+    assert u.verdict.confidence > 0.95
+    assert u.verdict.sentence("I").startswith("no part of I is damaged")
+
+
+def test_no_data_is_no_confident_verdict():
+    u = feature_uncertainty(FEATURES, [], DamageDefinition())
+    assert u.verdict.confidence < 0.9
+
+
+def test_dispersion_widens_the_intervals():
+    obs = _obs((70, 100), (48, 50), (35, 50), (50, 50))
+    narrow = feature_uncertainty(FEATURES, obs, DamageDefinition())
+    wide = feature_uncertainty(FEATURES, obs, DamageDefinition(), dispersion=4.0)
+    widths = [np.subtract(*u.intervals["left_wheel"][::-1]) for u in (narrow, wide)]
+    assert widths[1] > 1.5 * widths[0]
+    with pytest.raises(ValueError, match="`dispersion`"):
+        feature_uncertainty(FEATURES, obs, DamageDefinition(), dispersion=0.5)
+
+
+@pytest.mark.slow
+def test_intervals_cover_the_truth_drawn_from_the_prior():
+    """Bayesian coverage: truths drawn from the prior, data from the truths; the 95 % intervals
+    contain the truth in about 95 % of cases."""
+    rng = np.random.default_rng(0)
+    prior = PriorSpec()
+    hits, total = 0, 0
+    for rep in range(150):
+        h = np.array([0.95, 0.95, 0.97, 0.99])
+        p = rng.beta(prior.strength * h, prior.strength * (1 - h))
+        hurt = rng.random(4) < prior.damaged_share
+        p[hurt] = rng.random(hurt.sum())
+        truth = dict(zip(FEATURES, p, strict=True))
+        obs = []
+        for subset, n in ((FORWARD, 60), (TURN_LEFT, 15), (TURN_RIGHT, 15), (("floor",), 20)):
+            q = float(np.prod([truth[f] for f in subset]))
+            obs.append((subset, int(rng.binomial(n, q)), n))
+        u = feature_uncertainty(FEATURES, obs, DamageDefinition(), random_state=rep)
+        for f in FEATURES:
+            lo, hi = u.intervals[f]
+            hits += lo <= truth[f] <= hi
+            total += 1
+    assert 0.90 <= hits / total <= 0.99
+
+
+def test_verdict_records():
+    v = Verdict(None, 0.93, ("left_wheel", "right_wheel"), {"left_wheel": 0.6})
+    assert v.is_right(("right_wheel",)) and not v.is_right(("floor",)) and not v.is_right(())
+    assert Verdict(None, 0.9).is_right(()) and not Verdict(None, 0.9).is_right(("floor",))
+    assert v.to_dict()["candidates"] == ["left_wheel", "right_wheel"]
+    assert "one of I's wheels is weak" in v.sentence("I")
+    truth = point_verdict({"left_wheel": 0.7, "right_wheel": 0.95}, DamageDefinition())
+    assert truth.part == "left_wheel" and truth.confidence == 1.0
+
+
+def _steps(seed=0, steps=300):
+    scenario = load_scenario("boyd2")
+    sim = PatrolSimulator(scenario, observability=1.0)
+    _, info = sim.reset(seed=seed)
+    states = [info["states"].copy()]
+    for _ in range(steps):
+        info = sim.step()[-1]
+        states.append(info["states"].copy())
+    return scenario, np.asarray(states)
+
+
+def test_soft_counts_without_a_soft_policy_are_the_hard_counts():
+    scenario, states = _steps()
+    d = scenario.domain
+    t, s, s_next = observed_steps(states[:, 1])
+    labels = scenario.true_policy(1)[s]
+    k, n = soft_counts(d, s, labels, s_next)
+    hard = count_subsets(d, s, labels, s_next)
+    assert np.array_equal(k, hard.successes) and np.array_equal(n, hard.trials)
+    # a soft policy certain of the labelled action changes nothing where T explains the step
+    pi = np.eye(d.n_actions)[scenario.true_policy(1)]
+    k2, n2 = soft_counts(d, s, labels, s_next, scenario.true_transitions(1), pi)
+    assert np.allclose(k2, k) and np.allclose(n2, n)
+    # an undecided policy moves failures of the labelled action to successes of another
+    k3, n3 = soft_counts(
+        d, s, labels, s_next, scenario.true_transitions(1), np.full(pi.shape, 0.25)
+    )
+    assert n3.sum() == pytest.approx(n.sum())
+    assert k3.sum() > k.sum()
+
+
+def test_dispersion_sees_clustered_failures():
+    scenario, states = _steps()
+    d = scenario.domain
+    t, s, s_next = observed_steps(states[:, 1])
+    labels = scenario.true_policy(1)[s]
+    probs = scenario.robots[1].feature_probabilities
+    independent = failure_dispersion(d, t, s, labels, s_next, probs)
+    assert independent < 1.6
+    stuck = s_next.copy()
+    stuck[100:140] = s[100:140]  # forty failures in a row (a robot on a wall)
+    stuck_labels = labels.copy()
+    stuck_labels[100:140] = 0  # each labelled forward
+    assert failure_dispersion(d, t, s, stuck_labels, stuck, probs) > independent + 0.2
+
+
+def test_learn_returns_intervals_and_verdicts():
+    scenario, states = _steps(seed=1, steps=300)
+    from mirl.observations.trajectories import Trajectories
+
+    obs = Trajectories.from_states(scenario.domain, scenario.robot_names, states)
+    res = learn(obs, scenario, "mirl-t", observability=1.0)
+    j = res.robot("J")
+    assert set(j.feature_intervals) == set(FEATURES)
+    for lo, hi in j.feature_intervals.values():
+        assert 0 <= lo <= hi <= 1
+    assert j.verdict is not None and j.verdict.part == "left_wheel"
+    assert "verdicts" in res.timings
+    fixed = learn(obs, scenario, "mirl", observability=1.0)
+    assert all(r.verdict is None and not r.feature_intervals for r in fixed.robots)
