@@ -19,7 +19,9 @@ def test_round_trip_five_seeds(tmp_path, capsys, seed):
     assert main([*sim, "--poses", str(tmp_path / "p.mcap")]) == 0
     assert main([*sim, "--poses", str(tmp_path / "n.mcap"), "--pose-noise", "0.05", "3"]) == 0
     capsys.readouterr()
+    # the poses are a simulation of the scenario, so they are scored against its truth too
     topics = ["--topic", "/I/pose=I", "--topic", "/J/pose=J", "--start-time", "0"]
+    topics += ["--compare", "truth"]
     results = []
     for obs, extra in (("o.csv", []), ("p.mcap", topics), ("n.mcap", topics)):
         argv = ["learn", "--scenario", "boyd2", "--json", "--observations", str(tmp_path / obs)]
