@@ -26,6 +26,10 @@ def test_the_estimate_grows_with_states_robots_and_steps():
         estimate_cost(small, "learn", steps=600).seconds
         > estimate_cost(small, "learn", steps=300).seconds
     )
+    # learning's solves cost by the states whatever the record's length: a two-step record on
+    # the office is not estimated as nearly free (it was, at 2 s for minutes of work)
+    short = estimate_cost(office, "learn", steps=2).seconds
+    assert short > 0.5 * estimate_cost(office, "learn", steps=300).seconds
     # the horizon is about the run's: the window plus 3 x L's path (at least 20), the path in
     # cells (the run's counts L's turns too)
     from mirl.planning.observer import observer_model

@@ -38,8 +38,13 @@ LEARN_BYTES_PER_STATE = 2_500
 # bytes per state of L and the patrollers while planning: the factored filter's checkpoints and
 # block of hazards, L's transition entries and one step of its values
 PLAN_BYTES_PER_STATE = 6_000
-# seconds per state and observed step (learning) and per state and planned step (planning)
-LEARN_SECONDS_PER_STATE_STEP = 1.0e-6
+# seconds per patroller state and robot whatever the record's length (learning's solves: the
+# IRL's soft value iterations, the policies), per state, robot and observed step (the filters
+# over the record), and per state and planned step (planning). The fixed part dominates on large
+# maps: a two-step record on Willow Garage at 0.1 m (873 656 state-robots) still learns for
+# minutes.
+LEARN_SECONDS_PER_STATE = 3.0e-4
+LEARN_SECONDS_PER_STATE_STEP = 1.0e-7
 PLAN_SECONDS_PER_STATE_STEP = 1.5e-7
 # the run's planning window and the shortest horizon after it (mirl.experiments.episode)
 WINDOW, MIN_TRAVEL = 60, 20
@@ -103,7 +108,7 @@ def estimate_cost(
     S = cells * N_HEADINGS
     S_L = int((gm.patroller | gm.observer_only).sum()) * N_HEADINGS
     memory = BASE_MEMORY + LEARN_BYTES_PER_STATE * S * n
-    seconds = LEARN_SECONDS_PER_STATE_STEP * S * n * steps
+    seconds = (LEARN_SECONDS_PER_STATE + LEARN_SECONDS_PER_STATE_STEP * steps) * S * n
     horizon = 0
     if command == "run":
         horizon = planning_horizon(scenario)
