@@ -216,6 +216,7 @@ def test_learner_relearns_on_a_grown_record_while_waiting(boyd2):
     steps = [x.observed_steps for x in r.relearns]
     assert all(b >= 1.5 * a for a, b in zip(steps, steps[1:], strict=False))
     assert r.relearns[-1].feature_probabilities == r.feature_probabilities
+    assert set(r.relearns[-1].verdicts) == set(boyd2.robot_names)  # the re-learned verdicts
     assert [x["t"] for x in r.to_dict()["relearns"]] == [x.t for x in r.relearns]
 
 

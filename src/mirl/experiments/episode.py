@@ -376,16 +376,13 @@ def _relearn_record(t: int, learner: _Learner, seconds: float) -> Relearn:
     probs = {
         r.name: {k: float(v) for k, v in r.feature_probabilities.items()} for r in learned.robots
     }
-    ranked = sorted((p, f"{n}:{f}") for n, fp in probs.items() for f, p in fp.items())
-    verdict = None
-    if len(ranked) == 1 or (len(ranked) > 1 and ranked[1][0] - ranked[0][0] > 1e-6):
-        verdict = ranked[0][1]
+    verdicts = {r.name: r.verdict.sentence(r.name) for r in learned.robots if r.verdict}
     acc = [r.behavior_accuracy for r in learned.robots if r.behavior_accuracy is not None]
     return Relearn(
         t=t,
         observed_steps=learner.learned_on,
         feature_probabilities=probs,
-        verdict=verdict,
+        verdicts=verdicts,
         behavior_accuracy=float(np.mean(acc)) if acc else None,
         seconds=seconds,
     )

@@ -58,14 +58,14 @@ class PlanAttempt:
 @dataclass(frozen=True)
 class Relearn:
     """One re-learn while L waited: when, on how many observed steps (both ends seen, summed
-    over the patrollers), and what it changed to — the feature probabilities, the verdict (the
-    lowest feature, ``robot:feature``; None when none is lowest alone), the behaviour accuracy
-    (mean over the patrollers) — and its wall time."""
+    over the patrollers), and what it changed to — the feature probabilities, each robot's fault
+    verdict in words (for methods that give one), the behaviour accuracy (mean over the
+    patrollers) — and its wall time."""
 
     t: int
     observed_steps: int
     feature_probabilities: dict[str, dict[str, float]]
-    verdict: str | None
+    verdicts: dict[str, str]
     behavior_accuracy: float | None
     seconds: float
 
@@ -74,7 +74,7 @@ class Relearn:
             "t": self.t,
             "observed_steps": self.observed_steps,
             "feature_probabilities": self.feature_probabilities,
-            "verdict": self.verdict,
+            "verdicts": self.verdicts,
             "behavior_accuracy": self.behavior_accuracy,
         }
 

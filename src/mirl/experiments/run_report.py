@@ -136,12 +136,12 @@ def _relearn_lines(result: RunResult) -> list[str]:
         if last.behavior_accuracy is None
         else f", behaviour accuracy {last.behavior_accuracy:.2f}"
     )
-    lowest = last.verdict.replace(":", "'s ") if last.verdict else "no single lowest feature"
     lines = [f"relearned {len(result.relearns)} times while waiting (t = {steps}), warm-started"]
     lines.append(
-        f"          last on {last.observed_steps} observed steps: lowest {lowest}{acc} "
+        f"          last on {last.observed_steps} observed steps{acc} "
         "(the models above are the last ones)"
     )
+    lines += [f"          then: {sentence}" for sentence in last.verdicts.values()]
     return lines
 
 
