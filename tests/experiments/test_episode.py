@@ -199,7 +199,7 @@ def test_adaptive_rule_states_its_chance_and_goes_by_the_deadline(boyd2):
 
 
 def test_published_protocol_states_no_chance_and_learns_once(boyd2):
-    r = run_episode(boyd2, "mirl-t", seed=0, **FAST)  # the defaults
+    r = run_episode(boyd2, "mirl-t", seed=0, go_rule="value", relearn=False, **FAST)
     d = r.to_dict()
     assert r.predicted_success is None and r.relearns is None
     assert "predicted_success" not in d and "relearns" not in d
@@ -209,7 +209,7 @@ def test_learner_relearns_on_a_grown_record_while_waiting(boyd2):
     # full view and a rule that never goes before the deadline: the record grows by 1.5× twice
     r = run_episode(
         boyd2, "mirl-t", seed=1, observability=1.0, obs_steps=80, max_wait=120,
-        relearn=True, detection_penalty=1e6,
+        go_rule="value", relearn=True, detection_penalty=1e6,
     )  # fmt: skip
     assert r.outcome == "timeout"
     assert len(r.relearns) >= 2
@@ -218,6 +218,29 @@ def test_learner_relearns_on_a_grown_record_while_waiting(boyd2):
     assert r.relearns[-1].feature_probabilities == r.feature_probabilities
     assert set(r.relearns[-1].verdicts) == set(boyd2.robot_names)  # the re-learned verdicts
     assert [x["t"] for x in r.to_dict()["relearns"]] == [x.t for x in r.relearns]
+
+
+def test_the_defaults_are_the_adaptive_rule_with_relearning(boyd2):
+    r = run_episode(boyd2, "mirl-t", seed=0, **FAST)
+    assert r.relearns is not None  # re-learning was on (a tuple, maybe empty)
+    assert r.outcome != "timeout" and 0.0 <= r.predicted_success <= 1.0
+
+
+def test_the_rule_scores_the_records_moments(boyd2, monkeypatch):
+    import mirl.experiments.episode as episode
+
+    asked: list[list[int]] = []
+    real = episode._Watcher.chances
+
+    def spy(self, chance_at):
+        asked.append([t for t, _ in self.moments])
+        return real(self, chance_at)
+
+    monkeypatch.setattr(episode._Watcher, "chances", spy)
+    run_episode(boyd2, "oracle", seed=3, observability=1.0, obs_steps=150, max_wait=60)
+    # full view: nobody leaves L's view, so the moments are every 30th step from step 60
+    assert asked and asked[0][:3] == [60, 90, 120]
+    assert all(t % 30 == 0 for ts in asked for t in ts)
 
 
 def test_go_rule_and_relearn_growth_are_checked(boyd2):

@@ -361,7 +361,7 @@ def _experiment(args: argparse.Namespace) -> int:
 
     check_experiment_flags(args)
     exp = with_em_init(get_experiment(args.name), args.em_init)  # unknown: one line, exit 2
-    exp = with_protocol(exp, args.go_rule, args.relearn)
+    exp = with_protocol(exp, args.go_rule, not args.learn_once)
     _world(args.world)
     exp = in_world(exp, args.world)
     suffix = "" if args.world == DEFAULT_WORLD else f"-{args.world}"
@@ -425,7 +425,7 @@ def _run(args: argparse.Namespace) -> int:
         learn_options={"em_init": args.em_init} if args.em_init else None,
         world=args.world,
         go_rule=args.go_rule,
-        relearn=args.relearn,
+        relearn=not args.learn_once,
     )
     if args.json:
         print_json(result.to_dict())

@@ -191,7 +191,7 @@ PARAMETER_FLAGS = {
     "visible": "--visible",
     "em_init": "--em-init",
     "go_rule": "--go-rule",
-    "relearn": "--relearn",
+    "relearn": "--learn-once",
     "resume": "--resume",
     "out": "--out",
     "base_seed": "--seed",

@@ -225,20 +225,21 @@ GO_RULE_CHOICES = ("adaptive", "value")
 
 
 def _protocol_args(sp: argparse.ArgumentParser) -> None:
-    """How L decides to go and whether it keeps learning while it waits; the defaults are the
-    paper's protocol."""
+    """How L decides to go and whether it keeps learning while it waits; ``--go-rule value
+    --learn-once`` is the paper's protocol."""
     sp.add_argument(
         "--go-rule",
         choices=GO_RULE_CHOICES,
-        default="value",
-        help="value: the published rule (the best plan value in the window, if positive); "
-        "adaptive: go when the stated P(success) beats the value of waiting until the deadline",
+        default="adaptive",
+        help="adaptive: go when the chance of going now beats the value of waiting until the "
+        "deadline, and state the exact P(success); value: the published rule (the best plan "
+        "value in the window, if positive)",
     )
     sp.add_argument(
-        "--relearn",
+        "--learn-once",
         action="store_true",
-        help="re-learn while waiting, whenever the record has grown 1.5x (default: learn once "
-        "after observing, as published)",
+        help="learn once after observing, as published (default: re-learn while waiting, "
+        "whenever the record has grown 1.5x)",
     )
 
 

@@ -45,7 +45,8 @@ __all__ = [
 ]
 
 DEFAULT_OBS_STEPS = 300
-GO_RULE_DEFAULT = "value"  # the paper's rule, run_episode's default
+GO_RULE_PUBLISHED = "value"  # the paper's rule
+GO_RULE_DEFAULT = "adaptive"  # mirl's rule, run_episode's and the command line's default
 DEFAULT_RUNS = 200  # per point, as in the paper's simulations
 OUTCOMES = ("success", "detected", "timeout")
 
@@ -64,8 +65,11 @@ class Condition:
     p: float | None = None
     world: str = DEFAULT_WORLD  # a name in mirl.experiments.worlds.WORLDS
     em_init: str | None = None  # DBN-EM's initial T; None: the default ("intended")
-    go_rule: str | None = None  # how L decides to go; None: the default ("value", published)
-    relearn: bool = False  # True: L re-learns while it waits (the default learns once)
+    # how L decides to go and whether it re-learns while it waits; None and False are the
+    # paper's protocol (``with_protocol`` gives mirl's, the command line's default), so that
+    # databases written before these fields existed keep their keys and meaning
+    go_rule: str | None = None
+    relearn: bool = False
     damage: str | None = None  # "ROBOT:FEATURE" damaged in the world's way; None: as scenario
 
     @property
@@ -93,10 +97,28 @@ class Condition:
         label = self.method if self.p is None else f"{self.method} (p={self.p:g})"
         if self.em_init is not None:
             label = f"{label} ({self.em_init} init)"
-        protocol = [f"{self.go_rule} rule"] if self.go_rule is not None else []
-        protocol += ["re-learning"] if self.relearn else []
-        label = f"{label} ({', '.join(protocol)})" if protocol else label
+        label = f"{label}{self.protocol_label}"
         return label if self.damage is None else f"{label}, {self.damage} damaged"
+
+    @property
+    def protocol_label(self) -> str:
+        """How L decided, for labels: nothing for mirl's default protocol (the adaptive rule,
+        re-learning) and for the paper's (the conditions' own; a report says which one its
+        runs used), the parts otherwise."""
+        rule = self.go_rule or GO_RULE_PUBLISHED
+        if (rule, self.relearn) in ((GO_RULE_DEFAULT, True), (GO_RULE_PUBLISHED, False)):
+            return ""
+        return f" ({rule} rule, {'re-learning' if self.relearn else 'learning once'})"
+
+    @property
+    def protocol(self) -> str:
+        """The protocol's name in words, for reports."""
+        rule = self.go_rule or GO_RULE_PUBLISHED
+        if (rule, self.relearn) == (GO_RULE_PUBLISHED, False):
+            return "the paper's protocol (value rule, learning once)"
+        if (rule, self.relearn) == (GO_RULE_DEFAULT, True):
+            return "mirl's protocol (adaptive rule, re-learning while waiting)"
+        return f"{rule} rule, {'re-learning while waiting' if self.relearn else 'learning once'}"
 
     def scenario_object(self):
         """The condition's scenario, with its ``damage`` applied in its world."""
@@ -183,10 +205,8 @@ def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
         kwargs["p"] = condition.p
     if condition.em_init is not None:
         kwargs["learn_options"] = {"em_init": condition.em_init}
-    if condition.go_rule is not None:
-        kwargs["go_rule"] = condition.go_rule
-    if condition.relearn:
-        kwargs["relearn"] = True
+    kwargs["go_rule"] = condition.go_rule or GO_RULE_PUBLISHED
+    kwargs["relearn"] = condition.relearn
     scenario = condition.scenario_object()
     result = run_episode(
         scenario,
@@ -404,11 +424,15 @@ def with_em_init(exp: Experiment, init: str | None) -> Experiment:
 
 def with_protocol(exp: Experiment, go_rule: str, relearn: bool) -> Experiment:
     """``exp`` with every condition deciding by ``go_rule`` and, with ``relearn``, re-learning
-    while L waits; ``go_rule="value", relearn=False`` is the paper's protocol (the default)."""
-    rule = None if go_rule == GO_RULE_DEFAULT else go_rule
+    while L waits (the command line's default: ``"adaptive"``, True); ``go_rule="value",
+    relearn=False`` is the paper's protocol, the one the experiments' conditions are listed
+    under."""
+    rule = None if go_rule == GO_RULE_PUBLISHED else go_rule
     if rule is None and not relearn:
         return exp
     if exp.run_function is not episode_run:
+        if (go_rule, relearn) == (GO_RULE_DEFAULT, True):
+            return exp  # nothing of L decides or learns: the default asks for nothing
         raise StoreError(f"`go_rule`: experiment {exp.name} has no runs of L to decide")
     conditions = tuple(replace(c, go_rule=rule, relearn=relearn) for c in exp.conditions)
     return replace(exp, conditions=conditions)

@@ -10,8 +10,8 @@ Protocol (:func:`run_episode`):
 3. **Plan.** A :class:`~mirl.planning.belief.BeliefFilter` runs over everything L saw; its
    prediction feeds L's time-indexed MDP (:func:`~mirl.planning.go.solve_observer_mdp`), which
    scores every go time in the next ``window`` steps. L keeps watching from its room (the same
-   simulator keeps running and new observations enter the filter; the models are not relearned)
-   and re-plans
+   simulator keeps running and new observations enter the filter; with ``relearn`` the models
+   are re-learned as the record grows) and re-plans
    every ``replan_every`` steps while it has no go time with a positive value, and also whenever
    a patroller leaves its view — the moment its belief about that robot is sharpest. A newer
    plan may move or cancel a go time (``commit=True`` keeps the first one; on boyd2 the two
@@ -73,13 +73,18 @@ __all__ = ["run_episode", "RELEARN_GROWTH", "OPPORTUNITY_STEPS"]
 # L re-learns while it waits once its record holds this factor more observed steps than at its
 # last learning (docs/design.md, "Learning while waiting")
 RELEARN_GROWTH = 1.5
-# the adaptive go rule counts one fresh chance to go per this many steps left after the window
-# (docs/design.md, "The go rule")
-OPPORTUNITY_STEPS = 30
-# the adaptive rule's first picture of its chances: what going would have promised every this
-# many steps of the observation phase, from this step on (the filter has settled by then)
-PAST_CHANCE_EVERY = 10
-PAST_CHANCE_FROM = 60
+# the adaptive go rule counts one fresh chance to go per this many steps left after the window:
+# one per planning round (docs/design.md, "The go rule")
+OPPORTUNITY_STEPS = 10
+# the adaptive rule's picture of its chances: what going would have promised at the moments of
+# L's record (the observation phase and its wait) when a patroller left its view, and every
+# this many steps, from step CHANCE_FROM on (the filter has settled by then)
+CHANCE_EVERY = 30
+CHANCE_FROM = 60
+# ... at most one moment per planning round, and of the observation phase the last this many: a
+# moment's chance costs a prediction and an MDP solve (~1 s on the 60 × 60 office floor)
+CHANCE_SAMPLE = 16
+MOMENT_SLACK = 20
 
 
 @dataclass(frozen=True)
@@ -96,6 +101,7 @@ class _Planning:
     detection_penalty: float
     go_rule: str = "value"
     opportunity_steps: int = OPPORTUNITY_STEPS
+    moment_travel: int = 0  # horizon of the plans that score the record's moments
 
 
 @dataclass
@@ -137,8 +143,8 @@ def run_episode(
     watch_until_seen: int | None = None,
     max_obs_steps: int = WATCH_LIMIT,
     world: str = DEFAULT_WORLD,
-    go_rule: str = "value",
-    relearn: bool = False,
+    go_rule: str = "adaptive",
+    relearn: bool = True,
     relearn_growth: float = RELEARN_GROWTH,
     opportunity_steps: int = OPPORTUNITY_STEPS,
 ) -> RunResult:
@@ -151,12 +157,17 @@ def run_episode(
     fixed observation time): L observes at least ``obs_steps`` steps and then keeps watching
     until it has seen every patroller on K steps, or ``max_obs_steps`` have passed.
 
-    ``go_rule`` is one of :data:`~mirl.planning.go.GO_RULES`: ``"value"`` (default) is the
-    published rule (``detection_penalty`` applies to it alone); ``"adaptive"`` goes when its
-    stated probability of success beats the value of waiting (one fresh chance per
-    ``opportunity_steps`` steps left after the window). With ``relearn``, a method that learns
-    re-learns while L waits whenever its record holds ``relearn_growth`` times the observed
-    steps of its last learning. The defaults are the paper's protocol.
+    ``go_rule`` is one of :data:`~mirl.planning.go.GO_RULES`: ``"adaptive"`` (default) goes
+    when the chance of going now beats the value of waiting (one fresh chance per
+    ``opportunity_steps`` steps left after the window) and states the exact P(success) it goes
+    with; ``"value"`` is the published rule (``detection_penalty`` applies to it alone). With
+    ``relearn`` (default), a method that learns re-learns while L waits whenever its record
+    holds ``relearn_growth`` times the observed steps of its last learning.
+    ``go_rule="value", relearn=False`` is the paper's protocol.
+
+    .. versionchanged:: 0.2.0
+       The adaptive rule and re-learning are the default; the paper's protocol is
+       ``go_rule="value", relearn=False`` (``--go-rule value --learn-once``).
     """
     spec = get_method(method)
     if obs_steps < 1:
@@ -201,10 +212,11 @@ def run_episode(
     timings["learn"] += time.perf_counter() - clock
 
     path_len = int(model.distance_to_goal[model.start_state])
+    travel = max(20, 3 * path_len) if travel_steps is None else int(travel_steps)
     planning = _Planning(
         window=window,
         deadline=t_obs + max_wait,
-        travel=max(20, 3 * path_len) if travel_steps is None else int(travel_steps),
+        travel=travel,
         replan_every=replan_every,
         commit=commit,
         hazard=hazard,
@@ -212,6 +224,10 @@ def run_episode(
         detection_penalty=detection_penalty,
         go_rule=go_rule,
         opportunity_steps=opportunity_steps,
+        # going at once needs L's path and some slack for its failed moves and for waiting
+        # out a patroller, not the whole travel horizon (3× the path): the moments' plans
+        # cost in proportion to it
+        moment_travel=min(travel, path_len + MOMENT_SLACK),
     )
     if not spec.plans:
         going = _random_going(model, t_obs, window, np.random.default_rng(random_seed))
@@ -324,7 +340,11 @@ class _Learner:
 
 class _Watcher:
     """L in its room: the belief filter over everything it has seen, under its current models,
-    re-learned (and the filter re-run over the whole record) when its :class:`_Learner` is due."""
+    re-learned (and the filter re-run over the whole record) when its :class:`_Learner` is due.
+
+    It also keeps the beliefs of the record's *moments* (every ``CHANCE_EVERY`` steps from
+    ``CHANCE_FROM``) and, once asked, what going at each would have promised under the current
+    models (:meth:`chances`): the adaptive rule's sample of its chances."""
 
     def __init__(
         self,
@@ -340,19 +360,36 @@ class _Watcher:
         self.visible, self.joint, self.timings = visible, joint, timings
         self.relearns: list[Relearn] = []
         self.learned = learned
-        self.past: list[np.ndarray] = []  # beliefs of the observation phase, for past chances
+        self.moments: list[tuple[int, np.ndarray]] = []
+        self._chances: list[float] = []  # of moments[: len(_chances)], under these models
         self.belief = self._filter(learned)
+
+    def _keep_moment(self, belief: BeliefFilter, left_view: bool) -> None:
+        t = belief.t
+        if t < CHANCE_FROM or not (left_view or t % CHANCE_EVERY == 0) or belief.belief is None:
+            return
+        if self.moments and t - self.moments[-1][0] < OPPORTUNITY_STEPS:
+            return
+        self.moments.append((t, belief.belief))  # update() replaces, never mutates, it
 
     def _filter(self, learned: LearnResult) -> BeliefFilter:
         clock = time.perf_counter()
         belief = BeliefFilter(self.scenario.domain, learned, visible=self.visible, joint=self.joint)
-        self.past = []
-        for t, seen in enumerate(self.world.seen):
-            belief.update(seen)
-            if t >= PAST_CHANCE_FROM and t % PAST_CHANCE_EVERY == 0 and belief.belief is not None:
-                self.past.append(belief.belief)  # update() replaces, never mutates, the belief
+        self.moments, self._chances = [], []
+        seen = self.world.seen
+        for t, now in enumerate(seen):
+            belief.update(now)
+            self._keep_moment(belief, t > 0 and _left_view(seen[t - 1], now))
+        self.moments = self.moments[-CHANCE_SAMPLE:]
         self.timings["plan"] += time.perf_counter() - clock
         return belief
+
+    def chances(self, chance_at: Callable[[int, np.ndarray], float]) -> list[float]:
+        """What going at each moment of the record promised, ``chance_at(t, belief)``, computed
+        once per moment and models."""
+        for t, b in self.moments[len(self._chances) :]:
+            self._chances.append(chance_at(t, b))
+        return self._chances
 
     def observe(self) -> bool:
         """Take in the newest step; re-learn if due. Returns whether the models changed."""
@@ -365,9 +402,16 @@ class _Watcher:
             self.belief = self._filter(self.learned)
             return True
         clock = time.perf_counter()
-        self.belief.update(self.world.seen[-1])
+        seen = self.world.seen
+        self.belief.update(seen[-1])
+        self._keep_moment(self.belief, len(seen) > 1 and _left_view(seen[-2], seen[-1]))
         self.timings["plan"] += time.perf_counter() - clock
         return False
+
+
+def _left_view(before: np.ndarray, now: np.ndarray) -> bool:
+    """Whether a patroller L saw on the step before is out of its view now."""
+    return bool(np.any((np.asarray(before) >= 0) & (np.asarray(now) < 0)))
 
 
 def _relearn_record(t: int, learner: _Learner, seconds: float) -> Relearn:
@@ -418,29 +462,34 @@ def _planned_going(
         next_round = world.t + planning.replan_every if go_time is None else planning.deadline + 1
         return Decision(plan, go_time, next_round, attempt)
 
-    stated: list[float] = []  # the chances of going now L has stated, one per round
-    chance: dict[int, float] = {}  # by step
+    chance: dict[int, float] = {}  # the stated P(success) of going now, by step
+
+    def chance_at(t: int, belief: np.ndarray) -> float:
+        """The planner's P(success) of going at step t of the record with that step's belief,
+        along the best plan for going then (window 0)."""
+        prediction = watcher.belief.predict(planning.moment_travel, model, belief=belief, t=t)
+        plan = solve_observer_mdp(
+            model, prediction, window=0, goal_reward=planning.goal_reward,
+            detection_penalty=0.0, min_value=-1.0, hazard=planning.hazard,
+        )  # fmt: skip
+        return float(plan.go_values[0])
 
     def decide_adaptive() -> Decision:
-        """Go now when the stated P(success) of going now beats both the best go time the
-        window offers and the value of the chances still to come before the deadline."""
+        """Go now when the window's best go time is now and its chance beats the value of the
+        chances still to come before the deadline, drawn like those of the record's moments;
+        on going, state the exact P(success) (docs/design.md, "The go rule")."""
         t = world.t
         win = min(planning.window, planning.deadline - t)
         plan = solve(win + planning.travel, win, 0.0, min_value=-1.0)  # P(success) objective
-        now = success_probability(watcher.belief, model, plan, extra=planning.travel).success
-        if watcher.past:  # the chances the record promised, under the current models
-            past = [
-                success_probability(watcher.belief, model, plan, extra=planning.travel, belief=b)
-                for b in watcher.past
-            ]
-            stated[:] = [e.success for e in past]
-            watcher.past = []
-        stated.append(now)
-        chance[t] = now
-        later = (planning.deadline - t - win) // planning.opportunity_steps
-        bar = waiting_value(stated, later)
         best = plan.go_time if plan.go_time is not None else 0
-        go = win == 0 or (best == 0 and now >= bar)
+        go = win == 0
+        if not go and best == 0:  # a later go time in the window is better: wait for it
+            later = (planning.deadline - t - win) // planning.opportunity_steps
+            go = float(plan.go_values[0]) >= waiting_value(watcher.chances(chance_at), later)
+        now = None
+        if go:
+            now = success_probability(watcher.belief, model, plan, extra=planning.travel).success
+            chance[t] = now
         go_time = t if go else None
         step = best if 0 < best < planning.replan_every else planning.replan_every
         attempt = PlanAttempt(t, float(plan.go_values.max()), go_time, now)

@@ -344,28 +344,40 @@ class BeliefFilter:
             cached = self._static[id(model)] = (model, Dd, G, moves, G[:, prev], pair)
         return cached[1:]
 
-    def predict(self, steps: int, model: ObserverModel) -> Prediction | StreamedPrediction:
+    def predict(
+        self,
+        steps: int,
+        model: ObserverModel,
+        *,
+        belief: np.ndarray | None = None,
+        t: int | None = None,
+    ) -> Prediction | StreamedPrediction:
         """Occupancies, detection probabilities and hazards for t = now … now + ``steps``.
 
         The only sequential part is the propagation (one sparse product per step); detection
         and hazards are then computed for all steps at once — or, for the factored filter, a
         block of steps at a time from checkpoints (:class:`StreamedPrediction`), so that its
         memory grows with √steps × states rather than steps × (states + L's cell pairs).
+        ``belief`` (in this filter's form) and its step ``t`` predict from an earlier belief
+        instead of the current one (the go rule's chances of the record).
         """
-        if self.belief is None:
+        if belief is None:
+            belief, t = self.belief, self.t
+        if belief is None:
             raise ValueError("predict() before any update(): the filter has no belief yet")
+        t0 = self.t if t is None else int(t)
         if self.mode == "factored":
             return StreamedPrediction(
-                self.t, steps, self.belief, self._propagate, self._factored_detection(model),
+                t0, steps, belief, self._propagate, self._factored_detection(model),
                 model.cell_pairs,
             )  # fmt: skip
         Dd, G, moves, G_prev, pair = self._detection_parts(model)
         if self.mode == "team":
-            occ, none = self._predict_team(steps, G)
+            occ, none = self._predict_team(steps, G, belief)
             seen = occ @ Dd  # (K+1, N, C): P(robot i sees cell c)
             det = 1.0 - none
         else:
-            occ, seen, det = self._predict_pair(steps, Dd, pair)
+            occ, seen, det = self._predict_pair(steps, Dd, pair, belief)
         nxt = model.cell_pairs[:, 1]
         # per robot: P(not seen on c' at k−1 and not seen on c at k) / P(not seen on c' at k−1)
         # = occ_{k−1} · (G[:, c'] ∘ (P G)[:, c]) / occ_{k−1} · G[:, c'], one (S, pairs) matrix
@@ -377,14 +389,15 @@ class BeliefFilter:
             ratio = joint_ok / np.where(ok, before, 1.0)
             surv *= np.where(ok, ratio, 1.0 - seen[1:, i, nxt])
         haz = np.concatenate([det[:1, nxt], 1.0 - surv])
-        return Prediction(self.t, occ, np.clip(det, 0, 1), np.clip(haz, 0, 1), model.cell_pairs)
+        return Prediction(t0, occ, np.clip(det, 0, 1), np.clip(haz, 0, 1), model.cell_pairs)
 
-    def _predict_team(self, steps: int, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Occupancies and P(no patroller sees c) from the N-robot joint, one step at a time
-        (the S^N tensors are not kept)."""
-        assert isinstance(self._team, ExactTeam) and self.belief is not None
+    def _predict_team(
+        self, steps: int, G: np.ndarray, b: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Occupancies and P(no patroller sees c) from the N-robot joint ``b``, one step at a
+        time (the S^N tensors are not kept)."""
+        assert isinstance(self._team, ExactTeam)
         occ, none = [], []
-        b = self.belief
         for k in range(steps + 1):
             occ.append(self._team.marginals(b))
             none.append(self._team.none_sees(b, G))
@@ -392,14 +405,14 @@ class BeliefFilter:
                 b = self._team.propagate(b)
         return np.stack(occ), np.stack(none)
 
-    def _predict_pair(self, steps: int, Dd: np.ndarray, sightings: PairSightings):
-        """Occupancies, per-robot sightings and detection from the pair's joint (inclusion–
-        exclusion)."""
-        assert self.belief is not None
+    def _predict_pair(
+        self, steps: int, Dd: np.ndarray, sightings: PairSightings, b: np.ndarray
+    ):
+        """Occupancies, per-robot sightings and detection from the pair's joint ``b``
+        (inclusion–exclusion)."""
         S, K1 = self.n_states, steps + 1
         beliefs = np.empty((K1, S * S))
         both = np.empty((K1, Dd.shape[1]))
-        b = self.belief
         for k in range(K1):
             beliefs[k] = b
             both[k] = sightings.both(b)  # while b is in cache

@@ -10,9 +10,13 @@ cell — the detection rule checked after every step of a run. Beliefs reaching 
 are merged (their mixture is the exact conditional), so the work per step is one propagation per
 L state still carrying probability. With the joint filter (two patrollers, or a team whose joint
 fits) the result is exact under L's learned models up to ``prune`` (the probability of L states
-dropped, at most ``prune`` each, counted as failure); the factored filter multiplies the robots'
-probabilities of not seeing L as if independent. After the plan's last step L follows a shortest
-path (in a run it re-plans there), at most ``extra`` steps.
+dropped, at most ``prune`` each, counted as failure). The factored filter (teams whose joint does
+not fit) is approximate twice over, and stated so (``exact=False``): it multiplies the robots'
+probabilities of not seeing L as if independent, and L's possible states share one belief about
+the patrollers (the mixture of theirs), so a step costs one propagation instead of one per L
+state — on a large floor L's failed moves spread it over a dozen states per step, and per-state
+beliefs cost ~1.5 s an evaluation on ``office`` against ~0.1 s shared. After the plan's last step
+L follows a shortest path (in a run it re-plans there), at most ``extra`` steps.
 """
 
 from __future__ import annotations
@@ -49,10 +53,13 @@ def success_probability(
     extra: int = 0,
     prune: float = 1e-6,
     belief: np.ndarray | None = None,
+    shared: bool | None = None,
 ) -> SuccessEstimate:
     """P(L reaches its goal unseen) when it leaves its start cell now, at the plan's index
     ``k0``, and follows ``plan.policy`` (module doc); the patrollers' belief is ``belief`` (in
-    the filter's form), by default the filter's current one."""
+    the filter's form), by default the filter's current one. ``shared`` makes L's states share
+    one belief (default: only with the factored filter, where the result is approximate
+    anyway); ``exact`` in the result is False whenever either approximation is made."""
     if belief is None:
         belief = belief_filter.belief
     if belief is None:
@@ -61,19 +68,29 @@ def success_probability(
     A = dom.n_actions
     T = model.transitions.tocsr()  # row s·A + a: the outcomes of L doing a in s
     fallback = shortest_path_policy(model)
-    not_seeing = _NotSeeing(model)
+    not_seeing = _not_seeing(model)
+    exact = belief_filter.joint or belief_filter.n_robots == 1  # one robot: nothing to factor
+    if shared is None:
+        shared = not exact
+    per_state = not shared
     mix: dict[int, tuple[float, np.ndarray]] = {model.start_state: (1.0, belief)}
     success = detected = dropped = 0.0
     steps = plan.horizon - k0 + extra
     for j in range(steps):
         k = k0 + j
         nxt: dict[int, tuple[float, np.ndarray]] = {}
+        conditioned: dict[int, tuple[np.ndarray, float]] = {}  # L's next state → (post, kept)
+        moved = None if per_state else belief_filter.propagate(next(iter(mix.values()))[1])
         for s, (w, b) in mix.items():
             a = int(plan.policy[k, s]) if k < plan.horizon else int(fallback[s])
-            moved = belief_filter.propagate(b)
+            if per_state:
+                moved = belief_filter.propagate(b)
+            assert moved is not None
             lo, hi = T.indptr[s * A + a], T.indptr[s * A + a + 1]
             for s2, q in zip(T.indices[lo:hi], T.data[lo:hi], strict=True):
-                post, kept = belief_filter.condition_unseen(moved, not_seeing(int(s2)))
+                if per_state or s2 not in conditioned:
+                    conditioned[s2] = belief_filter.condition_unseen(moved, not_seeing(int(s2)))
+                post, kept = conditioned[s2]
                 mass = w * float(q)
                 detected += mass * (1.0 - kept)
                 mass *= kept
@@ -83,12 +100,15 @@ def success_probability(
                     _merge(nxt, int(s2), mass, post)
                 else:
                     dropped += mass
+        if shared and nxt:  # one belief for all of L's states: their mixture
+            total = sum(w for w, _ in nxt.values())
+            common = sum(w * b for w, b in nxt.values()) / total
+            nxt = {s: (w, common) for s, (w, _) in nxt.items()}
         mix = nxt
         if not mix:
             break
     unfinished = dropped + sum(w for w, _ in mix.values())
-    exact = belief_filter.joint or belief_filter.n_robots == 1  # one robot: nothing to factor
-    return SuccessEstimate(success, detected, unfinished, exact)
+    return SuccessEstimate(success, detected, unfinished, exact and per_state)
 
 
 def _merge(mix: dict[int, tuple[float, np.ndarray]], s: int, w: float, b: np.ndarray) -> None:
@@ -114,3 +134,16 @@ class _NotSeeing:
         if g is None:
             g = self.cache[c] = 1.0 - self.D[:, [c]].toarray().ravel()
         return g
+
+
+_NOT_SEEING: dict[int, _NotSeeing] = {}
+
+
+def _not_seeing(model: ObserverModel) -> _NotSeeing:
+    """The indicators of ``model``, kept across evaluations (a run evaluates many)."""
+    cached = _NOT_SEEING.get(id(model))
+    if cached is None or cached.model is not model:
+        if len(_NOT_SEEING) > 32:
+            _NOT_SEEING.clear()
+        cached = _NOT_SEEING[id(model)] = _NotSeeing(model)
+    return cached

@@ -6,7 +6,13 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from mirl.experiments.conditions import EXPERIMENTS, StoreError, experiment_names
+from mirl.experiments.conditions import (
+    EXPERIMENTS,
+    Condition,
+    StoreError,
+    episode_run,
+    experiment_names,
+)
 from mirl.experiments.store import load_results
 from mirl.experiments.worlds import DEFAULT_WORLD
 from mirl.learning.methods import METHODS
@@ -40,8 +46,11 @@ def report_markdown(
     gs = groups(rows)
     if name in EXPERIMENTS:  # the experiment's own order: methods as the paper lists them
         rank = {c.key: k for k, c in enumerate(EXPERIMENTS[name].conditions)}
-        # physical-world runs rank as their grid twins
-        gs.sort(key=lambda g: rank.get(replace(g.condition, world=DEFAULT_WORLD).key, len(rank)))
+        # physical-world runs and runs under another protocol rank as their listed twins
+        def listed(c: Condition) -> str:
+            return replace(c, world=DEFAULT_WORLD, go_rule=None, relearn=False).key
+
+        gs.sort(key=lambda g: rank.get(listed(g.condition), len(rank)))
     errors = sum(r["outcome"] == "error" for r in rows)
     ns = [g.n for g in gs] or [0]
     versions = sorted({str(r["version"]) for r in rows})
@@ -55,6 +64,9 @@ def report_markdown(
         + f". Throughput: {_throughput(sessions)}.",
         "",
     ]
+    protocols = sorted({g.condition.protocol for g in gs if g.condition.method in METHODS})
+    if protocols and name in EXPERIMENTS and EXPERIMENTS[name].run_function is episode_run:
+        head += [f"L decided by {' and '.join(protocols)}.", ""]
     if name in PAPER:
         head += [f"**Paper:** {PAPER[name]}", ""]
     body = SECTIONS[name](gs, figdir) if name in SECTIONS and gs else ""
