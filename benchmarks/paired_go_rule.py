@@ -1,10 +1,10 @@
 """Paired comparison of two fig4a sweeps run on the same seeds (run i of every condition uses
-run_seed(base seed, i)): the published protocol against the adaptive rule with re-learning,
-per condition; and the calibration of the stated P(success) per decile.
+run_seed(base seed, i)): the published protocol against the adaptive rule with re-learning
+(the default), per condition; and the calibration of the stated P(success) per decile.
 
-    mirl experiment fig4a --runs 200 --workers 2 --out results/published
-    mirl experiment fig4a --runs 200 --workers 2 --go-rule adaptive --relearn \
-        --out results/adaptive
+    mirl experiment fig4a --runs 200 --workers 2 --go-rule value --learn-once \
+        --out results/published
+    mirl experiment fig4a --runs 200 --workers 2 --out results/adaptive
     python benchmarks/paired_go_rule.py results/published/results.sqlite \
         results/adaptive/results.sqlite
 
@@ -58,7 +58,7 @@ def rates(rows: list[dict]) -> str:
                       ("success", "detected", "timeout"))  # fmt: skip
 
 
-def main(first: str, second: str) -> None:
+def main(first: str, second: str, figure: str | None = None) -> None:
     a, b = load(first), load(second)
     by_cond: dict[tuple, list[tuple]] = defaultdict(list)
     for key in sorted(set(a) & set(b), key=str):
@@ -82,31 +82,74 @@ def main(first: str, second: str) -> None:
         name = cond[0] if cond[2] is None else f"{cond[0]} (p={cond[2]:g})"
         print(f"| {name} | {cond[1]:g} | {len(keys)} | {rates(ra)} | {rates(rb)} | "
               f"{wins}–{losses} | {sign_test(wins, losses):.3f} | {ratio:.2f} |")  # fmt: skip
-    went = [r for r in b.values() if r.get("ps") is not None]
+    calibration(b, figure)
+
+
+def _name(key: tuple) -> str:
+    m, d, p = key[:3]
+    return (m if p is None else f"{m} (p={p:g})") + f" {d:g}"
+
+
+def calibration(b: dict[tuple, dict], figure: str | None = None) -> None:
+    """The stated P(success) of the runs where L went against their realised success: per
+    decile, pooled, and per condition (mean stated, realised ± one binomial s.e.)."""
+    went = [(k, r) for k, r in b.items() if r.get("ps") is not None]
     print()
     print(f"calibration of the second ({len(went)} runs where L went and stated a probability)")
     print()
     print("| stated | runs | mean stated | realised success |")
     print("| --- | --- | --- | --- |")
+    deciles = []
     for lo in range(10):
-        rows = [r for r in went if lo / 10 <= r["ps"] < (lo + 1) / 10 or (lo == 9 and r["ps"] >= 1)]
+        rows = [r for _, r in went if lo / 10 <= r["ps"] < (lo + 1) / 10 or (lo == 9 and r["ps"] >= 1)]
         if rows:
             ms = sum(r["ps"] for r in rows) / len(rows)
             ok = sum(r["outcome"] == "success" for r in rows) / len(rows)
+            deciles.append((ms, ok, len(rows)))
             print(f"| {lo / 10:.1f}–{(lo + 1) / 10:.1f} | {len(rows)} | {ms:.3f} | {ok:.3f} |")
-    if went:
-        ms = sum(r["ps"] for r in went) / len(went)
-        ok = sum(r["outcome"] == "success" for r in went) / len(went)
-        print(f"| all | {len(went)} | {ms:.3f} | {ok:.3f} |")
-    per_method: dict[str, list[dict]] = defaultdict(list)
-    for key, r in b.items():
-        if r.get("ps") is not None:
-            per_method[f"{key[0]} {key[1]:g}"].append(r)
-    for name, rows in sorted(per_method.items()):
-        ms = sum(r["ps"] for r in rows) / len(rows)
-        ok = sum(r["outcome"] == "success" for r in rows) / len(rows)
-        print(f"| {name} | {len(rows)} | {ms:.3f} | {ok:.3f} |")
+    groups: dict[str, list[dict]] = defaultdict(list)
+    for key, r in went:
+        groups["all"].append(r)
+        groups[_name(key)].append(r)
+    print()
+    print("| runs of | went | mean stated | realised success ± s.e. | difference |")
+    print("| --- | --- | --- | --- | --- |")
+    for name, rows in sorted(groups.items(), key=lambda kv: (kv[0] != "all", kv[0])):
+        n = len(rows)
+        ms = sum(r["ps"] for r in rows) / n
+        ok = sum(r["outcome"] == "success" for r in rows) / n
+        se = (ok * (1 - ok) / n) ** 0.5
+        print(f"| {name} | {n} | {ms:.3f} | {ok:.3f} ± {se:.3f} | {ms - ok:+.3f} |")
+    if figure and deciles:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(4.6, 4.2))
+        ax.plot([0, 1], [0, 1], color="0.6", lw=1, ls="--", label="calibrated")
+        ms, ok, n = (list(v) for v in zip(*deciles, strict=True))
+        err = [(o * (1 - o) / k) ** 0.5 for o, k in zip(ok, n, strict=True)]
+        ax.errorbar(ms, ok, yerr=err, fmt="o-", color="C0", capsize=3,
+                    label="runs where L went, per decile")  # fmt: skip
+        for x, y, k in zip(ms, ok, n, strict=True):
+            ax.annotate(str(k), (x, y), textcoords="offset points", xytext=(5, -10), fontsize=7)
+        ax.set_xlabel("stated P(success) when L went")
+        ax.set_ylabel("realised success")
+        ax.set_xlim(0, 1)
+        ax.set_ylim(0, 1)
+        ax.set_title(f"The stated chance ({len(went)} runs)", fontsize=10)
+        ax.legend(loc="upper left", fontsize=8)
+        fig.tight_layout()
+        fig.savefig(figure, dpi=120)
+        print(f"\nfigure: {figure}")
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2])
+    args = sys.argv[1:]
+    fig = None
+    if "--figure" in args:
+        i = args.index("--figure")
+        fig = args[i + 1]
+        del args[i : i + 2]
+    main(args[0], args[1], fig)
