@@ -101,7 +101,9 @@ def calibration(b: dict[tuple, dict], figure: str | None = None) -> None:
     print("| --- | --- | --- | --- |")
     deciles = []
     for lo in range(10):
-        rows = [r for _, r in went if lo / 10 <= r["ps"] < (lo + 1) / 10 or (lo == 9 and r["ps"] >= 1)]
+        rows = [
+            r for _, r in went if lo / 10 <= r["ps"] < (lo + 1) / 10 or (lo == 9 and r["ps"] >= 1)
+        ]
         if rows:
             ms = sum(r["ps"] for r in rows) / len(rows)
             ok = sum(r["outcome"] == "success" for r in rows) / len(rows)

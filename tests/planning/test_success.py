@@ -98,7 +98,9 @@ def test_a_shared_belief_is_close_to_per_state_beliefs_on_boyd2():
 
     sc = load_scenario("boyd2")
     model = observer_model(sc)
-    world = make_world("grid", sc, model, observability=1.0, seed=5, noise=np.random.SeedSequence(5))
+    world = make_world(
+        "grid", sc, model, observability=1.0, seed=5, noise=np.random.SeedSequence(5)
+    )
     belief = BeliefFilter(sc.domain, oracle_models(sc), visible=world.visible)
     differences = []
     for t in range(140):
