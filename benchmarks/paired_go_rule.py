@@ -128,23 +128,39 @@ def calibration(b: dict[tuple, dict], figure: str | None = None) -> None:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        fig, ax = plt.subplots(figsize=(4.6, 4.2))
+        fig, ax = plt.subplots(figsize=(5.2, 4.6))
         ax.plot([0, 1], [0, 1], color="0.6", lw=1, ls="--", label="calibrated")
-        ms, ok, n = (list(v) for v in zip(*deciles, strict=True))
-        err = [(o * (1 - o) / k) ** 0.5 for o, k in zip(ok, n, strict=True)]
-        ax.errorbar(ms, ok, yerr=err, fmt="o-", color="C0", capsize=3,
-                    label="runs where L went, per decile")  # fmt: skip
-        for x, y, k in zip(ms, ok, n, strict=True):
-            ax.annotate(str(k), (x, y), textcoords="offset points", xytext=(5, -10), fontsize=7)
-        ax.set_xlabel("stated P(success) when L went")
-        ax.set_ylabel("realised success")
+        curves = {"every method": [r for _, r in went]}
+        for method in ("oracle", "mirl-t"):
+            curves[method] = [r for k, r in went if k[0] == method]
+        for (name, rows), colour in zip(curves.items(), ("C0", "C2", "C3"), strict=False):
+            points = _deciles(rows)
+            if not points:
+                continue
+            ms, ok, n = (list(v) for v in zip(*points, strict=True))
+            err = [(o * (1 - o) / k) ** 0.5 for o, k in zip(ok, n, strict=True)]
+            ax.errorbar(ms, ok, yerr=err, fmt="o-", color=colour, capsize=3, ms=4,
+                        label=f"{name} ({len(rows)} runs)")  # fmt: skip
+        ax.set_xlabel("stated P(success) when L went (decile means)")
+        ax.set_ylabel("realised success (± 1 s.e.)")
         ax.set_xlim(0, 1)
         ax.set_ylim(0, 1)
-        ax.set_title(f"The stated chance ({len(went)} runs)", fontsize=10)
+        ax.set_title("Calibration of the stated chance", fontsize=10)
         ax.legend(loc="upper left", fontsize=8)
         fig.tight_layout()
         fig.savefig(figure, dpi=120)
         print(f"\nfigure: {figure}")
+
+
+def _deciles(rows: list[dict]) -> list[tuple[float, float, int]]:
+    out = []
+    for lo in range(10):
+        sel = [r for r in rows if lo / 10 <= r["ps"] < (lo + 1) / 10 or (lo == 9 and r["ps"] >= 1)]
+        if sel:
+            ms = sum(r["ps"] for r in sel) / len(sel)
+            ok = sum(r["outcome"] == "success" for r in sel) / len(sel)
+            out.append((ms, ok, len(sel)))
+    return out
 
 
 if __name__ == "__main__":
