@@ -248,3 +248,16 @@ def test_go_rule_and_relearn_growth_are_checked(boyd2):
         run_episode(boyd2, "oracle", go_rule="bold", **FAST)
     with pytest.raises(ValueError, match="`relearn_growth`"):
         run_episode(boyd2, "oracle", relearn=True, relearn_growth=1.0, **FAST)
+
+
+def test_cli_states_the_chance_by_default_and_runs_the_papers_protocol_on_request(capsys):
+    argv = ["run", "--method", "mirl-t", "--obs-steps", "80", "--max-wait", "60", "--seed", "1"]
+    assert main([*argv, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert 0.0 <= out["predicted_success"] <= 1.0 and isinstance(out["relearns"], list)
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "expecting to get through with probability" in text and "relearned" in text
+    assert main([*argv, "--go-rule", "value", "--learn-once", "--json"]) == 0
+    paper = json.loads(capsys.readouterr().out)
+    assert "predicted_success" not in paper and "relearns" not in paper
