@@ -211,13 +211,13 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         lines.append(f"went      at t={result.go_time} (a random time)")
     elif result.predicted_success is not None:
         lines.append(
-            f"went      L went at t = {result.go_time} expecting to get through with probability "
+            f"went      at t = {result.go_time}, expecting to get through with probability "
             f"{result.predicted_success:.2f} ({result.go_time - (result.obs_steps - 1)} steps "
             f"after observing, {len(result.attempts)} planning rounds)"
         )
         lines.append(
             "          (P(goal reached unseen) along its plan under its models and belief; L goes "
-            "when it beats the chance it can expect by waiting until its deadline)"
+            "when its chance now beats what it can expect by waiting until its deadline)"
         )
     else:
         lines.append(

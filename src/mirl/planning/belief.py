@@ -405,9 +405,7 @@ class BeliefFilter:
                 b = self._team.propagate(b)
         return np.stack(occ), np.stack(none)
 
-    def _predict_pair(
-        self, steps: int, Dd: np.ndarray, sightings: PairSightings, b: np.ndarray
-    ):
+    def _predict_pair(self, steps: int, Dd: np.ndarray, sightings: PairSightings, b: np.ndarray):
         """Occupancies, per-robot sightings and detection from the pair's joint ``b``
         (inclusion–exclusion)."""
         S, K1 = self.n_states, steps + 1

@@ -102,7 +102,7 @@ def success_probability(
                     dropped += mass
         if shared and nxt:  # one belief for all of L's states: their mixture
             total = sum(w for w, _ in nxt.values())
-            common = sum(w * b for w, b in nxt.values()) / total
+            common: np.ndarray = np.sum([w * b for w, b in nxt.values()], axis=0) / total
             nxt = {s: (w, common) for s, (w, _) in nxt.items()}
         mix = nxt
         if not mix:

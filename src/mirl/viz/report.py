@@ -46,6 +46,7 @@ def report_markdown(
     gs = groups(rows)
     if name in EXPERIMENTS:  # the experiment's own order: methods as the paper lists them
         rank = {c.key: k for k, c in enumerate(EXPERIMENTS[name].conditions)}
+
         # physical-world runs and runs under another protocol rank as their listed twins
         def listed(c: Condition) -> str:
             return replace(c, world=DEFAULT_WORLD, go_rule=None, relearn=False).key
