@@ -115,3 +115,12 @@ def test_a_shared_belief_is_close_to_per_state_beliefs_on_boyd2():
             shared = success_probability(belief, model, plan, extra=36, shared=True).success
             differences.append(shared - per_state)
     assert len(differences) == 4 and max(map(abs, differences)) < 0.03
+
+
+def test_not_seeing_is_the_complement_of_the_detection_column_and_is_kept():
+    sc = _scenario(CORRIDOR, [(0, 4, 0)])
+    model = observer_model(sc)
+    for s in range(model.n_states):
+        column = model.detection[:, [int(model.cell_of(s))]].toarray().ravel()
+        assert np.array_equal(model.not_seeing(s), 1.0 - column)
+    assert model.not_seeing(0) is model.not_seeing(0)

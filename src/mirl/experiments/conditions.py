@@ -102,13 +102,11 @@ class Condition:
 
     @property
     def protocol_label(self) -> str:
-        """How L decided, for labels: nothing for mirl's default protocol (the adaptive rule,
-        re-learning) and for the paper's (the conditions' own; a report says which one its
-        runs used), the parts otherwise."""
+        """How L decided, for labels: nothing for mirl's default protocol and for the paper's
+        (the conditions' own; a report says which one its runs used), else its parts."""
         rule = self.go_rule or GO_RULE_PUBLISHED
-        if (rule, self.relearn) in ((GO_RULE_DEFAULT, True), (GO_RULE_PUBLISHED, False)):
-            return ""
-        return f" ({rule} rule, {'re-learning' if self.relearn else 'learning once'})"
+        named = (rule, self.relearn) in ((GO_RULE_DEFAULT, True), (GO_RULE_PUBLISHED, False))
+        return "" if named else f" ({self.protocol})"
 
     @property
     def protocol(self) -> str:

@@ -462,8 +462,6 @@ def _planned_going(
         next_round = world.t + planning.replan_every if go_time is None else planning.deadline + 1
         return Decision(plan, go_time, next_round, attempt)
 
-    chance: dict[int, float] = {}  # the stated P(success) of going now, by step
-
     def chance_at(t: int, belief: np.ndarray) -> float:
         """The planner's P(success) of going at step t of the record with that step's belief,
         along the best plan for going then (window 0)."""
@@ -489,7 +487,6 @@ def _planned_going(
         now = None
         if go:
             now = success_probability(watcher.belief, model, plan, extra=planning.travel).success
-            chance[t] = now
         go_time = t if go else None
         step = best if 0 < best < planning.replan_every else planning.replan_every
         attempt = PlanAttempt(t, float(plan.go_values.max()), go_time, now)
@@ -512,7 +509,8 @@ def _planned_going(
 
     return _Going(
         go_time, policy, replan, plan, tuple(attempts), plan_value, belief,
-        predicted_success=None if go_time is None else chance.get(go_time),
+        # the round that named the go time stated it (the adaptive rule; None for the value rule)
+        predicted_success=None if go_time is None else attempts[-1].predicted_success,
         learned=watcher.learned,
         relearns=tuple(watcher.relearns),
     )  # fmt: skip

@@ -93,6 +93,24 @@ class ObserverModel:
         column = self.detection[:, [cell]].toarray().ravel()
         return column[np.asarray(patroller_states)] > 0
 
+    def not_seeing(self, observer_state: int) -> np.ndarray:
+        """(S_patroller,) 1.0 where a patroller state does not see L's cell in
+        ``observer_state``, 0.0 where it does; kept per cell, since the stated probability of
+        success asks for the same few cells many times in a run."""
+        c = int(self.cell_of(observer_state))
+        g = self._not_seeing_cells.get(c)
+        if g is None:
+            g = self._not_seeing_cells[c] = 1.0 - self._detection_columns[:, [c]].toarray().ravel()
+        return g
+
+    @cached_property
+    def _not_seeing_cells(self) -> dict[int, np.ndarray]:
+        return {}
+
+    @cached_property
+    def _detection_columns(self) -> sp.csc_array:
+        return sp.csc_array(self.detection)
+
     @cached_property
     def distance_to_goal(self) -> np.ndarray:
         """(S_L,) steps to the goal under intended outcomes (inf where unreachable)."""

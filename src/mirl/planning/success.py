@@ -68,7 +68,7 @@ def success_probability(
     A = dom.n_actions
     T = model.transitions.tocsr()  # row s·A + a: the outcomes of L doing a in s
     fallback = shortest_path_policy(model)
-    not_seeing = _not_seeing(model)
+    not_seeing = model.not_seeing
     exact = belief_filter.joint or belief_filter.n_robots == 1  # one robot: nothing to factor
     if shared is None:
         shared = not exact
@@ -118,32 +118,3 @@ def _merge(mix: dict[int, tuple[float, np.ndarray]], s: int, w: float, b: np.nda
         return
     w0, b0 = mix[s]
     mix[s] = (w0 + w, (w0 * b0 + w * b) / (w0 + w))
-
-
-class _NotSeeing:
-    """Per L state, the (S,) indicator of the patroller states that do not see its cell."""
-
-    def __init__(self, model: ObserverModel) -> None:
-        self.model = model
-        self.D = model.detection.tocsc()
-        self.cache: dict[int, np.ndarray] = {}
-
-    def __call__(self, s: int) -> np.ndarray:
-        c = int(self.model.cell_of(s))
-        g = self.cache.get(c)
-        if g is None:
-            g = self.cache[c] = 1.0 - self.D[:, [c]].toarray().ravel()
-        return g
-
-
-_NOT_SEEING: dict[int, _NotSeeing] = {}
-
-
-def _not_seeing(model: ObserverModel) -> _NotSeeing:
-    """The indicators of ``model``, kept across evaluations (a run evaluates many)."""
-    cached = _NOT_SEEING.get(id(model))
-    if cached is None or cached.model is not model:
-        if len(_NOT_SEEING) > 32:
-            _NOT_SEEING.clear()
-        cached = _NOT_SEEING[id(model)] = _NotSeeing(model)
-    return cached
