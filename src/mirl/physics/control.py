@@ -2,8 +2,10 @@
 
 Vectorised over robots. Per robot a *mode* and a target, set once per decision step:
 
-- ``DRIVE`` (forward): pursue a target point (the intended cell's centre moved ``lane_offset``
-  to the right of the heading — keep right, so robots meeting head-on pass side by side). The
+- ``DRIVE`` (forward): pursue a target point: the intended cell's centre on the hallway's
+  centre line, moved ``lane`` to the right of the heading while another robot is near (keep
+  right in company, so robots meeting head-on pass side by side; alone, the middle of the
+  hallway, as a costmap inflated around both walls keeps a real robot there). The
   speed is the lesser of the cruise speed and what still lets the robot stop on the point
   (v = √(2·a·d)), times cos of the bearing error (turn in place while it exceeds 60°); the turn
   rate is proportional to the bearing error. Within ``arrive`` of the point the robot aligns its
@@ -22,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["DRIVE", "PIVOT", "HOLD", "Controller", "crowded", "wrap"]
+__all__ = ["DRIVE", "PIVOT", "HOLD", "Controller", "crowded", "in_company", "wrap"]
 
 DRIVE, PIVOT, HOLD = 0, 1, 2
 
@@ -57,6 +59,22 @@ def crowded(p: np.ndarray, cell_size: float, pass_distance: float) -> np.ndarray
     return slow.any(axis=1)
 
 
+def in_company(p: np.ndarray, cell_size: float, distance: float) -> np.ndarray:
+    """Robots that keep right: another robot coming the other way less than ``distance``
+    cells ahead or alongside (±110°), so that the two pass side by side. A robot followed or led by another
+    stays in the middle of the hallway. ``p``: true poses (x, y, yaw), one row a robot."""
+    dx = p[None, :, 0] - p[:, None, 0]
+    dy = p[None, :, 1] - p[:, None, 1]
+    dist = np.hypot(dx, dy) / cell_size
+    np.fill_diagonal(dist, np.inf)
+    if not (dist < distance).any():
+        return np.zeros(len(p), dtype=bool)
+    # ahead or alongside: a robot keeps right until the other has passed it
+    ahead = np.abs(wrap(np.arctan2(dy, dx) - p[:, None, 2])) < np.radians(110)
+    oncoming = np.abs(wrap(p[None, :, 2] - p[:, None, 2])) > np.pi / 2
+    return (ahead & oncoming & (dist < distance)).any(axis=1)
+
+
 class Controller:
     def __init__(
         self,
@@ -85,15 +103,23 @@ class Controller:
         self.tx = np.zeros(n)
         self.ty = np.zeros(n)
         self.tyaw = np.zeros(n)
+        self.lane = np.zeros(n)  # m to the right of the target while in company
         self.v = np.zeros(n)  # commanded forward speed (acceleration-limited)
 
-    def set_targets(self, idx, mode, tx, ty, tyaw) -> None:
+    def set_targets(self, idx, mode, tx, ty, tyaw, lane=0.0) -> None:
+        """Targets of robots ``idx``: a mode, a point on the centre line, a heading, and the
+        offset to the right of it (m) that the robot keeps while in company."""
         self.mode[idx], self.tx[idx], self.ty[idx], self.tyaw[idx] = mode, tx, ty, tyaw
+        self.lane[idx] = lane
 
-    def wheel_speeds(self, x, y, yaw, slow=None) -> np.ndarray:
+    def wheel_speeds(self, x, y, yaw, slow=None, company=None) -> np.ndarray:
         """(n, 2) wheel angular velocities (rad/s) for the estimated poses; ``slow`` (bool per
-        robot) caps the forward speed at ``pass_speed`` (another robot close ahead)."""
-        dx, dy = self.tx - x, self.ty - y
+        robot) caps the forward speed at ``pass_speed`` (another robot close ahead);
+        ``company`` (bool per robot) moves the target point into the keep-right lane."""
+        lane = self.lane if company is None else np.where(company, self.lane, 0.0)
+        tx = self.tx + lane * np.sin(self.tyaw)
+        ty = self.ty - lane * np.cos(self.tyaw)
+        dx, dy = tx - x, ty - y
         d = np.hypot(dx, dy)
         bearing = wrap(np.arctan2(dy, dx) - yaw)
         arrived = d < self.arrive
