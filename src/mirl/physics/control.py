@@ -39,40 +39,45 @@ def wrap(a):
     return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
 
 
-def crowded(p: np.ndarray, cell_size: float, pass_distance: float) -> np.ndarray:
-    """Robots that must go slowly: another robot coming the other way within
-    ``pass_distance`` cells ahead (±70°: pass slowly), or one going the same way less than 0.8
-    cell ahead (do not run into it).
-
-    ``p`` holds true poses (x, y, yaw), one row a robot: a real robot's bumper and laser see the
-    other robot directly.
-    """
+def _others(p: np.ndarray, cell_size: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For every pair (i, j) of true poses ``p`` (x, y, yaw; one row a robot): the distance
+    (cells; inf for i = j), the bearing of j from i's heading (rad) and whether j faces the
+    other way (a real robot's bumper and laser see the other robot directly)."""
     dx = p[None, :, 0] - p[:, None, 0]
     dy = p[None, :, 1] - p[:, None, 1]
     dist = np.hypot(dx, dy) / cell_size
     np.fill_diagonal(dist, np.inf)
-    if not (dist < max(pass_distance, 0.8)).any():
-        return np.zeros(len(p), dtype=bool)  # the usual tick: nobody near anybody
-    ahead = np.abs(wrap(np.arctan2(dy, dx) - p[:, None, 2])) < np.radians(70)
+    bearing = np.abs(wrap(np.arctan2(dy, dx) - p[:, None, 2]))
     oncoming = np.abs(wrap(p[None, :, 2] - p[:, None, 2])) > np.pi / 2
-    slow = ahead & np.where(oncoming, dist < pass_distance, dist < 0.8)
-    return slow.any(axis=1)
+    return dist, bearing, oncoming
+
+
+def crowded(p: np.ndarray, cell_size: float, pass_distance: float) -> np.ndarray:
+    """Robots that must go slowly: another robot coming the other way within
+    ``pass_distance`` cells ahead (±70°: pass slowly), or one going the same way less than 0.8
+    cell ahead (do not run into it). ``p``: true poses (x, y, yaw), one row a robot."""
+    if len(p) < 2 or not (_nearest(p) / cell_size < max(pass_distance, 0.8)):
+        return np.zeros(len(p), dtype=bool)  # the usual tick: nobody near anybody
+    dist, bearing, oncoming = _others(p, cell_size)
+    ahead = bearing < np.radians(70)
+    return (ahead & np.where(oncoming, dist < pass_distance, dist < 0.8)).any(axis=1)
 
 
 def in_company(p: np.ndarray, cell_size: float, distance: float) -> np.ndarray:
     """Robots that keep right: another robot coming the other way less than ``distance``
-    cells ahead or alongside (±110°), so that the two pass side by side. A robot followed or led by another
-    stays in the middle of the hallway. ``p``: true poses (x, y, yaw), one row a robot."""
-    dx = p[None, :, 0] - p[:, None, 0]
-    dy = p[None, :, 1] - p[:, None, 1]
-    dist = np.hypot(dx, dy) / cell_size
-    np.fill_diagonal(dist, np.inf)
-    if not (dist < distance).any():
+    cells ahead or alongside (±110°, so that it keeps right until they have passed). A robot
+    followed or led by another stays in the middle. ``p``: true poses, one row a robot."""
+    if len(p) < 2 or not (_nearest(p) / cell_size < distance):
         return np.zeros(len(p), dtype=bool)
-    # ahead or alongside: a robot keeps right until the other has passed it
-    ahead = np.abs(wrap(np.arctan2(dy, dx) - p[:, None, 2])) < np.radians(110)
-    oncoming = np.abs(wrap(p[None, :, 2] - p[:, None, 2])) > np.pi / 2
-    return (ahead & oncoming & (dist < distance)).any(axis=1)
+    dist, bearing, oncoming = _others(p, cell_size)
+    return ((bearing < np.radians(110)) & oncoming & (dist < distance)).any(axis=1)
+
+
+def _nearest(p: np.ndarray) -> float:
+    """The smallest distance between two of the poses ``p`` (m)."""
+    d = np.hypot(p[None, :, 0] - p[:, None, 0], p[None, :, 1] - p[:, None, 1])
+    np.fill_diagonal(d, np.inf)
+    return float(d.min())
 
 
 class Controller:

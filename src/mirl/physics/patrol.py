@@ -298,18 +298,22 @@ class PhysicalWorld:
     def _record_decision_time(self) -> None:
         p = self.poses()
         self.records.true.append(self.discretise(p[: self.n]))
-        self.records.seen.append(self._observe(p))
+        seen, lateral = self._observe(p)
+        self.records.seen.append(seen)
+        self.records.seen_lateral.append(lateral)
 
-    def _observe(self, p: np.ndarray) -> np.ndarray:
-        """L's camera now: a noisy pose for every patroller it sees, discretised."""
+    def _observe(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """L's camera now: a noisy pose for every patroller it sees, discretised: (N,) states
+        (-1 unseen) and lateral offsets (NaN unseen)."""
         out = np.full(self.n, -1, dtype=int)
+        lateral = np.full(self.n, np.nan)
         if not self.has_observer:
-            return out
+            return out, lateral
         px, py = p[: self.n, 0], p[: self.n, 1]
         seen = self.camera.sees(self.model, self.data, self.frame, px, py)
         idx = np.flatnonzero(seen)
         if len(idx) == 0:
-            return out
+            return out, lateral
         cs = self.frame.cell_size
         z = self._meas_rng.normal(size=(len(idx), 3))
         meas = p[idx].copy()
@@ -331,7 +335,9 @@ class PhysicalWorld:
             drop_off_map=True, visible=self._visible_cells,
         ).trajectories  # fmt: skip
         out[d.robot] = self.domain.state_index(d.row, d.col, d.heading)
-        return out
+        if d.lateral is not None:
+            lateral[d.robot] = d.lateral
+        return out, lateral
 
     def decide(self) -> tuple[np.ndarray, np.ndarray]:
         """The patrollers' believed states and actions now (equilibrium at meetings)."""
