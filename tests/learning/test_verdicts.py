@@ -10,10 +10,14 @@ from scipy.stats import beta as beta_dist
 from mirl.learning.learn import learn
 from mirl.learning.transitions import count_subsets, observed_steps
 from mirl.learning.verdicts import (
+    DriftSpec,
+    LateralDrift,
     PriorSpec,
     Verdict,
+    drift_log_likelihood,
     failure_dispersion,
     feature_uncertainty,
+    lateral_drift,
     point_verdict,
     posterior_draws,
     soft_counts,
@@ -221,3 +225,54 @@ def test_learn_returns_intervals_and_verdicts():
     assert "verdicts" in res.timings
     fixed = learn(obs, scenario, "mirl", observability=1.0)
     assert all(r.verdict is None and not r.feature_intervals for r in fixed.robots)
+
+
+@pytest.mark.parametrize("gap", [-0.6, -0.1, 0.0, 0.05, 0.4])
+@pytest.mark.parametrize("mean", [-0.12, 0.0, 0.07])
+def test_drift_likelihood_integrates_the_drift_scale_out(gap, mean):
+    """The skew-normal closed form against numerical integration over κ ~ N⁺(0, scale²)."""
+    from scipy import integrate
+    from scipy.stats import norm
+
+    drift, spec = LateralDrift(mean, 0.01, 100), DriftSpec()
+    s = np.hypot(drift.se, spec.tolerance)
+    ref = integrate.quad(
+        lambda k: norm.pdf(mean, k * gap, s) * 2 * norm.pdf(k, 0, spec.scale), 0, np.inf
+    )[0]
+    got = float(np.exp(drift_log_likelihood(np.array([gap]), drift, spec))[0])
+    assert got == pytest.approx(ref, rel=1e-7)
+
+
+@pytest.mark.parametrize("side", [+1, -1])
+def test_drift_tells_the_wheels_apart_where_forward_steps_cannot(side):
+    """Forward steps alone fix only the product of the wheels; a robot that veers left
+    (positive offset) has the weaker left wheel, one that veers right the weaker right."""
+    obs = [(FORWARD, 30, 60), (TURN_LEFT, 10, 10), (TURN_RIGHT, 10, 10), (("floor",), 20, 20)]
+    without = feature_uncertainty(FEATURES, obs, DamageDefinition()).verdict
+    drift = LateralDrift(side * 0.1, 0.01, 60)
+    u = feature_uncertainty(FEATURES, obs, DamageDefinition(), drift=drift)
+    weak, other = ("left_wheel", "right_wheel")[::side]
+    probs = u.verdict.damage_probabilities
+    assert probs[weak] > 0.8 > 0.2 > probs[other]
+    assert probs[weak] > without.damage_probabilities[weak] + 0.2
+    assert u.drift is drift
+
+
+def test_no_drift_is_no_evidence_of_a_side():
+    obs = [(FORWARD, 30, 60), (TURN_LEFT, 10, 10), (TURN_RIGHT, 10, 10)]
+    u = feature_uncertainty(FEATURES, obs, DamageDefinition(), drift=LateralDrift(0.0, 0.01, 60))
+    probs = u.verdict.damage_probabilities
+    assert abs(probs["left_wheel"] - probs["right_wheel"]) < 0.1
+
+
+def test_lateral_drift_is_the_mean_offset_after_forward_steps():
+    d = load_scenario("boyd2").domain
+    east = [d.state_index(0, c, 0) for c in range(1, 8)]  # along the top hallway, facing east
+    turned = d.state_index(0, 7, 1)
+    series = np.array(east + [turned, -1, -1])
+    labels = np.array([0] * 6 + [1, 0, -1, -1])  # forward ×6, then turn_left (index 1)
+    lateral = np.array([0.0, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.5, np.nan, np.nan])
+    got = lateral_drift(d, series, labels, lateral)
+    assert got.steps == 6 and got.mean == pytest.approx(0.1)  # the turn's end is left out
+    assert got.se == pytest.approx(0.0)
+    assert lateral_drift(d, series, labels, np.full(10, np.nan)) is None

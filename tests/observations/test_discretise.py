@@ -186,3 +186,24 @@ def test_ros_map_frame_from_yaml(tmp_path):
     d = discretise(poses([(0.0, 1, 6.9, -2.1, 0.0)]), scenario)
     tr = d.trajectories
     assert (tr.row[0], tr.col[0]) == (16, 8)
+
+
+def test_lateral_offset_is_left_of_the_heading_and_snapped_poses_have_none(scenario):
+    # (0, 3) is a hallway cell centred at x = 3, y = 0; (1, 3) is wall below it
+    p = poses(
+        [
+            (0.0, 0, 3.0, 0.2, 0.0),  # facing east, 0.2 north: 0.2 to its left
+            (2.0, 0, 3.1, 0.0, math.pi / 2),  # facing north, 0.1 east: 0.1 to its right
+            (4.0, 0, 2.9, -0.05, math.pi),  # facing west, 0.05 south: 0.05 to its left
+            (6.0, 0, 3.0, -0.95, -math.pi / 2),  # on the wall below, snapped onto (0, 3)
+        ]
+    )
+    tr = discretise(p, scenario).trajectories
+    np.testing.assert_allclose(tr.lateral[:3], [0.2, -0.1, 0.05], atol=1e-12)
+    assert np.isnan(tr.lateral[3])
+    series = tr.lateral_series(0)
+    assert series.shape == (tr.horizon,)
+    np.testing.assert_allclose(series[:3], [0.2, -0.1, 0.05], atol=1e-12)
+    # selecting rows keeps the offsets with them; grid records have none
+    assert tr.select(tr.t >= 1).lateral.tolist()[:2] == tr.lateral[1:3].tolist()
+    assert simulate(scenario, 20, seed=0).observations.lateral_series(0) is None

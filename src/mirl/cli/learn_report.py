@@ -3,7 +3,7 @@ text form printed without ``--json``."""
 
 from __future__ import annotations
 
-__all__ = ["learn_record", "print_learn", "verdict_sentence"]
+__all__ = ["drift_line", "learn_record", "print_learn", "verdict_sentence"]
 
 
 def verdict_sentence(robot: str, record: dict) -> str:
@@ -67,6 +67,17 @@ def learn_record(
     }
 
 
+def drift_line(record: dict) -> str:
+    """A lateral drift's JSON record (:meth:`~mirl.learning.verdicts.LateralDrift.to_dict`)
+    in words: which way the robot veers, by how much, on how many forward steps."""
+    mean, se = record["mean"], record["se"]
+    side = "left" if mean > 0 else "right"
+    return (
+        f"drift         {abs(mean):.3f} cell to the {side} of the centre line (± {se:.3f}) "
+        f"on {record['steps']} forward steps (a robot veers towards a weak wheel)"
+    )
+
+
 def _uncertainty(robot) -> dict:
     """``feature_intervals`` (95 %, [lo, hi]) and ``verdict`` of a model that has them."""
     if robot.verdict is None:
@@ -77,6 +88,11 @@ def _uncertainty(robot) -> dict:
             for f, (lo, hi) in robot.feature_intervals.items()
         },
         "verdict": robot.verdict.to_dict(),
+        **(
+            {"lateral_drift": robot.lateral_drift.to_dict()}
+            if robot.lateral_drift is not None
+            else {}
+        ),
     }
 
 
@@ -121,6 +137,8 @@ def print_learn(out: dict, result, scenario_name: str) -> None:
                 f"{k} {lo:.2f}–{hi:.2f}" for k, (lo, hi) in r["feature_intervals"].items()
             )
             print(f"  95 % interval {spans}")
+            if "lateral_drift" in r:
+                print("  " + drift_line(r["lateral_drift"]))
             print(f"  verdict       {verdict_sentence(name, r['verdict'])}")
         if r["behavior_accuracy"] is not None:
             print(f"  behaviour accuracy {r['behavior_accuracy']:.3f} (vs the scenario's truth)")

@@ -572,4 +572,5 @@ def _run_result(
 def _observations(scenario: Scenario, world: RunWorld, until: int) -> Trajectories:
     """Everything L saw from its room up to step ``until``."""
     seen = np.asarray(world.seen[: until + 1])
-    return Trajectories.from_states(scenario.domain, scenario.robot_names, seen)
+    lateral = None if world.seen_lateral is None else np.asarray(world.seen_lateral[: until + 1])
+    return Trajectories.from_states(scenario.domain, scenario.robot_names, seen, lateral=lateral)

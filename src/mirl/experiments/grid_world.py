@@ -35,6 +35,7 @@ class GridRunWorld:
         self._noise = np.random.default_rng(setup.noise)
         self.true: list[np.ndarray] = [info["states"].copy()]
         self.seen: list[np.ndarray] = [self._seen(obs)]
+        self.seen_lateral: list[np.ndarray] | None = None  # grid states only: no poses
         self._t = 0
 
     @staticmethod

@@ -79,6 +79,7 @@ class PhysicsRunWorld:
         self.observer = observer
         self.true = self.physics.true
         self.seen = self.physics.seen
+        self.seen_lateral: list[np.ndarray] | None = self.physics.records.seen_lateral
         self._observer_state = observer.start_state
         self._sightings_before = 0
         goal = observer.domain.states[np.flatnonzero(observer.goal)]

@@ -148,7 +148,8 @@ class RunResult:
 
 
 def _uncertainty(learned: LearnResult | None) -> dict[str, Any]:
-    """``feature_intervals`` and ``verdicts`` per robot, for models that have them."""
+    """``feature_intervals`` and ``verdicts`` per robot, for models that have them, and
+    ``lateral_drifts`` for the robots whose poses gave one."""
     robots = [r for r in learned.robots if r.verdict is not None] if learned is not None else []
     if not robots:
         return {}
@@ -161,6 +162,12 @@ def _uncertainty(learned: LearnResult | None) -> dict[str, Any]:
             for r in robots
         },
         "verdicts": {r.name: r.verdict.to_dict() for r in robots if r.verdict is not None},
+        **_if_set(
+            lateral_drifts={
+                r.name: r.lateral_drift.to_dict() for r in robots if r.lateral_drift is not None
+            }
+            or None
+        ),
     }
 
 

@@ -106,6 +106,10 @@ class RunWorld(Protocol):
     """Per step so far, (N,) int: the state L saw of each patroller (-1 unseen)."""
     true: list[np.ndarray]
     """Per step so far, (N,) int: each patroller's true state."""
+    seen_lateral: list[np.ndarray] | None
+    """Per step so far, (N,) float: how far across its heading L saw each patroller from its
+    cell's centre line (cells, left positive; NaN unseen); None in a world without poses
+    (:attr:`mirl.observations.trajectories.Trajectories.lateral`)."""
 
     @property
     def t(self) -> int:

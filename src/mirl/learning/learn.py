@@ -206,6 +206,7 @@ def learn(
                 r.name, weights[i], probs[i], transitions[i], policies[i], acc,
                 feature_intervals=u.intervals if u is not None else {},
                 verdict=u.verdict if u is not None else None,
+                lateral_drift=u.drift if u is not None else None,
             )
         )  # fmt: skip
     clock.timings["total"] = time.perf_counter() - start
@@ -235,6 +236,7 @@ def _round_setup(
     n = len(scenario.robots)
     with clock("labels"):
         series = [observations.state_series(domain, i) for i in range(n)]
+        lateral = [observations.lateral_series(i) for i in range(n)]
         if visible is None:
             degree = scenario.observability if observability is None else observability
             visible = domain.visible_states(degree)
@@ -251,6 +253,7 @@ def _round_setup(
         irl_options,
         random_state,
         em_init,
+        lateral=lateral,
     )
 
 
@@ -295,6 +298,7 @@ def _uncertainties(
     labels = trace.labels[-1]
     irl = trace.irl + [None] * (len(setup.series) - len(trace.irl))
     out: list[FeatureUncertainty | None] = []
+    lateral = setup.lateral or [None] * len(setup.series)
     for i, x in enumerate(setup.series):
         estimator = irl[i]
         soft = estimator.soft_policy_ if row.relabels and estimator is not None else None
@@ -302,7 +306,7 @@ def _uncertainties(
             robot_uncertainty(
                 setup.domain, x, labels[i], transitions[i], probs[i], setup.scenario.faults,
                 soft_policy=soft, own_policy=policies[i] if soft is not None else None,
-                random_state=setup.robot_seed(i, 0),
+                lateral=lateral[i], random_state=setup.robot_seed(i, 0),
             )
         )  # fmt: skip
     return out
@@ -486,6 +490,7 @@ class RoundSetup:
     random_state: int | None
     em_init: str = "intended"
     initial_weights: list[np.ndarray] | None = None  # an earlier solution's, for a warm start
+    lateral: list[np.ndarray | None] | None = None  # per robot (horizon,) offsets, or None
 
     @property
     def domain(self):

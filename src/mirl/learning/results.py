@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.verdicts import Verdict, point_verdict
+from mirl.learning.verdicts import LateralDrift, Verdict, point_verdict
 from mirl.mdp import optimal_action_mask
 from mirl.world.game import Equilibrium
 from mirl.world.scenario import Scenario
@@ -53,6 +53,9 @@ class RobotModel:
     verdict : Verdict or None
         Which part is damaged and how sure L is; None for methods without feature
         probabilities.
+    lateral_drift : LateralDrift or None
+        The robot's mean lateral offset on its forward steps, from poses (None: grid states,
+        or too few steps), which the verdict weighs.
     """
 
     name: str
@@ -63,6 +66,7 @@ class RobotModel:
     behavior_accuracy: float | None = None
     feature_intervals: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     verdict: Verdict | None = None
+    lateral_drift: LateralDrift | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -17,6 +17,14 @@ two corrections for what the point estimate takes as certain:
   process, and the counts are divided by it (a quasi-likelihood dispersion, McCullagh & Nelder
   1989, Sec. 4.5). :func:`failure_dispersion`.
 
+* **Drift.** Step outcomes cannot tell a differential drive's wheels apart when only forward
+  steps fail (they need both wheels): a weak motor that still pivots in time leaves the side
+  unknown. Poses can: a robot veers towards its weaker wheel, so robot data (poses, not grid
+  states) carry the mean lateral offset of its forward steps from the hallway's centre line
+  (:attr:`~mirl.observations.trajectories.Trajectories.lateral`), which enters as one more
+  likelihood term: offset ~ N(κ (p_right − p_left), se² + τ²), κ ≥ 0 unknown with a
+  half-normal prior. :func:`lateral_drift`, :func:`drift_log_likelihood`.
+
 The posterior over the features' success probabilities is then the product of the pooled
 binomial likelihood (Eq. 2: a subset succeeds with ∏_{τ∈ξ} p_τ) and a prior saying that most
 parts are healthy: for each feature, with probability 0.8 a Beta(50 h, 50 (1 − h)) around its
@@ -38,16 +46,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.special import betaln, expit
+from scipy.special import betaln, expit, log_ndtr
 
-from mirl.world.domain import PatrolDomain
+from mirl.world.domain import FORWARD, PatrolDomain
 from mirl.world.faults import DamageDefinition
 
 __all__ = [
     "Verdict",
     "FeatureUncertainty",
     "PriorSpec",
+    "DriftSpec",
+    "LateralDrift",
+    "WHEELS",
     "soft_counts",
+    "lateral_drift",
+    "drift_log_likelihood",
     "failure_dispersion",
     "posterior_draws",
     "feature_uncertainty",
@@ -143,12 +156,59 @@ class FeatureUncertainty:
         The variance inflation the counts were divided by (1: independent steps).
     effective_draws : float
         The importance sampler's effective sample size (Kish).
+    drift : LateralDrift or None
+        The lateral drift that entered the posterior (None: no poses, or too few steps).
     """
 
     intervals: Mapping[str, tuple[float, float]]
     verdict: Verdict
     dispersion: float = 1.0
     effective_draws: float = 0.0
+    drift: LateralDrift | None = None
+
+
+WHEELS = ("left_wheel", "right_wheel")
+"""The features the lateral drift speaks of: a differential drive's left and right wheels (a
+robot veers towards the weaker one). A feature map without both has no drift term."""
+
+
+@dataclass(frozen=True)
+class LateralDrift:
+    """A robot's mean lateral offset on its forward steps (cells, left of the heading positive).
+
+    Parameters
+    ----------
+    mean : float
+    se : float
+        Its standard error, inflated for the correlation of consecutive steps.
+    steps : int
+        The forward steps it is the mean of.
+    """
+
+    mean: float
+    se: float
+    steps: int
+
+    def to_dict(self) -> dict:
+        return {"mean": round(self.mean, 4), "se": round(self.se, 4), "steps": self.steps}
+
+
+@dataclass(frozen=True)
+class DriftSpec:
+    """How a lateral drift relates to the wheels: offset ~ N(κ (p_right − p_left), se² + τ²).
+
+    Parameters
+    ----------
+    scale : float, default 0.5
+        The scale (cells) of κ's half-normal prior: a wheel-probability gap of 1 drifts a robot
+        by up to about half a cell — across a one-cell hallway to the wall.
+    tolerance : float, default 0.05
+        τ (cells): how far from the centre line a healthy robot's mean path may lie without
+        a weak wheel (passing others on the right, localisation error).
+    """
+
+    scale: float = 0.5
+    tolerance: float = 0.05
 
 
 @dataclass(frozen=True)
@@ -242,6 +302,63 @@ def failure_dispersion(
     return float(np.clip((1 + rho) / (1 - rho), 1.0, cap))
 
 
+def lateral_drift(
+    domain: PatrolDomain,
+    series: np.ndarray,
+    labels: np.ndarray,
+    lateral: np.ndarray,
+    min_steps: int = 5,
+) -> LateralDrift | None:
+    """The mean lateral offset at the end of a robot's observed forward steps that kept their
+    heading (labelled forward), or None with fewer than ``min_steps`` of them.
+
+    Consecutive offsets of one robot are correlated (a robot off the centre line stays off
+    it for a while): the standard error is inflated by (1 + ρ)/(1 − ρ), ρ their lag-1
+    autocorrelation (an AR(1) process's variance inflation, as :func:`failure_dispersion`).
+    """
+    from mirl.learning.transitions import observed_steps
+
+    t, s, s_next = observed_steps(series)
+    lateral = np.asarray(lateral, dtype=float)
+    y = lateral[t + 1]
+    same_heading = domain.states[s, 2] == domain.states[s_next, 2]
+    keep = (np.asarray(labels)[t] == FORWARD) & same_heading & np.isfinite(y)
+    times, y = t[keep] + 1, y[keep]
+    n = len(y)
+    if n < min_steps:
+        return None
+    mean = float(y.mean())
+    resid = y - mean
+    inflation = 1.0
+    pair = np.flatnonzero(np.diff(times) == 1)
+    if len(pair) >= min_steps and float(resid @ resid) > 0:
+        rho = float(resid[pair] @ resid[pair + 1]) / float(resid @ resid) * n / len(pair)
+        rho = float(np.clip(rho, 0.0, 0.95))
+        inflation = (1 + rho) / (1 - rho)
+    se = float(y.std(ddof=1) * np.sqrt(inflation / n))
+    return LateralDrift(mean, se, n)
+
+
+def drift_log_likelihood(
+    gap: np.ndarray, drift: LateralDrift, spec: DriftSpec = DriftSpec()
+) -> np.ndarray:
+    """log p(drift | gap) for wheel gaps ``gap`` = p_right − p_left, κ integrated out.
+
+    With offset = κ · gap + ε, κ ~ N⁺(0, scale²) and ε ~ N(0, s²), s² = se² + tolerance², the
+    offset is skew-normal (Azzalini 1985): 2 φ(x; 0, v) Φ(α x / √v), v = gap² scale² + s²,
+    α = gap · scale / s. A gap of 0 (both wheels alike) gives N(0, s²): no drift expected.
+    """
+    gap = np.asarray(gap, dtype=float)
+    s2 = drift.se**2 + spec.tolerance**2
+    v = gap**2 * spec.scale**2 + s2
+    alpha = gap * spec.scale / np.sqrt(s2)
+    x = drift.mean
+    return (
+        np.log(2.0) - 0.5 * np.log(2 * np.pi * v) - x**2 / (2 * v)
+        + log_ndtr(alpha * x / np.sqrt(v))
+    )  # fmt: skip
+
+
 # ---- the posterior ----------------------------------------------------------------------------
 def _log_prior(x: np.ndarray, healthy: np.ndarray, prior: PriorSpec) -> np.ndarray:
     """Log density of logit-space draws ``x`` (n, F) under the prior, Jacobian included."""
@@ -275,11 +392,14 @@ def posterior_draws(
     healthy: Mapping[str, float],
     *,
     prior: PriorSpec = PriorSpec(),
+    drift: LateralDrift | None = None,
+    drift_spec: DriftSpec = DriftSpec(),
     n_draws: int = 2000,
     rounds: int = 2,
     random_state: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted draws of the features' success probabilities given pooled counts.
+    """Weighted draws of the features' success probabilities given pooled counts (and a
+    lateral drift, when the features include both :data:`WHEELS`).
 
     Parameters
     ----------
@@ -289,6 +409,9 @@ def posterior_draws(
     healthy : mapping of str to float
         Each feature's healthy level (the prior's centre).
     prior : PriorSpec
+    drift : LateralDrift, optional
+        The robot's lateral drift (:func:`drift_log_likelihood`).
+    drift_spec : DriftSpec
     n_draws : int, default 2000
         Draws per round of the sampler.
     rounds : int, default 2
@@ -314,11 +437,22 @@ def posterior_draws(
     h = np.array([min(healthy.get(f, 0.95), 0.999) for f in features])
     rng = np.random.default_rng(random_state)
 
+    wheels = (
+        (pos[WHEELS[0]], pos[WHEELS[1]]) if drift is not None and set(WHEELS) <= set(pos) else None
+    )
+
+    def log_lik(x):
+        out = _log_likelihood(x, incidence, succ, fail)
+        if wheels is not None:
+            gap = expit(x[:, wheels[1]]) - expit(x[:, wheels[0]])
+            out = out + drift_log_likelihood(gap, drift, drift_spec)
+        return out
+
     def log_post(x):
-        return _log_prior(x, h, prior) + _log_likelihood(x, incidence, succ, fail)
+        return _log_prior(x, h, prior) + log_lik(x)
 
     x = _sample_prior(rng, n_draws, h, prior)
-    log_w = _log_likelihood(x, incidence, succ, fail)  # prior draws: weight = likelihood
+    log_w = log_lik(x)  # prior draws: weight = likelihood
     defensive = 0.1
     for _ in range(rounds):
         w = _normalised(log_w)
@@ -422,11 +556,13 @@ def feature_uncertainty(
     definition: DamageDefinition,
     *,
     dispersion: float = 1.0,
+    drift: LateralDrift | None = None,
     prior: PriorSpec = PriorSpec(),
     n_draws: int = 2000,
     random_state: int = 0,
 ) -> FeatureUncertainty:
-    """Intervals and verdict of one robot from its pooled (possibly soft) counts.
+    """Intervals and verdict of one robot from its pooled (possibly soft) counts and, with
+    poses, its lateral drift.
 
     Parameters
     ----------
@@ -436,6 +572,8 @@ def feature_uncertainty(
         What "damaged" means (and the prior's healthy levels).
     dispersion : float, default 1
         The counts are divided by it (:func:`failure_dispersion`).
+    drift : LateralDrift, optional
+        Its lateral drift (:func:`lateral_drift`).
     prior, n_draws, random_state
         Passed to :func:`posterior_draws`.
     """
@@ -444,8 +582,9 @@ def feature_uncertainty(
     scaled = [(sub, k / dispersion, n / dispersion) for sub, k, n in observations if n > 0]
     healthy = {f: definition.healthy.get(f, 0.95) for f in features}
     p, w = posterior_draws(
-        features, scaled, healthy, prior=prior, n_draws=n_draws, random_state=random_state
-    )
+        features, scaled, healthy, prior=prior, drift=drift, n_draws=n_draws,
+        random_state=random_state,
+    )  # fmt: skip
     tail = (1 - LEVEL) / 2
     intervals = {
         f: (_quantile(p[:, i], w, tail), _quantile(p[:, i], w, 1 - tail))
@@ -456,6 +595,7 @@ def feature_uncertainty(
         verdict_from_draws(features, p, w, definition),
         dispersion=float(dispersion),
         effective_draws=float(1.0 / (w**2).sum()),
+        drift=drift,
     )
 
 
@@ -469,6 +609,7 @@ def robot_uncertainty(
     *,
     soft_policy: np.ndarray | None = None,
     own_policy: np.ndarray | None = None,
+    lateral: np.ndarray | None = None,
     random_state: int = 0,
 ) -> FeatureUncertainty:
     """Intervals and verdict of one robot from what L saw of it (module docstring).
@@ -490,6 +631,8 @@ def robot_uncertainty(
         the labels are taken as they are.
     own_policy : ndarray of shape (S,), optional
         That greedy policy (labels that differ from it came from the meeting rule).
+    lateral : ndarray of shape (horizon,), optional
+        Its lateral offsets (NaN unknown), from poses; None from grid states.
     random_state : int, default 0
     """
     from mirl.learning.transitions import observed_steps
@@ -501,10 +644,12 @@ def robot_uncertainty(
         (sub, k, n) for sub, k, n in zip(domain.subsets, successes, trials, strict=True) if n > 0
     ]
     dispersion = failure_dispersion(domain, t, s, lab, s_next, probabilities)
+    drift = None if lateral is None else lateral_drift(domain, series, labels, lateral)
     return feature_uncertainty(
         domain.feature_map.features,
         observations,
         definition,
         dispersion=dispersion,
+        drift=drift,
         random_state=random_state,
     )

@@ -25,10 +25,17 @@ import numpy as np
 
 from mirl.observations.poses import PoseError, PoseTracks
 from mirl.observations.trajectories import MAX_TIME, Trajectories
-from mirl.world.maps import HEADING_YAWS, MAX_FRAME_ORIGIN
+from mirl.world.maps import HEADING_DELTAS, HEADING_YAWS, MAX_FRAME_ORIGIN
 from mirl.world.scenario import Scenario
 
-__all__ = ["Discretised", "DiscretisationError", "RobotCounts", "discretise", "heading_of_yaw"]
+__all__ = [
+    "Discretised",
+    "DiscretisationError",
+    "RobotCounts",
+    "discretise",
+    "heading_of_yaw",
+    "lateral_offset",
+]
 
 # fraction of a cell a wall/off-map pose may be from a patroller cell and still snap to it
 SNAP_CELLS = 0.5
@@ -110,6 +117,18 @@ class Discretised:
         return "\n".join([head, *("  " + c.line() for c in self.report)])
 
 
+def lateral_offset(rf, cf, row, col, heading, snapped=None) -> np.ndarray:
+    """Signed distance (cells, left of the heading positive) of fractional positions (rf, cf)
+    from the centre line of cell (row, col) along ``heading``; NaN for ``snapped`` positions
+    (off the hallway, moved onto it)."""
+    left = HEADING_DELTAS[(np.asarray(heading) + 1) % 4]  # turn_left's heading: (drow, dcol)
+    out = (np.asarray(rf) - row) * left[:, 0] + (np.asarray(cf) - col) * left[:, 1]
+    out = np.asarray(out, dtype=float)
+    if snapped is not None:
+        out[np.asarray(snapped, dtype=bool)] = np.nan
+    return out
+
+
 def heading_of_yaw(yaw: np.ndarray) -> np.ndarray:
     """Nearest of the 4 headings (0 east, 1 north, 2 west, 3 south) of yaw angles in radians."""
     return np.mod(np.rint(np.asarray(yaw, dtype=float) / (np.pi / 2)), 4).astype(np.int64)
@@ -157,14 +176,18 @@ def discretise(
             f"{int(np.floor(cf[i] + 0.5))}); check the map frame, or drop such poses explicitly"
         )
     chosen = _nearest_per_step(tracks, k, dt, binned & ok, n_steps)
+    heading = heading_of_yaw(tracks.yaw[chosen])
     traj = Trajectories(
         tracks.robot_names,
         k[chosen],
         tracks.robot[chosen],
         row[chosen],
         col[chosen],
-        heading_of_yaw(tracks.yaw[chosen]),
+        heading,
         n_steps,
+        lateral_offset(
+            rf[chosen], cf[chosen], row[chosen], col[chosen], heading, snapped[chosen]
+        ),  # fmt: skip
     )
     vis = _visible_mask(visible, scenario, traj)
     n = len(tracks.robot_names)

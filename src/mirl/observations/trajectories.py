@@ -32,6 +32,12 @@ class Trajectories:
     """Observed (or true) states of several robots: one row per (time, robot).
 
     ``robot`` holds indices into ``robot_names``; rows are sorted by (t, robot).
+
+    ``lateral`` (optional, robot data only) is what discretising a pose to its cell leaves
+    over across the heading: the signed distance (cells, left of the heading positive) of the
+    measured position from the centre line of its cell along its discretised heading; NaN
+    where unknown. It is the evidence of a robot that veers (a weak wheel) that the grid
+    state discards (docs/design.md, "Fault verdicts").
     """
 
     robot_names: tuple[str, ...]
@@ -41,6 +47,7 @@ class Trajectories:
     col: np.ndarray
     heading: np.ndarray
     horizon: int  # number of time steps the record spans (observed or not): t in [0, horizon)
+    lateral: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.t)
@@ -60,6 +67,16 @@ class Trajectories:
         out[t] = self.states(domain)[rows]
         return out
 
+    def lateral_series(self, index: int) -> np.ndarray | None:
+        """(horizon,) lateral offset per time step for one robot (NaN where unknown), or None
+        when the record has none."""
+        if self.lateral is None:
+            return None
+        out = np.full(self.horizon, np.nan)
+        t, rows = self.for_robot(index)
+        out[t] = self.lateral[rows]
+        return out
+
     def select(self, mask: np.ndarray) -> Trajectories:
         return Trajectories(
             self.robot_names,
@@ -69,6 +86,7 @@ class Trajectories:
             self.col[mask],
             self.heading[mask],
             self.horizon,
+            None if self.lateral is None else self.lateral[mask],
         )
 
     def truncate(self, steps: int) -> Trajectories:
@@ -82,12 +100,17 @@ class Trajectories:
         robot_names: tuple[str, ...],
         states: np.ndarray,
         t0: int = 0,
+        lateral: np.ndarray | None = None,
     ) -> Trajectories:
-        """From a (T, N) array of state indices, -1 meaning unobserved."""
+        """From a (T, N) array of state indices, -1 meaning unobserved, and optionally the
+        (T, N) lateral offsets that go with them."""
         states = np.asarray(states)
         tt, rr = np.nonzero(states >= 0)
         rch = domain.states[states[tt, rr]]
-        return cls(robot_names, tt + t0, rr, rch[:, 0], rch[:, 1], rch[:, 2], states.shape[0] + t0)
+        lat = None if lateral is None else np.asarray(lateral, dtype=float)[tt, rr]
+        return cls(
+            robot_names, tt + t0, rr, rch[:, 0], rch[:, 1], rch[:, 2], states.shape[0] + t0, lat
+        )
 
     def to_csv(self, path: str | Path) -> None:
         """Write ``t,robot,row,col,heading`` rows (pyarrow, vectorised)."""

@@ -37,7 +37,8 @@ class PhysicsConfig:
     max_speed: float = 0.7  # m/s cruise of the patrol controller
     max_accel: float = 1.0  # m/s^2
     turn_speed: float = 1.2  # rad/s, pivot turns
-    lane_offset: float = 0.23  # cells to the right of the hallway's centre line (keep right)
+    lane_offset: float = 0.23  # cells right of the hallway's centre line, kept in company
+    keep_right_within: float = 6.0  # cells: a robot coming the other way this close -> keep right
     pass_distance: float = 1.2  # cells: another robot this close ahead -> pass slowly
     pass_speed: float = 0.2  # m/s (per 1 m cell) while passing
     motor_strength: Mapping[str, Mapping[str, float]] = field(default_factory=dict)

@@ -2,8 +2,10 @@
 
 Vectorised over robots. Per robot a *mode* and a target, set once per decision step:
 
-- ``DRIVE`` (forward): pursue a target point (the intended cell's centre moved ``lane_offset``
-  to the right of the heading — keep right, so robots meeting head-on pass side by side). The
+- ``DRIVE`` (forward): pursue a target point: the intended cell's centre on the hallway's
+  centre line, moved ``lane`` to the right of the heading while another robot is near (keep
+  right in company, so robots meeting head-on pass side by side; alone, the middle of the
+  hallway, as a costmap inflated around both walls keeps a real robot there). The
   speed is the lesser of the cruise speed and what still lets the robot stop on the point
   (v = √(2·a·d)), times cos of the bearing error (turn in place while it exceeds 60°); the turn
   rate is proportional to the bearing error. Within ``arrive`` of the point the robot aligns its
@@ -22,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["DRIVE", "PIVOT", "HOLD", "Controller", "crowded", "wrap"]
+__all__ = ["DRIVE", "PIVOT", "HOLD", "Controller", "crowded", "in_company", "wrap"]
 
 DRIVE, PIVOT, HOLD = 0, 1, 2
 
@@ -37,24 +39,45 @@ def wrap(a):
     return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
 
 
-def crowded(p: np.ndarray, cell_size: float, pass_distance: float) -> np.ndarray:
-    """Robots that must go slowly: another robot coming the other way within
-    ``pass_distance`` cells ahead (±70°: pass slowly), or one going the same way less than 0.8
-    cell ahead (do not run into it).
-
-    ``p`` holds true poses (x, y, yaw), one row a robot: a real robot's bumper and laser see the
-    other robot directly.
-    """
+def _others(p: np.ndarray, cell_size: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For every pair (i, j) of true poses ``p`` (x, y, yaw; one row a robot): the distance
+    (cells; inf for i = j), the bearing of j from i's heading (rad) and whether j faces the
+    other way (a real robot's bumper and laser see the other robot directly)."""
     dx = p[None, :, 0] - p[:, None, 0]
     dy = p[None, :, 1] - p[:, None, 1]
     dist = np.hypot(dx, dy) / cell_size
     np.fill_diagonal(dist, np.inf)
-    if not (dist < max(pass_distance, 0.8)).any():
-        return np.zeros(len(p), dtype=bool)  # the usual tick: nobody near anybody
-    ahead = np.abs(wrap(np.arctan2(dy, dx) - p[:, None, 2])) < np.radians(70)
+    bearing = np.abs(wrap(np.arctan2(dy, dx) - p[:, None, 2]))
     oncoming = np.abs(wrap(p[None, :, 2] - p[:, None, 2])) > np.pi / 2
-    slow = ahead & np.where(oncoming, dist < pass_distance, dist < 0.8)
-    return slow.any(axis=1)
+    return dist, bearing, oncoming
+
+
+def crowded(p: np.ndarray, cell_size: float, pass_distance: float) -> np.ndarray:
+    """Robots that must go slowly: another robot coming the other way within
+    ``pass_distance`` cells ahead (±70°: pass slowly), or one going the same way less than 0.8
+    cell ahead (do not run into it). ``p``: true poses (x, y, yaw), one row a robot."""
+    if len(p) < 2 or not (_nearest(p) / cell_size < max(pass_distance, 0.8)):
+        return np.zeros(len(p), dtype=bool)  # the usual tick: nobody near anybody
+    dist, bearing, oncoming = _others(p, cell_size)
+    ahead = bearing < np.radians(70)
+    return (ahead & np.where(oncoming, dist < pass_distance, dist < 0.8)).any(axis=1)
+
+
+def in_company(p: np.ndarray, cell_size: float, distance: float) -> np.ndarray:
+    """Robots that keep right: another robot coming the other way less than ``distance``
+    cells ahead or alongside (±110°, so that it keeps right until they have passed). A robot
+    followed or led by another stays in the middle. ``p``: true poses, one row a robot."""
+    if len(p) < 2 or not (_nearest(p) / cell_size < distance):
+        return np.zeros(len(p), dtype=bool)
+    dist, bearing, oncoming = _others(p, cell_size)
+    return ((bearing < np.radians(110)) & oncoming & (dist < distance)).any(axis=1)
+
+
+def _nearest(p: np.ndarray) -> float:
+    """The smallest distance between two of the poses ``p`` (m)."""
+    d = np.hypot(p[None, :, 0] - p[:, None, 0], p[None, :, 1] - p[:, None, 1])
+    np.fill_diagonal(d, np.inf)
+    return float(d.min())
 
 
 class Controller:
@@ -85,15 +108,23 @@ class Controller:
         self.tx = np.zeros(n)
         self.ty = np.zeros(n)
         self.tyaw = np.zeros(n)
+        self.lane = np.zeros(n)  # m to the right of the target while in company
         self.v = np.zeros(n)  # commanded forward speed (acceleration-limited)
 
-    def set_targets(self, idx, mode, tx, ty, tyaw) -> None:
+    def set_targets(self, idx, mode, tx, ty, tyaw, lane=0.0) -> None:
+        """Targets of robots ``idx``: a mode, a point on the centre line, a heading, and the
+        offset to the right of it (m) that the robot keeps while in company."""
         self.mode[idx], self.tx[idx], self.ty[idx], self.tyaw[idx] = mode, tx, ty, tyaw
+        self.lane[idx] = lane
 
-    def wheel_speeds(self, x, y, yaw, slow=None) -> np.ndarray:
+    def wheel_speeds(self, x, y, yaw, slow=None, company=None) -> np.ndarray:
         """(n, 2) wheel angular velocities (rad/s) for the estimated poses; ``slow`` (bool per
-        robot) caps the forward speed at ``pass_speed`` (another robot close ahead)."""
-        dx, dy = self.tx - x, self.ty - y
+        robot) caps the forward speed at ``pass_speed`` (another robot close ahead);
+        ``company`` (bool per robot) moves the target point into the keep-right lane."""
+        lane = self.lane if company is None else np.where(company, self.lane, 0.0)
+        tx = self.tx + lane * np.sin(self.tyaw)
+        ty = self.ty - lane * np.cos(self.tyaw)
+        dx, dy = tx - x, ty - y
         d = np.hypot(dx, dy)
         bearing = wrap(np.arctan2(dy, dx) - yaw)
         arrived = d < self.arrive

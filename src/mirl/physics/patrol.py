@@ -32,7 +32,7 @@ from mirl.physics.camera import (
 )
 from mirl.physics.config import PhysicsConfig, scenario_physics
 from mirl.physics.contacts import ContactLog
-from mirl.physics.control import DRIVE, HOLD, PIVOT, Controller, crowded, wrap
+from mirl.physics.control import DRIVE, HOLD, PIVOT, Controller, crowded, in_company, wrap
 from mirl.physics.records import OBSERVER, Records
 from mirl.physics.robot import KOBUKI
 from mirl.physics.world import world_mjcf
@@ -120,13 +120,11 @@ class PhysicalWorld:
         self._record_decision_time()
 
     def _start_poses(self, starts, observer_heading: int | None) -> list[Pose]:
-        """Patrollers on their start cells in their lanes; L at its start cell's centre."""
+        """Patrollers and L at their start cells' centres."""
         poses = []
         for r, c, h in starts:
             x, y = self.frame.cell_centre(r, c)
-            yaw = HEADING_YAWS[h]
-            x, y = x + self._lane * np.sin(yaw), y - self._lane * np.cos(yaw)
-            poses.append((float(x), float(y), float(yaw)))
+            poses.append((float(x), float(y), float(HEADING_YAWS[h])))
         if self.has_observer:
             x, y = self.frame.cell_centre(*self.scenario.observer_start)
             self.camera = observer_camera(self.scenario, self.cfg, self.frame, self.degree)
@@ -300,18 +298,22 @@ class PhysicalWorld:
     def _record_decision_time(self) -> None:
         p = self.poses()
         self.records.true.append(self.discretise(p[: self.n]))
-        self.records.seen.append(self._observe(p))
+        seen, lateral = self._observe(p)
+        self.records.seen.append(seen)
+        self.records.seen_lateral.append(lateral)
 
-    def _observe(self, p: np.ndarray) -> np.ndarray:
-        """L's camera now: a noisy pose for every patroller it sees, discretised."""
+    def _observe(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """L's camera now: a noisy pose for every patroller it sees, discretised: (N,) states
+        (-1 unseen) and lateral offsets (NaN unseen)."""
         out = np.full(self.n, -1, dtype=int)
+        lateral = np.full(self.n, np.nan)
         if not self.has_observer:
-            return out
+            return out, lateral
         px, py = p[: self.n, 0], p[: self.n, 1]
         seen = self.camera.sees(self.model, self.data, self.frame, px, py)
         idx = np.flatnonzero(seen)
         if len(idx) == 0:
-            return out
+            return out, lateral
         cs = self.frame.cell_size
         z = self._meas_rng.normal(size=(len(idx), 3))
         meas = p[idx].copy()
@@ -333,7 +335,9 @@ class PhysicalWorld:
             drop_off_map=True, visible=self._visible_cells,
         ).trajectories  # fmt: skip
         out[d.robot] = self.domain.state_index(d.row, d.col, d.heading)
-        return out
+        if d.lateral is not None:
+            lateral[d.robot] = d.lateral
+        return out, lateral
 
     def decide(self) -> tuple[np.ndarray, np.ndarray]:
         """The patrollers' believed states and actions now (equilibrium at meetings)."""
@@ -356,16 +360,15 @@ class PhysicalWorld:
         return min(k, 2)
 
     def _set_targets(self, idx, states_rch, acts, lane) -> None:
-        """Targets for robots ``idx`` from their intended (row, col, heading) and actions."""
+        """Targets for robots ``idx`` from their intended (row, col, heading) and actions; in
+        company they keep ``lane`` (m) to the right of the centre line."""
         r, c, h = states_rch.T
         x, y = self.frame.cell_centre(r, c)
         yaw = HEADING_YAWS[h]
-        x = x + lane * np.sin(yaw)
-        y = y - lane * np.cos(yaw)
         mode = np.select(
             [acts == FORWARD, (acts == TURN_LEFT) | (acts == TURN_RIGHT)], [DRIVE, PIVOT], HOLD
         )
-        self.ctrl.set_targets(idx, mode, x, y, yaw)
+        self.ctrl.set_targets(idx, mode, x, y, yaw, lane)
 
     def _observer_intended(self, action: int) -> tuple[np.ndarray, int]:
         r, c, h = self.observer_cell_heading()
@@ -407,7 +410,13 @@ class PhysicalWorld:
             self._noise = a * self._noise + b * self._loc_rng.normal(size=(self.m, 3))
             est = p + self._noise
             slow = crowded(p, self.frame.cell_size, cfg.pass_distance)
-            d.ctrl[:] = self.ctrl.wheel_speeds(est[:, 0], est[:, 1], est[:, 2], slow).ravel()
+            # company among the patrollers only: L, hidden, must not change how they drive
+            company = np.zeros(self.m, dtype=bool)
+            company[: self.n] = in_company(p[: self.n], self.frame.cell_size,
+                                           cfg.keep_right_within)  # fmt: skip
+            d.ctrl[:] = self.ctrl.wheel_speeds(
+                est[:, 0], est[:, 1], est[:, 2], slow, company
+            ).ravel()
             mujoco.mj_step(m, d, nstep=cfg.substeps)
             p = self.poses()
             self.contact_log.update(d, self.t)

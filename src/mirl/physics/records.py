@@ -41,6 +41,7 @@ class Records:
         self.believed: list[np.ndarray] = []  # (N,) states the patrollers decided from
         self.actions: list[np.ndarray] = []  # (N,) actions taken at each decision
         self.seen: list[np.ndarray] = []  # (N,) L's discretised observation (-1 unseen)
+        self.seen_lateral: list[np.ndarray] = []  # (N,) their lateral offsets (NaN unseen)
         self._tick_t: list[float] = []
         self._tick_pose: list[np.ndarray] = []
         self._obs_rows: list[tuple[float, int, float, float, float]] = []
@@ -66,8 +67,10 @@ class Records:
         return np.asarray(self.true)
 
     def observations(self, until: int | None = None) -> Trajectories:
-        seen = np.asarray(self.seen if until is None else self.seen[: until + 1])
-        return Trajectories.from_states(self.domain, self.names, seen)
+        end = len(self.seen) if until is None else until + 1
+        seen = np.asarray(self.seen[:end])
+        lateral = np.asarray(self.seen_lateral[:end]).reshape(seen.shape)
+        return Trajectories.from_states(self.domain, self.names, seen, lateral=lateral)
 
     def truth(self) -> Trajectories:
         return Trajectories.from_states(self.domain, self.names, self.true_states())
