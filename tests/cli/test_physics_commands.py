@@ -93,3 +93,19 @@ def test_a_physics_run_records_the_mujoco_it_ran_on():
     assert run_version(Condition("mirl-t")) == code_version()  # grid rows: as before
     physics = run_version(Condition("mirl-t", world="physics"))
     assert physics == f"{code_version()}+mujoco.{mujoco.__version__}"
+
+
+def test_physics_run_reports_each_robots_drift(capsys):
+    """Poses carry which way a robot veers: the physical world's run records and reports it
+    (full view, so both patrollers are seen driving)."""
+    code = main(["run", "--world", "physics", "--scenario", "boyd2", "--obs-steps", "60",
+                 "--max-wait", "5", "--observability", "1", "--json"])  # fmt: skip
+    assert code == 0
+    drifts = json.loads(capsys.readouterr().out)["lateral_drifts"]
+    assert set(drifts) == {"I", "J"}
+    assert all(abs(d["mean"]) < 0.5 and d["se"] >= 0 and d["steps"] >= 5 for d in drifts.values())
+    code = main(["run", "--world", "physics", "--scenario", "boyd2", "--obs-steps", "60",
+                 "--max-wait", "5", "--observability", "1"])  # fmt: skip
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "drift of I:" in out and "drift of J:" in out and "forward steps" in out

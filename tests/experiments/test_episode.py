@@ -261,3 +261,15 @@ def test_cli_states_the_chance_by_default_and_runs_the_papers_protocol_on_reques
     assert main([*argv, "--go-rule", "value", "--learn-once", "--json"]) == 0
     paper = json.loads(capsys.readouterr().out)
     assert "predicted_success" not in paper and "relearns" not in paper
+
+
+def test_the_report_explains_an_estimate_outside_its_interval(capsys):
+    """Seed 3: J's left wheel is learned 0.767 by Eq. 4 with an interval of 0.84-0.99 (few
+    right turns seen, and the prior that most parts are healthy); seed 0 has no such gap."""
+    assert main(["run", "--seed", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "0.767" in out and "0.84–0.99" in out
+    line = next(x for x in out.splitlines() if "well outside its interval" in x)
+    assert "Eq. 4's fit of the step outcomes alone" in line and "veers" not in line  # no poses
+    assert main(["run", "--seed", "0"]) == 0
+    assert "well outside" not in capsys.readouterr().out

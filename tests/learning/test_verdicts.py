@@ -276,3 +276,6 @@ def test_lateral_drift_is_the_mean_offset_after_forward_steps():
     assert got.steps == 6 and got.mean == pytest.approx(0.1)  # the turn's end is left out
     assert got.se == pytest.approx(0.0)
     assert lateral_drift(d, series, labels, np.full(10, np.nan)) is None
+    assert LateralDrift(-0.125, 0.008, 313).sentence() == (
+        "0.125 cell to the right of the centre line (± 0.008) on 313 forward steps"
+    )

@@ -69,13 +69,11 @@ def learn_record(
 
 def drift_line(record: dict) -> str:
     """A lateral drift's JSON record (:meth:`~mirl.learning.verdicts.LateralDrift.to_dict`)
-    in words: which way the robot veers, by how much, on how many forward steps."""
-    mean, se = record["mean"], record["se"]
-    side = "left" if mean > 0 else "right"
-    return (
-        f"drift         {abs(mean):.3f} cell to the {side} of the centre line (± {se:.3f}) "
-        f"on {record['steps']} forward steps (a robot veers towards a weak wheel)"
-    )
+    in words."""
+    from mirl.learning.verdicts import LateralDrift
+
+    drift = LateralDrift(record["mean"], record["se"], record["steps"])
+    return f"drift         {drift.sentence()} (a robot veers towards a weak wheel)"
 
 
 def _uncertainty(robot) -> dict:

@@ -192,6 +192,15 @@ class LateralDrift:
     def to_dict(self) -> dict:
         return {"mean": round(self.mean, 4), "se": round(self.se, 4), "steps": self.steps}
 
+    def sentence(self) -> str:
+        """The drift in words: "0.125 cell to the right of the centre line (± 0.008) on 313
+        forward steps"."""
+        side = "left" if self.mean > 0 else "right"
+        return (
+            f"{abs(self.mean):.3f} cell to the {side} of the centre line (± {self.se:.3f}) on "
+            f"{self.steps} forward steps"
+        )
+
 
 @dataclass(frozen=True)
 class DriftSpec:
