@@ -1,13 +1,14 @@
 """Which wheel L finds in the physical world, per damaged motor (issue 26's table).
 
-    python benchmarks/bench_fault_sides.py [--seeds 10] [--steps 450]
+    python benchmarks/bench_fault_sides.py [--scenario boyd2-healthy] [--seeds 10] [--steps 450]
 
-mirl-t on boyd2-healthy at full view, one motor at 0.6 strength (I left, I right, J left,
-J right), seeds 0..n-1, each run ``mirl run --world physics ... --json``. Per damaged motor: the
-max-ent point estimates of the damaged wheel and the robot's other wheel (mean over seeds), how
-often the damaged wheel is the robot's lowest feature, a paired t-test of the two wheels, how
-often the verdict names the damaged wheel alone and among its candidates, and the robot's mean
-lateral drift (cells, left positive).
+mirl-t on a scenario whose motors are all healthy (default boyd2-healthy) at full view, one
+motor at 0.6 strength (I left, I right, J left, J right), seeds 0..n-1, each run ``mirl run
+--world physics ... --json``. Per damaged motor: the max-ent point estimates of the damaged
+wheel and the robot's other wheel (mean over seeds), how often the damaged wheel is the robot's
+lowest feature, a paired t-test of the two wheels, how often the verdict names the damaged
+wheel alone and among its candidates, and the robot's mean lateral drift (cells, left
+positive).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--steps", type=int, default=450)
+    ap.add_argument("--scenario", default="boyd2-healthy")
     args = ap.parse_args()
     print("| damaged motor | learned damaged vs other wheel | damaged wheel lowest | paired t-test "
           "| verdict: the wheel alone | among candidates | lateral drift (cells) |")  # fmt: skip
@@ -34,7 +36,7 @@ def main() -> None:
         damaged, healthy, drifts = [], [], []
         lowest = alone = among = 0
         for seed in range(args.seeds):
-            cmd = ["mirl", "run", "--world", "physics", "--scenario", "boyd2-healthy",
+            cmd = ["mirl", "run", "--world", "physics", "--scenario", args.scenario,
                    "--damage", f"{damage}=0.6", "--observability", "1",
                    "--obs-steps", str(args.steps), "--seed", str(seed), "--json"]  # fmt: skip
             run = json.loads(subprocess.run(cmd, capture_output=True, text=True, check=True).stdout)
