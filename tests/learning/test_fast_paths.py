@@ -331,3 +331,21 @@ def test_policy_system_solves_in_its_first_column_order():
                 np.testing.assert_allclose(system.solve(pi, 0.95, b), expected, rtol=0, atol=1e-12)
         assert system.ordering is not None  # later solves took the ordered way
         assert not np.array_equal(system.ordering[0], np.arange(dyn.S))
+
+
+@pytest.mark.parametrize("max_joint_states", [None, 0])  # exact and factored
+def test_unseen_where_every_state_is_visible_is_no_evidence(boyd2, max_joint_states):
+    """A camera that misses a robot at full view (physics: an occluded or off-map pose) gives
+    an observation impossible from any state; the weighing must stay finite and ignore it."""
+    d = boyd2.domain
+    obs = simulate(boyd2, 60, seed=1, observability=1.0, random_starts=True).observations
+    series = [obs.state_series(d, i) for i in range(2)]
+    pol = [boyd2.true_policy(0), boyd2.true_policy(1)]
+    T = [boyd2.true_transitions(0), boyd2.true_transitions(1)]
+    vis = np.ones(d.n_states, dtype=bool)
+    missed = [s.copy() for s in series]
+    missed[1][30:33] = -1
+    for e in boyd2.game.equilibria():
+        full = joint_log_likelihood(d, series, pol, T, e, vis, max_joint_states=max_joint_states)
+        gap = joint_log_likelihood(d, missed, pol, T, e, vis, max_joint_states=max_joint_states)
+        assert np.isfinite(full) and np.isfinite(gap)

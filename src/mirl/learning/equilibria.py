@@ -167,6 +167,8 @@ def joint_log_likelihood(
             _condition(M, x[t], vis, 0)
             _condition(M, y[t], vis, 1)
             c = M.sum()
+            if c <= 0.0:  # impossible from anywhere (unseen where every state is visible)
+                M, c = np.full((S, S), 1.0), float(S * S)
         else:
             total += np.log(c)
         M /= c
@@ -444,6 +446,8 @@ def factored_log_likelihood(
                 total += np.log(1e-300)
                 b[k] = np.ones(S)
                 c = _condition_marginal(b[k], obs[k], visible)
+                if c <= 0.0:  # impossible from anywhere (unseen where every state is visible)
+                    b[k], c = np.ones(S), float(S)
             else:
                 total += np.log(c)
             b[k] /= c
