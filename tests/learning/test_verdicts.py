@@ -272,10 +272,11 @@ def test_lateral_drift_is_the_mean_offset_after_forward_steps():
     series = np.array(east + [turned, -1, -1])
     labels = np.array([0] * 6 + [1, 0, -1, -1])  # forward ×6, then turn_left (index 1)
     lateral = np.array([0.0, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.5, np.nan, np.nan])
-    got = lateral_drift(d, series, labels, lateral)
+    t, s, s_next = observed_steps(series)
+    got = lateral_drift(d, t, s, labels[t], s_next, lateral)
     assert got.steps == 6 and got.mean == pytest.approx(0.1)  # the turn's end is left out
     assert got.se == pytest.approx(0.0)
-    assert lateral_drift(d, series, labels, np.full(10, np.nan)) is None
+    assert lateral_drift(d, t, s, labels[t], s_next, np.full(10, np.nan)) is None
     assert LateralDrift(-0.125, 0.008, 313).sentence() == (
         "0.125 cell to the right of the centre line (± 0.008) on 313 forward steps"
     )

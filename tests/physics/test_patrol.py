@@ -209,34 +209,36 @@ def test_boydright_patrols_with_its_own_door_camera():
     assert cone.range > 0 and len(w.true) == 6
 
 
-def _lone_drift(scenario, wheel: str | None) -> float:
-    """I alone in the long hallway (J parked at the far end of the other one), patrolling
-    south for 12 steps: its mean lateral offset (m, left of the heading positive) at the
-    decision times after forward steps."""
+def _lone_drift(scenario, robot: int, wheel: str | None) -> float:
+    """Patroller ``robot`` alone in the long hallway (the other parked at the far end of the
+    other hallway), patrolling south for 12 steps: its mean lateral offset (m, left of the
+    heading positive) at the decision times after forward steps."""
     from mirl.physics.config import with_motor_strength
 
     if wheel is not None:
-        scenario = with_motor_strength(scenario, "I", wheel, 0.6)
-    w = PhysicalWorld(scenario, seed=0, starts=[(1, 1, 3), (0, 8, 0)], observer=False)
+        scenario = with_motor_strength(scenario, scenario.robot_names[robot], wheel, 0.6)
+    starts = [(0, 8, 0), (0, 8, 0)]
+    starts[robot] = (1, 1, 3)
+    w = PhysicalWorld(scenario, seed=0, starts=starts, observer=False)
     offsets = []
     for _ in range(12):
         w.step()
-        s = w.records.true[-1][0]
-        r, c, h = scenario.domain.states[s]
-        if h != 3 or w.records.actions[-1][0] != 0:
+        r, c, h = scenario.domain.states[w.records.true[-1][robot]]
+        if h != 3 or w.records.actions[-1][robot] != 0:
             continue
-        x, _, _ = w.poses()[0]
         cx, _ = w.frame.cell_centre(r, c)
-        offsets.append(x - cx)  # facing south (−y), left is +x
+        offsets.append(w.poses()[robot][0] - cx)  # facing south (−y), left is +x
     return float(np.mean(offsets))
 
 
-def test_a_lone_robot_drives_the_middle_and_veers_to_its_weak_wheel(healthy):
+@pytest.mark.parametrize("robot", [0, 1])
+def test_a_lone_robot_drives_the_middle_and_veers_to_its_weak_wheel(healthy, robot):
     """Alone, a patroller keeps to the hallway's centre line; a weak motor makes it veer to
-    that wheel's side, by the same amount on either side (the world is a mirror image)."""
-    centre = _lone_drift(healthy, None)
-    left = _lone_drift(healthy, "left_wheel")
-    right = _lone_drift(healthy, "right_wheel")
+    that wheel's side, by about the same amount on either side (a mirror image), whichever
+    robot it is."""
+    centre = _lone_drift(healthy, robot, None)
+    left = _lone_drift(healthy, robot, "left_wheel")
+    right = _lone_drift(healthy, robot, "right_wheel")
     assert abs(centre) < 0.03
     assert left > centre + 0.03 and right < centre - 0.03
     assert abs((left - centre) + (right - centre)) < 0.5 * (left - right)

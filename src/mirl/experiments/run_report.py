@@ -7,6 +7,7 @@ import numpy as np
 
 from mirl.experiments.records import RunResult
 from mirl.learning.methods import METHODS
+from mirl.learning.verdicts import estimate_outside_interval, outside_interval_note
 from mirl.world.scenario import Scenario
 
 HEADING_NAMES = ("east", "north", "west", "south")  # heading 0-3 (the map's x east, y north)
@@ -184,14 +185,12 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
             "            (each is how often an action that relies on the part does what was "
             "intended; below it, its 95 % interval)"
         )
-        if _outside_interval(probs, models):
+        if any(
+            estimate_outside_interval(fp, models[name].feature_intervals)
+            for name, fp in probs.items()
+        ):
             poses = any(r.lateral_drift is not None for r in learned.robots)
-            lines.append(
-                "            (an estimate well outside its interval: the estimate is Eq. 4's fit "
-                "of the step outcomes alone, which L plans with; the interval and the verdict "
-                "also weigh that most parts are healthy"
-                + (" and which way the robot veers)" if poses else ")")
-            )
+            lines.append("            " + outside_interval_note(poses))
         for r in learned.robots:
             if r.lateral_drift is not None:
                 lines.append(f"          drift of {r.name}: {r.lateral_drift.sentence()}")
@@ -257,14 +256,3 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         + f"; total {tm['total']:.2f} s"
     )
     return "\n".join(lines)
-
-
-def _outside_interval(probs, models, slack: float = 0.05) -> bool:
-    """Whether some learned probability lies more than ``slack`` outside its robot's 95 %
-    interval (max entropy's 1.000 against a posterior's 0.99 is not worth a word)."""
-    return any(
-        not lo - slack <= fp[f] <= hi + slack
-        for name, fp in probs.items()
-        for f, (lo, hi) in models[name].feature_intervals.items()
-        if f in fp
-    )

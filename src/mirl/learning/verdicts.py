@@ -61,6 +61,8 @@ __all__ = [
     "soft_counts",
     "lateral_drift",
     "drift_log_likelihood",
+    "estimate_outside_interval",
+    "outside_interval_note",
     "failure_dispersion",
     "posterior_draws",
     "feature_uncertainty",
@@ -302,49 +304,52 @@ def failure_dispersion(
     success = domain.success_probabilities(probabilities)[s, labels]
     hit = (domain.intended[s, labels] == s_next).astype(float)
     sd = np.sqrt(np.clip(success * (1 - success), 1e-3, None))
-    z = (hit - success) / sd
-    pair = np.flatnonzero(np.diff(t) == 1)
-    if len(pair) < 10 or float(z @ z) <= 0:
+    rho = _lag1_autocorrelation((hit - success) / sd, t, min_pairs=10)
+    if rho is None:
         return 1.0
-    rho = float(z[pair] @ z[pair + 1]) / float(z @ z) * len(z) / len(pair)
     rho = min(rho, 0.99)
     return float(np.clip((1 + rho) / (1 - rho), 1.0, cap))
 
 
+def _lag1_autocorrelation(z: np.ndarray, times: np.ndarray, min_pairs: int) -> float | None:
+    """The lag-1 autocorrelation of residuals ``z`` over the pairs of consecutive ``times``
+    (an AR(1) process's ρ, whose variance inflation is (1 + ρ)/(1 − ρ)); None with fewer than
+    ``min_pairs`` such pairs or no variance."""
+    pair = np.flatnonzero(np.diff(times) == 1)
+    if len(pair) < min_pairs or float(z @ z) <= 0:
+        return None
+    return float(z[pair] @ z[pair + 1]) / float(z @ z) * len(z) / len(pair)
+
+
 def lateral_drift(
     domain: PatrolDomain,
-    series: np.ndarray,
+    t: np.ndarray,
+    s: np.ndarray,
     labels: np.ndarray,
+    s_next: np.ndarray,
     lateral: np.ndarray,
     min_steps: int = 5,
 ) -> LateralDrift | None:
     """The mean lateral offset at the end of a robot's observed forward steps that kept their
-    heading (labelled forward), or None with fewer than ``min_steps`` of them.
+    heading, or None with fewer than ``min_steps`` of them.
 
-    Consecutive offsets of one robot are correlated (a robot off the centre line stays off
-    it for a while): the standard error is inflated by (1 + ρ)/(1 − ρ), ρ their lag-1
-    autocorrelation (an AR(1) process's variance inflation, as :func:`failure_dispersion`).
+    ``t, s, labels, s_next`` are its observed steps (as for :func:`failure_dispersion`) and
+    ``lateral`` its (horizon,) offsets. Consecutive offsets of one robot are correlated (a robot
+    off the centre line stays off it for a while): the standard error is inflated by
+    (1 + ρ)/(1 − ρ), ρ their lag-1 autocorrelation.
     """
-    from mirl.learning.transitions import observed_steps
-
-    t, s, s_next = observed_steps(series)
-    lateral = np.asarray(lateral, dtype=float)
-    y = lateral[t + 1]
+    t, s, labels, s_next = (np.asarray(v, dtype=int) for v in (t, s, labels, s_next))
+    y = np.asarray(lateral, dtype=float)[t + 1]
     same_heading = domain.states[s, 2] == domain.states[s_next, 2]
-    keep = (np.asarray(labels)[t] == FORWARD) & same_heading & np.isfinite(y)
+    keep = (labels == FORWARD) & same_heading & np.isfinite(y)
     times, y = t[keep] + 1, y[keep]
     n = len(y)
     if n < min_steps:
         return None
     mean = float(y.mean())
-    resid = y - mean
-    inflation = 1.0
-    pair = np.flatnonzero(np.diff(times) == 1)
-    if len(pair) >= min_steps and float(resid @ resid) > 0:
-        rho = float(resid[pair] @ resid[pair + 1]) / float(resid @ resid) * n / len(pair)
-        rho = float(np.clip(rho, 0.0, 0.95))
-        inflation = (1 + rho) / (1 - rho)
-    se = float(y.std(ddof=1) * np.sqrt(inflation / n))
+    rho = _lag1_autocorrelation(y - mean, times, min_pairs=min_steps)
+    rho = 0.0 if rho is None else float(np.clip(rho, 0.0, 0.95))
+    se = float(y.std(ddof=1) * np.sqrt((1 + rho) / (1 - rho) / n))
     return LateralDrift(mean, se, n)
 
 
@@ -366,6 +371,30 @@ def drift_log_likelihood(
         np.log(2.0) - 0.5 * np.log(2 * np.pi * v) - x**2 / (2 * v)
         + log_ndtr(alpha * x / np.sqrt(v))
     )  # fmt: skip
+
+
+def estimate_outside_interval(
+    probabilities: Mapping[str, float],
+    intervals: Mapping[str, tuple[float, float]],
+    slack: float = 0.05,
+) -> bool:
+    """Whether some point estimate lies more than ``slack`` outside its 95 % interval (max
+    entropy's 1.000 against a posterior's 0.99 is not worth a word)."""
+    return any(
+        not lo - slack <= probabilities[f] <= hi + slack
+        for f, (lo, hi) in intervals.items()
+        if f in probabilities
+    )
+
+
+def outside_interval_note(poses: bool) -> str:
+    """Why an estimate can lie well outside its interval, for the reports."""
+    veers = " and which way the robot veers" if poses else ""
+    return (
+        "(an estimate well outside its interval: the estimate is Eq. 4's fit of the step "
+        "outcomes alone, which L plans with; the interval and the verdict also weigh that most "
+        f"parts are healthy{veers})"
+    )
 
 
 # ---- the posterior ----------------------------------------------------------------------------
@@ -653,7 +682,7 @@ def robot_uncertainty(
         (sub, k, n) for sub, k, n in zip(domain.subsets, successes, trials, strict=True) if n > 0
     ]
     dispersion = failure_dispersion(domain, t, s, lab, s_next, probabilities)
-    drift = None if lateral is None else lateral_drift(domain, series, labels, lateral)
+    drift = None if lateral is None else lateral_drift(domain, t, s, lab, s_next, lateral)
     return feature_uncertainty(
         domain.feature_map.features,
         observations,

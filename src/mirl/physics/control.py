@@ -121,7 +121,7 @@ class Controller:
         """(n, 2) wheel angular velocities (rad/s) for the estimated poses; ``slow`` (bool per
         robot) caps the forward speed at ``pass_speed`` (another robot close ahead);
         ``company`` (bool per robot) moves the target point into the keep-right lane."""
-        lane = self.lane if company is None else np.where(company, self.lane, 0.0)
+        lane = 0.0 if company is None else np.where(company, self.lane, 0.0)  # None: nobody near
         tx = self.tx + lane * np.sin(self.tyaw)
         ty = self.ty - lane * np.cos(self.tyaw)
         dx, dy = tx - x, ty - y
