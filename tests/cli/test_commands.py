@@ -293,3 +293,17 @@ def test_learn_and_run_give_intervals_and_verdicts(tmp_path, capsys):
     assert set(out["verdicts"]) == {"I", "J"} and set(out["feature_intervals"]) == {"I", "J"}
     assert main(run) == 0
     assert "verdict: " in capsys.readouterr().out
+
+
+def test_learn_explains_an_estimate_outside_its_interval(tmp_path, capsys):
+    """The README's learn example: I's navigation is learned 0.833 with an interval of
+    0.89-1.00, and the text says why right under I's intervals; J's estimates sit in theirs."""
+    obs = tmp_path / "obs.csv"
+    sim = ["simulate", "--scenario", "boyd2", "--steps", "450", "--seed", "1"]
+    assert main([*sim, "--observations", str(obs)]) == 0
+    capsys.readouterr()
+    assert main(["learn", "--scenario", "boyd2", "--observations", str(obs)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    notes = [k for k, line in enumerate(lines) if "well outside its interval" in line]
+    assert len(notes) == 1 and lines[notes[0] - 1].strip().startswith("95 % interval")
+    assert "navigation=0.833" in lines[notes[0] - 2] and "veers" not in lines[notes[0]]

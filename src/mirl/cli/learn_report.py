@@ -119,6 +119,8 @@ def _pair_labels(result, scenario) -> dict:
 
 def print_learn(out: dict, result, scenario_name: str) -> None:
     """The text form of ``mirl learn``'s result."""
+    from mirl.learning.verdicts import estimate_outside_interval, outside_interval_note
+
     robots = out["robots"]
     print(
         f"{result.method} on {scenario_name}: {out['observations']} ({out['steps']} steps, "
@@ -135,6 +137,8 @@ def print_learn(out: dict, result, scenario_name: str) -> None:
                 f"{k} {lo:.2f}–{hi:.2f}" for k, (lo, hi) in r["feature_intervals"].items()
             )
             print(f"  95 % interval {spans}")
+            if estimate_outside_interval(probs, r["feature_intervals"]):
+                print("  " + outside_interval_note("lateral_drift" in r))
             if "lateral_drift" in r:
                 print("  " + drift_line(r["lateral_drift"]))
             print(f"  verdict       {verdict_sentence(name, r['verdict'])}")
