@@ -5,10 +5,10 @@
 mirl-t on a scenario whose motors are all healthy (default boyd2-healthy) at full view, one
 motor at 0.6 strength (I left, I right, J left, J right), seeds 0..n-1, each run ``mirl run
 --world physics ... --json``. Per damaged motor: the max-ent point estimates of the damaged
-wheel and the robot's other wheel (mean over seeds), how often the damaged wheel is the robot's
-lowest feature, a paired t-test of the two wheels, how often the verdict names the damaged
-wheel alone and among its candidates, and the robot's mean lateral drift (cells, left
-positive).
+wheel and the robot's other wheel (mean over seeds), how often the damaged wheel is the
+robot's lowest feature (strictly), a paired t-test of the two wheels, how often the verdict
+names the damaged wheel alone and among its candidates, and the robot's mean lateral drift
+(cells, left positive).
 """
 
 from __future__ import annotations
@@ -43,7 +43,9 @@ def main() -> None:
             probs = run["feature_probabilities"][robot]
             damaged.append(probs[wheel])
             healthy.append(probs[other])
-            lowest += min(probs, key=probs.get) == wheel
+            # strictly lowest: forward steps alone fix only the wheels' product, and max-ent
+            # splits it evenly, a tie that no order of the features should break
+            lowest += all(probs[wheel] < v - 1e-6 for f, v in probs.items() if f != wheel)
             verdict = run["verdicts"][robot]
             alone += verdict["part"] == wheel
             among += wheel in verdict["candidates"]

@@ -17,6 +17,7 @@ from mirl.learning.verdicts import (
     drift_log_likelihood,
     failure_dispersion,
     feature_uncertainty,
+    in_company,
     lateral_drift,
     point_verdict,
     posterior_draws,
@@ -277,6 +278,31 @@ def test_lateral_drift_is_the_mean_offset_after_forward_steps():
     assert got.steps == 6 and got.mean == pytest.approx(0.1)  # the turn's end is left out
     assert got.se == pytest.approx(0.0)
     assert lateral_drift(d, t, s, labels[t], s_next, np.full(10, np.nan)) is None
+    # a forward step that failed (stayed put) is no drift: a robot on a wall is off for the wall
+    stuck = np.array(east[:4] + [east[3]] * 3 + [-1] * 3)
+    t, s, s_next = observed_steps(stuck)
+    got = lateral_drift(d, t, s, np.zeros(len(t), dtype=int), s_next, lateral)
+    assert got is None or got.steps == 3
     assert LateralDrift(-0.125, 0.008, 313).sentence() == (
         "0.125 cell to the right of the centre line (± 0.008) on 313 forward steps"
     )
+
+
+def test_drift_leaves_out_steps_in_company():
+    """Robots passing each other keep to one side: those steps say nothing of a wheel."""
+    d = load_scenario("boyd2").domain
+    east = np.array([d.state_index(0, c, 0) for c in range(1, 9)])
+    far = np.full(8, d.state_index(16, 8, 2))  # the other robot, 16 cells away
+    near = far.copy()
+    near[4:] = d.state_index(0, 8, 2)  # ... until it appears at the hallway's end, coming west
+    near[6] = -1  # unseen: not known to be near
+    lateral = np.array([0.0] * 4 + [-0.2] * 4)
+    labels = np.zeros(7, dtype=int)
+    t, s, s_next = observed_steps(east)
+    alone = in_company(d, [east, far], 0, 6.0)
+    assert not alone.any()
+    company = in_company(d, [east, near], 0, 6.0)
+    assert company.tolist() == [False] * 4 + [True, True, False, True]
+    assert lateral_drift(d, t, s, labels, s_next, lateral, alone).steps == 7
+    got = lateral_drift(d, t, s, labels, s_next, lateral, company, min_steps=3)
+    assert got.steps == 3 and got.mean == pytest.approx(0.0)

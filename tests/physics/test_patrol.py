@@ -260,3 +260,15 @@ def test_a_weak_motor_still_pivots_in_time(healthy, wheel):
             w.ctrl.set_targets(np.array([0]), PIVOT, p[0], p[1], HEADING_YAWS[target])
             w._run_ticks(w.cfg.ticks_per_step)
             assert int(np.rint(wrap(w.poses()[0][2]) / (np.pi / 2))) % 4 == target
+
+
+def test_the_physical_world_is_modelled_with_turns_that_need_no_wheel(healthy):
+    """What the test above measures is what L's model of this world says: its ξ takes the
+    wheels out of the turns and keeps everything else of the scenario's."""
+    from mirl.experiments.physics_world import PhysicsRunWorld
+
+    model = PhysicsRunWorld.modelled(healthy)
+    subsets = model.feature_map.action_subsets
+    assert subsets["turn_left"] == subsets["turn_right"] == ("navigation", "floor")
+    assert subsets["forward"] == healthy.feature_map.action_subsets["forward"]
+    assert model.robots == healthy.robots and model.map is not None

@@ -448,3 +448,13 @@ def test_detection_against_reference(name, distance):
         for k, (rr, cc) in enumerate(got):
             assert free[rr][cc]
             assert (rr - r, cc - c) == (k * DELTA[h][0], k * DELTA[h][1])
+
+
+def test_feature_map_without_takes_features_out_of_some_actions():
+    fm = DEFAULT_FEATURE_MAP.without(("left_wheel", "right_wheel"), ("turn_left", "turn_right"))
+    assert fm.action_subsets["turn_left"] == ("navigation", "floor")
+    assert fm.action_subsets["turn_right"] == ("navigation", "floor")
+    assert fm.action_subsets["forward"] == DEFAULT_FEATURE_MAP.action_subsets["forward"]
+    assert fm.features == DEFAULT_FEATURE_MAP.features
+    with pytest.raises(ValueError, match="unknown transition feature 'wheel'"):
+        DEFAULT_FEATURE_MAP.without(("wheel",), ("forward",))

@@ -57,7 +57,7 @@ from mirl.experiments.records import (
     Relearn,
     RunResult,
 )
-from mirl.experiments.worlds import DEFAULT_WORLD, RunWorld, make_world
+from mirl.experiments.worlds import DEFAULT_WORLD, RunWorld, get_world, make_world
 from mirl.learning.learn import learn
 from mirl.learning.methods import Method, get_method
 from mirl.learning.results import LearnResult, behavior_accuracy, oracle_models
@@ -189,6 +189,8 @@ def run_episode(
 
     clock = time.perf_counter()
     model = observer_model(scenario)
+    # L's models of the patrollers (learned, the oracle's, the filter's) take the world's ξ
+    modelled = get_world(world).load().modelled(scenario)
     run_world = make_world(
         world, scenario, model, observability=degree,
         seed=int(sim_seed.generate_state(1)[0]), noise=noise_seed,
@@ -200,14 +202,14 @@ def run_episode(
     clock = time.perf_counter()
     learner: _Learner | None = None
     if learned is None and spec.plans and not spec.learns:
-        learned = oracle_models(scenario)
+        learned = oracle_models(modelled)
     elif learned is None and spec.learns:
         learn_seed_int = int(learn_seed.generate_state(1)[0])
         kwargs: dict[str, Any] = {"method": method, "p": p, **(learn_options or {})}
         # the run's observability (maybe not the scenario's) and the run's learning stream
         kwargs.setdefault("visible", run_world.visible)
         kwargs.setdefault("random_state", learn_seed_int)
-        learner = _Learner(scenario, run_world, spec, kwargs, relearn_growth if relearn else None)
+        learner = _Learner(modelled, run_world, spec, kwargs, relearn_growth if relearn else None)
         learned = learner.learn_now()
     timings["learn"] += time.perf_counter() - clock
 
@@ -234,7 +236,7 @@ def run_episode(
     else:
         assert learned is not None
         visible = run_world.visible if negative_evidence else None
-        watcher = _Watcher(scenario, run_world, learned, learner, visible, joint, timings)
+        watcher = _Watcher(modelled, run_world, learned, learner, visible, joint, timings)
         going = _planned_going(run_world, watcher, model, planning, timings)
         learned = going.learned
 

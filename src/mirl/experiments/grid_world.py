@@ -44,6 +44,11 @@ class GridRunWorld:
         return scenario.with_damage(robot, feature, value)
 
     @staticmethod
+    def modelled(scenario: Scenario) -> Scenario:
+        """The scenario as L models this world: the scenario itself (the grid runs its Eq. 5)."""
+        return scenario
+
+    @staticmethod
     def damaged_parts(scenario: Scenario) -> dict[str, tuple[str, ...]]:
         """Per robot, the features whose true success probability is damaged by the scenario's
         definition (``scenario.faults``)."""

@@ -18,7 +18,12 @@ import numpy as np
 
 from mirl.experiments.worlds import Detection, RunSetup
 from mirl.physics import mujoco_version
-from mirl.physics.config import WHEELS, physics_config, with_motor_strength
+from mirl.physics.config import (
+    WHEELS,
+    physical_feature_map,
+    physics_config,
+    with_motor_strength,
+)
 from mirl.physics.patrol import PhysicalWorld
 from mirl.world.scenario import Scenario
 
@@ -89,6 +94,13 @@ class PhysicsRunWorld:
     def apply_damage(scenario: Scenario, robot: str, feature: str, value: float) -> Scenario:
         """The scenario with ``robot``'s ``feature`` wheel motor at strength ``value``."""
         return with_motor_strength(scenario, robot, feature, value)
+
+    @staticmethod
+    def modelled(scenario: Scenario) -> Scenario:
+        """The scenario as L models this world: its ξ with the wheels taken out of the turns,
+        which a weak motor still drives in time
+        (:func:`~mirl.physics.config.physical_feature_map`)."""
+        return scenario.with_options(feature_map=physical_feature_map(scenario.feature_map))
 
     @staticmethod
     def damaged_parts(scenario: Scenario) -> dict[str, tuple[str, ...]]:

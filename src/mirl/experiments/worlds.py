@@ -151,6 +151,7 @@ class WorldSpec:
         ``"module:Class"`` of the class implementing :class:`RunWorld`. It is constructed from
         a :class:`RunSetup` (``Class(setup)``) and also provides
         ``apply_damage(scenario, robot, feature, value)`` (what a ``--damage`` value means there),
+        ``modelled(scenario)`` (the scenario as L models that world: the ξ its motion has),
         ``damaged_parts(scenario)`` (per robot, the parts that are really damaged there) and
         ``version()`` (what, besides mirl, its results depend on; "" for nothing).
     description : str

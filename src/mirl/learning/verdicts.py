@@ -59,6 +59,7 @@ __all__ = [
     "LateralDrift",
     "WHEELS",
     "soft_counts",
+    "in_company",
     "lateral_drift",
     "drift_log_likelihood",
     "estimate_outside_interval",
@@ -213,13 +214,13 @@ class DriftSpec:
     scale : float, default 0.5
         The scale (cells) of κ's half-normal prior: a wheel-probability gap of 1 drifts a robot
         by up to about half a cell — across a one-cell hallway to the wall.
-    tolerance : float, default 0.05
-        τ (cells): how far from the centre line a healthy robot's mean path may lie without
-        a weak wheel (passing others on the right, localisation error).
+    tolerance : float, default 0.02
+        τ (cells): how far from the centre line a healthy robot's mean path driving alone may
+        lie beyond its standard error (localisation error, the controller's own bias).
     """
 
     scale: float = 0.5
-    tolerance: float = 0.05
+    tolerance: float = 0.02
 
 
 @dataclass(frozen=True)
@@ -321,6 +322,25 @@ def _lag1_autocorrelation(z: np.ndarray, times: np.ndarray, min_pairs: int) -> f
     return float(z[pair] @ z[pair + 1]) / float(z @ z) * len(z) / len(pair)
 
 
+def in_company(
+    domain: PatrolDomain, series: Sequence[np.ndarray], robot: int, distance: float
+) -> np.ndarray:
+    """(horizon,) bool: the steps at which L saw another robot within ``distance`` cells (centre
+    to centre) of robot ``robot``, both seen; ``series`` holds every robot's observed states
+    (-1 unseen)."""
+    own = np.asarray(series[robot])
+    near = np.zeros(len(own), dtype=bool)
+    for j, other in enumerate(series):
+        if j == robot:
+            continue
+        other = np.asarray(other)
+        both = (own >= 0) & (other >= 0)
+        a = domain.states[own[both], :2]
+        b = domain.states[other[both], :2]
+        near[both] |= np.hypot(*(a - b).T) <= distance
+    return near
+
+
 def lateral_drift(
     domain: PatrolDomain,
     t: np.ndarray,
@@ -328,20 +348,28 @@ def lateral_drift(
     labels: np.ndarray,
     s_next: np.ndarray,
     lateral: np.ndarray,
+    company: np.ndarray | None = None,
     min_steps: int = 5,
 ) -> LateralDrift | None:
-    """The mean lateral offset at the end of a robot's observed forward steps that kept their
-    heading, or None with fewer than ``min_steps`` of them.
+    """The mean lateral offset at the end of a robot's observed forward steps that arrived in
+    the cell ahead and drove alone, or None with fewer than ``min_steps`` of them.
 
-    ``t, s, labels, s_next`` are its observed steps (as for :func:`failure_dispersion`) and
-    ``lateral`` its (horizon,) offsets. Consecutive offsets of one robot are correlated (a robot
-    off the centre line stays off it for a while): the standard error is inflated by
-    (1 + ρ)/(1 − ρ), ρ their lag-1 autocorrelation.
+    ``t, s, labels, s_next`` are its observed steps (as for :func:`failure_dispersion`),
+    ``lateral`` its (horizon,) offsets and ``company`` the (horizon,) steps at which another
+    robot was near it (:func:`in_company`): a step starting or ending in company is left out,
+    because robots passing each other keep to one side, which is no wheel's doing; so is a
+    forward step that failed (a robot stuck against a wall is off the centre line for the
+    wall's reason, step after step). Consecutive
+    offsets of one robot are correlated (a robot off the centre line stays off it for a
+    while): the standard error is inflated by (1 + ρ)/(1 − ρ), ρ their lag-1 autocorrelation.
     """
     t, s, labels, s_next = (np.asarray(v, dtype=int) for v in (t, s, labels, s_next))
     y = np.asarray(lateral, dtype=float)[t + 1]
-    same_heading = domain.states[s, 2] == domain.states[s_next, 2]
-    keep = (labels == FORWARD) & same_heading & np.isfinite(y)
+    arrived = domain.intended[s, FORWARD] == s_next
+    keep = (labels == FORWARD) & arrived & np.isfinite(y)
+    if company is not None:
+        company = np.asarray(company, dtype=bool)
+        keep &= ~(company[t] | company[t + 1])
     times, y = t[keep] + 1, y[keep]
     n = len(y)
     if n < min_steps:
@@ -648,6 +676,7 @@ def robot_uncertainty(
     soft_policy: np.ndarray | None = None,
     own_policy: np.ndarray | None = None,
     lateral: np.ndarray | None = None,
+    company: np.ndarray | None = None,
     random_state: int = 0,
 ) -> FeatureUncertainty:
     """Intervals and verdict of one robot from what L saw of it (module docstring).
@@ -671,6 +700,9 @@ def robot_uncertainty(
         That greedy policy (labels that differ from it came from the meeting rule).
     lateral : ndarray of shape (horizon,), optional
         Its lateral offsets (NaN unknown), from poses; None from grid states.
+    company : ndarray of shape (horizon,), optional
+        The steps at which another robot was near it (:func:`in_company`), left out of the
+        drift.
     random_state : int, default 0
     """
     from mirl.learning.transitions import observed_steps
@@ -682,7 +714,7 @@ def robot_uncertainty(
         (sub, k, n) for sub, k, n in zip(domain.subsets, successes, trials, strict=True) if n > 0
     ]
     dispersion = failure_dispersion(domain, t, s, lab, s_next, probabilities)
-    drift = None if lateral is None else lateral_drift(domain, t, s, lab, s_next, lateral)
+    drift = None if lateral is None else lateral_drift(domain, t, s, lab, s_next, lateral, company)
     return feature_uncertainty(
         domain.feature_map.features,
         observations,

@@ -105,6 +105,17 @@ class FeatureMap:
                 table[si, a] = distinct.setdefault(key, len(distinct))
         return table, tuple(distinct)
 
+    def without(self, features: Iterable[str], actions: Iterable[str]) -> FeatureMap:
+        """This ξ with ``features`` removed from the subsets of ``actions`` (overrides kept):
+        what a world whose ``actions`` do not depend on those parts makes of it."""
+        drop, acts = set(features), set(actions)
+        self._check(drop, set(self.features), "without")
+        subsets = {
+            a: tuple(f for f in subset if not (a in acts and f in drop))
+            for a, subset in self.action_subsets.items()
+        }
+        return FeatureMap(self.features, subsets, self.overrides)
+
     @classmethod
     def from_dict(
         cls, data: Mapping, *, where: str = "transition_features", shape=None, frame=None
