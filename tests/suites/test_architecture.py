@@ -24,6 +24,9 @@ FUNCTION_GUIDELINE = 100
 LONG_ON_PURPOSE = {  # "path/in/package.py" or "path.py:function" -> the reason
     "experiments/episode.py:run_episode": "the run protocol's knobs are its keyword arguments, "
     "one a line; the body is the four phases in order",
+    "learning/verdicts.py": "one concept, the fault verdict: its evidence (soft counts, "
+    "clustered failures, the drift driven alone), the posterior over the features and the "
+    "verdict drawn from it; each part is the verdict's and nothing else's",
     "learning/feature_solver.py": "one algorithm, the Eq. 4 solver: its maximum-entropy form "
     "(with the maximum-likelihood face it searches) and the paper's procedure share the pooling "
     "of counts, the result record and the report",
