@@ -266,9 +266,20 @@ def test_the_physical_world_is_modelled_with_turns_that_need_no_wheel(healthy):
     """What the test above measures is what L's model of this world says: its ξ takes the
     wheels out of the turns and keeps everything else of the scenario's."""
     from mirl.experiments.physics_world import PhysicsRunWorld
+    from mirl.world.motion import transition_matrix
 
     model = PhysicsRunWorld.modelled(healthy)
     subsets = model.feature_map.action_subsets
     assert subsets["turn_left"] == subsets["turn_right"] == ("navigation", "floor")
     assert subsets["forward"] == healthy.feature_map.action_subsets["forward"]
     assert model.robots == healthy.robots and model.map is not None
+    # the patrollers follow the scenario's policies; only the model of their motion changes
+    for sc in (healthy, load_scenario("boydright")):
+        model = PhysicsRunWorld.modelled(sc)
+        for i in range(len(sc.robots)):
+            assert np.array_equal(model.true_policy(i), sc.true_policy(i))
+            probs = sc.robots[i].feature_probabilities
+            expected = transition_matrix(model.domain, probs, sc.error_model)
+            assert abs(model.true_transitions(i) - expected).max() == 0
+            success = model.domain.success_probabilities(probs)[:, 1:3]  # the turns
+            assert np.allclose(success, probs["navigation"] * probs["floor"])

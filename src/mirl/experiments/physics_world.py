@@ -99,8 +99,9 @@ class PhysicsRunWorld:
     def modelled(scenario: Scenario) -> Scenario:
         """The scenario as L models this world: its ξ with the wheels taken out of the turns,
         which a weak motor still drives in time
-        (:func:`~mirl.physics.config.physical_feature_map`)."""
-        return scenario.with_options(feature_map=physical_feature_map(scenario.feature_map))
+        (:func:`~mirl.physics.config.physical_feature_map`); the patrollers' true policies are
+        the scenario's, which they follow here."""
+        return scenario.modelled_with(physical_feature_map(scenario.feature_map))
 
     @staticmethod
     def damaged_parts(scenario: Scenario) -> dict[str, tuple[str, ...]]:

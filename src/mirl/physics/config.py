@@ -36,9 +36,10 @@ def physical_feature_map(feature_map: FeatureMap) -> FeatureMap:
 
     The paper's ξ has a damaged wheel fail the turns it drives. Here a pivot needs at most
     69 °/s to finish within a decision step (a quarter turn in 2 s with the controller's
-    approach), and the one wheel that drives it gives 147 °/s at full strength, so a motor
-    pivots in time down to about 0.47 of its strength (measured: ``calibrate`` and the isolated
-    pivots of ``tests/physics/test_patrol.py`` succeed whichever wheel is at 0.6). A weaker
+    approach), and the one wheel that drives it gives 88 °/s at 0.6 strength; in proportion, a
+    motor pivots in time down to about 0.47 of its strength (measured at 0.6: ``calibrate`` and
+    the isolated pivots of ``tests/physics/test_patrol.py`` succeed whichever wheel is weak; the
+    0.47 is the proportion, not a measurement). A weaker
     motor shows in forward steps, which need both wheels, and in the robot's lateral drift;
     charging the turns to a wheel would pin the wheel that drives the patrol's many left turns
     near 1 and blame the other one for every forward failure (docs/design.md, "Fault

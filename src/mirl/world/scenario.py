@@ -168,6 +168,20 @@ class Scenario:
         robots[i] = replace(robots[i], feature_probabilities=probs)
         return replace(self, robots=tuple(robots))
 
+    def modelled_with(self, feature_map: FeatureMap) -> Scenario:
+        """The same robots with their motion modelled by another ξ: the true transitions follow
+        ``feature_map``, the true policies (and Q-values) stay this scenario's, because the
+        robots behave as they do whatever model of their motion an observer takes."""
+        model = replace(self, feature_map=feature_map)
+        behaviour = self._true_models
+        T = [
+            transition_matrix(model.domain, r.feature_probabilities, self.error_model)
+            for r in self.robots
+        ]
+        # fills the cached property: the policies are this scenario's, not re-solved under ξ
+        model.__dict__["_true_models"] = [(t, b[1]) for t, b in zip(T, behaviour, strict=True)]
+        return model
+
     def with_options(self, **changes: Any) -> Scenario:
         return replace(self, **changes)
 
