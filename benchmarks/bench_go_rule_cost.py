@@ -6,7 +6,8 @@ waits) against the paper's (the value rule, learning once), side by side on the 
 
 Each seed runs both protocols one after the other in this process (one BLAS thread), so a
 shared machine's load falls on both alike; prints each seed's CPU seconds and their ratio, and
-the ratio of the totals.
+the ratio of the totals; then what a re-learn of the default protocol costs against the run's
+first learning (wall seconds of each, from the run record).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ def main() -> None:
     args = ap.parse_args()
     scenario = load_scenario(args.scenario)
     totals = {"paper": 0.0, "default": 0.0}
+    relearn_shares: list[float] = []
     print("| seed | paper's protocol (s CPU) | default (s CPU) | ratio | outcome (default) |")
     print("| --- | --- | --- | --- | --- |")
     for i in range(args.seeds):
@@ -42,9 +44,17 @@ def main() -> None:
             )  # fmt: skip
             cpu[name] = r.timings["cpu"]
             totals[name] += cpu[name]
+            if relearn and r.relearns:
+                again = [x.seconds for x in r.relearns]
+                first = r.timings["learn"] - sum(again)
+                relearn_shares += [x / first for x in again]
         print(f"| {i} | {cpu['paper']:.2f} | {cpu['default']:.2f} | "
               f"{cpu['default'] / cpu['paper']:.2f} | {r.outcome} |")  # fmt: skip
     print(f"\nratio of the totals: {totals['default'] / totals['paper']:.2f}")
+    if relearn_shares:
+        q = sorted(relearn_shares)
+        print(f"re-learns: {len(q)}; each costs {sum(q) / len(q):.2f}× the first learning on "
+              f"average (median {q[len(q) // 2]:.2f}, {q[0]:.2f}–{q[-1]:.2f})")  # fmt: skip
 
 
 if __name__ == "__main__":
