@@ -27,6 +27,7 @@ go-time state is read through the episode module's internals (its watcher and it
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 from dataclasses import replace
 
@@ -94,20 +95,20 @@ def main() -> None:
     episode._Watcher.__init__ = keep_watcher
     episode.success_probability = at_go
     rows = []
-    out = open(args.jsonl, "w") if args.jsonl else None
-    for i in range(args.seeds):
-        state.pop("chances", None)
-        r = episode.run_episode(
-            scenario, "mirl-t", observability=args.observability, obs_steps=300,
-            seed=run_seed(0, i),
-        )  # fmt: skip
-        if "chances" not in state:
-            continue
-        row = {"run": i, "success": r.outcome == "success", "seen": r.seen_steps}
-        row.update(state["chances"])
-        rows.append(row)
-        if out:
-            print(json.dumps(row), file=out, flush=True)
+    with open(args.jsonl, "w") if args.jsonl else contextlib.nullcontext() as out:
+        for i in range(args.seeds):
+            state.pop("chances", None)
+            r = episode.run_episode(
+                scenario, "mirl-t", observability=args.observability, obs_steps=300,
+                seed=run_seed(0, i),
+            )  # fmt: skip
+            if "chances" not in state:
+                continue
+            row = {"run": i, "success": r.outcome == "success", "seen": r.seen_steps}
+            row.update(state["chances"])
+            rows.append(row)
+            if out is not None:
+                print(json.dumps(row), file=out, flush=True)
     y = np.array([r["success"] for r in rows], dtype=float)
     name = args.scenario + (f" with {args.damage} damaged" if args.damage else "")
     print(f"{name}, d = {args.observability}: {len(rows)} runs where L went, "

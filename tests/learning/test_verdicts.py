@@ -281,8 +281,8 @@ def test_lateral_drift_is_the_mean_offset_after_forward_steps():
     # a forward step that failed (stayed put) is no drift: a robot on a wall is off for the wall
     stuck = np.array(east[:4] + [east[3]] * 3 + [-1] * 3)
     t, s, s_next = observed_steps(stuck)
-    got = lateral_drift(d, t, s, np.zeros(len(t), dtype=int), s_next, lateral)
-    assert got is None or got.steps == 3
+    got = lateral_drift(d, t, s, np.zeros(len(t), dtype=int), s_next, lateral, min_steps=1)
+    assert got.steps == 3 and got.mean == pytest.approx(0.1)  # the three that arrived
     assert LateralDrift(-0.125, 0.008, 313).sentence() == (
         "0.125 cell to the right of the centre line (± 0.008) on 313 forward steps"
     )

@@ -359,9 +359,9 @@ def lateral_drift(
     robot was near it (:func:`in_company`): a step starting or ending in company is left out,
     because robots passing each other keep to one side, which is no wheel's doing; so is a
     forward step that failed (a robot stuck against a wall is off the centre line for the
-    wall's reason, step after step). Consecutive
-    offsets of one robot are correlated (a robot off the centre line stays off it for a
-    while): the standard error is inflated by (1 + ρ)/(1 − ρ), ρ their lag-1 autocorrelation.
+    wall's reason, step after step). Consecutive offsets of one robot are correlated (a robot
+    off the centre line stays off it for a while): the standard error is inflated by
+    (1 + ρ)/(1 − ρ), ρ their lag-1 autocorrelation.
     """
     t, s, labels, s_next = (np.asarray(v, dtype=int) for v in (t, s, labels, s_next))
     y = np.asarray(lateral, dtype=float)[t + 1]
