@@ -10,7 +10,6 @@ from scipy.stats import beta as beta_dist
 from mirl.learning.learn import learn
 from mirl.learning.transitions import count_subsets, observed_steps
 from mirl.learning.verdicts import (
-    DriftSpec,
     LateralDrift,
     PriorSpec,
     Verdict,
@@ -25,7 +24,7 @@ from mirl.learning.verdicts import (
     verdict_from_draws,
 )
 from mirl.simulation.grid import PatrolSimulator
-from mirl.world.faults import DamageDefinition
+from mirl.world.faults import DamageDefinition, DriftSpec
 from mirl.world.scenario import load_scenario
 
 FEATURES = ("left_wheel", "right_wheel", "navigation", "floor")
@@ -242,6 +241,47 @@ def test_drift_likelihood_integrates_the_drift_scale_out(gap, mean):
     )[0]
     got = float(np.exp(drift_log_likelihood(np.array([gap]), drift, spec))[0])
     assert got == pytest.approx(ref, rel=1e-7)
+
+
+@pytest.mark.parametrize("gap", [-0.6, -0.1, 0.0, 0.05, 0.4])
+@pytest.mark.parametrize("mean", [-0.12, 0.0, 0.07])
+def test_drift_likelihood_with_a_measured_drift_per_gap(gap, mean):
+    """κ measured (N(m, (spread m)²)): the normal closed form against numerical integration."""
+    from scipy import integrate
+    from scipy.stats import norm
+
+    drift, spec = LateralDrift(mean, 0.01, 100), DriftSpec(per_gap=0.25, spread=0.3)
+    s = np.hypot(drift.se, spec.tolerance)
+    sd = spec.spread * spec.per_gap
+    ref = integrate.quad(
+        lambda k: norm.pdf(mean, k * gap, s) * norm.pdf(k, spec.per_gap, sd), -np.inf, np.inf
+    )[0]
+    got = float(np.exp(drift_log_likelihood(np.array([gap]), drift, spec))[0])
+    assert got == pytest.approx(ref, rel=1e-7)
+
+
+def test_a_measured_drift_per_gap_pins_the_gap_a_free_one_does_not():
+    """With κ unknown a small gap with a large κ explains a drift as well as a large gap; with κ
+    measured the drift says how far apart the wheels are."""
+    drift = LateralDrift(0.085, 0.01, 100)
+    gaps = np.array([0.1, 0.35])  # p_right − p_left: a veer to the left
+    free = drift_log_likelihood(gaps, drift, DriftSpec())
+    known = drift_log_likelihood(gaps, drift, DriftSpec(per_gap=0.25))
+    assert abs(free[0] - free[1]) < 0.5
+    assert known[1] - known[0] > 2.5
+
+
+def test_the_scenario_says_how_a_weak_wheel_drifts():
+    """The verdict reads κ from the scenario's fault definition: a measured κ turns a drift that
+    a free κ leaves open into the wheel."""
+    # the physical world's ξ: turns need no wheel (mirl.physics.config.physical_feature_map)
+    obs = [(FORWARD, 170, 300), (("navigation", "floor"), 32, 40), (("floor",), 98, 109)]
+    drift = LateralDrift(0.085, 0.009, 100)
+    free = feature_uncertainty(FEATURES, obs, DamageDefinition(), drift=drift).verdict
+    measured = DamageDefinition(drift=DriftSpec(per_gap=0.25))
+    known = feature_uncertainty(FEATURES, obs, measured, drift=drift).verdict
+    assert known.damage_probabilities["left_wheel"] > free.damage_probabilities["left_wheel"]
+    assert known.part == "left_wheel" and known.damage_probabilities["right_wheel"] < 0.05
 
 
 @pytest.mark.parametrize("side", [+1, -1])

@@ -283,3 +283,44 @@ def test_the_physical_world_is_modelled_with_turns_that_need_no_wheel(healthy):
             assert abs(model.true_transitions(i) - expected).max() == 0
             success = model.domain.success_probabilities(probs)[:, 1:3]  # the turns
             assert np.allclose(success, probs["navigation"] * probs["floor"])
+
+
+def test_the_physical_world_states_how_far_a_weak_wheel_drifts_its_robot(healthy):
+    """L's model of this world reads a robot's drift with the world's measured κ; a scenario
+    that states its own keeps it."""
+    from dataclasses import replace
+
+    from mirl.experiments.physics_world import PhysicsRunWorld
+    from mirl.physics.config import scenario_physics
+    from mirl.world.faults import DriftSpec
+
+    cfg = scenario_physics(healthy)
+    drift = PhysicsRunWorld.modelled(healthy).faults.drift
+    assert healthy.faults.drift.per_gap is None
+    assert (drift.per_gap, drift.spread) == (cfg.drift_per_gap, cfg.drift_spread)
+    own = replace(healthy, faults=replace(healthy.faults, drift=DriftSpec(per_gap=0.1)))
+    assert PhysicsRunWorld.modelled(own).faults.drift.per_gap == 0.1
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("wheel", ["left_wheel", "right_wheel"])
+def test_the_measured_drift_per_gap_holds_on_seeds_it_was_not_measured_on(healthy, wheel):
+    """κ re-measured (benchmarks/calibrate_drift.py's measurement, robot J, strength 0.6, a
+    seed outside the calibration's) lies within the stated spread of the constant."""
+    import importlib.util
+    from pathlib import Path
+
+    from mirl.physics.config import scenario_physics
+
+    path = Path(__file__).parents[2] / "benchmarks" / "calibrate_drift.py"
+    spec = importlib.util.spec_from_file_location("calibrate_drift", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    i, out = bench.measure(healthy, "J", wheel, 0.6, seed=300, steps=300)
+    drift, q_weak, _ = out[i]
+    q_healthy = out[1 - i][1]
+    gap = bench.HEALTHY * (1 - q_weak / q_healthy)
+    kappa = abs(drift.mean) / gap
+    cfg = scenario_physics(healthy)
+    assert abs(kappa - cfg.drift_per_gap) <= 2 * cfg.drift_spread * cfg.drift_per_gap
+    assert np.sign(drift.mean) == (1 if wheel == "left_wheel" else -1)

@@ -47,3 +47,15 @@ def test_a_scenario_file_sets_its_faults(tmp_path):
     path.write_text(text + "\n[faults]\nmargin = 'x'\n")
     with pytest.raises(ScenarioError, match="faults.margin"):
         load_scenario(path)
+
+
+def test_the_faults_table_says_how_a_weak_wheel_drifts():
+    d = read_faults({"drift": {"per_gap": 0.3, "spread": 0.2}}, FEATURES)
+    assert d.drift.per_gap == 0.3 and d.drift.spread == 0.2 and d.drift.tolerance == 0.02
+    assert read_faults({}, FEATURES).drift.per_gap is None
+    with pytest.raises(FieldError, match="faults.drift.slope"):
+        read_faults({"drift": {"slope": 0.3}}, FEATURES)
+    with pytest.raises(FieldError, match="faults.drift.per_gap"):
+        read_faults({"drift": {"per_gap": 0}}, FEATURES)
+    with pytest.raises(FieldError, match="faults.drift.spread"):
+        read_faults({"drift": {"spread": "wide"}}, FEATURES)

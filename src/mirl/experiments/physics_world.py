@@ -11,7 +11,7 @@ cell; it is detected when a patroller's camera saw it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -22,6 +22,7 @@ from mirl.physics.config import (
     WHEELS,
     physical_feature_map,
     physics_config,
+    scenario_physics,
     with_motor_strength,
 )
 from mirl.physics.patrol import PhysicalWorld
@@ -99,9 +100,16 @@ class PhysicsRunWorld:
     def modelled(scenario: Scenario) -> Scenario:
         """The scenario as L models this world: its ξ with the wheels taken out of the turns,
         which a weak motor still drives in time
-        (:func:`~mirl.physics.config.physical_feature_map`); the patrollers' true policies are
-        the scenario's, which they follow here."""
-        return scenario.modelled_with(physical_feature_map(scenario.feature_map))
+        (:func:`~mirl.physics.config.physical_feature_map`), and a weak wheel drifting its robot
+        by the world's measured κ (``PhysicsConfig.drift_per_gap``) unless the scenario's
+        ``[faults]`` table states one; the patrollers' true policies are the scenario's, which
+        they follow here."""
+        faults = scenario.faults
+        if faults.drift.per_gap is None:
+            cfg = scenario_physics(scenario)
+            drift = replace(faults.drift, per_gap=cfg.drift_per_gap, spread=cfg.drift_spread)
+            faults = replace(faults, drift=drift)
+        return scenario.modelled_with(physical_feature_map(scenario.feature_map), faults)
 
     @staticmethod
     def damaged_parts(scenario: Scenario) -> dict[str, tuple[str, ...]]:

@@ -22,8 +22,10 @@ two corrections for what the point estimate takes as certain:
   unknown. Poses can: a robot veers towards its weaker wheel, so robot data (poses, not grid
   states) carry the mean lateral offset of its forward steps from the hallway's centre line
   (:attr:`~mirl.observations.trajectories.Trajectories.lateral`), which enters as one more
-  likelihood term: offset ~ N(κ (p_right − p_left), se² + τ²), κ ≥ 0 unknown with a
-  half-normal prior. :func:`lateral_drift`, :func:`drift_log_likelihood`.
+  likelihood term: offset ~ N(κ (p_right − p_left), se² + τ²), κ the drift of a unit wheel gap:
+  measured where the robots are known (the physical world's), else unknown with a half-normal
+  prior (:class:`~mirl.world.faults.DriftSpec`). :func:`lateral_drift`,
+  :func:`drift_log_likelihood`.
 
 The posterior over the features' success probabilities is then the product of the pooled
 binomial likelihood (Eq. 2: a subset succeeds with ∏_{τ∈ξ} p_τ) and a prior saying that most
@@ -49,13 +51,12 @@ import scipy.sparse as sp
 from scipy.special import betaln, expit, log_ndtr
 
 from mirl.world.domain import FORWARD, PatrolDomain
-from mirl.world.faults import DamageDefinition
+from mirl.world.faults import DamageDefinition, DriftSpec
 
 __all__ = [
     "Verdict",
     "FeatureUncertainty",
     "PriorSpec",
-    "DriftSpec",
     "LateralDrift",
     "WHEELS",
     "soft_counts",
@@ -203,24 +204,6 @@ class LateralDrift:
             f"{abs(self.mean):.3f} cell to the {side} of the centre line (± {self.se:.3f}) on "
             f"{self.steps} forward steps"
         )
-
-
-@dataclass(frozen=True)
-class DriftSpec:
-    """How a lateral drift relates to the wheels: offset ~ N(κ (p_right − p_left), se² + τ²).
-
-    Parameters
-    ----------
-    scale : float, default 0.5
-        The scale (cells) of κ's half-normal prior: a wheel-probability gap of 1 drifts a robot
-        by up to about half a cell — across a one-cell hallway to the wall.
-    tolerance : float, default 0.02
-        τ (cells): how far from the centre line a healthy robot's mean path driving alone may
-        lie beyond its standard error (localisation error, the controller's own bias).
-    """
-
-    scale: float = 0.5
-    tolerance: float = 0.02
 
 
 @dataclass(frozen=True)
@@ -386,15 +369,24 @@ def drift_log_likelihood(
 ) -> np.ndarray:
     """log p(drift | gap) for wheel gaps ``gap`` = p_right − p_left, κ integrated out.
 
-    With offset = κ · gap + ε, κ ~ N⁺(0, scale²) and ε ~ N(0, s²), s² = se² + tolerance², the
-    offset is skew-normal (Azzalini 1985): 2 φ(x; 0, v) Φ(α x / √v), v = gap² scale² + s²,
-    α = gap · scale / s. A gap of 0 (both wheels alike) gives N(0, s²): no drift expected.
+    With offset = κ · gap + ε, ε ~ N(0, s²), s² = se² + tolerance²:
+
+    * κ measured (``spec.per_gap`` = m, κ ~ N(m, (spread · m)²)): the offset is normal,
+      N(m · gap, gap² (spread · m)² + s²) (κ's normal prior stands in for one truncated at 0,
+      which it is within 3.3 standard deviations at the default spread);
+    * κ unknown (κ ~ N⁺(0, scale²)): the offset is skew-normal (Azzalini 1985),
+      2 φ(x; 0, v) Φ(α x / √v), v = gap² scale² + s², α = gap · scale / s.
+
+    A gap of 0 (both wheels alike) gives N(0, s²) either way: no drift expected.
     """
     gap = np.asarray(gap, dtype=float)
     s2 = drift.se**2 + spec.tolerance**2
+    x = drift.mean
+    if spec.per_gap is not None:
+        v = gap**2 * (spec.spread * spec.per_gap) ** 2 + s2
+        return -0.5 * np.log(2 * np.pi * v) - (x - spec.per_gap * gap) ** 2 / (2 * v)
     v = gap**2 * spec.scale**2 + s2
     alpha = gap * spec.scale / np.sqrt(s2)
-    x = drift.mean
     return (
         np.log(2.0) - 0.5 * np.log(2 * np.pi * v) - x**2 / (2 * v)
         + log_ndtr(alpha * x / np.sqrt(v))
@@ -635,7 +627,8 @@ def feature_uncertainty(
     features : sequence of str
     observations : sequence of (subset, successes, trials)
     definition : DamageDefinition
-        What "damaged" means (and the prior's healthy levels).
+        What "damaged" means (and the prior's healthy levels, and how a weak wheel drifts the
+        robot).
     dispersion : float, default 1
         The counts are divided by it (:func:`failure_dispersion`).
     drift : LateralDrift, optional
@@ -648,8 +641,8 @@ def feature_uncertainty(
     scaled = [(sub, k / dispersion, n / dispersion) for sub, k, n in observations if n > 0]
     healthy = {f: definition.healthy.get(f, 0.95) for f in features}
     p, w = posterior_draws(
-        features, scaled, healthy, prior=prior, drift=drift, n_draws=n_draws,
-        random_state=random_state,
+        features, scaled, healthy, prior=prior, drift=drift, drift_spec=definition.drift,
+        n_draws=n_draws, random_state=random_state,
     )  # fmt: skip
     tail = (1 - LEVEL) / 2
     intervals = {

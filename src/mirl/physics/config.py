@@ -71,6 +71,13 @@ class PhysicsConfig:
     keep_right_within: float = 6.0  # cells: a robot coming the other way this close -> keep right
     pass_distance: float = 1.2  # cells: another robot this close ahead -> pass slowly
     pass_speed: float = 0.2  # m/s (per 1 m cell) while passing
+    # cells of lateral drift per unit gap between the wheels' success probabilities (κ), and its
+    # relative spread: measured, not assumed (`python benchmarks/calibrate_drift.py`: 0.257 by
+    # least squares over both robots' either motor at 0.5 and 0.7 strength, seeds 100-101,
+    # boyd2-healthy, relative sd 0.11); the spread is wider than measured because other maps
+    # and strengths were measured less (docs/design.md, "Which side: the lateral drift")
+    drift_per_gap: float = 0.25
+    drift_spread: float = 0.3
     motor_strength: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
 
     def strength(self, robot: str, wheel: str) -> float:
@@ -152,7 +159,8 @@ def physics_config(
 # fields a zero makes meaningless (a division by it, or a robot or camera that cannot act)
 _POSITIVE = frozenset(
     ("timestep", "control_hz", "step_seconds", "camera_fov_deg",
-     "patroller_fov_deg", "max_speed", "max_accel", "turn_speed")
+     "patroller_fov_deg", "max_speed", "max_accel", "turn_speed", "drift_per_gap",
+     "drift_spread")
 )  # fmt: skip
 
 

@@ -11,6 +11,15 @@ Without it, the healthy levels are those a scenario's robots get by default
 (:data:`~mirl.world.scenario_sections.HEALTHY_PROBABILITIES`; 0.95 for a feature those do not
 name) and the margin is 0.15: a wheel is damaged below 0.80. The grid world's damaged wheel
 (0.70) lies below that, a healthy one (0.95) well above it.
+
+The same table says how a weak wheel shows in a robot's poses (:class:`DriftSpec`), for the
+verdicts on robot data::
+
+    [faults]
+    drift = { per_gap = 0.25, spread = 0.3, tolerance = 0.02 }
+
+Without ``per_gap`` the drift per unit of wheel gap is unknown (a half-normal prior of scale
+``scale``); the physical world states its own, measured (``PhysicsConfig.drift_per_gap``).
 """
 
 from __future__ import annotations
@@ -22,12 +31,46 @@ from typing import Any
 from mirl.world import schema
 from mirl.world.scenario_sections import HEALTHY_PROBABILITIES
 
-__all__ = ["DamageDefinition", "DEFAULT_MARGIN", "DEFAULT_HEALTHY", "read_faults"]
+__all__ = ["DamageDefinition", "DriftSpec", "DEFAULT_MARGIN", "DEFAULT_HEALTHY", "read_faults"]
 
 DEFAULT_MARGIN = 0.15
 """How far below its healthy level a part's success probability must be to count as damaged."""
 DEFAULT_HEALTHY = 0.95
 """The healthy level of a feature :data:`HEALTHY_PROBABILITIES` does not name."""
+
+
+@dataclass(frozen=True)
+class DriftSpec:
+    """How a weak wheel shows in a robot's lateral drift: offset ~ N(κ (p_right − p_left), se² +
+    τ²), κ the drift (cells) of a unit gap between the wheels' success probabilities.
+
+    Parameters
+    ----------
+    per_gap : float or None, default None
+        κ where it is known (measured for the robots and their controller): κ ~ N(per_gap,
+        (spread · per_gap)²). None: κ is unknown, with a half-normal prior of scale ``scale``.
+    spread : float, default 0.3
+        κ's relative standard deviation when ``per_gap`` is given.
+    scale : float, default 0.5
+        The scale (cells) of κ's half-normal prior when ``per_gap`` is None: a wheel-probability
+        gap of 1 drifts a robot by up to about half a cell — across a one-cell hallway to the
+        wall.
+    tolerance : float, default 0.02
+        τ (cells): how far from the centre line a healthy robot's mean path driving alone may
+        lie beyond its standard error (localisation error, the controller's own bias).
+    """
+
+    per_gap: float | None = None
+    spread: float = 0.3
+    scale: float = 0.5
+    tolerance: float = 0.02
+
+    def __post_init__(self) -> None:
+        if self.per_gap is not None and not self.per_gap > 0:
+            raise ValueError(f"`per_gap` must be positive, got {self.per_gap}")
+        for name in ("spread", "scale", "tolerance"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"`{name}` must be positive, got {getattr(self, name)}")
 
 
 @dataclass(frozen=True)
@@ -41,10 +84,13 @@ class DamageDefinition:
         :data:`DEFAULT_HEALTHY`.
     margin : float, default :data:`DEFAULT_MARGIN`
         How far below the healthy level damage starts, in (0, 1).
+    drift : DriftSpec, default DriftSpec()
+        How a weak wheel shows in the robot's lateral drift (robot data with poses).
     """
 
     healthy: Mapping[str, float] = field(default_factory=lambda: dict(HEALTHY_PROBABILITIES))
     margin: float = DEFAULT_MARGIN
+    drift: DriftSpec = field(default_factory=DriftSpec)
 
     def __post_init__(self) -> None:
         if not 0.0 < self.margin < 1.0:
@@ -67,14 +113,25 @@ class DamageDefinition:
 
 
 def read_faults(data: Any, features: tuple[str, ...]) -> DamageDefinition:
-    """The ``[faults]`` table (``healthy`` levels per feature, ``margin``), checked."""
-    faults = schema.table(data, "faults", ("healthy", "margin"))
+    """The ``[faults]`` table (``healthy`` levels per feature, ``margin``, ``drift``), checked."""
+    faults = schema.table(data, "faults", ("healthy", "margin", "drift"))
     default = DamageDefinition()
     healthy = {f: default.healthy.get(f, DEFAULT_HEALTHY) for f in features}
     for name, value in schema.table(faults.get("healthy", {}), "faults.healthy", features).items():
         healthy[name] = schema.number(value, f"faults.healthy.{name}", low=0.0, high=1.0)
     margin = schema.number(faults.get("margin", DEFAULT_MARGIN), "faults.margin", low=0.0, high=1.0)
+    drift = schema.table(faults.get("drift", {}), "faults.drift", _DRIFT_FIELDS)
+    spec = {
+        name: schema.number(value, f"faults.drift.{name}", low=0.0, high=10.0)
+        for name, value in drift.items()
+    }
+    for name, value in spec.items():
+        if value <= 0:
+            raise schema.FieldError(f"faults.drift.{name}", f"must be positive, got {value}")
     try:
-        return DamageDefinition(healthy, margin)
+        return DamageDefinition(healthy, margin, DriftSpec(**spec))
     except ValueError as exc:
         raise schema.FieldError("faults", str(exc)) from None
+
+
+_DRIFT_FIELDS = ("per_gap", "spread", "scale", "tolerance")

@@ -168,11 +168,14 @@ class Scenario:
         robots[i] = replace(robots[i], feature_probabilities=probs)
         return replace(self, robots=tuple(robots))
 
-    def modelled_with(self, feature_map: FeatureMap) -> Scenario:
-        """The same robots with their motion modelled by another ξ: the true transitions follow
-        ``feature_map``, the true policies (and Q-values) stay this scenario's, because the
-        robots behave as they do whatever model of their motion an observer takes."""
-        model = replace(self, feature_map=feature_map)
+    def modelled_with(
+        self, feature_map: FeatureMap, faults: DamageDefinition | None = None
+    ) -> Scenario:
+        """The same robots with their motion modelled by another ξ (and, given ``faults``,
+        their damage read another way): the true transitions follow ``feature_map``, the true
+        policies (and Q-values) stay this scenario's, because the robots behave as they do
+        whatever model of their motion an observer takes."""
+        model = replace(self, feature_map=feature_map, faults=faults or self.faults)
         behaviour = self._true_models
         T = [
             transition_matrix(model.domain, r.feature_probabilities, self.error_model)
