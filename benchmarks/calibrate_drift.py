@@ -94,9 +94,11 @@ def main() -> None:
     keep = np.isfinite(d) & (g >= MARGIN)
     d, g = d[keep], g[keep]
     k = d / g
-    print(f"\nκ over the {keep.sum()} conditions with a gap ≥ {MARGIN}: least squares "
-          f"{(d @ g) / (g @ g):.3f}, mean {k.mean():.3f}, relative sd "
-          f"{k.std(ddof=1) / k.mean():.2f}, range {k.min():.3f}-{k.max():.3f}")
+    print(
+        f"\nκ over the {keep.sum()} conditions with a gap ≥ {MARGIN}: least squares "
+        f"{(d @ g) / (g @ g):.3f}, mean {k.mean():.3f}, relative sd "
+        f"{k.std(ddof=1) / k.mean():.2f}, range {k.min():.3f}-{k.max():.3f}"
+    )
 
 
 if __name__ == "__main__":
