@@ -60,6 +60,11 @@ def calibration(name: str, seeds: int, steps: int) -> None:
         print(f"{rn:<6} open loop: left wheel {ol['left_wheel_speed']:.2f} m/s, right wheel "
               f"{ol['right_wheel_speed']:.2f} m/s; pivot turn_left {ol['turn_left_rate']:.0f} "
               f"deg/s, turn_right {ol['turn_right_rate']:.0f} deg/s")  # fmt: skip
+    share, failed = cal.stayed()
+    print(
+        f"failed moving steps that stayed put: {share:.3f} of {failed} (the rest reached "
+        f"another action's state or elsewhere); forward: {cal.stayed('forward')[0]:.3f}"
+    )
     # (a) Eq. 4 from the true steps and executed actions
     print("mIRL*/T (Eq. 4, max entropy):")
     n = len(sc.robots)

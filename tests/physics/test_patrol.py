@@ -264,7 +264,7 @@ def test_a_weak_motor_still_pivots_in_time(healthy, wheel):
 
 def test_the_physical_world_is_modelled_with_turns_that_need_no_wheel(healthy):
     """What the test above measures is what L's model of this world says: its ξ takes the
-    wheels out of the turns and keeps everything else of the scenario's."""
+    wheels out of the turns, failed steps stay put, and the rest is the scenario's."""
     from mirl.experiments.physics_world import PhysicsRunWorld
     from mirl.world.motion import transition_matrix
 
@@ -273,13 +273,14 @@ def test_the_physical_world_is_modelled_with_turns_that_need_no_wheel(healthy):
     assert subsets["turn_left"] == subsets["turn_right"] == ("navigation", "floor")
     assert subsets["forward"] == healthy.feature_map.action_subsets["forward"]
     assert model.robots == healthy.robots and model.map is not None
+    assert healthy.error_model == "uniform" and model.error_model == "stop"
     # the patrollers follow the scenario's policies; only the model of their motion changes
     for sc in (healthy, load_scenario("boydright")):
         model = PhysicsRunWorld.modelled(sc)
         for i in range(len(sc.robots)):
             assert np.array_equal(model.true_policy(i), sc.true_policy(i))
             probs = sc.robots[i].feature_probabilities
-            expected = transition_matrix(model.domain, probs, sc.error_model)
+            expected = transition_matrix(model.domain, probs, "stop")
             assert abs(model.true_transitions(i) - expected).max() == 0
             success = model.domain.success_probabilities(probs)[:, 1:3]  # the turns
             assert np.allclose(success, probs["navigation"] * probs["floor"])
@@ -324,3 +325,19 @@ def test_the_measured_drift_per_gap_holds_on_seeds_it_was_not_measured_on(health
     cfg = scenario_physics(healthy)
     assert abs(kappa - cfg.drift_per_gap) <= 2 * cfg.drift_spread * cfg.drift_per_gap
     assert np.sign(drift.mean) == (1 if wheel == "left_wheel" else -1)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("wheel", [None, "left_wheel", "right_wheel"])
+def test_failed_steps_stay_put(healthy, wheel):
+    """What L's model of this world says of a failed step (it stays where it started) is what
+    the physics does, healthy or with either motor weak."""
+    from mirl.physics.calibration import calibrate
+    from mirl.physics.config import with_motor_strength
+
+    sc = healthy if wheel is None else with_motor_strength(healthy, "J", wheel, 0.6)
+    cal = calibrate(sc, steps=200, seeds=[11])
+    share, failed = cal.stayed()
+    assert failed >= 10 and share >= 0.8
+    # Eq. 5's uniform error model would send two thirds of them to another action's state
+    assert cal.failure_ends[:, :3, 1].sum() <= 0.05 * failed

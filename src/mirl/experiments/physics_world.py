@@ -19,6 +19,7 @@ import numpy as np
 from mirl.experiments.worlds import Detection, RunSetup
 from mirl.physics import mujoco_version
 from mirl.physics.config import (
+    PHYSICAL_ERROR_MODEL,
     WHEELS,
     physical_feature_map,
     physics_config,
@@ -100,16 +101,19 @@ class PhysicsRunWorld:
     def modelled(scenario: Scenario) -> Scenario:
         """The scenario as L models this world: its ξ with the wheels taken out of the turns,
         which a weak motor still drives in time
-        (:func:`~mirl.physics.config.physical_feature_map`), and a weak wheel drifting its robot
+        (:func:`~mirl.physics.config.physical_feature_map`); failed steps that stay put
+        (:data:`~mirl.physics.config.PHYSICAL_ERROR_MODEL`); and a weak wheel drifting its robot
         by the world's measured κ (``PhysicsConfig.drift_per_gap``) unless the scenario's
-        ``[faults]`` table states one; the patrollers' true policies are the scenario's, which
+        ``[faults]`` table states one. The patrollers' true policies are the scenario's, which
         they follow here."""
         faults = scenario.faults
         if faults.drift.per_gap is None:
             cfg = scenario_physics(scenario)
             drift = replace(faults.drift, per_gap=cfg.drift_per_gap, spread=cfg.drift_spread)
             faults = replace(faults, drift=drift)
-        return scenario.modelled_with(physical_feature_map(scenario.feature_map), faults)
+        return scenario.modelled_with(
+            physical_feature_map(scenario.feature_map), faults, PHYSICAL_ERROR_MODEL
+        )
 
     @staticmethod
     def damaged_parts(scenario: Scenario) -> dict[str, tuple[str, ...]]:

@@ -6,7 +6,8 @@ patrol with the ground-truth actions known (those their controllers executed), a
 s_t being the discretised true pose at t. Rates are reported for every step and for steps with
 no other robot within ``alone`` cells (the robot's own physics, without waiting and slow
 passing). Speeds are the true distance per forward step; turn rates the peak yaw rate over the
-control ticks of a turn step.
+control ticks of a turn step. A failed step ends where the robot stayed, in another action's
+intended state (what Eq. 5's uniform error model says), or elsewhere (``failure_ends``).
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ import numpy as np
 from mirl.physics.patrol import PhysicalWorld
 from mirl.world.domain import ACTIONS
 
+MOVING = ("forward", "turn_left", "turn_right")
+
 __all__ = ["Calibration", "calibrate", "open_loop"]
 
 
@@ -27,6 +30,9 @@ class Calibration:
     # [robot][action] -> [trials, successes] (all steps) and (steps alone)
     counts: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 2), dtype=int))
     counts_alone: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 2), dtype=int))
+    # [robot][action] -> failed steps that [stayed put, reached another action's intended state,
+    # ended elsewhere]
+    failure_ends: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 3), dtype=int))
     forward_speed: list[list[float]] = field(default_factory=list)  # m/s, alone forward steps
     turn_rate: list[dict[str, list[float]]] = field(default_factory=list)  # deg/s peak per turn
     contacts: int = 0
@@ -41,6 +47,13 @@ class Calibration:
         c = (self.counts_alone if alone else self.counts)[robot, ACTIONS.index(action)]
         return (c[1] / c[0] if c[0] else float("nan")), int(c[0])
 
+    def stayed(self, action: str | None = None) -> tuple[float, int]:
+        """The share of failed steps (of ``action``, or of every moving action) whose robot
+        stayed put, and how many failed steps that is of."""
+        moving = [ACTIONS.index(action)] if action else [ACTIONS.index(a) for a in MOVING]
+        ends = self.failure_ends[:, moving].sum(axis=(0, 1))
+        return (ends[0] / ends.sum() if ends.sum() else float("nan")), int(ends.sum())
+
 
 def calibrate(scenario, *, steps: int = 750, seeds=range(4), alone: int = 2, config=None,
               observability: float = 1.0) -> Calibration:  # fmt: skip
@@ -52,6 +65,7 @@ def calibrate(scenario, *, steps: int = 750, seeds=range(4), alone: int = 2, con
     cal = Calibration(scenario.robot_names)
     cal.counts = np.zeros((n, len(ACTIONS), 2), dtype=int)
     cal.counts_alone = np.zeros_like(cal.counts)
+    cal.failure_ends = np.zeros((n, len(ACTIONS), 3), dtype=int)
     cal.forward_speed = [[] for _ in range(n)]
     cal.turn_rate = [{"turn_left": [], "turn_right": []} for _ in range(n)]
     for seed in seeds:
@@ -76,9 +90,14 @@ def calibrate(scenario, *, steps: int = 750, seeds=range(4), alone: int = 2, con
             others = [j for j in range(n) if j != i]
             d = np.min([np.abs(cells[:, i] - cells[:, j]).sum(-1) for j in others], axis=0)
             lonely = np.minimum(d[:-1], d[1:]) > alone
+            s, s_next = T[:-1, i], T[1:, i]
+            end = np.where(
+                s_next == s, 0, np.where((dom.intended[s] == s_next[:, None]).any(1), 1, 2)
+            )
             for a in range(len(ACTIONS)):
                 m = A[:, i] == a
                 cal.counts[i, a] += [m.sum(), ok[m, i].sum()]
+                cal.failure_ends[i, a] += np.bincount(end[m & ~ok[:, i]], minlength=3)
                 cal.counts_alone[i, a] += [(m & lonely).sum(), ok[m & lonely, i].sum()]
             # ticks of step t: t*k .. (t+1)*k - 1 (tick j ends at (j + 1) / control_hz)
             P = poses[:, i].reshape(-1, k, 3)

@@ -169,16 +169,24 @@ class Scenario:
         return replace(self, robots=tuple(robots))
 
     def modelled_with(
-        self, feature_map: FeatureMap, faults: DamageDefinition | None = None
+        self,
+        feature_map: FeatureMap,
+        faults: DamageDefinition | None = None,
+        error_model: str | None = None,
     ) -> Scenario:
         """The same robots with their motion modelled by another ξ (and, given ``faults``,
         their damage read another way): the true transitions follow ``feature_map``, the true
         policies (and Q-values) stay this scenario's, because the robots behave as they do
         whatever model of their motion an observer takes."""
-        model = replace(self, feature_map=feature_map, faults=faults or self.faults)
+        model = replace(
+            self,
+            feature_map=feature_map,
+            faults=faults or self.faults,
+            error_model=error_model or self.error_model,
+        )
         behaviour = self._true_models
         T = [
-            transition_matrix(model.domain, r.feature_probabilities, self.error_model)
+            transition_matrix(model.domain, r.feature_probabilities, model.error_model)
             for r in self.robots
         ]
         # fills the cached property: the policies are this scenario's, not re-solved under ξ
