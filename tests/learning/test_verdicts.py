@@ -24,6 +24,7 @@ from mirl.learning.verdicts import (
     verdict_from_draws,
 )
 from mirl.simulation.grid import PatrolSimulator
+from mirl.world.domain import ACTIONS
 from mirl.world.faults import DamageDefinition, DriftSpec
 from mirl.world.scenario import load_scenario
 
@@ -194,6 +195,32 @@ def test_soft_counts_without_a_soft_policy_are_the_hard_counts():
     )
     assert n3.sum() == pytest.approx(n.sum())
     assert k3.sum() > k.sum()
+
+
+@pytest.mark.parametrize("error_model", ["uniform", "stop"])
+def test_a_label_its_model_cannot_explain_is_not_a_failure(error_model):
+    """A hard "stop" (a meeting rule's, a known policy's) after which the robot drove into the
+    cell ahead: under Eq. 5 a failed stop can end there, and it counts as a failure of the
+    floor; where failures stay put it cannot, and the step counts for the action that explains
+    it (forward, whose success it is), with or without a soft policy."""
+    from mirl.world.motion import transition_matrix
+
+    scenario = load_scenario("boyd2")
+    d = scenario.domain
+    stop, forward = ACTIONS.index("stop"), ACTIONS.index("forward")
+    s = np.array([s for s in range(d.n_states) if d.intended[s, forward] != s][:1])
+    s_next = d.intended[s, forward]
+    probs = scenario.robots[0].feature_probabilities
+    T = transition_matrix(d, probs, error_model)
+    for soft in (None, np.full((d.n_states, d.n_actions), 1.0 / d.n_actions)):
+        own = None if soft is None else np.full(d.n_states, forward)  # "stop" is the rule's
+        k, n = soft_counts(d, s, np.array([stop]), s_next, T, soft, own)
+        floor = d.subsets.index(("floor",))
+        fwd = d.subset_index[s[0], forward]
+        if error_model == "uniform":
+            assert n[floor] == 1 and k[floor] == 0
+        else:
+            assert n[floor] == 0 and k[fwd] == pytest.approx(n[fwd]) and n.sum() == 1
 
 
 def test_dispersion_sees_clustered_failures():

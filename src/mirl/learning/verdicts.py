@@ -230,7 +230,11 @@ def soft_counts(
 
     Without ``soft_policy`` (labels from perception or a known policy) the labels count as
     they are. Steps whose label is not ``own_policy``'s action (the meeting rule's) and
-    unlabelled steps (-1, left out) keep their labels too.
+    unlabelled steps (-1, left out) keep their labels too — unless T says the label cannot have
+    produced the step (T(s, a, s') = 0: under the ``stop`` error model, a "stop" after which
+    the robot moved): such a step is spread over the actions that can, by π(a | s) T(s, a, s'),
+    π the soft policy or, without one, uniform. A label T cannot explain is a wrong label, not
+    a failure of its features; a step no action explains keeps its label.
 
     Parameters
     ----------
@@ -250,15 +254,17 @@ def soft_counts(
     A, n_sub = domain.n_actions, len(domain.subsets)
     resp = np.zeros((len(s), A))
     resp[np.arange(len(s)), labels] = 1.0
-    if soft_policy is not None and transitions is not None and len(s):
-        soft = np.ones(len(s), dtype=bool)
-        if own_policy is not None:
-            soft = np.asarray(own_policy)[s] == labels
+    if transitions is not None and len(s):
         rows = (s[:, None] * A + np.arange(A)[None, :]).ravel()
         cols = np.repeat(s_next, A)
         lik = np.asarray(sp.csr_array(transitions)[rows, cols]).reshape(len(s), A)
-        joint = np.asarray(soft_policy)[s] * lik
+        prior = np.full((len(s), A), 1.0 / A) if soft_policy is None else soft_policy[s]
+        joint = np.asarray(prior) * lik
         total = joint.sum(axis=1)
+        soft = np.zeros(len(s), dtype=bool)
+        if soft_policy is not None:
+            soft[:] = True if own_policy is None else np.asarray(own_policy)[s] == labels
+        soft |= lik[np.arange(len(s)), labels] <= 0  # a label T cannot explain
         soft &= total > 0
         resp[soft] = joint[soft] / total[soft, None]
     idx = domain.subset_index[s]  # (n, A)
