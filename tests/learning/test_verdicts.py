@@ -373,3 +373,17 @@ def test_drift_leaves_out_steps_in_company():
     assert lateral_drift(d, t, s, labels, s_next, lateral, alone).steps == 7
     got = lateral_drift(d, t, s, labels, s_next, lateral, company, min_steps=3)
     assert got.steps == 3 and got.mean == pytest.approx(0.0)
+
+
+def test_a_robot_following_or_leading_another_is_not_in_company():
+    """Only a robot coming the other way, ahead or alongside, makes a robot keep to one side:
+    one following it, one it follows, and one it has passed do not."""
+    d = load_scenario("boyd2").domain
+    east = np.array([d.state_index(0, c, 0) for c in range(2, 7)])
+    behind = np.array([d.state_index(0, c, 0) for c in range(1, 6)])  # follows, same way
+    ahead = np.array([d.state_index(0, c, 0) for c in range(3, 8)])  # leads, same way
+    passed = np.full(5, d.state_index(0, 1, 2))  # behind it, going west: they have passed
+    coming = np.full(5, d.state_index(0, 8, 2))  # ahead, coming west
+    for other in (behind, ahead, passed):
+        assert not in_company(d, [east, other], 0, 6.0).any()
+    assert in_company(d, [east, coming], 0, 6.0).all()

@@ -50,8 +50,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.special import betaln, expit, log_ndtr
 
-from mirl.world.domain import FORWARD, PatrolDomain
+from mirl.world.domain import FORWARD, N_HEADINGS, PatrolDomain
 from mirl.world.faults import DamageDefinition, DriftSpec
+from mirl.world.maps import HEADING_DELTAS
 
 __all__ = [
     "Verdict",
@@ -314,9 +315,14 @@ def _lag1_autocorrelation(z: np.ndarray, times: np.ndarray, min_pairs: int) -> f
 def in_company(
     domain: PatrolDomain, series: Sequence[np.ndarray], robot: int, distance: float
 ) -> np.ndarray:
-    """(horizon,) bool: the steps at which L saw another robot within ``distance`` cells (centre
-    to centre) of robot ``robot``, both seen; ``series`` holds every robot's observed states
-    (-1 unseen)."""
+    """(horizon,) bool: the steps at which L saw another robot coming the other way (the
+    opposite heading) within ``distance`` cells (centre to centre) of robot ``robot``, ahead of
+    it or alongside (within 110° of its heading, so until they have passed), both seen;
+    ``series`` holds every robot's observed states (-1 unseen).
+
+    Robots passing each other keep to one side; a robot following or leading another does not
+    pass it and drives the middle, so those steps are not company.
+    """
     own = np.asarray(series[robot])
     near = np.zeros(len(own), dtype=bool)
     for j, other in enumerate(series):
@@ -324,9 +330,13 @@ def in_company(
             continue
         other = np.asarray(other)
         both = (own >= 0) & (other >= 0)
-        a = domain.states[own[both], :2]
-        b = domain.states[other[both], :2]
-        near[both] |= np.hypot(*(a - b).T) <= distance
+        a = domain.states[own[both]]
+        b = domain.states[other[both]]
+        v = (b[:, :2] - a[:, :2]).astype(float)
+        dist = np.hypot(*v.T)
+        ahead = (v * HEADING_DELTAS[a[:, 2]]).sum(axis=1) >= np.cos(np.radians(110)) * dist
+        oncoming = b[:, 2] == (a[:, 2] + N_HEADINGS // 2) % N_HEADINGS
+        near[both] |= (dist <= distance) & oncoming & ahead
     return near
 
 
