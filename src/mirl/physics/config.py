@@ -85,8 +85,8 @@ class PhysicsConfig:
     # cells of lateral drift per unit gap between the wheels' success probabilities (κ), and its
     # relative spread: measured, not assumed (`python benchmarks/calibrate_drift.py`: 0.257 by
     # least squares over both robots' either motor at 0.5 and 0.7 strength, seeds 100-101,
-    # boyd2-healthy, relative sd 0.11); the spread is wider than measured because other maps
-    # and strengths were measured less (docs/design.md, "Which side: the lateral drift")
+    # boyd2-healthy, relative sd 0.15; boydright 0.258, 0.12); the spread is twice the measured
+    # because other maps and strengths were measured less (docs/design.md, "Which side")
     drift_per_gap: float = 0.25
     drift_spread: float = 0.3
     motor_strength: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
