@@ -10,7 +10,8 @@ two corrections for what the point estimate takes as certain:
   meant each one, P(a | s, s') ∝ π(a | s) T(s, a, s'), with π the learned *soft* policy (the IRL's
   maximum-entropy policy, whose temperature is learned) and T the learned model: the E-step of
   EM over latent labels (Dempster, Laird & Rubin 1977). Steps labelled by the meeting rule and
-  labels from a known policy stay as they are. :func:`soft_counts`.
+  labels from a known policy stay as they are, unless T says the label cannot have produced the
+  step (a wrong label, not a failure of its features). :func:`soft_counts`.
 * **Clustered failures.** Failures come in runs (a robot on a wall, a robot queueing behind
   another), so steps are not independent trials. The lag-1 autocorrelation ρ of the
   standardised outcome residuals gives the variance inflation (1 + ρ)/(1 − ρ) of an AR(1)
