@@ -12,8 +12,9 @@ apart from those the verdicts are evaluated on (0.6, seeds 0-9):
   camera track of the weak robot, labelled with the actions its controller executed;
 * the gap in ξ's terms: a weak wheel alone explains the weak robot's forward deficit, so its
   success probability is h · q_weak / q_healthy (h = 0.95, the healthy level; q the forward
-  steps' success rate driving alone, no other robot within the detection distance, the
-  healthy q from the other, healthy robot of the same runs), and the gap h − that.
+  steps' success rate driving alone, no other robot within the detection distance
+  (:func:`mirl.physics.calibration.calibrate`'s), the healthy q from the other, healthy robot
+  of the same runs), and the gap h − that.
 
 κ = |drift| / gap per condition. Conditions whose gap is below the damage margin (0.15: a motor
 that still drives its steps, e.g. at 0.85 strength) say little about κ (a drift of a few
@@ -28,42 +29,32 @@ import argparse
 import numpy as np
 
 from mirl.learning.verdicts import in_company, lateral_drift
+from mirl.physics.calibration import calibrate
 from mirl.physics.config import with_motor_strength
-from mirl.physics.patrol import PhysicalWorld
-from mirl.world.domain import FORWARD
+from mirl.world.faults import DEFAULT_HEALTHY as HEALTHY
+from mirl.world.faults import DEFAULT_MARGIN as MARGIN
 from mirl.world.scenario import load_scenario
-
-HEALTHY = 0.95
-MARGIN = 0.15  # mirl.world.faults.DEFAULT_MARGIN
 
 
 def measure(scenario, robot: str, wheel: str, strength: float, seed: int, steps: int):
+    """One patrol with ``robot``'s ``wheel`` at ``strength``: ``robot``'s index and, per robot,
+    (its drift, its forward steps' success rate driving alone, how many such steps)."""
     sc = with_motor_strength(scenario, robot, wheel, strength)
-    w = PhysicalWorld(sc, seed=seed, random_starts=True, observability=1.0)
-    for _ in range(steps - 1):
-        w.step()
-    dom = sc.domain
-    true = w.records.true_states()
-    actions = np.asarray(w.records.actions)
-    seen = np.asarray(w.records.seen)
-    lateral = np.asarray(w.records.seen_lateral)
-    i = sc.robot_index(robot)
     reach = sc.detect_distance
+    cal = calibrate(sc, steps=steps, seeds=[seed], alone=reach, observability=1.0)
+    rec = cal.records[0]
+    dom = sc.domain
+    actions = np.asarray(rec.actions)
+    seen = np.asarray(rec.seen)
+    lateral = np.asarray(rec.seen_lateral)
     out = {}
     for j in range(len(sc.robots)):
-        company = in_company(dom, [seen[:, k] for k in range(seen.shape[1])], j, reach)
+        company = in_company(dom, list(seen.T), j, reach)
         t = np.flatnonzero((seen[:-1, j] >= 0) & (seen[1:, j] >= 0))
         drift = lateral_drift(dom, t, seen[t, j], actions[t, j], seen[t + 1, j], lateral[:, j],
                               company)  # fmt: skip
-        # forward success alone, from the true states and the executed actions
-        cells = dom.states[true][:, :, :2]
-        others = [k for k in range(len(sc.robots)) if k != j]
-        d = np.min([np.hypot(*(cells[:, j] - cells[:, k]).T) for k in others], axis=0)
-        alone = (d[:-1] > reach) & (d[1:] > reach)
-        fwd = (actions[:, j] == FORWARD) & alone
-        ok = dom.intended[true[:-1, j], FORWARD] == true[1:, j]
-        out[j] = (drift, ok[fwd].mean(), int(fwd.sum()))
-    return i, out
+        out[j] = (drift, *cal.rate(j, "forward", alone=True))
+    return sc.robot_index(robot), out
 
 
 def main() -> None:

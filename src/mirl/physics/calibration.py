@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mirl.physics.patrol import PhysicalWorld
+from mirl.physics.records import Records
 from mirl.world.domain import ACTIONS
 
 MOVING = ("forward", "turn_left", "turn_right")
@@ -42,6 +43,8 @@ class Calibration:
     cpu_seconds: float = 0.0
     # what a learner with the true actions gets: (t, robot, s, a, s') of every step
     transitions: list[np.ndarray] = field(default_factory=list)
+    # each patrol's record (true and believed states, actions, what L's camera saw)
+    records: list[Records] = field(default_factory=list)
 
     def rate(self, robot: int, action: str, *, alone: bool = False) -> tuple[float, int]:
         c = (self.counts_alone if alone else self.counts)[robot, ACTIONS.index(action)]
@@ -77,6 +80,7 @@ def calibrate(scenario, *, steps: int = 750, seeds=range(4), alone: int = 2, con
         cal.cpu_seconds += time.process_time() - cpu
         cal.sim_seconds += (steps - 1) * w.cfg.step_seconds
         cal.steps += steps - 1
+        cal.records.append(w.records)
         cal.contacts += w.contacts
         cal.wall_contacts += w.wall_contacts
         T = w.true_states()

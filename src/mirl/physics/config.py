@@ -83,9 +83,9 @@ class PhysicsConfig:
     pass_distance: float = 1.2  # cells: another robot this close ahead -> pass slowly
     pass_speed: float = 0.2  # m/s (per 1 m cell) while passing
     # cells of lateral drift per unit gap between the wheels' success probabilities (κ), and its
-    # relative spread: measured, not assumed (`python benchmarks/calibrate_drift.py`: 0.257 by
+    # relative spread: measured, not assumed (`python benchmarks/calibrate_drift.py`: 0.260 by
     # least squares over both robots' either motor at 0.5 and 0.7 strength, seeds 100-101,
-    # boyd2-healthy, relative sd 0.15; boydright 0.258, 0.12); the spread is twice the measured
+    # boyd2-healthy, relative sd 0.16; boydright 0.258, 0.12); the spread is twice the measured
     # because other maps and strengths were measured less (docs/design.md, "Which side")
     drift_per_gap: float = 0.25
     drift_spread: float = 0.3

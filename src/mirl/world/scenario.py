@@ -181,8 +181,8 @@ class Scenario:
         model = replace(
             self,
             feature_map=feature_map,
-            faults=faults or self.faults,
-            error_model=error_model or self.error_model,
+            faults=self.faults if faults is None else faults,
+            error_model=self.error_model if error_model is None else error_model,
         )
         behaviour = self._true_models
         T = [
