@@ -16,10 +16,12 @@ from mirl.learning.verdicts import (
     drift_log_likelihood,
     failure_dispersion,
     feature_uncertainty,
+    held_by_others,
     in_company,
     lateral_drift,
     point_verdict,
     posterior_draws,
+    robot_uncertainty,
     soft_counts,
     verdict_from_draws,
 )
@@ -387,3 +389,45 @@ def test_a_robot_following_or_leading_another_is_not_in_company():
     for other in (behind, ahead, passed):
         assert not in_company(d, [east, other], 0, 6.0).any()
     assert in_company(d, [east, coming], 0, 6.0).all()
+
+
+def test_a_robot_in_the_way_holds_a_robot():
+    """Another robot in a robot's cell or in the cell ahead of it holds it; one behind it, one
+    beside it in the next hallway cell across, and one L does not see do not."""
+    d = load_scenario("boyd2").domain
+    east = np.full(6, d.state_index(0, 3, 0))
+    others = [
+        (d.state_index(0, 3, 2), True),  # the same cell, any heading
+        (d.state_index(0, 4, 2), True),  # the cell ahead
+        (d.state_index(0, 2, 0), False),  # the cell behind
+        (d.state_index(0, 5, 2), False),  # two cells ahead
+        (-1, False),  # unseen
+    ]
+    for state, held in others:
+        assert held_by_others(d, [east, np.full(6, state)], 0).tolist() == [held] * 6
+        assert held_by_others(d, [np.full(6, state), east], 1).tolist() == [held] * 6
+
+
+def test_steps_held_by_another_robot_are_no_evidence_of_a_part():
+    """A healthy robot jammed against another for forty steps fails every step there; those
+    steps are the other robot's doing, and left out, L is sure the robot is healthy again."""
+    scenario, states = _steps()
+    d = scenario.domain
+    i = scenario.robot_index("I")
+    x = states[:, i].copy()
+    x[101:141] = x[100]  # stuck from step 100 on ...
+    other = np.full(len(x), -1)
+    other[100:141] = d.state_index(*d.states[x[100]][:2], (d.states[x[100]][2] + 2) % 4)
+    t, s, s_next = observed_steps(x)
+    labels = np.full(len(x), -1)
+    labels[t] = scenario.true_policy(i)[s]
+    probs = scenario.robots[i].feature_probabilities
+    T = scenario.true_transitions(i)
+    definition = scenario.faults
+    jammed = robot_uncertainty(d, x, labels, T, probs, definition)
+    held = held_by_others(d, [x, other], 0)
+    assert held[100:141].all() and held.sum() == 41
+    free = robot_uncertainty(d, x, labels, T, probs, definition, held=held)
+    # the jam alone makes a damaged part as likely as not (0.45 here); left out, it is gone
+    assert jammed.verdict.confidence < 0.7
+    assert free.verdict.part is None and free.verdict.confidence > 0.99

@@ -66,7 +66,12 @@ from mirl.learning.transitions import (
     perception_labels,
     policy_labels,
 )
-from mirl.learning.verdicts import FeatureUncertainty, in_company, robot_uncertainty
+from mirl.learning.verdicts import (
+    FeatureUncertainty,
+    held_by_others,
+    in_company,
+    robot_uncertainty,
+)
 from mirl.mdp import TabularMDP, value_iteration
 from mirl.observations.trajectories import Trajectories
 from mirl.world.game import Equilibrium
@@ -303,13 +308,14 @@ def _uncertainties(
     reach = setup.scenario.detect_distance
     for i, x in enumerate(setup.series):
         company = None if lateral[i] is None else in_company(setup.domain, setup.series, i, reach)
+        held = None if lateral[i] is None else held_by_others(setup.domain, setup.series, i)
         estimator = irl[i]
         soft = estimator.soft_policy_ if row.relabels and estimator is not None else None
         out.append(
             robot_uncertainty(
                 setup.domain, x, labels[i], transitions[i], probs[i], setup.scenario.faults,
                 soft_policy=soft, own_policy=policies[i] if soft is not None else None,
-                lateral=lateral[i], company=company, random_state=setup.robot_seed(i, 0),
+                lateral=lateral[i], company=company, held=held, random_state=setup.robot_seed(i, 0),
             )
         )  # fmt: skip
     return out

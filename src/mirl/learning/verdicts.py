@@ -341,6 +341,26 @@ def in_company(
     return near
 
 
+def held_by_others(domain: PatrolDomain, series: Sequence[np.ndarray], robot: int) -> np.ndarray:
+    """(horizon,) bool: the steps at which L saw another robot in robot ``robot``'s cell or in
+    the cell ahead of it, both seen; ``series`` holds every robot's observed states (-1
+    unseen). A physical robot there is in the way: what the step does is not its parts' doing.
+    """
+    own = np.asarray(series[robot])
+    held = np.zeros(len(own), dtype=bool)
+    for j, other in enumerate(series):
+        if j == robot:
+            continue
+        other = np.asarray(other)
+        both = (own >= 0) & (other >= 0)
+        a = domain.states[own[both]]
+        b = domain.states[other[both]]
+        v = b[:, :2] - a[:, :2]
+        ahead = (v == HEADING_DELTAS[a[:, 2]]).all(axis=1)
+        held[both] |= (v == 0).all(axis=1) | ahead
+    return held
+
+
 def lateral_drift(
     domain: PatrolDomain,
     t: np.ndarray,
@@ -687,6 +707,7 @@ def robot_uncertainty(
     own_policy: np.ndarray | None = None,
     lateral: np.ndarray | None = None,
     company: np.ndarray | None = None,
+    held: np.ndarray | None = None,
     random_state: int = 0,
 ) -> FeatureUncertainty:
     """Intervals and verdict of one robot from what L saw of it (module docstring).
@@ -718,6 +739,9 @@ def robot_uncertainty(
     from mirl.learning.transitions import observed_steps
 
     t, s, s_next = observed_steps(series)
+    if held is not None:
+        free = ~np.asarray(held, dtype=bool)[t]
+        t, s, s_next = t[free], s[free], s_next[free]
     lab = np.asarray(labels)[t]
     successes, trials = soft_counts(domain, s, lab, s_next, transitions, soft_policy, own_policy)
     observations = [
