@@ -18,7 +18,9 @@ Steps are labelled with actions by perception (the action whose intended state i
 :func:`mirl.learning.transitions.perception_labels`), or, where the reward is the truth, by the
 true policies. A method that relabels (``mirl-t``, mIRL*/T+Int, Sec. 3.6) runs rounds:
 
-1. label every observed step (s_t, s_{t+1}) by perception;
+1. label every observed step (s_t, s_{t+1}) by perception — or, warm-started from an earlier
+   solution (``warm_start``: a re-learn on a grown record), with the labels that solution's
+   policies and equilibrium give the record, the fixed point its own rounds reached;
 2. learn each robot's transition-feature probabilities and T from the labelled steps;
 3. learn each robot's reward by occluded max-ent IRL with that T, and pick the equilibrium
    under which the evident meetings are most likely;
@@ -27,11 +29,16 @@ true policies. A method that relabels (``mirl-t``, mIRL*/T+Int, Sec. 3.6) runs r
    policy says forward becomes a *failed* forward — and go back to 2, until at most
    ``label_tol`` of the labelled steps change (default 1 %; 0: none may change) or
    ``max_iterations`` rounds have run. Rounds after the first start the IRL from the previous
-   weights (one start instead of ``n_restarts``).
+   weights (one start instead of ``n_restarts``), and so does a warm start's first round, from
+   the earlier solution's.
+
+A warm start saves rounds, not the work of a round: every round, and the final weighing of the
+equilibria, runs on the whole grown record, and none of the earlier solution's T, IRL or
+weighing is exact for it.
 
 A method that does not relabel learns its T from the first labels (its labels could only change
-T) and its reward once. The equilibria are weighed by the joint filter once, for the final
-models.
+T) and its reward once (from a warm start's weights, when given). The equilibria are weighed by
+the joint filter once, for the final models.
 
 Every learned policy is the greedy policy of hard value iteration with the learned weights and that
 robot's T. ``behavior_accuracy`` (docs/design.md, "Behaviour accuracy") is filled in from the
@@ -94,7 +101,7 @@ def learn(
     score: bool = True,
     trace: LoopTrace | None = None,
     em_init: str = "intended",
-    initial_weights: list[np.ndarray] | None = None,
+    warm_start: LearnResult | None = None,
 ) -> LearnResult:
     """Learn models of the scenario's patrollers from L's ``observations`` with ``method``.
 
@@ -140,10 +147,17 @@ def learn(
         An empty trace to receive the labels, estimators and weighings of every round.
     em_init : {"intended", "uniform"}, default "intended"
         DBN-EM's initial T (:mod:`mirl.learning.dbn_em`).
-    initial_weights : list of ndarray, optional
-        One reward weight vector per robot from an earlier solution (a re-learn on a longer
-        record): the first IRL starts there, once, instead of ``n_restarts`` times from zero,
-        as the relabelling rounds after the first do.
+    warm_start : LearnResult, optional
+        An earlier solution for the same robots, typically learned on a shorter record (a
+        re-learn while L waits). The first IRL starts from its reward weights, once, instead of
+        ``n_restarts`` times from zero, as the relabelling rounds after the first do; a method
+        that relabels starts its rounds from the labels its policies and equilibrium give this
+        record instead of from perception — the fixed point the earlier rounds reached — so
+        the labels settle in fewer rounds (docs/design.md, "Learning while waiting").
+
+        .. versionchanged:: 0.2.0
+           Replaces ``initial_weights``, which started the IRL from an earlier solution's
+           weights and left the labels to perception.
 
     Returns
     -------
@@ -155,13 +169,17 @@ def learn(
     ------
     ValueError
         An unknown method or EM initialisation, or an option out of its range (the message
-        names it); observations of other robots than the scenario's.
+        names it); observations of other robots than the scenario's; a ``warm_start`` of other
+        robots or another map.
     TypeError
-        ``observations`` that are not :class:`~mirl.observations.trajectories.Trajectories`.
+        ``observations`` that are not :class:`~mirl.observations.trajectories.Trajectories`;
+        a ``warm_start`` that is not a :class:`~mirl.learning.results.LearnResult`.
     """
     scenario, row = _check_arguments(
         observations, scenario, method, p, em_init, max_iterations, label_tol, random_state
     )
+    if warm_start is not None:
+        _check_warm_start(warm_start, scenario)
     if visible is not None:
         visible = _checked_visible(visible, scenario.domain.n_states)
     start = time.perf_counter()
@@ -178,8 +196,7 @@ def learn(
     setup = _round_setup(
         observations, scenario, visible, observability, irl_options, random_state, em_init
     )
-    if initial_weights is not None:
-        setup.initial_weights = [np.asarray(w, dtype=float) for w in initial_weights]
+    setup.warm_start = warm_start
     clock = setup.clock
     trace = LoopTrace() if trace is None else trace
     weights, transitions, probs, eq, message = _method_models(
@@ -278,7 +295,7 @@ def _method_models(
         trace.labels.append(labels)
     transitions, probs, message = _transitions(setup, row.transitions, labels, p)
     if row.reward == "learned":  # once, against the T just found
-        weights = irl_round(setup, transitions, labels, setup.initial_weights, 1, trace)
+        weights = irl_round(setup, transitions, labels, setup.initial_weights(), 1, trace)
         eq = None
     else:
         weights = [np.asarray(r.weights, dtype=float) for r in scenario.robots]
@@ -380,6 +397,25 @@ def _check_arguments(
     return scenario, row
 
 
+def _check_warm_start(warm: LearnResult, scenario: Scenario) -> None:
+    """A warm start must model the scenario's robots, in its order, on its map."""
+    if not isinstance(warm, LearnResult):
+        raise TypeError(f"warm_start must be a mirl.learning.LearnResult, got {type(warm)}")
+    names = tuple(r.name for r in warm.robots)
+    if names != tuple(scenario.robot_names):
+        raise ValueError(
+            f"warm_start models robots {list(names)}, the scenario has {list(scenario.robot_names)}"
+        )
+    policy, weights = (scenario.domain.n_states,), (len(scenario.domain.reward_feature_names),)
+    for r in warm.robots:
+        if np.shape(r.policy) != policy or np.shape(r.weights) != weights:
+            raise ValueError(
+                f"warm_start's model of {r.name} is not of this map: a policy of shape "
+                f"{np.shape(r.policy)} and weights of shape {np.shape(r.weights)}, expected "
+                f"{policy} and {weights}"
+            )
+
+
 def _checked_visible(visible, n_states: int) -> np.ndarray:
     """``visible`` as an (S,) bool array; any other shape, or values other than 0/1, refused."""
     v = np.asarray(visible)
@@ -402,9 +438,9 @@ def relabel_loop(
     never fixate), or after ``max_iterations``."""
     clock = setup.clock
     with clock("labels"):
-        labels = perception(setup)
+        labels = perception(setup) if setup.warm_start is None else warm_labels(setup)
     n_labelled = sum(len(observed_steps(x)[0]) for x in setup.series)
-    weights = setup.initial_weights  # previous round's (or solution's), for warm starts
+    weights = setup.initial_weights()  # previous round's (or solution's), for warm starts
     trace.message = "stopped at max_iterations"
     for round_ in range(1, max_iterations + 1):
         trace.labels.append(labels)
@@ -492,12 +528,18 @@ class RoundSetup:
     irl_options: dict
     random_state: int | None
     em_init: str = "intended"
-    initial_weights: list[np.ndarray] | None = None  # an earlier solution's, for a warm start
     lateral: list[np.ndarray | None] | None = None  # per robot (horizon,) offsets, or None
+    warm_start: LearnResult | None = None  # an earlier solution to start from
 
     @property
     def domain(self):
         return self.scenario.domain
+
+    def initial_weights(self) -> list[np.ndarray] | None:
+        """The first IRL's start per robot: the warm start's weights, or None (from zero)."""
+        if self.warm_start is None:
+            return None
+        return [np.asarray(r.weights, dtype=float) for r in self.warm_start.robots]
 
     def robot_seed(self, robot: int, round_: int) -> int:
         """The IRL's seed for ``robot`` in round ``round_``, drawn from ``random_state``."""
@@ -514,6 +556,17 @@ def perception(setup: RoundSetup) -> list[np.ndarray]:
         lab[t] = perception_labels(setup.domain, s, s_next)
         out.append(lab)
     return out
+
+
+def warm_labels(setup: RoundSetup) -> list[np.ndarray]:
+    """Per robot (horizon,) labels the warm start's policies and equilibrium give this record:
+    where its rounds ended, on a record that now holds more steps. A robot the warm start never
+    saw is labelled by the model it was given (the others' reward, an uninformed T), which the
+    rounds then revise like any other labels."""
+    warm = setup.warm_start
+    assert warm is not None
+    policies = [r.policy for r in warm.robots]
+    return policy_labels(setup.domain, setup.series, policies, warm.equilibrium)
 
 
 def count_changes(series, old: list[np.ndarray], new: list[np.ndarray]) -> int:
