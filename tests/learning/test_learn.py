@@ -11,7 +11,7 @@ import pytest
 from mirl.cli import main
 from mirl.learning.learn import LoopTrace, learn
 from mirl.learning.methods import LEARNING_METHODS
-from mirl.learning.results import LearnResult
+from mirl.learning.results import LearnResult, oracle_models
 from mirl.learning.transitions import (
     count_subsets,
     observed_steps,
@@ -173,35 +173,42 @@ def _valid(boyd2, result):
 
 def test_a_warm_start_on_a_longer_record(boyd2, grown):
     """A re-learn on the grown record, warm-started from the learning of its first half: the
-    rounds start from the labels the first solution gives the whole record (steps it has seen
-    already and new ones), and end at least as settled as a cold start's."""
+    rounds start from the labels the first solution gives the steps it learned from and from
+    perception on the new ones, and end at least as settled as a cold start's."""
     obs, first_half = grown
     first = learn(first_half, boyd2, "mirl-t", observability=0.5)
-    trace = LoopTrace()
+    assert first.horizon == 120
+    trace, cold_trace = LoopTrace(), LoopTrace()
     warm = learn(obs, boyd2, "mirl-t", observability=0.5, warm_start=first, trace=trace)
-    cold = learn(obs, boyd2, "mirl-t", observability=0.5)
+    cold = learn(obs, boyd2, "mirl-t", observability=0.5, trace=cold_trace)
     _valid(boyd2, warm)
     assert warm.success and warm.iterations <= cold.iterations
     series = [obs.state_series(boyd2.domain, i) for i in range(2)]
-    expected = policy_labels(
+    earlier = policy_labels(
         boyd2.domain, series, [r.policy for r in first.robots], first.equilibrium
     )
-    for got, want in zip(trace.labels[0], expected, strict=True):
-        np.testing.assert_array_equal(got, want)
+    for got, old, perceived in zip(trace.labels[0], earlier, cold_trace.labels[0], strict=True):
+        np.testing.assert_array_equal(got[:120], old[:120])
+        np.testing.assert_array_equal(got[120:], perceived[120:])
     assert abs(np.mean([r.behavior_accuracy for r in warm.robots])
                - np.mean([r.behavior_accuracy for r in cold.robots])) <= 0.1  # fmt: skip
 
 
 def test_a_warm_start_from_a_record_that_never_saw_a_robot(boyd2, grown):
-    """J first seen after the earlier learning: its warm start is the model L had of it (the
-    others' reward), which the rounds revise from J's steps like any other."""
-    obs, first_half = grown
-    first = learn(_without(first_half, 1, 120), boyd2, "mirl-t", observability=0.5)
+    """J first seen after the earlier learning: the model L had of it (the others' reward)
+    labels none of its steps — all are new, and start from perception, as in a cold start —
+    so the rounds cannot settle on that model."""
+    obs, _ = grown
+    record = _without(obs, 1, 120)
+    first = learn(record.truncate(120), boyd2, "mirl-t", observability=0.5)
     assert "never observed: J" in first.message
     np.testing.assert_array_equal(first.robots[1].weights, first.robots[0].weights)
-    warm = learn(obs, boyd2, "mirl-t", observability=0.5, warm_start=first)
+    trace, cold_trace = LoopTrace(), LoopTrace()
+    warm = learn(record, boyd2, "mirl-t", observability=0.5, warm_start=first, trace=trace)
+    learn(record, boyd2, "mirl-t", observability=0.5, trace=cold_trace)
     _valid(boyd2, warm)
     assert "never observed" not in warm.message
+    np.testing.assert_array_equal(trace.labels[0][1], cold_trace.labels[0][1])
 
 
 def test_a_warm_start_for_a_record_that_never_sees_a_robot(boyd2, grown):
@@ -213,6 +220,19 @@ def test_a_warm_start_for_a_record_that_never_sees_a_robot(boyd2, grown):
     _valid(boyd2, warm)
     assert "never observed: J" in warm.message
     np.testing.assert_array_equal(warm.robots[1].weights, warm.robots[0].weights)
+
+
+def test_a_warm_start_from_no_record_starts_only_the_irl(boyd2, grown):
+    """Models not learned from a record (here the truth) have no labels to give: the rounds
+    start from perception, the IRL from their weights."""
+    obs, _ = grown
+    truth = oracle_models(boyd2)
+    assert truth.horizon is None
+    trace, cold_trace = LoopTrace(), LoopTrace()
+    learn(obs, boyd2, "mirl-t", observability=0.5, warm_start=truth, trace=trace)
+    learn(obs, boyd2, "mirl-t", observability=0.5, trace=cold_trace)
+    for a, b in zip(trace.labels[0], cold_trace.labels[0], strict=True):
+        np.testing.assert_array_equal(a, b)
 
 
 @pytest.mark.parametrize("method", ["mirl", "dbn-em"])

@@ -300,7 +300,7 @@ class _Learner:
     waits (``growth``: whenever its record holds that factor more observed steps — steps with
     both ends seen, summed over the patrollers — than at its last learning; None: never),
     warm-started from the last solution (its reward weights and, for a method that relabels,
-    the labels its policies give the grown record)."""
+    the labels its policies give the steps it learned from)."""
 
     def __init__(
         self,

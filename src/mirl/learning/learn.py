@@ -19,8 +19,9 @@ Steps are labelled with actions by perception (the action whose intended state i
 true policies. A method that relabels (``mirl-t``, mIRL*/T+Int, Sec. 3.6) runs rounds:
 
 1. label every observed step (s_t, s_{t+1}) by perception — or, warm-started from an earlier
-   solution (``warm_start``: a re-learn on a grown record), with the labels that solution's
-   policies and equilibrium give the record, the fixed point its own rounds reached;
+   solution (``warm_start``: a re-learn on a grown record), the steps that solution learned
+   from with the labels its policies and equilibrium give them (the fixed point its own rounds
+   reached) and only the new steps by perception;
 2. learn each robot's transition-feature probabilities and T from the labelled steps;
 3. learn each robot's reward by occluded max-ent IRL with that T, and pick the equilibrium
    under which the evident meetings are most likely;
@@ -151,9 +152,11 @@ def learn(
         An earlier solution for the same robots, typically learned on a shorter record (a
         re-learn while L waits). The first IRL starts from its reward weights, once, instead of
         ``n_restarts`` times from zero, as the relabelling rounds after the first do; a method
-        that relabels starts its rounds from the labels its policies and equilibrium give this
-        record instead of from perception — the fixed point the earlier rounds reached — so
-        the labels settle in fewer rounds (docs/design.md, "Learning while waiting").
+        that relabels starts its rounds, on the steps the earlier solution learned from (this
+        record is taken to extend that one), from the labels its policies and equilibrium give
+        them — the fixed point the earlier rounds reached — and on the new steps from
+        perception, so the labels settle in fewer rounds (docs/design.md, "Learning while
+        waiting").
 
         .. versionchanged:: 0.2.0
            Replaces ``initial_weights``, which started the IRL from an earlier solution's
@@ -240,6 +243,7 @@ def learn(
         success=bool(trace.converged),
         message=message,
         pair_equilibria=team.best_per_pair() if team is not None else {},
+        horizon=observations.horizon,
     )
 
 
@@ -559,14 +563,25 @@ def perception(setup: RoundSetup) -> list[np.ndarray]:
 
 
 def warm_labels(setup: RoundSetup) -> list[np.ndarray]:
-    """Per robot (horizon,) labels the warm start's policies and equilibrium give this record:
-    where its rounds ended, on a record that now holds more steps. A robot the warm start never
-    saw is labelled by the model it was given (the others' reward, an uninformed T), which the
-    rounds then revise like any other labels."""
+    """Per robot (horizon,) labels to start a warm start's rounds from: on the steps of the
+    record the warm start learned from (t below its ``horizon``; this record is taken to extend
+    that one), those its policies and equilibrium give them — where its rounds ended; on the
+    steps after, perception's, as in a cold start.
+
+    The new steps are not labelled by the earlier policies: a model learned on few or no steps
+    of a robot (never seen: the others' reward) would label them its own way, and the rounds,
+    fitting the IRL to those labels, can settle there (docs/design.md, "Learning while
+    waiting")."""
     warm = setup.warm_start
     assert warm is not None
-    policies = [r.policy for r in warm.robots]
-    return policy_labels(setup.domain, setup.series, policies, warm.equilibrium)
+    labels = perception(setup)
+    kept = min(warm.horizon or 0, len(labels[0]) if labels else 0)
+    if kept:
+        policies = [r.policy for r in warm.robots]
+        earlier = policy_labels(setup.domain, setup.series, policies, warm.equilibrium)
+        for lab, old in zip(labels, earlier, strict=True):
+            lab[:kept] = old[:kept]
+    return labels
 
 
 def count_changes(series, old: list[np.ndarray], new: list[np.ndarray]) -> int:
