@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -10,8 +11,13 @@ import pytest
 from mirl.cli import main
 from mirl.learning.learn import LoopTrace, learn
 from mirl.learning.methods import LEARNING_METHODS
-from mirl.learning.results import LearnResult
-from mirl.learning.transitions import count_subsets, observed_steps, perception_labels
+from mirl.learning.results import LearnResult, oracle_models
+from mirl.learning.transitions import (
+    count_subsets,
+    observed_steps,
+    perception_labels,
+    policy_labels,
+)
 from mirl.simulation.grid import simulate
 from mirl.world.domain import FORWARD, TURN_LEFT, TURN_RIGHT
 from mirl.world.scenario import load_scenario
@@ -122,6 +128,145 @@ def test_learning_is_deterministic_given_the_seed(boyd2):
     for ra, rb in zip(a.robots, b.robots, strict=True):
         np.testing.assert_array_equal(ra.weights, rb.weights)
         np.testing.assert_array_equal(ra.policy, rb.policy)
+
+
+# ---- warm starts (a re-learn on a grown record) ------------------------------------------------
+def test_a_warm_start_on_the_same_record_settles_at_once_on_its_labels(boyd2, full_run, relabelled):
+    """Started from a solution of the very same record, the rounds start at that solution's
+    fixed point: its final labels, unchanged by one round."""
+    result, trace = relabelled
+    assert result.label_changes[-1] == 0  # the solution is a fixed point of the relabelling
+    again = LoopTrace()
+    warm = learn(
+        full_run.observations, boyd2, "mirl-t", observability=1.0, warm_start=result, trace=again
+    )
+    assert warm.iterations == 1 and warm.label_changes == (0,) and warm.success
+    for first, last in zip(again.labels[0], trace.labels[-1], strict=True):
+        np.testing.assert_array_equal(first, last)
+    # the IRL, started at the earlier optimum, may drift along a flat direction of its loss:
+    # the policies agree wherever the robot was seen, not necessarily elsewhere
+    for i, (a, b) in enumerate(zip(warm.robots, result.robots, strict=True)):
+        x = full_run.observations.state_series(boyd2.domain, i)
+        np.testing.assert_array_equal(a.policy[x[x >= 0]], b.policy[x[x >= 0]])
+    assert warm.equilibrium == result.equilibrium
+
+
+def _without(obs, robot: int, before: int):
+    """``obs`` with robot ``robot``'s sightings before step ``before`` removed."""
+    return obs.select(~((obs.robot == robot) & (obs.t < before)))
+
+
+@pytest.fixture(scope="module")
+def grown(boyd2):
+    """A record of 240 steps at half view and its first 120 steps."""
+    obs = simulate(boyd2, 240, seed=3, observability=0.5, random_starts=True).observations
+    return obs, obs.truncate(120)
+
+
+def _valid(boyd2, result):
+    assert result.method == "mirl-t" and result.iterations == len(result.label_changes)
+    assert result.equilibrium in boyd2.game.equilibria()
+    for r in result.robots:
+        assert np.isfinite(r.weights).all() and r.policy.shape == (124,)
+        assert 0.0 <= r.behavior_accuracy <= 1.0
+
+
+def test_a_warm_start_on_a_longer_record(boyd2, grown):
+    """A re-learn on the grown record, warm-started from the learning of its first half: the
+    rounds start from the labels the first solution gives the steps it learned from and from
+    perception on the new ones, and end at least as settled as a cold start's."""
+    obs, first_half = grown
+    first = learn(first_half, boyd2, "mirl-t", observability=0.5)
+    assert first.horizon == 120
+    trace, cold_trace = LoopTrace(), LoopTrace()
+    warm = learn(obs, boyd2, "mirl-t", observability=0.5, warm_start=first, trace=trace)
+    cold = learn(obs, boyd2, "mirl-t", observability=0.5, trace=cold_trace)
+    _valid(boyd2, warm)
+    assert warm.success and warm.iterations <= cold.iterations
+    series = [obs.state_series(boyd2.domain, i) for i in range(2)]
+    earlier = policy_labels(
+        boyd2.domain, series, [r.policy for r in first.robots], first.equilibrium
+    )
+    for got, old, perceived in zip(trace.labels[0], earlier, cold_trace.labels[0], strict=True):
+        np.testing.assert_array_equal(got[:120], old[:120])
+        np.testing.assert_array_equal(got[120:], perceived[120:])
+    assert abs(np.mean([r.behavior_accuracy for r in warm.robots])
+               - np.mean([r.behavior_accuracy for r in cold.robots])) <= 0.1  # fmt: skip
+
+
+def test_a_warm_start_from_a_record_that_never_saw_a_robot(boyd2, grown):
+    """J first seen after the earlier learning: the model L had of it (the others' reward)
+    labels none of its steps — all are new, and start from perception, as in a cold start —
+    so the rounds cannot settle on that model."""
+    obs, _ = grown
+    record = _without(obs, 1, 120)
+    first = learn(record.truncate(120), boyd2, "mirl-t", observability=0.5)
+    assert "never observed: J" in first.message
+    np.testing.assert_array_equal(first.robots[1].weights, first.robots[0].weights)
+    trace, cold_trace = LoopTrace(), LoopTrace()
+    warm = learn(record, boyd2, "mirl-t", observability=0.5, warm_start=first, trace=trace)
+    learn(record, boyd2, "mirl-t", observability=0.5, trace=cold_trace)
+    _valid(boyd2, warm)
+    assert "never observed" not in warm.message
+    np.testing.assert_array_equal(trace.labels[0][1], cold_trace.labels[0][1])
+
+
+def test_a_warm_start_for_a_record_that_never_sees_a_robot(boyd2, grown):
+    """J seen in the earlier record but not in the new one (a record that does not extend the
+    earlier): J gets the others' reward, as in a cold start."""
+    obs, first_half = grown
+    first = learn(first_half, boyd2, "mirl-t", observability=0.5)
+    warm = learn(_without(obs, 1, 240), boyd2, "mirl-t", observability=0.5, warm_start=first)
+    _valid(boyd2, warm)
+    assert "never observed: J" in warm.message
+    np.testing.assert_array_equal(warm.robots[1].weights, warm.robots[0].weights)
+
+
+def test_a_warm_start_from_no_record_starts_only_the_irl(boyd2, grown):
+    """Models not learned from a record (here the truth) have no labels to give: the rounds
+    start from perception, the IRL from their weights."""
+    obs, _ = grown
+    truth = oracle_models(boyd2)
+    assert truth.horizon is None
+    trace, cold_trace = LoopTrace(), LoopTrace()
+    learn(obs, boyd2, "mirl-t", observability=0.5, warm_start=truth, trace=trace)
+    learn(obs, boyd2, "mirl-t", observability=0.5, trace=cold_trace)
+    for a, b in zip(trace.labels[0], cold_trace.labels[0], strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("method", ["mirl", "dbn-em"])
+def test_a_method_that_does_not_relabel_keeps_its_labels_and_starts_the_irl_warm(
+    boyd2, grown, method
+):
+    """Without relabelling only the IRL's start changes: the labels are perception's, and the
+    IRL starts once, from the earlier weights."""
+    obs, first_half = grown
+    first = learn(first_half, boyd2, "mirl-t", observability=0.5)
+    cold_trace, warm_trace = LoopTrace(), LoopTrace()
+    cold = learn(obs, boyd2, method, observability=0.5, n_restarts=2, trace=cold_trace)
+    warm = learn(
+        obs, boyd2, method, observability=0.5, n_restarts=2, warm_start=first, trace=warm_trace
+    )
+    for a, b in zip(warm_trace.labels[0], cold_trace.labels[0], strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert warm.iterations == cold.iterations == 1
+    for w, c in zip(warm_trace.irl, cold_trace.irl, strict=True):
+        assert len(w.result_.starts) == 1 and len(c.result_.starts) == 2
+    np.testing.assert_array_equal(warm.robots[0].transitions.toarray(),
+                                  cold.robots[0].transitions.toarray())  # fmt: skip
+
+
+def test_a_warm_start_of_other_robots_or_another_map_is_refused(boyd2, grown, relabelled):
+    obs, _ = grown
+    result, _ = relabelled
+    with pytest.raises(TypeError, match="warm_start must be"):
+        learn(obs, boyd2, warm_start=[r.weights for r in result.robots])
+    with pytest.raises(ValueError, match=r"warm_start models robots \['I'\]"):
+        learn(obs, boyd2, warm_start=replace(result, robots=result.robots[:1]))
+    small = replace(result.robots[0], policy=np.zeros(5, dtype=int))
+    with pytest.raises(ValueError, match="not of this map"):
+        learn(obs, boyd2, warm_start=replace(result, robots=(small, result.robots[1])))
 
 
 def test_bad_arguments(boyd2, full_run):

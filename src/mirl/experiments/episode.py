@@ -299,7 +299,8 @@ class _Learner:
     """L's learning from everything it has seen so far: once after observing, and again while it
     waits (``growth``: whenever its record holds that factor more observed steps — steps with
     both ends seen, summed over the patrollers — than at its last learning; None: never),
-    warm-started from the last solution's reward weights."""
+    warm-started from the last solution (its reward weights and, for a method that relabels,
+    the labels its policies give the steps it learned from)."""
 
     def __init__(
         self,
@@ -326,10 +327,7 @@ class _Learner:
 
     def learn_now(self) -> LearnResult:
         observations = _observations(self.scenario, self.world, self.world.t)
-        kwargs = dict(self.kwargs)
-        if self.learned is not None:
-            kwargs["initial_weights"] = [r.weights for r in self.learned.robots]
-        self.learned = learn(observations, self.scenario, **kwargs)
+        self.learned = learn(observations, self.scenario, warm_start=self.learned, **self.kwargs)
         self.learned_on = self._count()
         return self.learned
 

@@ -18,7 +18,10 @@ Steps are labelled with actions by perception (the action whose intended state i
 :func:`mirl.learning.transitions.perception_labels`), or, where the reward is the truth, by the
 true policies. A method that relabels (``mirl-t``, mIRL*/T+Int, Sec. 3.6) runs rounds:
 
-1. label every observed step (s_t, s_{t+1}) by perception;
+1. label every observed step (s_t, s_{t+1}) by perception — or, warm-started from an earlier
+   solution (``warm_start``: a re-learn on a grown record), the steps that solution learned
+   from with the labels its policies and equilibrium give them (the fixed point its own rounds
+   reached) and only the new steps by perception;
 2. learn each robot's transition-feature probabilities and T from the labelled steps;
 3. learn each robot's reward by occluded max-ent IRL with that T, and pick the equilibrium
    under which the evident meetings are most likely;
@@ -27,11 +30,16 @@ true policies. A method that relabels (``mirl-t``, mIRL*/T+Int, Sec. 3.6) runs r
    policy says forward becomes a *failed* forward — and go back to 2, until at most
    ``label_tol`` of the labelled steps change (default 1 %; 0: none may change) or
    ``max_iterations`` rounds have run. Rounds after the first start the IRL from the previous
-   weights (one start instead of ``n_restarts``).
+   weights (one start instead of ``n_restarts``), and so does a warm start's first round, from
+   the earlier solution's.
+
+A warm start saves rounds, not the work of a round: every round, and the final weighing of the
+equilibria, runs on the whole grown record, and none of the earlier solution's T, IRL or
+weighing is exact for it.
 
 A method that does not relabel learns its T from the first labels (its labels could only change
-T) and its reward once. The equilibria are weighed by the joint filter once, for the final
-models.
+T) and its reward once (from a warm start's weights, when given). The equilibria are weighed by
+the joint filter once, for the final models.
 
 Every learned policy is the greedy policy of hard value iteration with the learned weights and that
 robot's T. ``behavior_accuracy`` (docs/design.md, "Behaviour accuracy") is filled in from the
@@ -99,7 +107,7 @@ def learn(
     score: bool = True,
     trace: LoopTrace | None = None,
     em_init: str = "intended",
-    initial_weights: list[np.ndarray] | None = None,
+    warm_start: LearnResult | None = None,
 ) -> LearnResult:
     """Learn models of the scenario's patrollers from L's ``observations`` with ``method``.
 
@@ -145,10 +153,19 @@ def learn(
         An empty trace to receive the labels, estimators and weighings of every round.
     em_init : {"intended", "uniform"}, default "intended"
         DBN-EM's initial T (:mod:`mirl.learning.dbn_em`).
-    initial_weights : list of ndarray, optional
-        One reward weight vector per robot from an earlier solution (a re-learn on a longer
-        record): the first IRL starts there, once, instead of ``n_restarts`` times from zero,
-        as the relabelling rounds after the first do.
+    warm_start : LearnResult, optional
+        An earlier solution for the same robots, typically learned on a shorter record (a
+        re-learn while L waits). The first IRL starts from its reward weights, once, instead of
+        ``n_restarts`` times from zero, as the relabelling rounds after the first do; a method
+        that relabels starts its rounds, on the steps the earlier solution learned from (this
+        record is taken to extend that one), from the labels its policies and equilibrium give
+        them — the fixed point the earlier rounds reached — and on the new steps from
+        perception, so the labels settle in fewer rounds (docs/design.md, "Learning while
+        waiting").
+
+        .. versionchanged:: 0.2.0
+           Replaces ``initial_weights``, which started the IRL from an earlier solution's
+           weights and left the labels to perception.
 
     Returns
     -------
@@ -160,13 +177,17 @@ def learn(
     ------
     ValueError
         An unknown method or EM initialisation, or an option out of its range (the message
-        names it); observations of other robots than the scenario's.
+        names it); observations of other robots than the scenario's; a ``warm_start`` of other
+        robots or another map.
     TypeError
-        ``observations`` that are not :class:`~mirl.observations.trajectories.Trajectories`.
+        ``observations`` that are not :class:`~mirl.observations.trajectories.Trajectories`;
+        a ``warm_start`` that is not a :class:`~mirl.learning.results.LearnResult`.
     """
     scenario, row = _check_arguments(
         observations, scenario, method, p, em_init, max_iterations, label_tol, random_state
     )
+    if warm_start is not None:
+        _check_warm_start(warm_start, scenario)
     if visible is not None:
         visible = _checked_visible(visible, scenario.domain.n_states)
     start = time.perf_counter()
@@ -183,8 +204,7 @@ def learn(
     setup = _round_setup(
         observations, scenario, visible, observability, irl_options, random_state, em_init
     )
-    if initial_weights is not None:
-        setup.initial_weights = [np.asarray(w, dtype=float) for w in initial_weights]
+    setup.warm_start = warm_start
     clock = setup.clock
     trace = LoopTrace() if trace is None else trace
     weights, transitions, probs, eq, message = _method_models(
@@ -228,6 +248,7 @@ def learn(
         success=bool(trace.converged),
         message=message,
         pair_equilibria=team.best_per_pair() if team is not None else {},
+        horizon=observations.horizon,
     )
 
 
@@ -283,7 +304,7 @@ def _method_models(
         trace.labels.append(labels)
     transitions, probs, message = _transitions(setup, row.transitions, labels, p)
     if row.reward == "learned":  # once, against the T just found
-        weights = irl_round(setup, transitions, labels, setup.initial_weights, 1, trace)
+        weights = irl_round(setup, transitions, labels, setup.initial_weights(), 1, trace)
         eq = None
     else:
         weights = [np.asarray(r.weights, dtype=float) for r in scenario.robots]
@@ -386,6 +407,25 @@ def _check_arguments(
     return scenario, row
 
 
+def _check_warm_start(warm: LearnResult, scenario: Scenario) -> None:
+    """A warm start must model the scenario's robots, in its order, on its map."""
+    if not isinstance(warm, LearnResult):
+        raise TypeError(f"warm_start must be a mirl.learning.LearnResult, got {type(warm)}")
+    names = tuple(r.name for r in warm.robots)
+    if names != tuple(scenario.robot_names):
+        raise ValueError(
+            f"warm_start models robots {list(names)}, the scenario has {list(scenario.robot_names)}"
+        )
+    policy, weights = (scenario.domain.n_states,), (len(scenario.domain.reward_feature_names),)
+    for r in warm.robots:
+        if np.shape(r.policy) != policy or np.shape(r.weights) != weights:
+            raise ValueError(
+                f"warm_start's model of {r.name} is not of this map: a policy of shape "
+                f"{np.shape(r.policy)} and weights of shape {np.shape(r.weights)}, expected "
+                f"{policy} and {weights}"
+            )
+
+
 def _checked_visible(visible, n_states: int) -> np.ndarray:
     """``visible`` as an (S,) bool array; any other shape, or values other than 0/1, refused."""
     v = np.asarray(visible)
@@ -408,9 +448,9 @@ def relabel_loop(
     never fixate), or after ``max_iterations``."""
     clock = setup.clock
     with clock("labels"):
-        labels = perception(setup)
+        labels = perception(setup) if setup.warm_start is None else warm_labels(setup)
     n_labelled = sum(len(observed_steps(x)[0]) for x in setup.series)
-    weights = setup.initial_weights  # previous round's (or solution's), for warm starts
+    weights = setup.initial_weights()  # previous round's (or solution's), for warm starts
     trace.message = "stopped at max_iterations"
     for round_ in range(1, max_iterations + 1):
         trace.labels.append(labels)
@@ -498,12 +538,18 @@ class RoundSetup:
     irl_options: dict
     random_state: int | None
     em_init: str = "intended"
-    initial_weights: list[np.ndarray] | None = None  # an earlier solution's, for a warm start
     lateral: list[np.ndarray | None] | None = None  # per robot (horizon,) offsets, or None
+    warm_start: LearnResult | None = None  # an earlier solution to start from
 
     @property
     def domain(self):
         return self.scenario.domain
+
+    def initial_weights(self) -> list[np.ndarray] | None:
+        """The first IRL's start per robot: the warm start's weights, or None (from zero)."""
+        if self.warm_start is None:
+            return None
+        return [np.asarray(r.weights, dtype=float) for r in self.warm_start.robots]
 
     def robot_seed(self, robot: int, round_: int) -> int:
         """The IRL's seed for ``robot`` in round ``round_``, drawn from ``random_state``."""
@@ -520,6 +566,28 @@ def perception(setup: RoundSetup) -> list[np.ndarray]:
         lab[t] = perception_labels(setup.domain, s, s_next)
         out.append(lab)
     return out
+
+
+def warm_labels(setup: RoundSetup) -> list[np.ndarray]:
+    """Per robot (horizon,) labels to start a warm start's rounds from: on the steps of the
+    record the warm start learned from (t below its ``horizon``; this record is taken to extend
+    that one), those its policies and equilibrium give them — where its rounds ended; on the
+    steps after, perception's, as in a cold start.
+
+    The new steps are not labelled by the earlier policies: a model learned on few or no steps
+    of a robot (never seen: the others' reward) would label them its own way, and the rounds,
+    fitting the IRL to those labels, can settle there (docs/design.md, "Learning while
+    waiting")."""
+    warm = setup.warm_start
+    assert warm is not None
+    labels = perception(setup)
+    kept = min(warm.horizon or 0, len(labels[0]) if labels else 0)
+    if kept:
+        policies = [r.policy for r in warm.robots]
+        earlier = policy_labels(setup.domain, setup.series, policies, warm.equilibrium)
+        for lab, old in zip(labels, earlier, strict=True):
+            lab[:kept] = old[:kept]
+    return labels
 
 
 def count_changes(series, old: list[np.ndarray], new: list[np.ndarray]) -> int:

@@ -97,6 +97,9 @@ class LearnResult:
     pair_equilibria : mapping of (int, int) to Equilibrium
         Per pair (i < j, i the row player), the equilibrium it was learned to play; pairs not
         listed play ``equilibrium``.
+    horizon : int or None
+        The time steps of the record the models were learned from (t < horizon); None for
+        models not learned from a record (the truth, hand-made models).
     """
 
     method: str
@@ -109,6 +112,7 @@ class LearnResult:
     success: bool = True
     message: str = ""
     pair_equilibria: Mapping[tuple[int, int], Equilibrium] = field(default_factory=dict)
+    horizon: int | None = None
 
     def pair_equilibrium(self, i: int, j: int) -> Equilibrium:
         """The equilibrium robots ``i`` < ``j`` play."""
