@@ -44,7 +44,7 @@ the verdict.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -313,6 +313,19 @@ def _lag1_autocorrelation(z: np.ndarray, times: np.ndarray, min_pairs: int) -> f
     return float(z[pair] @ z[pair + 1]) / float(z @ z) * len(z) / len(pair)
 
 
+def _seen_together(
+    domain: PatrolDomain, series: Sequence[np.ndarray], robot: int
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per other robot: the (horizon,) steps at which L saw it and robot ``robot`` both, and
+    the (row, col, heading) of ``robot`` and of the other at those steps."""
+    own = np.asarray(series[robot])
+    for j, other in enumerate(series):
+        if j == robot:
+            continue
+        both = (own >= 0) & (np.asarray(other) >= 0)
+        yield both, domain.states[own[both]], domain.states[np.asarray(other)[both]]
+
+
 def in_company(
     domain: PatrolDomain, series: Sequence[np.ndarray], robot: int, distance: float
 ) -> np.ndarray:
@@ -326,13 +339,7 @@ def in_company(
     """
     own = np.asarray(series[robot])
     near = np.zeros(len(own), dtype=bool)
-    for j, other in enumerate(series):
-        if j == robot:
-            continue
-        other = np.asarray(other)
-        both = (own >= 0) & (other >= 0)
-        a = domain.states[own[both]]
-        b = domain.states[other[both]]
+    for both, a, b in _seen_together(domain, series, robot):
         v = (b[:, :2] - a[:, :2]).astype(float)
         dist = np.hypot(*v.T)
         ahead = (v * HEADING_DELTAS[a[:, 2]]).sum(axis=1) >= np.cos(np.radians(110)) * dist
@@ -348,13 +355,7 @@ def held_by_others(domain: PatrolDomain, series: Sequence[np.ndarray], robot: in
     """
     own = np.asarray(series[robot])
     held = np.zeros(len(own), dtype=bool)
-    for j, other in enumerate(series):
-        if j == robot:
-            continue
-        other = np.asarray(other)
-        both = (own >= 0) & (other >= 0)
-        a = domain.states[own[both]]
-        b = domain.states[other[both]]
+    for both, a, b in _seen_together(domain, series, robot):
         v = b[:, :2] - a[:, :2]
         ahead = (v == HEADING_DELTAS[a[:, 2]]).all(axis=1)
         held[both] |= (v == 0).all(axis=1) | ahead
