@@ -18,9 +18,9 @@ two corrections for what the point estimate takes as certain:
   process, and the counts are divided by it (a quasi-likelihood dispersion, McCullagh & Nelder
   1989, Sec. 4.5). :func:`failure_dispersion`.
 * **Robots in the way.** In robot data (poses: physical robots) a step that starts with another
-  robot in the robot's cell or the cell ahead is left out: a robot there blocks or pushes it,
-  and what the step does is not its parts' doing. Grid robots do not block each other.
-  :func:`held_by_others`.
+  robot in the robot's cell or the cell ahead is left out of the counts, the dispersion and the
+  drift: a robot there blocks or pushes it, and what the step does is not its parts' doing.
+  Grid robots do not block each other. :func:`held_by_others`.
 * **Drift.** Step outcomes cannot tell a differential drive's wheels apart when only forward
   steps fail (they need both wheels): a weak motor that still pivots in time leaves the side
   unknown. Poses can: a robot veers towards its weaker wheel, so robot data (poses, not grid
@@ -741,7 +741,8 @@ def robot_uncertainty(
         drift.
     held : ndarray of shape (horizon,), optional
         The steps that start with another robot in its cell or the cell ahead
-        (:func:`held_by_others`), left out of the counts: what they do is that robot's doing.
+        (:func:`held_by_others`), left out of the counts, their dispersion and the drift: what
+        they do is the other robot's doing.
     random_state : int, default 0
     """
     from mirl.learning.transitions import observed_steps
