@@ -13,8 +13,9 @@ a line of ``--out``; a second call with the same file skips the seeds it holds (
 measurement resumes). Prints the outcomes, the mean stated chance of the runs where L went
 against their realised success (± one standard error) per decile, and, for a method with
 verdicts, each robot's verdicts against the world's truth: how many name a damaged part alone
-or among candidates, how many say no part, how many are confident (≥ 0.9) and wrong, and the
-expected calibration error (``mirl.viz.verdicts``' bins).
+or among candidates, how many say no part, how many confidently name damage that is not there
+(``VerdictItem.confident_wrong``, the verdict sweep's measure) and how many confidently say "no
+part" of a damaged robot, and the expected calibration error (``mirl.viz.verdicts``).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from mirl.experiments.conditions import DEFAULT_OBS_STEPS  # noqa: E402
 from mirl.experiments.episode import run_episode  # noqa: E402
 from mirl.experiments.records import WATCH_UNTIL_SEEN  # noqa: E402
 from mirl.experiments.worlds import WORLDS  # noqa: E402
-from mirl.viz.verdicts import EDGES  # noqa: E402
+from mirl.viz.verdicts import VerdictItem, expected_calibration_error  # noqa: E402
 from mirl.world.scenario import load_scenario  # noqa: E402
 
 
@@ -59,16 +60,6 @@ def _run(scenario, args, seed: int, truth) -> dict:
         "obs_steps": d["obs_steps"], "seen": d["seen_steps"],
         "relearns": len(d.get("relearns") or []), "verdicts": verdicts, "cpu": d["timings"]["cpu"],
     }  # fmt: skip
-
-
-def _ece(conf: np.ndarray, right: np.ndarray) -> float:
-    total = 0.0
-    for k, (lo, hi) in enumerate(zip(EDGES[:-1], EDGES[1:], strict=True)):
-        top = k == len(EDGES) - 2  # the last bin includes 1
-        m = (conf >= lo) & ((conf <= hi) if top else (conf < hi))
-        if m.any():
-            total += m.sum() * abs(conf[m].mean() - right[m].mean())
-    return total / len(conf)
 
 
 def main() -> None:
@@ -119,24 +110,32 @@ def main() -> None:
             if m.any():
                 print(f"| {lo:.1f}–{lo + 0.1:.1f} | {m.sum()} | {stated[m].mean():.3f} | "
                       f"{ok[m].mean():.3f} |")  # fmt: skip
-    verdicts = [(name, v) for r in rows for name, v in r["verdicts"].items()]
-    if verdicts:
+    items = [
+        VerdictItem(
+            args.world, args.observability or 0.0, args.damage, name, r["seed"],
+            tuple(v["named"]), v["confidence"], tuple(v["truth"]), v["right"],
+        )
+        for r in rows
+        for name, v in r["verdicts"].items()
+    ]  # fmt: skip
+    if items:
         print("\n| robot | truth | the part alone | among candidates | no part | another part "
-              "| confident and wrong |\n| --- | --- | --- | --- | --- | --- | --- |")  # fmt: skip
-        for name in sorted({n for n, _ in verdicts}):
-            mine = [v for n, v in verdicts if n == name]
-            truth_parts = mine[0]["truth"]
-            alone = sum(v["part"] is not None and v["part"] in truth_parts for v in mine)
-            among = sum(v["part"] is None and v["right"] and bool(v["named"]) for v in mine)
-            none = sum(not v["named"] for v in mine)
+              "| confident and wrong | confident 'no part' on a damaged robot |\n"
+              "| --- | --- | --- | --- | --- | --- | --- | --- |")  # fmt: skip
+        for name in sorted({i.robot for i in items}):
+            mine = [i for i in items if i.robot == name]
+            truth_parts = mine[0].truth
+            alone = sum(len(i.verdict) == 1 and i.right and bool(i.truth) for i in mine)
+            among = sum(len(i.verdict) > 1 and i.right for i in mine)
+            none = sum(not i.verdict for i in mine)
             other = len(mine) - alone - among - none
-            wrong = sum(v["confidence"] >= 0.9 and not v["right"] for v in mine)
+            wrong = sum(i.confident_wrong for i in mine)
+            missed = sum(not i.verdict and bool(i.truth) and i.confidence >= 0.9 for i in mine)
             print(f"| {name} | {', '.join(truth_parts) or 'healthy'} | {alone} | {among} | "
-                  f"{none} | {other} | {wrong} |")  # fmt: skip
-        conf = np.array([v["confidence"] for _, v in verdicts])
-        right = np.array([v["right"] for _, v in verdicts], dtype=float)
-        print(f"\n{len(verdicts)} verdicts: ECE {_ece(conf, right):.3f}; confident (≥ 0.9) and "
-              f"wrong {int(((conf >= 0.9) & (right == 0)).sum())}")  # fmt: skip
+                  f"{none} | {other} | {wrong} | {missed} |")  # fmt: skip
+        wrong = sum(i.confident_wrong for i in items)
+        print(f"\n{len(items)} verdicts: ECE {expected_calibration_error(items):.3f}; confident "
+              f"(≥ 0.9) and naming damage that is not there: {wrong}")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -393,7 +393,8 @@ def test_a_robot_following_or_leading_another_is_not_in_company():
 
 def test_a_robot_in_the_way_holds_a_robot():
     """Another robot in a robot's cell or in the cell ahead of it holds it; one behind it, one
-    beside it in the next hallway cell across, and one L does not see do not."""
+    two cells ahead and one L does not see do not. Either robot of the pair may be the one
+    held."""
     d = load_scenario("boyd2").domain
     east = np.full(6, d.state_index(0, 3, 0))
     others = [

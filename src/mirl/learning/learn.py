@@ -584,9 +584,10 @@ def warm_labels(setup: RoundSetup) -> list[np.ndarray]:
     kept = min(warm.horizon or 0, len(labels[0]) if labels else 0)
     if kept:
         policies = [r.policy for r in warm.robots]
-        earlier = policy_labels(setup.domain, setup.series, policies, warm.equilibrium)
+        seen = [x[:kept] for x in setup.series]  # a step's label depends on that step only
+        earlier = policy_labels(setup.domain, seen, policies, warm.equilibrium)
         for lab, old in zip(labels, earlier, strict=True):
-            lab[:kept] = old[:kept]
+            lab[:kept] = old
     return labels
 
 
