@@ -1,0 +1,132 @@
+"""One table type for everything mirl looks up by name: methods, worlds, input formats, reward
+kinds, experiments, go rules, belief modes, motion models.
+
+A :class:`Registry` is a read-only mapping from a row's name to the row, in the order the rows
+were given. Looking up a name it does not hold raises :class:`UnknownNameError`, one line that
+names what was asked for, suggests the nearest known names ("did you mean") and lists them all,
+so every table answers a typo the same way. A row that cannot work is refused where the table is
+defined: ``check`` runs on every row as it is registered, so a bad row fails at import, in the
+module that wrote it, not in the run that first uses it.
+
+Why a class of our own: :mod:`difflib` gives the suggestions and :class:`collections.abc.Mapping`
+the dictionary behaviour; what no library gives is one error shape for every table of the
+package, and the check at definition. The module imports nothing heavy, so the command line can
+build its parser from the tables at start-up.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from typing import Generic, TypeVar
+
+__all__ = ["Registry", "UnknownNameError", "did_you_mean"]
+
+T = TypeVar("T")
+
+
+class UnknownNameError(KeyError, ValueError):
+    """A name a table does not hold. A :class:`ValueError` (a bad argument value) and a
+    :class:`KeyError` (so a :class:`Registry` behaves as a mapping); its text is one line."""
+
+    def __init__(self, message: str, *, name: str, known: tuple[str, ...]) -> None:
+        super().__init__(message)
+        self.message, self.name, self.known = message, name, known
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return self.message
+
+
+def did_you_mean(name: str, known: Iterable[str], n: int = 3) -> list[str]:
+    """The known names closest to ``name`` (at most ``n``, nearest first; difflib's ratio ≥ 0.6,
+    or the names that start with ``name``)."""
+    known = list(known)
+    close = difflib.get_close_matches(name, known, n=n, cutoff=0.6)
+    starts = [k for k in known if name and k.startswith(name) and k not in close]
+    return (close + starts)[:n]
+
+
+class Registry(Mapping[str, T], Generic[T]):
+    """A read-only, ordered table of rows by name.
+
+    Parameters
+    ----------
+    kind : str
+        What a row is, for messages ("method", "world", "input format").
+    rows : iterable
+        The rows, in the order ``names`` and iteration give them.
+    name : callable, default ``row.name``
+        A row's name.
+    check : callable, optional
+        Called on every row as it is registered; raises ValueError (one line) for a row that
+        cannot work.
+
+    Raises
+    ------
+    ValueError
+        Two rows of one name, or a row ``check`` refuses.
+    """
+
+    def __init__(
+        self,
+        kind: str,
+        rows: Iterable[T],
+        *,
+        name: Callable[[T], str] | None = None,
+        check: Callable[[T], None] | None = None,
+    ) -> None:
+        self.kind = kind
+        self._name: Callable[[T], str] = name or (lambda row: row.name)  # type: ignore[attr-defined]
+        self._check = check
+        self._rows: dict[str, T] = {}
+        for row in rows:
+            self.register(row)
+
+    def register(self, row: T) -> T:
+        """Add ``row`` (checked first); returns it."""
+        key = self._name(row)
+        if key in self._rows:
+            raise ValueError(f"{self.kind} '{key}' is registered twice")
+        if self._check is not None:
+            self._check(row)
+        self._rows[key] = row
+        return row
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Every row's name, in order."""
+        return tuple(self._rows)
+
+    def unknown(self, name: str, *, known: Iterable[str] | None = None) -> UnknownNameError:
+        """The error for ``name`` among ``known`` (default: every row's name)."""
+        known = tuple(self._rows if known is None else known)
+        near = did_you_mean(str(name), known)
+        hint = f"did you mean {' or '.join(repr(k) for k in near)}? " if near else ""
+        message = f"unknown {self.kind} '{name}' ({hint}known: {', '.join(known)})"
+        return UnknownNameError(message, name=str(name), known=known)
+
+    def lookup(self, name: str, *, among: Iterable[str] | None = None) -> T:
+        """The row of ``name``; :class:`UnknownNameError` otherwise. ``among`` narrows the
+        acceptable names (for instance the methods that learn)."""
+        if among is not None:
+            among = tuple(among)
+            if name not in among:
+                raise self.unknown(name, known=among)
+        if name not in self._rows:
+            raise self.unknown(name)
+        return self._rows[name]
+
+    def __getitem__(self, name: str) -> T:
+        return self.lookup(name)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._rows
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._rows)
+
+    def __len__(self) -> int:
+        return len(self._rows)
+
+    def __repr__(self) -> str:
+        return f"Registry({self.kind!r}: {', '.join(self._rows)})"

@@ -1,0 +1,62 @@
+"""The one table type: lookup, known names, "did you mean", rows refused where they are
+defined."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pytest
+
+from mirl._registry import Registry, UnknownNameError, did_you_mean
+
+
+@dataclass(frozen=True)
+class Row:
+    name: str
+    size: int = 1
+
+
+def test_lookup_order_and_mapping_behaviour():
+    table = Registry("thing", [Row("grid"), Row("physics", 2)])
+    assert table.names == ("grid", "physics")
+    assert list(table) == ["grid", "physics"] and len(table) == 2
+    assert table["physics"].size == 2 and table.lookup("grid").size == 1
+    assert "grid" in table and "mujoco" not in table
+    assert table.get("mujoco") is None  # the Mapping contract holds
+    assert dict(table.items())["grid"] == Row("grid")
+
+
+def test_unknown_name_is_one_line_with_suggestions():
+    table = Registry("world", [Row("grid"), Row("physics")])
+    with pytest.raises(UnknownNameError) as e:
+        table["phisics"]
+    text = str(e.value)
+    assert text == "unknown world 'phisics' (did you mean 'physics'? known: grid, physics)"
+    assert isinstance(e.value, ValueError) and isinstance(e.value, KeyError)
+    assert e.value.known == ("grid", "physics")
+    with pytest.raises(UnknownNameError, match=r"^unknown world 'zzz' \(known: grid, physics\)$"):
+        table.lookup("zzz")
+
+
+def test_among_narrows_the_acceptable_names():
+    table = Registry("method", [Row("mirl-t"), Row("random")])
+    with pytest.raises(UnknownNameError, match=r"known: mirl-t\)$"):
+        table.lookup("random", among=("mirl-t",))
+
+
+def test_rows_are_checked_where_they_are_defined():
+    def positive(row: Row) -> None:
+        if row.size < 1:
+            raise ValueError(f"row '{row.name}': size must be at least 1")
+
+    with pytest.raises(ValueError, match="size must be at least 1"):
+        Registry("thing", [Row("a"), Row("b", 0)], check=positive)
+    with pytest.raises(ValueError, match="registered twice"):
+        Registry("thing", [Row("a"), Row("a")])
+
+
+def test_did_you_mean_prefers_the_closest_and_prefixes():
+    assert did_you_mean("sead", ["seed", "steps", "scenario"]) == ["seed"]
+    near = did_you_mean("obs", ["obs-steps", "observations", "seed"])
+    assert near == ["obs-steps", "observations"]
+    assert did_you_mean("xyz", ["seed"]) == []
