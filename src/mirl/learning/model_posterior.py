@@ -1,0 +1,425 @@
+"""Model sets drawn from a posterior of the patrollers' models, for the chance L acts on.
+
+L's stated chance of getting through is exact under its point models, and L goes at the
+moments their error favours going (docs/design.md, "The stated probability of success"). Under
+a posterior of the models the chance's own uncertainty is carried: the chance averaged over
+model sets drawn from the posterior is the posterior predictive probability of success, and a
+posterior predictive probability stays calibrated whatever data-dependent rule picks the moment
+it is stated at (the decision is a function of the data; the average is the expectation given
+the data). :func:`draw_models` draws such sets, each a whole
+:class:`~mirl.learning.results.LearnResult` that the belief filter and the planner take as they
+take the point models:
+
+* **each robot's T** from the posterior over its transition-feature probabilities that the
+  fault verdicts already use (:func:`mirl.learning.verdicts.posterior_draws`: the labelled
+  steps' pooled counts, softened by the soft policy, and a prior under which most parts are
+  healthy). A robot L never saw gets draws from that prior, not the uninformed 0.5 of Eq. 4's
+  maximum-entropy solution (a robot that fails half its moves, which L's filter moves as
+  nearly immobile);
+* **each robot's reward** from a block bootstrap of what L saw of it: its record cut into
+  *visits* (a run of observed steps and the occluded gap after it, up to the next re-entry),
+  visits drawn with replacement and joined with the junctions left out of the likelihood (the
+  IRL's ``exclude``), and the sequence objective refitted from the point solution's weights,
+  under that draw's T. Or a Laplace approximation at the IRL optimum (``reward="laplace"``).
+  A robot L never saw borrows, draw by draw, the mean reward of the robots it saw;
+* **the interaction**: the equilibrium drawn by its posterior weights (``equilibrium_weights``).
+
+Each draw's policy is the greedy policy of hard value iteration with its reward under its T,
+as for the point models.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.sparse as sp
+
+from mirl.learning.equilibria import potential_meetings
+from mirl.learning.irl import OccludedMaxEntIRL
+from mirl.learning.methods import get_method
+from mirl.learning.results import LearnResult, RobotModel
+from mirl.learning.soft_policy import soft_policy_iteration
+from mirl.learning.transitions import observed_steps, policy_labels
+from mirl.learning.verdicts import failure_dispersion, posterior_draws, soft_counts
+from mirl.mdp import TabularMDP, value_iteration
+from mirl.world.motion import transition_matrix
+from mirl.world.scenario import Scenario
+
+__all__ = ["PARTS", "REWARD_DRAWS", "draw_models", "visits", "bootstrap_series"]
+
+PARTS = ("transitions", "rewards", "equilibrium")
+"""What a draw may vary; the parts not drawn stay at the point models'."""
+REWARD_DRAWS = ("bootstrap", "newton", "laplace", "point")
+
+
+@dataclass
+class _Robot:
+    """What the draws of one robot start from."""
+
+    series: np.ndarray
+    model: RobotModel
+    labels: np.ndarray | None
+
+
+def draw_models(
+    learned: LearnResult,
+    series: Sequence[np.ndarray],
+    scenario: Scenario,
+    *,
+    visible: np.ndarray,
+    n_draws: int = 8,
+    parts: Sequence[str] = PARTS,
+    reward: str = "bootstrap",
+    shared: bool = False,
+    irl_options: dict | None = None,
+    random_state: int = 0,
+    info: dict | None = None,
+) -> list[LearnResult]:
+    """``n_draws`` model sets from the posterior of ``learned``'s models (module doc).
+
+    Parameters
+    ----------
+    learned : LearnResult
+        The point models (as :func:`~mirl.learning.learn.learn` returns them).
+    series : sequence of ndarray of shape (horizon,)
+        Per robot the states L saw it in, -1 where unseen: the record ``learned`` was learned
+        from.
+    scenario : Scenario
+        The scenario L models (its domain, discount, game, error model and faults).
+    visible : ndarray of shape (S,) of bool
+        The states L sees.
+    n_draws : int, default 8
+    parts : sequence of {"transitions", "rewards", "equilibrium"}
+        What is drawn; a method's part that is not learned (a fixed p, a true reward) is never
+        drawn.
+    reward : {"bootstrap", "newton", "laplace", "point"}, default "bootstrap"
+        How a robot's reward is drawn: refitted on block-bootstrap records; the same, refitted
+        by a few Newton steps with the record's Hessian; a Laplace approximation; or its point
+        weights (its uncertainty then only from ``shared``).
+    shared : bool, default False
+        Mix each robot's reward draws with the other robots' by how well its record supports
+        "one kind, one reward" against "a reward of its own" (:func:`_shared_kind`).
+    irl_options : dict, optional
+        The IRL's options for the refits (default: the estimator's).
+    random_state : int, default 0
+    info : dict, optional
+        Receives diagnostics: ``shared_kind``, per robot the weight of the shared hypothesis.
+
+    Returns
+    -------
+    list of LearnResult
+        Equally weighted draws.
+    """
+    unknown = set(parts) - set(PARTS)
+    if unknown:
+        raise ValueError(f"unknown parts {sorted(unknown)} (known: {', '.join(PARTS)})")
+    if reward not in REWARD_DRAWS:
+        raise ValueError(f"unknown reward draws '{reward}' (known: {', '.join(REWARD_DRAWS)})")
+    if n_draws < 1:
+        raise ValueError(f"n_draws must be at least 1, got {n_draws}")
+    row = get_method(learned.method)
+    domain = scenario.domain
+    rng = np.random.default_rng(random_state)
+    n = len(learned.robots)
+    series = [np.asarray(x, dtype=int) for x in series]
+    labels = _labels(learned, series, scenario, row.reward == "true")
+    robots = [_Robot(x, m, lab) for x, m, lab in zip(series, learned.robots, labels, strict=True)]
+    draw_T = "transitions" in parts and row.transitions == "features"
+    draw_R = "rewards" in parts and row.reward == "learned"
+    # T per robot per draw
+    Ts: list[list[sp.csr_array]] = []
+    probs: list[list[dict[str, float]]] = []
+    for r in robots:
+        if draw_T:
+            p = _feature_draws(scenario, r, n_draws, int(rng.integers(2**31)), row.relabels)
+            probs.append(p)
+            Ts.append([transition_matrix(domain, q, scenario.error_model) for q in p])
+        else:
+            probs.append([dict(r.model.feature_probabilities)] * n_draws)
+            Ts.append([r.model.transitions] * n_draws)
+    # reward per robot per draw
+    W: list[list[np.ndarray | None]] = []
+    if draw_R:
+        exclude = np.zeros(len(series[0]), dtype=bool)
+        for i in range(n):
+            for j in range(i + 1, n):
+                exclude |= potential_meetings(domain, series[i], series[j])
+        for i, r in enumerate(robots):
+            if not (r.series >= 0).any():
+                W.append([None] * n_draws)
+                continue
+            draw = {
+                "bootstrap": _bootstrap_rewards, "newton": _newton_rewards,
+                "laplace": _laplace_rewards, "point": _point_rewards,
+            }[reward]  # fmt: skip
+            W.append(draw(scenario, r, Ts[i], exclude, visible, irl_options or {}, rng))
+        if shared:
+            W = _shared_kind(scenario, robots, W, exclude, visible, irl_options or {}, rng, info)
+        seen = [[v for v in w if v is not None] for w in W if w[0] is not None]
+        for i in range(n):
+            if W[i][0] is None:  # never seen: the mean reward of the robots L saw, per draw
+                W[i] = [np.mean([w[k] for w in seen], axis=0) for k in range(n_draws)]
+    else:
+        W = [[np.asarray(r.model.weights, dtype=float)] * n_draws for r in robots]
+    # equilibrium per draw
+    eqs = [learned.equilibrium] * n_draws
+    if "equilibrium" in parts and learned.equilibrium_weights:
+        w = np.asarray(learned.equilibrium_weights, dtype=float)
+        candidates = scenario.game.equilibria()
+        pick = rng.choice(len(w), size=n_draws, p=w / w.sum())
+        eqs = [candidates[k] for k in pick]
+    out = []
+    for k in range(n_draws):
+        models = []
+        for i, r in enumerate(robots):
+            T, drawn = Ts[i][k], W[i][k]
+            assert drawn is not None
+            w = drawn
+            if T is r.model.transitions and w is r.model.weights:
+                policy = r.model.policy
+            else:
+                mdp = TabularMDP(T, domain.rewards(w.tolist()), scenario.discount)
+                policy = value_iteration(mdp).policy
+            models.append(
+                replace(
+                    r.model, weights=w, feature_probabilities=probs[i][k], transitions=T,
+                    policy=policy, behavior_accuracy=None,
+                )
+            )  # fmt: skip
+        pairs = {p: eqs[k] for p in scenario.pairs} if eqs[k] is not learned.equilibrium else None
+        out.append(
+            replace(
+                learned, robots=tuple(models), equilibrium=eqs[k],
+                pair_equilibria=learned.pair_equilibria if pairs is None else pairs,
+            )
+        )  # fmt: skip
+    return out
+
+
+def _labels(
+    learned: LearnResult, series: list[np.ndarray], scenario: Scenario, true_reward: bool
+) -> list[np.ndarray]:
+    """The labels the point T was learned from: the fixed point of the relabelling rounds (the
+    point policies' and equilibrium's labels), or, for a true reward, the true policies'."""
+    if true_reward:
+        policies = [scenario.true_policy(i) for i in range(len(series))]
+        return policy_labels(scenario.domain, series, policies, scenario.played_equilibrium)
+    policies = [r.policy for r in learned.robots]
+    return policy_labels(scenario.domain, series, policies, learned.equilibrium)
+
+
+def _feature_draws(
+    scenario: Scenario, robot: _Robot, n_draws: int, seed: int, soften: bool
+) -> list[dict[str, float]]:
+    """``n_draws`` feature probabilities resampled from the verdicts' posterior of one robot,
+    its labels softened by its soft policy when they came from its learned policy
+    (``soften``), as the verdicts do."""
+    domain = scenario.domain
+    features = domain.feature_map.features
+    m = robot.model
+    t, s, s_next = observed_steps(robot.series)
+    assert robot.labels is not None
+    lab = robot.labels[t]
+    soft = None
+    if len(t) and soften:
+        R = domain.rewards(np.asarray(m.weights, dtype=float).tolist())
+        _, _, soft, _ = soft_policy_iteration(m.transitions, R, scenario.discount)
+    successes, trials = soft_counts(domain, s, lab, s_next, m.transitions, soft, m.policy)
+    dispersion = (
+        failure_dispersion(domain, t, s, lab, s_next, m.feature_probabilities)
+        if m.feature_probabilities
+        else 1.0
+    )
+    observations = [
+        (sub, k / dispersion, c / dispersion)
+        for sub, k, c in zip(domain.subsets, successes, trials, strict=True)
+        if c > 0
+    ]
+    definition = scenario.faults
+    healthy = {f: definition.healthy.get(f, 0.95) for f in features}
+    p, w = posterior_draws(features, observations, healthy, random_state=seed)
+    rng = np.random.default_rng(seed)
+    pick = rng.choice(len(w), size=n_draws, p=w)
+    return [{f: float(p[k, j]) for j, f in enumerate(features)} for k in pick]
+
+
+def visits(series: np.ndarray) -> list[tuple[int, int]]:
+    """The record of one robot cut into visits: (first, last) step indices, inclusive, of a run
+    of observed steps and the occluded gap after it up to and including the next re-entry (the
+    record's last visit may end unseen)."""
+    x = np.asarray(series)
+    seen = x >= 0
+    entries = np.flatnonzero(seen & ~np.concatenate(([False], seen[:-1])))
+    out = []
+    for k, a in enumerate(entries):
+        b = int(entries[k + 1]) if k + 1 < len(entries) else len(x) - 1
+        if b > a:
+            out.append((int(a), b))
+    return out
+
+
+def bootstrap_series(
+    series: np.ndarray, exclude: np.ndarray, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
+    """One bootstrap record: as many visits as the record has, drawn with replacement and
+    joined; the step leaving each visit's last state is excluded (it is no move of the robot:
+    the next visit starts elsewhere), as are the steps the record excludes. Returns the joined
+    series and its ``exclude``."""
+    x = np.asarray(series)
+    parts = visits(x)
+    if not parts:
+        return x, np.asarray(exclude)
+    pick = rng.integers(0, len(parts), size=len(parts))
+    # a visit that ends unseen (the record's last) says the robot stayed away to the end: its
+    # gap goes last, once; the other copies keep their observed steps only (followed by another
+    # visit, the gap would read as a re-entry where that visit starts)
+    trailing = len(parts) - 1 if x[parts[-1][1]] < 0 else None
+    pick = np.sort(pick) if trailing is not None else pick
+    xs, ex = [], []
+    for n, k in enumerate(pick):
+        a, b = parts[k]
+        if k == trailing and n < len(pick) - 1:
+            b = a + int(np.flatnonzero(x[a : b + 1] < 0)[0]) - 1  # its last observed step
+        xs.append(x[a : b + 1])
+        e = np.asarray(exclude[a : b + 1], dtype=bool).copy()
+        e[-1] = True
+        ex.append(e)
+    return np.concatenate(xs), np.concatenate(ex)
+
+
+def _bootstrap_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, rng):
+    """Reward weights refitted on block-bootstrap records, one per draw, each under that draw's
+    T, started from the point weights."""
+    domain = scenario.domain
+    out = []
+    for T in Ts:
+        x, ex = bootstrap_series(robot.series, exclude, rng)
+        if not (x >= 0).any():
+            out.append(np.asarray(robot.model.weights, dtype=float))
+            continue
+        irl = OccludedMaxEntIRL(
+            domain.reward_features, T, discount=scenario.discount, visible=visible,
+            **{**options, "n_restarts": 1},
+        )  # fmt: skip
+        irl.fit(x, exclude=ex, initial_weights=np.asarray(robot.model.weights, dtype=float))
+        out.append(irl.weights_)
+    return out
+
+
+def _total_loss(scenario, T, series, exclude, visible, options):
+    """The IRL's negative log-posterior of one record as a function of θ, with its gradient:
+    the estimator's loss times the steps it is averaged over (the loss is per step)."""
+    irl = OccludedMaxEntIRL(
+        scenario.domain.reward_features, T, discount=scenario.discount, visible=visible,
+        **{**options, "n_restarts": 1},
+    )  # fmt: skip
+    irl._prepare(series, None, exclude)
+
+    def loss(theta):
+        value, grad = irl._loss(theta, True)
+        return value * irl._n_steps, grad * irl._n_steps
+
+    return loss
+
+
+def _hessian(loss, theta, eps=1e-4) -> np.ndarray:
+    """The Hessian of ``loss`` at ``theta`` by central differences of its exact gradient."""
+    K = len(theta)
+    H = np.zeros((K, K))
+    for j in range(K):
+        e = np.zeros(K)
+        e[j] = eps
+        H[:, j] = (loss(theta + e)[1] - loss(theta - e)[1]) / (2 * eps)
+    return 0.5 * (H + H.T)
+
+
+def _point_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, rng):
+    """The point weights in every draw (the reward's uncertainty left to the shared-kind
+    mixture alone)."""
+    return [np.asarray(robot.model.weights, dtype=float) for _ in Ts]
+
+
+def _laplace_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, rng):
+    """Reward weights drawn from a Laplace approximation at the point weights: N(θ̂, H⁻¹), H the
+    Hessian of the negative log-posterior, under the point T."""
+    loss = _total_loss(scenario, robot.model.transitions, robot.series, exclude, visible, options)
+    theta = np.asarray(robot.model.weights, dtype=float)
+    vals, vecs = np.linalg.eigh(_hessian(loss, theta))
+    vals = np.maximum(vals, 1e-6)  # a flat direction: wide, not infinite
+    scale = vecs / np.sqrt(vals)
+    return [theta + scale @ rng.standard_normal(len(theta)) for _ in Ts]
+
+
+def _newton_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, rng, steps=3):
+    """Reward weights of a block bootstrap refitted by Newton's method with the record's
+    Hessian: from θ̂, θ ← θ − H⁻¹ g_b(θ) (halved while the bootstrap record's loss rises), at
+    most ``steps`` steps, g_b the gradient of a bootstrap record's negative log-posterior, H the
+    record's Hessian at θ̂, all under the point T. With the Hessian of a record close to a
+    bootstrap record's it lands near the refit's optimum in a few gradients instead of an
+    L-BFGS run (``steps=1``: the linearised bootstrap)."""
+    T = robot.model.transitions
+    loss = _total_loss(scenario, T, robot.series, exclude, visible, options)
+    theta = np.asarray(robot.model.weights, dtype=float)
+    H = _hessian(loss, theta)
+    vals, vecs = np.linalg.eigh(H)
+    inverse = (vecs / np.maximum(vals, 1e-6)) @ vecs.T
+    out = []
+    for _ in Ts:
+        x, ex = bootstrap_series(robot.series, exclude, rng)
+        if not (x >= 0).any():
+            out.append(theta.copy())
+            continue
+        loss_b = _total_loss(scenario, T, x, ex, visible, options)
+        th = theta.copy()
+        f, g = loss_b(th)
+        for _ in range(steps):
+            step = inverse @ g
+            for _ in range(6):
+                f_new, g_new = loss_b(th - step)
+                if f_new <= f:
+                    break
+                step = step / 2
+            else:
+                break
+            th, f, g = th - step, f_new, g_new
+        out.append(th)
+    return out
+
+
+def _shared_kind(scenario, robots, W, exclude, visible, options, rng, info):
+    """Each seen robot's reward draws as a mixture of two hypotheses, weighed by its own record
+    (Bayesian model averaging, even prior odds): it has a reward of its own (its draws;
+    evidence: its record's log-likelihood at its point weights less the Schwarz penalty, d/2
+    times the log of its likelihood terms, Schwarz 1978) or it is of one kind with the other
+    robots L saw and shares their reward (their draws; evidence: its record's likelihood
+    averaged over those draws, a predictive likelihood)."""
+    n = len(robots)
+    out = list(W)
+    for i, r in enumerate(robots):
+        if W[i][0] is None:
+            continue
+        team = [w for j in range(n) if j != i and W[j][0] is not None for w in W[j]]
+        if not team:
+            continue
+        loss = _total_loss(scenario, r.model.transitions, r.series, exclude, visible, options)
+        x = r.series
+        terms = int(((x[:-1] >= 0) & (x[1:] >= 0)).sum()) + len(visits(x))
+        penalty = 0.5 * len(r.model.weights) * np.log(max(terms, 2))
+        log_own = -loss(np.asarray(r.model.weights, dtype=float))[0] - penalty
+        distinct: dict[bytes, float] = {}
+        for w in team:  # the same weights in several draws are evaluated once
+            if w.tobytes() not in distinct:
+                distinct[w.tobytes()] = -loss(w)[0]
+        ll = np.array([distinct[w.tobytes()] for w in team])
+        log_team = float(np.log(np.mean(np.exp(ll - ll.max()))) + ll.max())
+        p_team = float(1.0 / (1.0 + np.exp(np.clip(log_own - log_team, -50, 50))))
+        pick = rng.random(len(W[i])) < p_team
+        out[i] = [
+            team[rng.integers(len(team))] if shared else own
+            for shared, own in zip(pick, W[i], strict=True)
+        ]
+        if info is not None:
+            info.setdefault("shared_kind", {})[r.model.name] = p_team
+    return out

@@ -1,0 +1,107 @@
+"""The chance of getting through averaged over model sets drawn from a posterior: one belief
+filter per model set over the same record, and the chance of a plan under each.
+
+The average over K equally weighted draws is a Monte Carlo estimate of the posterior predictive
+probability of success, P(success | record) = E[P(success | models, record) | record]
+(:mod:`mirl.learning.model_posterior`); its spread over the draws is how much the models' own
+uncertainty moves the chance.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from mirl.learning.results import LearnResult
+from mirl.planning.belief import BeliefFilter
+from mirl.planning.go import ObserverPlan, solve_observer_mdp
+from mirl.planning.observer import ObserverModel
+from mirl.planning.success import success_probability
+from mirl.world.domain import PatrolDomain
+
+__all__ = ["PosteriorBeliefs"]
+
+
+class PosteriorBeliefs:
+    """K belief filters, one per drawn model set, fed the same record.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+    draws : sequence of LearnResult
+        Model sets drawn from the posterior (equally weighted).
+    visible : ndarray of shape (S,) of bool, optional
+        The states L sees (negative evidence), as for :class:`BeliefFilter`.
+    joint : bool, optional
+        As for :class:`BeliefFilter`.
+    """
+
+    def __init__(
+        self,
+        domain: PatrolDomain,
+        draws: Sequence[LearnResult],
+        *,
+        visible: np.ndarray | None = None,
+        joint: bool | None = None,
+    ) -> None:
+        if not draws:
+            raise ValueError("no draws: the posterior needs at least one model set")
+        self.draws = tuple(draws)
+        self.filters = [BeliefFilter(domain, m, visible=visible, joint=joint) for m in draws]
+        self.kept: dict[int, list[np.ndarray]] = {}
+
+    @property
+    def t(self) -> int:
+        return self.filters[0].t
+
+    def update(self, observed) -> None:
+        """One step of every filter (:meth:`BeliefFilter.update`)."""
+        for f in self.filters:
+            f.update(observed)
+
+    def run(self, record) -> None:
+        """Feed the steps of ``record`` after the filters' current step."""
+        for now in record[self.t + 1 :]:
+            self.update(now)
+
+    def keep(self) -> None:
+        """Keep every filter's current belief, for :meth:`chances_at` its step."""
+        assert self.filters[0].belief is not None
+        self.kept[self.t] = [f.belief for f in self.filters]  # type: ignore[misc]
+
+    def success(self, model: ObserverModel, plan: ObserverPlan, *, extra: int = 0) -> np.ndarray:
+        """(K,) P(success) of going now along ``plan`` under each draw
+        (:func:`~mirl.planning.success.success_probability`)."""
+        return np.array(
+            [success_probability(f, model, plan, extra=extra).success for f in self.filters]
+        )
+
+    def chances_at(
+        self, t: int, model: ObserverModel, steps: int, *, hazard: str = "markov"
+    ) -> np.ndarray:
+        """(K,) the planner's chance of going at kept step ``t`` under each draw (its go-now
+        value with the success objective), as the go rule scores a moment."""
+        out = []
+        for f, b in zip(self.filters, self.kept[t], strict=True):
+            prediction = f.predict(steps, model, belief=b, t=t)
+            plan = solve_observer_mdp(
+                model, prediction, window=0, goal_reward=1.0, detection_penalty=0.0,
+                min_value=-1.0, hazard=hazard,
+            )  # fmt: skip
+            out.append(float(plan.go_values[0]))
+        return np.array(out)
+
+    def planner_now(
+        self, model: ObserverModel, steps: int, window: int, *, hazard: str = "markov"
+    ) -> np.ndarray:
+        """(K,) the planner's chance of going now under each draw."""
+        out = []
+        for f in self.filters:
+            prediction = f.predict(steps, model)
+            plan = solve_observer_mdp(
+                model, prediction, window=window, goal_reward=1.0, detection_penalty=0.0,
+                min_value=-1.0, hazard=hazard,
+            )  # fmt: skip
+            out.append(float(plan.go_values[0]))
+        return np.array(out)
