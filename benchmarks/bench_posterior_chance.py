@@ -55,6 +55,12 @@ VARIANTS = {
     "allNS": dict(parts=("transitions", "rewards", "equilibrium"), reward="newton", shared=True),
     "RN": dict(parts=("rewards",), reward="newton"),
     "allS0": dict(parts=("transitions", "rewards", "equilibrium"), reward="point", shared=True),
+    "allS0m": dict(
+        parts=("transitions", "rewards", "equilibrium"),
+        reward="point",
+        shared=True,
+        motion="posterior",
+    ),
     "allN": dict(parts=("transitions", "rewards", "equilibrium"), reward="newton"),
 }
 
@@ -78,8 +84,9 @@ def mixture(learned, draws, domain):
     return replace(learned, robots=tuple(robots))
 
 
-def chance(scenario, models, run, t, model, plan, travel) -> float:
-    f = BeliefFilter(scenario.domain, models, visible=run["visible"], joint=run["joint"])
+def chance(scenario, models, run, t, model, plan, travel, joint=None) -> float:
+    joint = run["joint"] if joint is None else joint
+    f = BeliefFilter(scenario.domain, models, visible=run["visible"], joint=joint)
     for now in run["seen"][: t + 1]:
         f.update(now)
     return success_probability(f, model, plan, extra=travel).success
@@ -95,6 +102,10 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=None)
     ap.add_argument("--mix", action="store_true", help="also the draws' policies averaged")
     ap.add_argument("--only-went", action="store_true")
+    ap.add_argument(
+        "--factored", action="store_true",
+        help="also the point chance shifted by the draws' mean change under factored filters",
+    )  # fmt: skip
     args = ap.parse_args()
     variants = args.variants.split(",")
     paths = sorted(Path(args.captured).glob("run_*.pkl"), key=lambda p: int(p.stem[4:]))
@@ -149,13 +160,26 @@ def main() -> None:
                 cpu[v] += time.process_time() - clock
                 row[v] = float(np.mean(vals))
                 row[v + "_draws"] = vals
+                if args.factored:
+                    clock = time.process_time()
+                    fact = [
+                        chance(scenario, m, run, d["t"], model, d["plan"], travel, joint=False)
+                        for m in draws[dk]
+                    ]
+                    base = chance(
+                        scenario, learned, run, d["t"], model, d["plan"], travel, joint=False
+                    )
+                    row[v + "shift"] = row["learned"] + float(np.mean(fact)) - base
+                    cpu[v + "shift"] = cpu.get(v + "shift", 0.0) + time.process_time() - clock
                 if args.mix:
                     mixed = mixture(learned, draws[dk], scenario.domain)
                     row[v + "mix"] = chance(scenario, mixed, run, d["t"], model, d["plan"], travel)
             rows.append(row)
             if out is not None:
                 print(json.dumps(row), file=out, flush=True)
-    report(rows, ["learned", "truth", *variants, *(v + "mix" for v in variants if args.mix)])
+    extra = [v + "mix" for v in variants if args.mix]
+    extra += [v + "shift" for v in variants if args.factored]
+    report(rows, ["learned", "truth", *variants, *extra])
     n = len(rows)
     print("\nCPU per scored decision (s): " + ", ".join(f"{k} {v / n:.3f}" for k, v in cpu.items()))
 

@@ -78,9 +78,14 @@ class _Posterior:
                 shared=SETTINGS["shared"],
                 random_state=SETTINGS["seed"] % 2**31,
             )  # fmt: skip
-            self.beliefs = PosteriorBeliefs(
-                w.scenario.domain, draws, visible=w.visible, joint=w.joint
-            )
+            if SETTINGS["factored"]:
+                self.beliefs = PosteriorBeliefs(
+                    w.scenario.domain, draws, visible=w.visible, joint=False, reference=learned
+                )
+            else:
+                self.beliefs = PosteriorBeliefs(
+                    w.scenario.domain, draws, visible=w.visible, joint=w.joint
+                )
             self.learned = learned
             drawing = time.process_time() - clock
             self.parts["draws"] += drawing
@@ -100,7 +105,11 @@ class _Posterior:
         if key not in self.successes:
             beliefs = self.sync()
             clock = time.process_time()
-            self.successes[key] = beliefs.success(model, plan, extra=travel)
+            if SETTINGS["factored"]:
+                exact = success_probability(self.watcher.belief, model, plan, extra=travel)
+                self.successes[key] = exact.success + beliefs.shifts(model, plan, extra=travel)
+            else:
+                self.successes[key] = beliefs.success(model, plan, extra=travel)
             self.cpu += time.process_time() - clock
             self.parts["success"] = self.parts.get("success", 0.0) + time.process_time() - clock
         return self.successes[key]
@@ -223,6 +232,10 @@ def main() -> None:
     ap.add_argument("--parts", default="transitions,rewards,equilibrium")
     ap.add_argument("--reward", default="bootstrap")
     ap.add_argument("--shared", action="store_true", help="the shared-kind reward mixture")
+    ap.add_argument(
+        "--factored", action="store_true",
+        help="filter the draws factored; shift the point models' exact chance by their change",
+    )  # fmt: skip
     ap.add_argument("--scenario", default="boyd2")
     ap.add_argument("--damage", default=None)
     ap.add_argument("--method", default="mirl-t")
@@ -238,7 +251,8 @@ def main() -> None:
     cond = Condition(args.method, args.scenario, args.observability, damage=args.damage)
     scenario = cond.scenario_object()
     SETTINGS.update(draws=args.draws, parts=tuple(args.parts.split(",")), reward=args.reward,
-                    truth=oracle_models(scenario), shared=args.shared)  # fmt: skip
+                    truth=oracle_models(scenario), shared=args.shared,
+                    factored=args.factored)  # fmt: skip
     episode._planned_going = planned_going
     done = set()
     rows = []

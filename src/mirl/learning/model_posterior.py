@@ -41,7 +41,7 @@ from mirl.learning.irl import OccludedMaxEntIRL
 from mirl.learning.methods import get_method
 from mirl.learning.results import LearnResult, RobotModel
 from mirl.learning.soft_policy import soft_policy_iteration
-from mirl.learning.transitions import observed_steps, policy_labels
+from mirl.learning.transitions import observed_steps, perception_labels, policy_labels
 from mirl.learning.verdicts import failure_dispersion, posterior_draws, soft_counts
 from mirl.mdp import TabularMDP, value_iteration
 from mirl.world.motion import transition_matrix
@@ -76,6 +76,7 @@ def draw_models(
     irl_options: dict | None = None,
     random_state: int = 0,
     info: dict | None = None,
+    motion: str = "method",
 ) -> list[LearnResult]:
     """``n_draws`` model sets from the posterior of ``learned``'s models (module doc).
 
@@ -106,6 +107,10 @@ def draw_models(
     random_state : int, default 0
     info : dict, optional
         Receives diagnostics: ``shared_kind``, per robot the weight of the shared hypothesis.
+    motion : {"method", "posterior"}, default "method"
+        Where the draws' T come from: the method's own (drawn from the feature posterior only
+        for a method whose T is made of features), or the feature posterior for every method
+        (a fixed p or DBN-EM's tabular T then serve L's planning alone, not its chance).
 
     Returns
     -------
@@ -124,9 +129,9 @@ def draw_models(
     rng = np.random.default_rng(random_state)
     n = len(learned.robots)
     series = [np.asarray(x, dtype=int) for x in series]
-    labels = _labels(learned, series, scenario, row.reward == "true")
+    labels = _labels(learned, series, scenario, row.reward == "true", row.relabels)
     robots = [_Robot(x, m, lab) for x, m, lab in zip(series, learned.robots, labels, strict=True)]
-    draw_T = "transitions" in parts and row.transitions == "features"
+    draw_T = "transitions" in parts and (row.transitions == "features" or motion == "posterior")
     draw_R = "rewards" in parts and row.reward == "learned"
     # T per robot per draw
     Ts: list[list[sp.csr_array]] = []
@@ -171,6 +176,7 @@ def draw_models(
         pick = rng.choice(len(w), size=n_draws, p=w / w.sum())
         eqs = [candidates[k] for k in pick]
     out = []
+    start: dict[tuple[int, bytes], np.ndarray] = {}  # value iteration's warm starts
     for k in range(n_draws):
         models = []
         for i, r in enumerate(robots):
@@ -180,8 +186,13 @@ def draw_models(
             if T is r.model.transitions and w is r.model.weights:
                 policy = r.model.policy
             else:
-                mdp = TabularMDP(T, domain.rewards(w.tolist()), scenario.discount)
-                policy = value_iteration(mdp).policy
+                R = domain.rewards(w.tolist())
+                key = (i, w.tobytes())
+                if key not in start:  # the values of this reward under the point T
+                    point = TabularMDP(r.model.transitions, R, scenario.discount)
+                    start[key] = value_iteration(point).values
+                mdp = TabularMDP(T, R, scenario.discount)
+                policy = value_iteration(mdp, initial_values=start[key]).policy
             models.append(
                 replace(
                     r.model, weights=w, feature_probabilities=probs[i][k], transitions=T,
@@ -199,10 +210,23 @@ def draw_models(
 
 
 def _labels(
-    learned: LearnResult, series: list[np.ndarray], scenario: Scenario, true_reward: bool
+    learned: LearnResult,
+    series: list[np.ndarray],
+    scenario: Scenario,
+    true_reward: bool,
+    relabels: bool,
 ) -> list[np.ndarray]:
-    """The labels the point T was learned from: the fixed point of the relabelling rounds (the
-    point policies' and equilibrium's labels), or, for a true reward, the true policies'."""
+    """The labels the point T was learned from: for a true reward the true policies', for a
+    method that relabels the fixed point of its rounds (the point policies' and equilibrium's
+    labels), else perception's."""
+    if not true_reward and not relabels:
+        out = []
+        for x in series:
+            lab = np.full(len(x), -1, dtype=int)
+            t, s, s_next = observed_steps(x)
+            lab[t] = perception_labels(scenario.domain, s, s_next)
+            out.append(lab)
+        return out
     if true_reward:
         policies = [scenario.true_policy(i) for i in range(len(series))]
         return policy_labels(scenario.domain, series, policies, scenario.played_equilibrium)

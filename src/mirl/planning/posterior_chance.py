@@ -35,6 +35,10 @@ class PosteriorBeliefs:
         The states L sees (negative evidence), as for :class:`BeliefFilter`.
     joint : bool, optional
         As for :class:`BeliefFilter`.
+    reference : LearnResult, optional
+        The point models, filtered alongside the draws in the same form: :meth:`shifts` then
+        gives each draw's chance less the reference's, so that the draws can be filtered in the
+        cheap factored form and their change applied to the point models' exact chance.
     """
 
     def __init__(
@@ -44,11 +48,17 @@ class PosteriorBeliefs:
         *,
         visible: np.ndarray | None = None,
         joint: bool | None = None,
+        reference: LearnResult | None = None,
     ) -> None:
         if not draws:
             raise ValueError("no draws: the posterior needs at least one model set")
         self.draws = tuple(draws)
         self.filters = [BeliefFilter(domain, m, visible=visible, joint=joint) for m in draws]
+        self.reference = (
+            None
+            if reference is None
+            else BeliefFilter(domain, reference, visible=visible, joint=joint)
+        )
         self.kept: dict[int, list[np.ndarray]] = {}
 
     @property
@@ -59,6 +69,8 @@ class PosteriorBeliefs:
         """One step of every filter (:meth:`BeliefFilter.update`)."""
         for f in self.filters:
             f.update(observed)
+        if self.reference is not None:
+            self.reference.update(observed)
 
     def run(self, record) -> None:
         """Feed the steps of ``record`` after the filters' current step."""
@@ -76,6 +88,14 @@ class PosteriorBeliefs:
         return np.array(
             [success_probability(f, model, plan, extra=extra).success for f in self.filters]
         )
+
+    def shifts(self, model: ObserverModel, plan: ObserverPlan, *, extra: int = 0) -> np.ndarray:
+        """(K,) each draw's P(success) along ``plan`` less the reference models' (both in this
+        object's filter form): added to the reference's exact chance, a control-variate
+        estimate of each draw's exact chance."""
+        assert self.reference is not None, "shifts() needs the reference models"
+        base = success_probability(self.reference, model, plan, extra=extra).success
+        return self.success(model, plan, extra=extra) - base
 
     def chances_at(
         self, t: int, model: ObserverModel, steps: int, *, hazard: str = "markov"
