@@ -148,7 +148,9 @@ def planned_going(world, watcher, model, planning, timings):
         for t, _ in watcher.moments:
             if t not in moment_chances:
                 clock = time.process_time()
-                if t in beliefs.kept:
+                if t in beliefs.kept and SETTINGS["averaged"]:
+                    moment_chances[t] = beliefs.averaged_chance(model, planning.moment_travel, t=t)
+                elif t in beliefs.kept:
                     moment_chances[t] = float(
                         beliefs.chances_at(t, model, planning.moment_travel).mean()
                     )
@@ -233,6 +235,10 @@ def main() -> None:
     ap.add_argument("--reward", default="bootstrap")
     ap.add_argument("--shared", action="store_true", help="the shared-kind reward mixture")
     ap.add_argument(
+        "--averaged", action="store_true",
+        help="mode both: one planner solve on the draws' averaged prediction",
+    )  # fmt: skip
+    ap.add_argument(
         "--factored", action="store_true",
         help="filter the draws factored; shift the point models' exact chance by their change",
     )  # fmt: skip
@@ -252,7 +258,7 @@ def main() -> None:
     scenario = cond.scenario_object()
     SETTINGS.update(draws=args.draws, parts=tuple(args.parts.split(",")), reward=args.reward,
                     truth=oracle_models(scenario), shared=args.shared,
-                    factored=args.factored)  # fmt: skip
+                    factored=args.factored, averaged=args.averaged)  # fmt: skip
     episode._planned_going = planned_going
     done = set()
     rows = []

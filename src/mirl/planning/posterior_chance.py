@@ -20,7 +20,26 @@ from mirl.planning.observer import ObserverModel
 from mirl.planning.success import success_probability
 from mirl.world.domain import PatrolDomain
 
-__all__ = ["PosteriorBeliefs"]
+__all__ = ["PosteriorBeliefs", "AveragedPrediction"]
+
+
+class AveragedPrediction:
+    """The draws' predictions averaged row by row (detection probabilities and first-order
+    hazards), in the interface :func:`~mirl.planning.go.solve_observer_mdp` reads: one solve
+    on the mixture's per-step hazards instead of one per draw. The planner's chance is itself
+    the first-order hazard's approximation; averaging the hazards keeps each step's mixture
+    marginal and drops only the draws' correlation across steps."""
+
+    def __init__(self, predictions) -> None:
+        self.predictions = list(predictions)
+        first = self.predictions[0]
+        self.t0, self.steps, self.pairs = first.t0, first.steps, first.pairs
+
+    def hazard_rows(self, lo: int, hi: int) -> np.ndarray:
+        return np.mean([p.hazard_rows(lo, hi) for p in self.predictions], axis=0)
+
+    def detection_rows(self, lo: int, hi: int) -> np.ndarray:
+        return np.mean([p.detection_rows(lo, hi) for p in self.predictions], axis=0)
 
 
 class PosteriorBeliefs:
@@ -96,6 +115,24 @@ class PosteriorBeliefs:
         assert self.reference is not None, "shifts() needs the reference models"
         base = success_probability(self.reference, model, plan, extra=extra).success
         return self.success(model, plan, extra=extra) - base
+
+    def averaged_chance(
+        self, model: ObserverModel, steps: int, window: int = 0, *, t: int | None = None
+    ) -> float:
+        """The planner's chance of going now (or at kept step ``t``) on the draws' averaged
+        prediction (:class:`AveragedPrediction`): one solve for all draws."""
+        if t is None:
+            preds = [f.predict(steps, model) for f in self.filters]
+        else:
+            preds = [
+                f.predict(steps, model, belief=b, t=t)
+                for f, b in zip(self.filters, self.kept[t], strict=True)
+            ]
+        plan = solve_observer_mdp(
+            model, AveragedPrediction(preds), window=window, goal_reward=1.0,
+            detection_penalty=0.0, min_value=-1.0,
+        )  # fmt: skip
+        return float(plan.go_values[0])
 
     def chances_at(
         self, t: int, model: ObserverModel, steps: int, *, hazard: str = "markov"
