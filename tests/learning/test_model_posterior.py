@@ -16,10 +16,12 @@ from mirl.learning.model_posterior import (
     _total_loss,
     bootstrap_series,
     draw_models,
+    greedy_policy_of,
     visits,
 )
 from mirl.learning.results import LearnResult, RobotModel
 from mirl.learning.verdicts import PriorSpec
+from mirl.mdp import TabularMDP, value_iteration
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.go import solve_observer_mdp
 from mirl.planning.observer import observer_model
@@ -197,3 +199,16 @@ def test_draws_of_a_fixed_part_stay_fixed():
     for d in draws:  # Known R: true reward, fixed p — nothing is drawn
         assert d.robots[0].transitions is point.transitions
         assert d.robots[0].weights is point.weights
+
+
+def test_policy_iteration_finds_value_iterations_greedy_policy():
+    sc = load_scenario("boyd2")
+    dom = sc.domain
+    rng = np.random.default_rng(0)
+    healthy = transition_matrix(dom, dict(HEALTHY_PROBABILITIES))
+    for _ in range(10):
+        R = dom.rewards(rng.normal(0.0, 2.0, 4).tolist())
+        T = transition_matrix(dom, {f: rng.uniform(0.3, 1.0) for f in dom.feature_map.features})
+        start = value_iteration(TabularMDP(healthy, R, sc.discount)).policy
+        expected = value_iteration(TabularMDP(T, R, sc.discount)).policy
+        assert np.array_equal(greedy_policy_of(T, R, sc.discount, start), expected)
