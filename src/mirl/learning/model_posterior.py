@@ -30,7 +30,7 @@ as for the point models.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from functools import partial
 
@@ -157,7 +157,7 @@ def draw_models(
             if not (r.series >= 0).any():
                 W.append([None] * n_draws)
                 continue
-            draw = {
+            draw: Callable[..., list[np.ndarray]] = {
                 "bootstrap": _bootstrap_rewards, "newton": _newton_rewards,
                 "newton1": partial(_newton_rewards, steps=1),
                 "laplace": _laplace_rewards, "point": _point_rewards,
@@ -448,33 +448,32 @@ def _shared_kind(scenario, robots, W, exclude, visible, options, rng, info):
     """Each seen robot's reward draws as a mixture of two hypotheses, weighed by its own record
     (Bayesian model averaging, even prior odds): it has a reward of its own (its draws;
     evidence: its record's log-likelihood at its point weights less the Schwarz penalty, d/2
-    times the log of its likelihood terms, Schwarz 1978) or it is of one kind with the other
-    robots L saw and shares their reward (their draws; evidence: its record's likelihood
-    averaged over those draws, a predictive likelihood)."""
+    times the log of its likelihood terms, Schwarz 1978) or it is of one kind with another
+    robot L saw and shares its reward (that robot's draws; evidence: its record's likelihood at
+    that robot's point weights, averaged over the other robots). One likelihood per other
+    robot: on a large floor a likelihood is a pass over the whole record."""
     n = len(robots)
     out = list(W)
     for i, r in enumerate(robots):
         if W[i][0] is None:
             continue
-        team = [w for j in range(n) if j != i and W[j][0] is not None for w in W[j]]
-        if not team:
+        others = [j for j in range(n) if j != i and W[j][0] is not None]
+        if not others:
             continue
         loss = _total_loss(scenario, r.model.transitions, r.series, exclude, visible, options)
         x = r.series
         terms = int(((x[:-1] >= 0) & (x[1:] >= 0)).sum()) + len(visits(x))
         penalty = 0.5 * len(r.model.weights) * np.log(max(terms, 2))
         log_own = -loss(np.asarray(r.model.weights, dtype=float))[0] - penalty
-        distinct: dict[bytes, float] = {}
-        for w in team:  # the same weights in several draws are evaluated once
-            if w.tobytes() not in distinct:
-                distinct[w.tobytes()] = -loss(w)[0]
-        ll = np.array([distinct[w.tobytes()] for w in team])
-        log_team = float(np.log(np.mean(np.exp(ll - ll.max()))) + ll.max())
+        ll = np.array([-loss(np.asarray(robots[j].model.weights, dtype=float))[0] for j in others])
+        top = ll.max()
+        log_team = float(np.log(np.mean(np.exp(ll - top))) + top)
         p_team = float(1.0 / (1.0 + np.exp(np.clip(log_own - log_team, -50, 50))))
+        which = np.exp(ll - top) / np.exp(ll - top).sum()  # whose kind, given one kind
         pick = rng.random(len(W[i])) < p_team
         out[i] = [
-            team[rng.integers(len(team))] if shared else own
-            for shared, own in zip(pick, W[i], strict=True)
+            W[others[rng.choice(len(others), p=which)]][k] if shared else own
+            for k, (shared, own) in enumerate(zip(pick, W[i], strict=True))
         ]
         if info is not None:
             info.setdefault("shared_kind", {})[r.model.name] = p_team

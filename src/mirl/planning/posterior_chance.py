@@ -10,11 +10,12 @@ uncertainty moves the chance.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 
 from mirl.learning.results import LearnResult
-from mirl.planning.belief import BeliefFilter
+from mirl.planning.belief import BeliefFilter, Prediction
 from mirl.planning.go import ObserverPlan, solve_observer_mdp
 from mirl.planning.observer import ObserverModel
 from mirl.planning.success import success_probability
@@ -128,8 +129,10 @@ class PosteriorBeliefs:
                 f.predict(steps, model, belief=b, t=t)
                 for f, b in zip(self.filters, self.kept[t], strict=True)
             ]
+        # the planner reads a prediction's steps, t0, pairs and rows only
+        averaged = cast(Prediction, AveragedPrediction(preds))
         plan = solve_observer_mdp(
-            model, AveragedPrediction(preds), window=window, goal_reward=1.0,
+            model, averaged, window=window, goal_reward=1.0,
             detection_penalty=0.0, min_value=-1.0,
         )  # fmt: skip
         return float(plan.go_values[0])
