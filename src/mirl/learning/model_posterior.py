@@ -157,12 +157,12 @@ def draw_models(
             if not (r.series >= 0).any():
                 W.append([None] * n_draws)
                 continue
-            draw: Callable[..., list[np.ndarray]] = {
+            draws: dict[str, Callable[..., list[np.ndarray | None]]] = {
                 "bootstrap": _bootstrap_rewards, "newton": _newton_rewards,
                 "newton1": partial(_newton_rewards, steps=1),
                 "laplace": _laplace_rewards, "point": _point_rewards,
-            }[reward]  # fmt: skip
-            W.append(draw(scenario, r, Ts[i], exclude, visible, irl_options or {}, rng))
+            }  # fmt: skip
+            W.append(draws[reward](scenario, r, Ts[i], exclude, visible, irl_options or {}, rng))
         if shared:
             W = _shared_kind(scenario, robots, W, exclude, visible, irl_options or {}, rng, info)
         seen = [[v for v in w if v is not None] for w in W if w[0] is not None]
