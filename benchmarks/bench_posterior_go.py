@@ -253,7 +253,12 @@ def main() -> None:
     ap.add_argument("--watch", action="store_true", help="mirl run's watching protocol")
     ap.add_argument("--no-pair", action="store_true", help="skip today's rule")
     ap.add_argument("--out", default=None)
+    ap.add_argument("--report", action="store_true", help="only report what --out holds")
     args = ap.parse_args()
+    if args.report:
+        with open(args.out) as f:
+            report([json.loads(line) for line in f], args)
+        return
     cond = Condition(args.method, args.scenario, args.observability, damage=args.damage)
     scenario = cond.scenario_object()
     SETTINGS.update(draws=args.draws, parts=tuple(args.parts.split(",")), reward=args.reward,
@@ -315,6 +320,18 @@ def report(rows, args) -> None:
         print(f"where L went ({len(went)}): stated {s.mean():.3f} (point models' {pt.mean():.3f})"
               f" realised {yw.mean():.3f} ± {yw.std() / np.sqrt(len(yw)):.3f}; "
               f"difference {s.mean() - yw.mean():+.3f}")  # fmt: skip
+        tr = np.array([r["true_stated"] for r in went])
+        d = s - tr
+        print(f"  against the true models' chance along the same plan {tr.mean():.3f}: "
+              f"{d.mean():+.3f} ± {d.std() / np.sqrt(len(d)):.3f} (point models' "
+              f"{(pt - tr).mean():+.3f})")  # fmt: skip
+        draws = [r["draws"] for r in went if r["draws"]]
+        if draws:
+            lo_hi = np.array([np.quantile(x, [0.1, 0.9]) for x in draws])
+            inside = (tr >= lo_hi[:, 0] - 1e-9) & (tr <= lo_hi[:, 1] + 1e-9)
+            print(f"  the draws' 10–90 % range holds the true models' chance in "
+                  f"{inside.mean():.2f} of the runs (mean width "
+                  f"{(lo_hi[:, 1] - lo_hi[:, 0]).mean():.3f})")  # fmt: skip
         for lo in np.arange(0, 1, 0.1):
             sel = (s >= lo) & (s < lo + 0.1 + 1e-9 * (lo > 0.85))
             if sel.any():

@@ -212,3 +212,23 @@ def test_policy_iteration_finds_value_iterations_greedy_policy():
         start = value_iteration(TabularMDP(healthy, R, sc.discount)).policy
         expected = value_iteration(TabularMDP(T, R, sc.discount)).policy
         assert np.array_equal(greedy_policy_of(T, R, sc.discount, start), expected)
+
+
+def test_a_record_that_saw_no_robot_keeps_the_point_rewards():
+    sc = load_scenario("boyd2")
+    from mirl.learning.results import oracle_models
+
+    truth = oracle_models(sc)
+    point = LearnResult(
+        "mirl-t",
+        tuple(r.__class__(r.name, np.zeros(4), {}, r.transitions, r.policy) for r in truth.robots),
+        truth.equilibrium,
+    )
+    unseen = [np.full(50, -1), np.full(50, -1)]
+    draws = draw_models(
+        point, unseen, sc, visible=np.zeros(sc.domain.n_states, bool), n_draws=3,
+        parts=("rewards",), reward="laplace", shared=True,
+    )  # fmt: skip
+    for d in draws:
+        for r in d.robots:
+            assert np.array_equal(r.weights, np.zeros(4))

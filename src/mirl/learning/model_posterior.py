@@ -166,9 +166,11 @@ def draw_models(
         if shared:
             W = _shared_kind(scenario, robots, W, exclude, visible, irl_options or {}, rng, info)
         seen = [[v for v in w if v is not None] for w in W if w[0] is not None]
-        for i in range(n):
-            if W[i][0] is None:  # never seen: the mean reward of the robots L saw, per draw
+        for i, r in enumerate(robots):
+            if W[i][0] is None and seen:  # never seen: the mean of the seen robots', per draw
                 W[i] = [np.mean([w[k] for w in seen], axis=0) for k in range(n_draws)]
+            elif W[i][0] is None:  # L saw no robot: the point weights (learn()'s zeros)
+                W[i] = [np.asarray(r.model.weights, dtype=float)] * n_draws
     else:
         W = [[np.asarray(r.model.weights, dtype=float)] * n_draws for r in robots]
     # equilibrium per draw
