@@ -56,6 +56,9 @@ VARIANTS = {
     "RN": dict(parts=("rewards",), reward="newton"),
     "allS0": dict(parts=("transitions", "rewards", "equilibrium"), reward="point", shared=True),
     "allLS": dict(parts=("transitions", "rewards", "equilibrium"), reward="laplace", shared=True),
+    "allSIR": dict(
+        parts=("transitions", "rewards", "equilibrium"), reward="laplace-sir", shared=True
+    ),
     "allN1S": dict(parts=("transitions", "rewards", "equilibrium"), reward="newton1", shared=True),
     "allS0m": dict(
         parts=("transitions", "rewards", "equilibrium"),

@@ -53,7 +53,7 @@ __all__ = ["PARTS", "REWARD_DRAWS", "draw_models", "visits", "bootstrap_series"]
 
 PARTS = ("transitions", "rewards", "equilibrium")
 """What a draw may vary; the parts not drawn stay at the point models'."""
-REWARD_DRAWS = ("bootstrap", "newton", "newton1", "laplace", "point")
+REWARD_DRAWS = ("bootstrap", "newton", "newton1", "laplace", "laplace-sir", "point")
 
 
 @dataclass
@@ -161,6 +161,7 @@ def draw_models(
                 "bootstrap": _bootstrap_rewards, "newton": _newton_rewards,
                 "newton1": partial(_newton_rewards, steps=1),
                 "laplace": _laplace_rewards, "point": _point_rewards,
+                "laplace-sir": partial(_laplace_rewards, candidates=4),
             }  # fmt: skip
             W.append(draws[reward](scenario, r, Ts[i], exclude, visible, irl_options or {}, rng))
         if shared:
@@ -367,17 +368,20 @@ def _bootstrap_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, r
 
 
 def _total_loss(scenario, T, series, exclude, visible, options):
-    """The IRL's negative log-posterior of one record as a function of θ, with its gradient:
-    the estimator's loss times the steps it is averaged over (the loss is per step)."""
+    """The IRL's negative log-posterior of one record as a function of θ, with its gradient
+    (``loss(θ)``; ``loss(θ, False)``: the value alone): the estimator's loss times the steps it
+    is averaged over (the loss is per step)."""
     irl = OccludedMaxEntIRL(
         scenario.domain.reward_features, T, discount=scenario.discount, visible=visible,
         **{**options, "n_restarts": 1},
     )  # fmt: skip
     irl._prepare(series, None, exclude)
 
-    def loss(theta):
-        value, grad = irl._loss(theta, True)
-        return value * irl._n_steps, grad * irl._n_steps
+    def loss(theta, grad=True):
+        if not grad:
+            return irl._loss(theta) * irl._n_steps
+        value, g = irl._loss(theta, True)
+        return value * irl._n_steps, g * irl._n_steps
 
     return loss
 
@@ -399,15 +403,33 @@ def _point_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, rng):
     return [np.asarray(robot.model.weights, dtype=float) for _ in Ts]
 
 
-def _laplace_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, rng):
+def _laplace_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, rng, candidates=0):
     """Reward weights drawn from a Laplace approximation at the point weights: N(θ̂, H⁻¹), H the
-    Hessian of the negative log-posterior, under the point T."""
+    Hessian of the negative log-posterior, under the point T. With ``candidates`` > 0, that
+    many times more draws from the approximation widened 1.5 times, weighed by the exact
+    posterior over their density and resampled (sampling importance resampling, Rubin 1988):
+    the quadratic approximation does not see where the likelihood falls off a cliff (weights
+    under which the robot would not move as L saw it move), the weights do."""
     loss = _total_loss(scenario, robot.model.transitions, robot.series, exclude, visible, options)
     theta = np.asarray(robot.model.weights, dtype=float)
     vals, vecs = np.linalg.eigh(_hessian(loss, theta))
     vals = np.maximum(vals, 1e-6)  # a flat direction: wide, not infinite
     scale = vecs / np.sqrt(vals)
-    return [theta + scale @ rng.standard_normal(len(theta)) for _ in Ts]
+    K = len(Ts)
+    if not candidates:
+        return [theta + scale @ rng.standard_normal(len(theta)) for _ in range(K)]
+    widen = 1.5
+    z = rng.standard_normal((candidates * K, len(theta)))
+    draws = theta + widen * z @ scale.T
+    log_q = -0.5 * (z**2).sum(axis=1)  # the proposal's log density, up to a constant
+    base = loss(theta, False)
+    log_p = np.array([base - loss(x, False) for x in draws])  # log posterior over θ̂'s
+    log_w = log_p - log_q
+    w = np.exp(log_w - log_w.max())
+    w /= w.sum()
+    u = (rng.random() + np.arange(K)) / K  # systematic resampling
+    pick = np.minimum(np.searchsorted(np.cumsum(w), u), len(w) - 1)
+    return [draws[k] for k in pick]
 
 
 def _newton_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, rng, steps=3):
