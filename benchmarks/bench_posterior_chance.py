@@ -37,6 +37,7 @@ import numpy as np  # noqa: E402
 import scipy.sparse as sp  # noqa: E402
 
 from mirl.experiments.conditions import Condition  # noqa: E402
+from mirl.experiments.worlds import get_world  # noqa: E402
 from mirl.learning.model_posterior import draw_models  # noqa: E402
 from mirl.learning.results import oracle_models  # noqa: E402
 from mirl.planning.belief import BeliefFilter  # noqa: E402
@@ -123,11 +124,13 @@ def main() -> None:
     for path in paths:
         with open(path, "rb") as f:
             run = pickle.load(f)
-        key = (run["scenario"], run["damage"], run["method"], run["observability"])
+        key = (run["scenario"], run["damage"], run["method"], run["observability"], run["world"])
         if key not in cache:
             cond = Condition(run["method"], run["scenario"], run["observability"], run["damage"])
             scenario = cond.scenario_object()
             model = observer_model(scenario)
+            # L's models take the world's ξ (the physical world's turns need no wheel)
+            scenario = get_world(run.get("world", "grid")).load().modelled(scenario)
             travel = max(20, 3 * int(model.distance_to_goal[model.start_state]))
             cache[key] = (scenario, model, travel, oracle_models(scenario))
         scenario, model, travel, truth = cache[key]

@@ -17,6 +17,7 @@ from mirl.learning.model_posterior import (
     bootstrap_series,
     draw_models,
     greedy_policy_of,
+    importance_resample,
     visits,
 )
 from mirl.learning.results import LearnResult, RobotModel
@@ -232,3 +233,18 @@ def test_a_record_that_saw_no_robot_keeps_the_point_rewards():
     for d in draws:
         for r in d.robots:
             assert np.array_equal(r.weights, np.zeros(4))
+
+
+def test_importance_resampling_reaches_a_non_gaussian_posterior():
+    # a banana: x0 ~ N(1, 1), x1 | x0 ~ N(x0², 0.5²); E[x1] = E[x0²] = 2, Cov(x0, x1) = 2
+    def log_posterior(x):
+        return -0.5 * ((x[0] - 1.0) ** 2 + (x[1] - x[0] ** 2) ** 2 / 0.25)
+
+    rng = np.random.default_rng(4)
+    # from the Gaussian of the target's means and variances, which has no covariance at all
+    draws = importance_resample(
+        np.array([1.0, 2.0]), np.diag([1.0, 2.5]), log_posterior, 4000, 40000, rng
+    )
+    x = np.array(draws)
+    assert x.mean(axis=0) == pytest.approx([1.0, 2.0], abs=0.1)
+    assert np.cov(x.T)[0, 1] == pytest.approx(2.0, abs=0.3)

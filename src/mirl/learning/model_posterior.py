@@ -418,16 +418,24 @@ def _laplace_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, rng
     K = len(Ts)
     if not candidates:
         return [theta + scale @ rng.standard_normal(len(theta)) for _ in range(K)]
-    widen = 1.5
-    z = rng.standard_normal((candidates * K, len(theta)))
-    draws = theta + widen * z @ scale.T
-    log_q = -0.5 * (z**2).sum(axis=1)  # the proposal's log density, up to a constant
     base = loss(theta, False)
-    log_p = np.array([base - loss(x, False) for x in draws])  # log posterior over θ̂'s
-    log_w = log_p - log_q
+    return importance_resample(
+        theta, scale, lambda x: base - loss(x, False), K, candidates * K, rng
+    )
+
+
+def importance_resample(center, scale, log_posterior, n_draws, n_candidates, rng, widen=1.5):
+    """``n_draws`` draws from a density known up to a constant (``log_posterior``) by sampling
+    importance resampling (Rubin 1988): ``n_candidates`` from the Gaussian N(center,
+    (widen · scale)(widen · scale)ᵀ), weighed by the density over theirs, resampled
+    systematically. The proposal is widened so that the target's tails stay covered."""
+    z = rng.standard_normal((n_candidates, len(center)))
+    draws = center + widen * z @ np.asarray(scale).T
+    log_q = -0.5 * (z**2).sum(axis=1)  # the proposal's log density, up to a constant
+    log_w = np.array([log_posterior(x) for x in draws]) - log_q
     w = np.exp(log_w - log_w.max())
     w /= w.sum()
-    u = (rng.random() + np.arange(K)) / K  # systematic resampling
+    u = (rng.random() + np.arange(n_draws)) / n_draws
     pick = np.minimum(np.searchsorted(np.cumsum(w), u), len(w) - 1)
     return [draws[k] for k in pick]
 
