@@ -61,6 +61,12 @@ VARIANTS = {
         parts=("transitions", "rewards", "equilibrium"), reward="laplace-sir", shared=True
     ),
     "allN1S": dict(parts=("transitions", "rewards", "equilibrium"), reward="newton1", shared=True),
+    "allSIRp": dict(
+        parts=("transitions", "rewards", "equilibrium"), reward="laplace-sir-prior", shared=True
+    ),
+    "allSIRn": dict(parts=("transitions", "rewards", "equilibrium"), reward="laplace-sir"),
+    "allSIRpn": dict(parts=("transitions", "rewards", "equilibrium"), reward="laplace-sir-prior"),
+    "TE": dict(parts=("transitions", "equilibrium")),
     "allS0m": dict(
         parts=("transitions", "rewards", "equilibrium"),
         reward="point",

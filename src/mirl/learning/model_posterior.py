@@ -53,7 +53,15 @@ __all__ = ["PARTS", "REWARD_DRAWS", "draw_models", "visits", "bootstrap_series"]
 
 PARTS = ("transitions", "rewards", "equilibrium")
 """What a draw may vary; the parts not drawn stay at the point models'."""
-REWARD_DRAWS = ("bootstrap", "newton", "newton1", "laplace", "laplace-sir", "point")
+REWARD_DRAWS = (
+    "bootstrap",
+    "newton",
+    "newton1",
+    "laplace",
+    "laplace-sir",
+    "laplace-sir-prior",
+    "point",
+)
 
 
 @dataclass
@@ -162,6 +170,7 @@ def draw_models(
                 "newton1": partial(_newton_rewards, steps=1),
                 "laplace": _laplace_rewards, "point": _point_rewards,
                 "laplace-sir": partial(_laplace_rewards, candidates=4),
+                "laplace-sir-prior": partial(_laplace_rewards, candidates=4, prior=1.0),
             }  # fmt: skip
             W.append(draws[reward](scenario, r, Ts[i], exclude, visible, irl_options or {}, rng))
         if shared:
@@ -403,7 +412,9 @@ def _point_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, rng):
     return [np.asarray(robot.model.weights, dtype=float) for _ in Ts]
 
 
-def _laplace_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, rng, candidates=0):
+def _laplace_rewards(
+    scenario, robot: _Robot, Ts, exclude, visible, options, rng, candidates=0, prior=None
+):
     """Reward weights drawn from a Laplace approximation at the point weights: N(θ̂, H⁻¹), H the
     Hessian of the negative log-posterior, under the point T. With ``candidates`` > 0, that
     many times more draws from the approximation widened 1.5 times, weighed by the exact
@@ -412,8 +423,20 @@ def _laplace_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, rng
     under which the robot would not move as L saw it move), the weights do."""
     loss = _total_loss(scenario, robot.model.transitions, robot.series, exclude, visible, options)
     theta = np.asarray(robot.model.weights, dtype=float)
+    if prior is not None:  # N(0, s² I), s = prior × |θ̂|: weights of the learned scale
+        s2 = (prior * max(float(np.linalg.norm(theta)), 1.0)) ** 2
+        plain = loss
+
+        def loss(x, grad=True):
+            out = plain(x, grad)
+            extra = 0.5 * float(x @ x) / s2
+            return (out[0] + extra, out[1] + x / s2) if grad else out + extra
+
     vals, vecs = np.linalg.eigh(_hessian(loss, theta))
-    vals = np.maximum(vals, 1e-6)  # a flat direction: wide, not infinite
+    # the optimiser's stopping rule can leave θ̂ short of the optimum, even at a saddle: a
+    # direction of negative curvature is taken at its size (the importance weights then move
+    # the draws to where the posterior is), and a flat one is wide, not infinite
+    vals = np.maximum(np.abs(vals), 1e-4 * max(float(np.abs(vals).max()), 1e-2))
     scale = vecs / np.sqrt(vals)
     K = len(Ts)
     if not candidates:
@@ -433,6 +456,9 @@ def importance_resample(center, scale, log_posterior, n_draws, n_candidates, rng
     draws = center + widen * z @ np.asarray(scale).T
     log_q = -0.5 * (z**2).sum(axis=1)  # the proposal's log density, up to a constant
     log_w = np.array([log_posterior(x) for x in draws]) - log_q
+    log_w[~np.isfinite(log_w)] = -np.inf  # a density that could not be evaluated: weight 0
+    if not np.isfinite(log_w).any():
+        return [np.asarray(center, dtype=float)] * n_draws
     w = np.exp(log_w - log_w.max())
     w /= w.sum()
     u = (rng.random() + np.arange(n_draws)) / n_draws
