@@ -67,6 +67,9 @@ VARIANTS = {
     "allSIRn": dict(parts=("transitions", "rewards", "equilibrium"), reward="laplace-sir"),
     "allSIRpn": dict(parts=("transitions", "rewards", "equilibrium"), reward="laplace-sir-prior"),
     "TE": dict(parts=("transitions", "equilibrium")),
+    "allSIRP": dict(
+        parts=("transitions", "rewards", "equilibrium"), reward="laplace-sir", shared="pooled"
+    ),
     "allS0m": dict(
         parts=("transitions", "rewards", "equilibrium"),
         reward="point",

@@ -82,7 +82,7 @@ def draw_models(
     n_draws: int = 8,
     parts: Sequence[str] = PARTS,
     reward: str = "bootstrap",
-    shared: bool = False,
+    shared: bool | str = False,
     irl_options: dict | None = None,
     random_state: int = 0,
     info: dict | None = None,
@@ -109,9 +109,11 @@ def draw_models(
         How a robot's reward is drawn: refitted on block-bootstrap records; the same, refitted
         by a few Newton steps with the record's Hessian; a Laplace approximation; or its point
         weights (its uncertainty then only from ``shared``).
-    shared : bool, default False
+    shared : bool or "pooled", default False
         Mix each robot's reward draws with the other robots' by how well its record supports
-        "one kind, one reward" against "a reward of its own" (:func:`_shared_kind`).
+        "one kind, one reward" against "a reward of its own" (:func:`_shared_kind`); or,
+        ``"pooled"``, weigh the team's hypotheses "every robot its own reward" and "one reward,
+        learned from every robot's record" (:func:`_pooled_kind`).
     irl_options : dict, optional
         The IRL's options for the refits (default: the estimator's).
     random_state : int, default 0
@@ -173,7 +175,9 @@ def draw_models(
                 "laplace-sir-prior": partial(_laplace_rewards, candidates=4, prior=1.0),
             }  # fmt: skip
             W.append(draws[reward](scenario, r, Ts[i], exclude, visible, irl_options or {}, rng))
-        if shared:
+        if shared == "pooled":
+            W = _pooled_kind(scenario, robots, W, exclude, visible, irl_options or {}, rng, info)
+        elif shared:
             W = _shared_kind(scenario, robots, W, exclude, visible, irl_options or {}, rng, info)
         seen = [[v for v in w if v is not None] for w in W if w[0] is not None]
         for i, r in enumerate(robots):
@@ -535,4 +539,61 @@ def _shared_kind(scenario, robots, W, exclude, visible, options, rng, info):
         ]
         if info is not None:
             info.setdefault("shared_kind", {})[r.model.name] = p_team
+    return out
+
+
+def _pooled_kind(scenario, robots, W, exclude, visible, options, rng, info):
+    """The team's reward draws under two hypotheses, weighed by the whole record (Bayesian
+    model averaging, even prior odds, each evidence by Schwarz's approximation, Schwarz 1978):
+    every seen robot has a reward of its own (their own draws; d parameters per robot), or the
+    robots are of one kind and share one reward (d parameters in all), learned from every seen
+    robot's record at once — each under its own T — and drawn as the robots' own are (a Laplace
+    approximation at the pooled optimum, importance-resampled). Each draw takes one hypothesis
+    for the whole team."""
+    from scipy.optimize import minimize
+
+    seen = [i for i, w in enumerate(W) if w[0] is not None]
+    if len(seen) < 2:
+        return W
+    K = len(W[seen[0]])
+    losses = [
+        _total_loss(scenario, robots[i].model.transitions, robots[i].series, exclude, visible,
+                    options)
+        for i in seen
+    ]  # fmt: skip
+
+    def total(theta, grad=True):
+        parts = [f(theta, grad) for f in losses]
+        if not grad:
+            return float(sum(parts))
+        return float(sum(v for v, _ in parts)), np.sum([g for _, g in parts], axis=0)
+
+    d = len(robots[seen[0]].model.weights)
+    terms = []
+    for i in seen:
+        x = robots[i].series
+        terms.append(int(((x[:-1] >= 0) & (x[1:] >= 0)).sum()) + len(visits(x)))
+    own = sum(
+        -f(np.asarray(robots[i].model.weights, dtype=float), False) - 0.5 * d * np.log(max(n, 2))
+        for f, i, n in zip(losses, seen, terms, strict=True)
+    )
+    start = np.mean([robots[i].model.weights for i in seen], axis=0)
+    res = minimize(total, start, jac=True, method="L-BFGS-B", options={"maxfun": 100})
+    pooled = np.asarray(res.x, dtype=float)
+    one = -total(pooled, False) - 0.5 * d * np.log(max(sum(terms), 2))
+    p_one = float(1.0 / (1.0 + np.exp(np.clip(own - one, -50, 50))))
+    if info is not None:
+        info["one_kind"] = p_one
+    pick = rng.random(K) < p_one
+    if not pick.any():
+        return W
+    vals, vecs = np.linalg.eigh(_hessian(total, pooled))
+    vals = np.maximum(np.abs(vals), 1e-4 * max(float(np.abs(vals).max()), 1e-2))
+    base = total(pooled, False)
+    draws = importance_resample(
+        pooled, vecs / np.sqrt(vals), lambda x: base - total(x, False), K, 4 * K, rng
+    )
+    out = list(W)
+    for i in seen:
+        out[i] = [draws[k] if pick[k] else W[i][k] for k in range(K)]
     return out
