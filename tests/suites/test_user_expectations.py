@@ -14,7 +14,7 @@ from mirl.cli import main
 from mirl.cli.checks import unique_lowest
 from mirl.experiments.conditions import EXPERIMENTS, Condition, with_em_init
 from mirl.experiments.episode import run_episode
-from mirl.experiments.records import WATCH_LIMIT
+from mirl.experiments.options import RunProtocol
 from mirl.experiments.run_report import format_report, state_text
 from mirl.experiments.store import ResultStore
 from mirl.experiments.sweep import run_experiment
@@ -83,8 +83,8 @@ def test_learn_em_init_is_validated(boyd2):
     from mirl.simulation.grid import simulate
 
     obs = simulate(boyd2, 30, seed=2).observations
-    with pytest.raises(ValueError, match="unknown EM initialisation 'zeros'"):
-        learn(obs, boyd2, "dbn-em", em_init="zeros")
+    with pytest.raises(ValueError, match="`em_init` must be one of intended, uniform"):
+        learn(obs, boyd2, "dbn-em", options={"em_init": "zeros"})
 
 
 def test_run_plot_failure_still_prints_the_report(tmp_path, capsys, monkeypatch):
@@ -104,7 +104,8 @@ def test_run_plot_failure_still_prints_the_report(tmp_path, capsys, monkeypatch)
 def test_run_plot_has_a_legend(boyd2):
     from mirl.viz.runs import run_figure
 
-    result = run_episode(boyd2, "random", obs_steps=30, seed=1, max_wait=20)
+    protocol = {"obs_steps": 30, "watch_until_seen": None, "max_wait": 20}
+    result = run_episode(boyd2, "random", seed=1, protocol=protocol)
     fig, _ = run_figure(boyd2, result)
     labels = [t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().texts]
     assert labels  # what each mark and colour on the run plot means
@@ -113,21 +114,24 @@ def test_run_plot_has_a_legend(boyd2):
 
 
 def test_watching_until_every_patroller_was_seen(boyd2):
-    fixed = run_episode(boyd2, "random", seed=0)
+    fixed = run_episode(boyd2, "random", seed=0, protocol=RunProtocol.paper())
     assert fixed.obs_steps == 300 and fixed.seen_steps["J"] == 0  # seed 0: J unseen in 300
     assert "watch_until_seen" not in fixed.to_dict()  # experiments' JSON is unchanged
-    watched = run_episode(boyd2, "random", seed=0, watch_until_seen=10)
-    assert 300 < watched.obs_steps <= WATCH_LIMIT
+    watched = run_episode(boyd2, "random", seed=0, protocol={"watch_until_seen": 10})
+    assert 300 < watched.obs_steps <= RunProtocol().max_obs_steps
     assert min(watched.seen_steps.values()) == 10  # stopped as soon as the rule was met
     assert watched.to_dict()["watch_until_seen"] == 10
-    capped = run_episode(boyd2, "random", seed=0, watch_until_seen=10, max_obs_steps=400)
+    capped = run_episode(
+        boyd2, "random", seed=0, protocol={"watch_until_seen": 10, "max_obs_steps": 400}
+    )
     assert capped.obs_steps == 400 and capped.seen_steps["J"] < 10
 
 
 def test_run_report_explains_its_terms(boyd2):
     result = run_episode(
-        boyd2, "oracle", seed=0, learned=oracle_models(boyd2), obs_steps=60, max_wait=30
-    )
+        boyd2, "oracle", seed=0, learned=oracle_models(boyd2),
+        protocol={"obs_steps": 60, "watch_until_seen": None, "max_wait": 30},
+    )  # fmt: skip
     text = format_report(boyd2, result)
     assert "(Oracle in the paper's figures): the true models" in text and "(row, col)" in text
     assert "interaction equilibrium (I/J): stop/go — when I and J meet, I yields" in text
@@ -168,11 +172,16 @@ def test_run_report_says_which_patroller_never_came_into_view():
 
     from mirl.experiments.run_report import _observed_line
 
+    def watched(seen):
+        return SimpleNamespace(
+            seen_steps=seen, obs_steps=1800, watch_until_seen=40, protocol=RunProtocol()
+        )
+
     seen = {"I": 1438, "J": 213, "K": 215, "M": 0}
-    line = _observed_line(SimpleNamespace(seen_steps=seen, obs_steps=1800, watch_until_seen=40))
+    line = _observed_line(watched(seen))
     assert "watching limit" in line and "M never came into view" in line and "--obs-steps" in line
     seen["M"] = 3  # seen, if too little: no such note
-    line = _observed_line(SimpleNamespace(seen_steps=seen, obs_steps=1800, watch_until_seen=40))
+    line = _observed_line(watched(seen))
     assert "watching limit" in line and "never came into view" not in line
 
 
@@ -228,6 +237,7 @@ def test_em_init_changes_dbn_em_transitions(boyd2):
     states = np.full((4, 2), -1)
     states[:3, 0] = boyd2.domain.state_index([0, 0, 0], [4, 3, 2], [2, 2, 2])
     obs = Trajectories.from_states(boyd2.domain, boyd2.robot_names, states)
-    a = learn(obs, boyd2, "dbn-em", em_init="uniform", score=False).robots[0].transitions
+    uniform = {"em_init": "uniform"}
+    a = learn(obs, boyd2, "dbn-em", options=uniform, score=False).robots[0].transitions
     b = learn(obs, boyd2, "dbn-em", score=False).robots[0].transitions
     assert a.nnz > b.nnz  # uniform: every state reachable; intended: only ψ(s, a') targets

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from mirl.learning.options import EM_INITS
 from mirl.world.domain import PatrolDomain
 
 __all__ = [
@@ -72,7 +73,6 @@ class EMResult:
         return sp.csr_array(self.transitions.reshape(S * A, S))
 
 
-EM_INITS = ("intended", "uniform")
 
 
 def initial_transitions(domain: PatrolDomain, init: str = "intended") -> np.ndarray:

@@ -58,6 +58,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import OptimizeResult, minimize
 
+from mirl.learning.options import IRL_OBJECTIVES as OBJECTIVES
+from mirl.learning.options import IRL_OPTIMIZERS as OPTIMIZERS
 from mirl.learning.sequence import BlockOperator, ObservedSequence
 from mirl.learning.soft_policy import _Dynamics, soft_policy_iteration
 from mirl.mdp import TabularMDP, value_iteration
@@ -65,9 +67,7 @@ from mirl.sparse import csr_matmul
 
 __all__ = ["OBJECTIVES", "ANCHORS", "OPTIMIZERS", "OccludedMaxEntIRL"]
 
-OBJECTIVES = ("counts", "likelihood", "both", "sequence")
 ANCHORS = ("first", "reentry")
-OPTIMIZERS = ("nelder-mead", "lbfgs")
 GRADIENTS = ("auto", "forward", "reverse")
 # "auto" takes the sequence gradient in reverse mode from this many nonzeros of the forward
 # operator ((2K + 1)·nnz(P_πᵀ)); below it the reverse pass's per-step bookkeeping eats what it

@@ -1,0 +1,422 @@
+"""Options declared once: a spec per field — its default, the values it takes, what it means and
+the flag that sets it — validated in one place, with one error.
+
+An options type is a frozen dataclass deriving from :class:`Options` whose every field is
+declared with :func:`option`::
+
+    class LearnOptions(Options):
+        max_iterations: int = option(Interval(int, 1, 100), default=5,
+                                     doc="relabelling rounds at most", flag="--max-iterations")
+
+Constructing one checks every field against its constraints (a value is accepted when it meets
+any one of them; ``None`` in the list accepts None), then the type's own rules between fields
+(:meth:`Options._check`). Whatever is wrong raises :class:`OptionError`, one line that names
+the option in backquotes — ```max_iterations``` must be an integer in [1, 100], got 0 — which
+the command line rewrites to the flag, and an unknown option's name gets the nearest known ones.
+The command line builds its flags from the same specs (:meth:`Spec.parse` for a flag's text),
+so a bound, a choice, a default and a help text are written once.
+
+Why by hand: this follows scikit-learn's ``utils._param_validation`` (a list of constraints per
+parameter, checked by one function, one error type that is both a ValueError and a TypeError),
+which is private to scikit-learn; what mirl adds is the flag beside each declaration, so the
+parser is built from it. The module imports nothing heavy, so the parser can read the option
+types at start-up.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import numbers
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any, ClassVar, Protocol, TypeVar, dataclass_transform
+
+from mirl._registry import did_you_mean
+
+__all__ = [
+    "OptionError",
+    "Constraint",
+    "Interval",
+    "Choice",
+    "Boolean",
+    "Instance",
+    "Satisfies",
+    "SEED",
+    "Spec",
+    "option",
+    "same_option",
+    "Options",
+    "check_argument",
+    "unknown_choice",
+]
+
+OptionsT = TypeVar("OptionsT", bound="Options")
+
+
+class OptionError(ValueError, TypeError):
+    """An option or argument that cannot work, or an option that does not exist.
+
+    Its text is one line naming the option in backquotes (```p``` must be a number in [0, 1],
+    got 1.5); ``option`` is the name and ``problem`` the text after it, which the command line
+    puts after the flag. A ValueError and a TypeError, as scikit-learn's
+    ``InvalidParameterError``: a wrong type and a wrong value are one mistake to the caller.
+    """
+
+    def __init__(self, option: str, problem: str, *, owner: str = "") -> None:
+        super().__init__(f"`{option}` {problem}")
+        self.option, self.problem, self.owner = option, problem, owner
+
+
+class Constraint(Protocol):
+    """What a field accepts: ``accepts(value)``, a phrase for messages (``describe()``: "an
+    integer in [1, 100]") and the conversion of a flag's text (``convert``)."""
+
+    def accepts(self, value: Any) -> bool: ...
+
+    def describe(self) -> str: ...
+
+    def convert(self, text: str) -> Any: ...
+
+
+def _show(v: float) -> str:
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+@dataclass(frozen=True)
+class Interval:
+    """A number of ``kind`` (int or float) between ``low`` and ``high`` (None: unbounded);
+    ``closed`` says which ends belong to it ("both", "left", "right", "neither"). A bool is not
+    a number here; a float must be finite."""
+
+    kind: type
+    low: float | None = None
+    high: float | None = None
+    closed: str = "both"
+    text: str | None = None  # the phrase for messages, when the bounds read badly (2^63 - 1)
+
+    def __post_init__(self) -> None:
+        if self.kind not in (int, float) or self.closed not in ("both", "left", "right", "neither"):
+            raise ValueError(f"an interval of int or float, closed at both, left, right or "
+                             f"neither end, not {self.kind} closed at {self.closed}")  # fmt: skip
+
+    def accepts(self, value: Any) -> bool:
+        if isinstance(value, bool):
+            return False
+        if self.kind is int and not isinstance(value, numbers.Integral):
+            return False
+        if not isinstance(value, numbers.Real) or not math.isfinite(value):
+            return False
+        if self.kind is float:
+            value = float(value)
+        left, right = self.closed in ("both", "left"), self.closed in ("both", "right")
+        if self.low is not None and not (value >= self.low if left else value > self.low):
+            return False
+        return self.high is None or (value <= self.high if right else value < self.high)
+
+    def describe(self) -> str:
+        if self.text is not None:
+            return self.text
+        what = "an integer" if self.kind is int else "a number"
+        left, right = self.closed in ("both", "left"), self.closed in ("both", "right")
+        if self.low is not None and self.high is not None:
+            return (f"{what} in {'[' if left else '('}{_show(self.low)}, {_show(self.high)}"
+                    f"{']' if right else ')'}")  # fmt: skip
+        if self.low is not None:
+            return f"{what} {'>=' if left else '>'} {_show(self.low)}"
+        if self.high is not None:
+            return f"{what} {'<=' if right else '<'} {_show(self.high)}"
+        return what if self.kind is int else "a finite number"
+
+    def convert(self, text: str) -> Any:
+        try:
+            return int(text.strip()) if self.kind is int else float(text)
+        except ValueError:
+            what = "an integer" if self.kind is int else "a number"
+            raise ValueError(f"'{text}' is not {what}") from None
+
+
+SEED = Interval(int, 0, 2**63 - 1, text="an integer in [0, 2^63 - 1]")
+"""A seed: what :class:`numpy.random.SeedSequence` takes, within a signed 64-bit integer."""
+
+
+@dataclass(frozen=True)
+class Choice:
+    """One of the ``names``: a tuple, a :class:`~mirl._registry.Registry` (its names), or a
+    callable returning them (read when first needed, for a table whose module is heavy)."""
+
+    names: Iterable[str] | Callable[[], Iterable[str]]
+
+    def known(self) -> tuple[str, ...]:
+        names = self.names() if callable(self.names) else self.names
+        return tuple(names)
+
+    def accepts(self, value: Any) -> bool:
+        return isinstance(value, str) and value in self.known()
+
+    def describe(self) -> str:
+        return f"one of {', '.join(self.known())}"
+
+    def convert(self, text: str) -> Any:
+        return text
+
+
+@dataclass(frozen=True)
+class Boolean:
+    """True or False (not 0 and 1: a number where a switch belongs is a mistake)."""
+
+    def accepts(self, value: Any) -> bool:
+        return isinstance(value, bool)
+
+    def describe(self) -> str:
+        return "True or False"
+
+    def convert(self, text: str) -> Any:  # a switch is a flag without a value
+        raise ValueError("a switch takes no value")
+
+
+@dataclass(frozen=True)
+class Instance:
+    """An instance of ``kind`` (a mapping of an estimator's further options, say)."""
+
+    kind: type
+    what: str
+
+    def accepts(self, value: Any) -> bool:
+        return isinstance(value, self.kind)
+
+    def describe(self) -> str:
+        return self.what
+
+    def convert(self, text: str) -> Any:
+        raise ValueError(f"{self.what} cannot be given as text")
+
+
+@dataclass(frozen=True)
+class Satisfies:
+    """A string for which ``predicate`` holds (``what`` says which, for messages)."""
+
+    predicate: Callable[[str], bool]
+    what: str
+
+    def accepts(self, value: Any) -> bool:
+        return isinstance(value, str) and bool(self.predicate(value))
+
+    def describe(self) -> str:
+        return self.what
+
+    def convert(self, text: str) -> Any:
+        return text
+
+
+def _shown(value: Any) -> str:
+    return repr(value) if isinstance(value, str) else str(value)
+
+
+def _problem(value: Any, constraints: tuple[Constraint | None, ...]) -> str:
+    """What is wrong with ``value``: the requirement, the value, and for a name the nearest
+    known ones."""
+    requirement = " or ".join("None" if c is None else c.describe() for c in constraints)
+    problem = f"must be {requirement}, got {_shown(value)}"
+    if isinstance(value, str):
+        choices = [c for c in constraints if isinstance(c, Choice)]
+        problem += _hint(value, [n for c in choices for n in c.known()])
+    return problem
+
+
+def _hint(value: str, known: Iterable[str]) -> str:
+    near = did_you_mean(value, known)
+    return f" (did you mean {' or '.join(repr(n) for n in near)}?)" if near else ""
+
+
+def unknown_choice(value: Any, known: Iterable[str]) -> str:
+    """The refusal of a name that is not one of ``known``, with the nearest ones: ``must be
+    one of a, b, got 'c' (did you mean 'a'?)`` (what an option's error says after its name)."""
+    known = [str(k) for k in known]
+    hint = _hint(value, known) if isinstance(value, str) else ""
+    return f"must be one of {', '.join(known)}, got {_shown(value)}{hint}"
+
+
+def _accepts(value: Any, constraints: tuple[Constraint | None, ...]) -> bool:
+    return any(value is None if c is None else c.accepts(value) for c in constraints)
+
+
+def check_argument(name: str, value: Any, *constraints: Constraint | None) -> None:
+    """Refuse a function's argument ``name`` that meets none of ``constraints``
+    (:class:`OptionError`), as an option's field is refused."""
+    if not _accepts(value, constraints):
+        raise OptionError(name, _problem(value, constraints))
+
+
+@dataclass(frozen=True)
+class Spec:
+    """One option's declaration: its default, the values it takes, what it means (``doc``, one
+    sentence: the flag's help), the flag that sets it on the command line (None: none) and that
+    flag's metavar, and, for an option that only some methods read, the name of the
+    :class:`~mirl.learning.methods.Method` property saying which (``applies``)."""
+
+    default: Any
+    constraints: tuple[Constraint | None, ...]
+    doc: str
+    flag: str | None = None
+    metavar: str | None = None
+    applies: str | None = None
+    name: str = ""  # filled in by the options type
+    owner: str = ""
+
+    def accepts(self, value: Any) -> bool:
+        return _accepts(value, self.constraints)
+
+    def check(self, value: Any) -> None:
+        """Refuse ``value`` with an :class:`OptionError` naming this option."""
+        if not self.accepts(value):
+            raise OptionError(self.name, _problem(value, self.constraints), owner=self.owner)
+
+    def requirement(self) -> str:
+        return " or ".join("None" if c is None else c.describe() for c in self.constraints)
+
+    @property
+    def choices(self) -> tuple[str, ...] | None:
+        """The names the option takes, if it is a choice."""
+        for c in self.constraints:
+            if isinstance(c, Choice):
+                return c.known()
+        return None
+
+    def parse(self, text: str) -> Any:
+        """A flag's ``text`` as this option's value, checked (:class:`OptionError`; a flag
+        cannot say None, so the message does not offer it)."""
+        given = tuple(c for c in self.constraints if c is not None)
+        try:
+            value = given[0].convert(text)
+        except ValueError as exc:
+            raise OptionError(self.name, str(exc), owner=self.owner) from None
+        if not _accepts(value, given):
+            raise OptionError(self.name, _problem(value, given), owner=self.owner)
+        return value
+
+
+def option(
+    *constraints: Constraint | None,
+    default: Any,
+    doc: str,
+    flag: str | None = None,
+    metavar: str | None = None,
+    applies: str | None = None,
+) -> Any:
+    """Declare a field of an :class:`Options` type (see the module docstring)."""
+    spec = Spec(default, constraints, doc, flag, metavar, applies)
+    return dataclasses.field(default=default, metadata={_SPEC: spec})
+
+
+def same_option(owner: type[Options], name: str) -> Any:
+    """Declare a field as option ``name`` of ``owner`` (its constraints, default, doc and
+    flag), for an options type that passes that option on: declared once, read twice."""
+    spec = owner.spec(name)
+    return dataclasses.field(default=spec.default, metadata={_SPEC: spec})
+
+
+_SPEC = "mirl.option"
+
+
+@dataclass_transform(kw_only_default=True, frozen_default=True, field_specifiers=(option,))
+class Options:
+    """The base of mirl's option types: a frozen, keyword-only dataclass whose fields are
+    declared with :func:`option` and checked when it is made (module docstring).
+
+    ``__options__`` maps each field's name to its :class:`Spec`.
+    """
+
+    __options__: ClassVar[Mapping[str, Spec]] = MappingProxyType({})
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        dataclasses.dataclass(frozen=True, kw_only=True)(cls)
+        specs: dict[str, Spec] = {}
+        for f in dataclasses.fields(cls):  # type: ignore[arg-type]
+            spec = f.metadata.get(_SPEC)
+            if spec is None:
+                raise TypeError(f"{cls.__name__}.{f.name} is not declared with option()")
+            specs[f.name] = dataclasses.replace(spec, name=f.name, owner=cls.__name__)
+            specs[f.name].check(spec.default)  # a default that cannot work fails at import
+        cls.__options__ = MappingProxyType(specs)
+        made = cls.__init__
+
+        @functools.wraps(made)
+        def __init__(self: Options, *args: Any, **values: Any) -> None:
+            for name in values:
+                if name not in specs:
+                    raise cls._unknown(name)
+            made(self, *args, **values)
+
+        cls.__init__ = __init__  # type: ignore[method-assign,assignment]
+
+    def __post_init__(self) -> None:
+        for name, spec in self.__options__.items():
+            spec.check(getattr(self, name))
+        self._check()
+
+    def _check(self) -> None:
+        """The type's rules between fields; raise :meth:`refuse` for a combination that cannot
+        work."""
+
+    def refuse(self, name: str, problem: str) -> OptionError:
+        """The error for option ``name`` (``problem`` follows its name)."""
+        return OptionError(name, problem, owner=type(self).__name__)
+
+    @classmethod
+    def _unknown(cls, name: str) -> OptionError:
+        near = did_you_mean(str(name), cls.__options__)
+        hint = f"did you mean {' or '.join(repr(n) for n in near)}? " if near else ""
+        return OptionError(
+            str(name),
+            f"is not an option of {cls.__name__} ({hint}known: {', '.join(cls.__options__)})",
+            owner=cls.__name__,
+        )
+
+    @classmethod
+    def spec(cls, name: str) -> Spec:
+        """The declaration of option ``name``."""
+        if name not in cls.__options__:
+            raise cls._unknown(name)
+        return cls.__options__[name]
+
+    @classmethod
+    def default(cls, name: str) -> Any:
+        """Option ``name``'s declared default."""
+        return cls.spec(name).default
+
+    @classmethod
+    def of(cls: type[OptionsT], options: OptionsT | Mapping[str, Any] | None) -> OptionsT:
+        """``options`` as this type: itself, the defaults (None), or made from a mapping of
+        option names to values (unknown names refused with the nearest known ones)."""
+        if options is None:
+            return cls()
+        if isinstance(options, cls):
+            return options
+        if isinstance(options, Mapping):
+            return cls(**options)
+        raise OptionError(
+            "options", f"must be a {cls.__name__}, a mapping or None, got {type(options).__name__}"
+        )
+
+    def replace(self: OptionsT, **changes: Any) -> OptionsT:
+        """A copy with ``changes``, checked like a new one."""
+        for name in changes:
+            if name not in self.__options__:
+                raise self._unknown(name)
+        return dataclasses.replace(self, **changes)  # type: ignore[type-var]
+
+    def changed(self) -> dict[str, Any]:
+        """The options that differ from their declared defaults."""
+        return {
+            name: getattr(self, name)
+            for name, spec in self.__options__.items()
+            if getattr(self, name) != spec.default
+        }
+
+    def to_dict(self) -> dict[str, Any]:
+        """Every option by name."""
+        return {name: getattr(self, name) for name in self.__options__}
