@@ -22,8 +22,8 @@ README = ROOT.parents[1] / "README.md"
 MODULE_GUIDELINE = 700
 FUNCTION_GUIDELINE = 100
 LONG_ON_PURPOSE = {  # "path/in/package.py" or "path.py:function" -> the reason
-    "experiments/episode.py:run_episode": "the run protocol's knobs are its keyword arguments, "
-    "one a line; the body is the four phases in order",
+    "learning/learn.py": "one concept, learn(): a method's models built from its row's sources "
+    "(the tables of builders at its end) and the relabelling rounds that refine them",
     "learning/verdicts.py": "one concept, the fault verdict: its evidence (soft counts, "
     "clustered failures, the drift driven alone), the posterior over the features and the "
     "verdict drawn from it; each part is the verdict's and nothing else's",

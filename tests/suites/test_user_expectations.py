@@ -36,7 +36,7 @@ def test_experiment_writes_report_and_figures_and_says_where(tmp_path, capsys):
 
 
 def test_progress_lines_when_piped(tmp_path, capsys):
-    run_experiment("selftest", tmp_path, runs=3, progress=True, progress_every=4, log=print)
+    run_experiment("selftest", tmp_path, {"runs": 3, "workers": 1, "progress_every": 4}, log=print)
     err = capsys.readouterr().err  # captured: not a terminal, so lines instead of a bar
     lines = [ln for ln in err.splitlines() if " selftest " in ln and "/12 " in ln]
     assert [ln.split()[2] for ln in lines] == ["4/12", "8/12", "12/12"]
@@ -48,7 +48,8 @@ def test_csvs_end_lines_with_newline_only(tmp_path, boyd2):
     sim = simulate(boyd2, 20, seed=1)
     sim.truth.to_csv(tmp_path / "t.csv")
     assert b"\r" not in (tmp_path / "t.csv").read_bytes()
-    run_experiment("selftest", tmp_path / "x", runs=1, progress=False, log=lambda m: None)
+    quiet = {"runs": 1, "workers": 1, "progress": False}
+    run_experiment("selftest", tmp_path / "x", quiet, log=lambda m: None)
     assert b"\r" not in (tmp_path / "x" / "results.csv").read_bytes()
 
 
@@ -209,7 +210,8 @@ def test_mirl_run_default_tells_the_story_on_seeds_0_to_19(capsys):
 
 
 def test_store_read_only_open_leaves_file(tmp_path):
-    run_experiment("selftest", tmp_path, runs=1, progress=False, log=lambda m: None)
+    quiet = {"runs": 1, "workers": 1, "progress": False}
+    run_experiment("selftest", tmp_path, quiet, log=lambda m: None)
     db = tmp_path / "results.sqlite"
     before = db.read_bytes()
     store = ResultStore(db, read_only=True)
@@ -224,7 +226,8 @@ def test_report_with_one_run_per_condition_has_no_nan(tmp_path):
     from mirl.experiments.conditions import selftest_run
 
     fake = replace(EXPERIMENTS["fig4b"], run_function=selftest_run)
-    run_experiment(fake, tmp_path, runs=1, progress=False, log=lambda m: None)
+    quiet = {"runs": 1, "workers": 1, "progress": False}
+    run_experiment(fake, tmp_path, quiet, log=lambda m: None)
     assert main(["report", str(tmp_path)]) == 0
     text = (tmp_path / "report.md").read_text()
     assert "nan" not in text and "no test (fewer than 2 runs)" in text

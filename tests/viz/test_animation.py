@@ -85,7 +85,7 @@ def test_bad_arguments_are_refused(boyd2, tmp_path):
 
 
 def test_physics_run_animates(boyd2, tmp_path):
-    result = run_episode(boyd2, "random", obs_steps=30, seed=3, world="physics")
+    result = run_episode(boyd2, "random", seed=3, world="physics", protocol=SHORT)
     assert result.extras is not None
     path = save_run_animation(boyd2, result, tmp_path / "physics.gif", context=4, max_frames=5)
     n, _, _ = _frames(path)

@@ -39,11 +39,12 @@ MAX_STEPS = 1_000_000  # `simulate --steps`: the record is 2 x 3 int64 per step 
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
-    """Defaults in help, except a switch's: its help says what it turns over."""
+    """Defaults in help; a switch's is "off" (its option's value is the flag's opposite when
+    the flag turns a default of True over, as ``--learn-once`` does ``relearn``)."""
 
     def _get_help_string(self, action: argparse.Action) -> str | None:
         if isinstance(action, argparse._StoreTrueAction | argparse._StoreFalseAction):
-            return action.help
+            return f"{action.help} (default: off)"
         return super()._get_help_string(action)
 
 

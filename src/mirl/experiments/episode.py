@@ -191,20 +191,7 @@ def run_episode(
         learned = learner.learn_now()
     timings["learn"] += time.perf_counter() - clock
 
-    path_len = int(model.distance_to_goal[model.start_state])
-    travel = run.travel(path_len)
-    planning = Planning(
-        window=run.window,
-        deadline=t_obs + run.max_wait,
-        travel=travel,
-        replan_every=run.replan_every,
-        commit=run.commit,
-        hazard=run.hazard,
-        goal_reward=run.goal_reward,
-        detection_penalty=run.detection_penalty,
-        opportunity_steps=run.opportunity_steps,
-        moment_travel=min(travel, path_len + MOMENT_SLACK),
-    )
+    planning = _planning(run, model, t_obs)
     if not spec.plans:
         going = _random_going(model, t_obs, run.window, np.random.default_rng(random_seed))
     else:
@@ -240,6 +227,25 @@ def run_episode(
         protocol=run,
         predicted_success=going.predicted_success,
         relearns=going.relearns if learner is not None and learner.growth is not None else None,
+    )
+
+
+def _planning(run: RunProtocol, model: ObserverModel, t_obs: int) -> Planning:
+    """How L plans in this run: the protocol's settings, its deadline after observing until
+    ``t_obs``, and the horizons for L's shortest path."""
+    path_len = int(model.distance_to_goal[model.start_state])
+    travel = run.travel(path_len)
+    return Planning(
+        window=run.window,
+        deadline=t_obs + run.max_wait,
+        travel=travel,
+        replan_every=run.replan_every,
+        commit=run.commit,
+        hazard=run.hazard,
+        goal_reward=run.goal_reward,
+        detection_penalty=run.detection_penalty,
+        opportunity_steps=run.opportunity_steps,
+        moment_travel=min(travel, path_len + MOMENT_SLACK),
     )
 
 
