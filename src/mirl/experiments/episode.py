@@ -108,6 +108,12 @@ def run_episode(
 ) -> RunResult:
     """Run one penetration (module docstring).
 
+    .. versionchanged:: 0.2.0
+       The protocol's settings are one ``protocol`` argument and its defaults are the command
+       line's: after 300 steps L watches until it has seen every patroller on 40 steps
+       (``watch_until_seen=40``), decides by the adaptive rule and re-learns while it waits.
+       ``protocol=RunProtocol.paper()`` is the paper's; ``p`` is a learning option.
+
     Parameters
     ----------
     scenario : Scenario
@@ -143,12 +149,6 @@ def run_episode(
     mirl._validation.OptionError
         An option out of its range or unknown, a bad seed or observability (the message names
         it). A ValueError.
-
-    .. versionchanged:: 0.2.0
-       The protocol's settings are one ``protocol`` argument and its defaults are the command
-       line's: after 300 steps L watches until it has seen every patroller on 40 steps
-       (``watch_until_seen=40``), decides by the adaptive rule and re-learns while it waits.
-       ``protocol=RunProtocol.paper()`` is the paper's; ``p`` is a learning option.
     """
     spec = get_method(method)
     check_argument("seed", seed, SEED)

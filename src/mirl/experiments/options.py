@@ -275,6 +275,10 @@ class SweepOptions(Options):
     """How :func:`~mirl.experiments.sweep.run_experiment` runs an experiment's grid; the
     defaults are ``mirl experiment``'s.
 
+    .. versionchanged:: 0.2.0
+       The defaults are the command line's: every CPU, and mirl's protocol (the adaptive rule,
+       re-learning while waiting) on the runs of L.
+
     Parameters
     ----------
     runs : int in [1, 100000], optional
@@ -295,16 +299,12 @@ class SweepOptions(Options):
         every 5 % of the sweep.
     world : str, default "grid"
         The world every condition runs in (:data:`~mirl.experiments.worlds.WORLDS`).
-    go_rule, relearn
+    go_rule, relearn : str, bool
         How L decides and whether it re-learns, on every condition
         (:class:`RunProtocol`'s; ``go_rule="value", relearn=False`` keeps the conditions' own,
         the paper's protocol).
     em_init : str, optional
         DBN-EM's initial T on the dbn-em conditions (:class:`~mirl.learning.options.LearnOptions`).
-
-    .. versionchanged:: 0.2.0
-       The defaults are the command line's: every CPU, and mirl's protocol (the adaptive rule,
-       re-learning while waiting) on the runs of L.
     """
 
     runs: int | None = option(

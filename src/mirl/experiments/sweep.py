@@ -116,6 +116,11 @@ def run_experiment(
     """Run every pending (condition, run) of ``experiment``, storing each result as it arrives
     in ``out_dir/results.sqlite``; export ``out_dir/results.csv`` at the end.
 
+    .. versionchanged:: 0.2.0
+       The settings are one ``options`` argument, with the command line's defaults: one worker
+       per CPU and mirl's protocol on the runs of L (``go_rule="value", relearn=False`` keeps
+       the conditions' own, the paper's).
+
     Parameters
     ----------
     experiment : Experiment or str
@@ -136,11 +141,6 @@ def run_experiment(
     -------
     Summary
         What ran, how fast, and the outcomes of this session.
-
-    .. versionchanged:: 0.2.0
-       The settings are one ``options`` argument, with the command line's defaults: one worker
-       per CPU and mirl's protocol on the runs of L (``go_rule="value", relearn=False`` keeps
-       the conditions' own, the paper's).
     """
     opts = SweepOptions.of(options)
     exp = get_experiment(experiment) if isinstance(experiment, str) else experiment

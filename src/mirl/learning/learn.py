@@ -115,6 +115,10 @@ def learn(
 ) -> LearnResult:
     """Learn models of the scenario's patrollers from L's ``observations`` with ``method``.
 
+    .. versionchanged:: 0.2.0
+       The options (``p``, ``max_iterations``, ``label_tol``, ``objective``, ``optimizer``,
+       ``n_restarts``, ``irl_options``, ``em_init``) are one ``options`` argument.
+
     Parameters
     ----------
     observations : Trajectories
@@ -173,10 +177,6 @@ def learn(
     TypeError
         ``observations`` that are not :class:`~mirl.observations.trajectories.Trajectories`;
         a ``warm_start`` that is not a :class:`~mirl.learning.results.LearnResult`.
-
-    .. versionchanged:: 0.2.0
-       The options (``p``, ``max_iterations``, ``label_tol``, ``objective``, ``optimizer``,
-       ``n_restarts``, ``irl_options``, ``em_init``) are one ``options`` argument.
     """
     scenario, row, opts = _check_arguments(observations, scenario, method, options, random_state)
     if warm_start is not None:
