@@ -26,3 +26,11 @@ def test_a_file_no_format_recognises_is_refused_naming_them_all(tmp_path):
         input_format(other)
     message = str(err.value)
     assert str(other) in message and all(f.description in message for f in FORMATS.values())
+
+
+def test_the_formats_are_a_table_tried_in_order():
+    from mirl._registry import Registry
+
+    assert isinstance(FORMATS, Registry)
+    assert FORMATS.names == ("bag", "grid-csv", "pose-csv")  # a bag first: it has no header
+    assert FORMATS["pose-csv"].robot_data and not FORMATS["grid-csv"].robot_data

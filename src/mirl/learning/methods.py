@@ -85,7 +85,8 @@ TRANSITION_SOURCES: Registry[ModelSource] = Registry(
 
 @dataclass(frozen=True)
 class Method:
-    """One row of the table.
+    """One row of the table. A row that could not run as written is refused where the table is
+    defined (:func:`check_method`).
 
     Parameters
     ----------
@@ -108,9 +109,6 @@ class Method:
         settle (mIRL*/T+Int's rounds).
     plans : bool
         Whether L plans its go time on the learned models; the random baseline does not.
-
-    A row that could not run as written is refused where the table is defined
-    (:func:`check_method`).
     """
 
     name: str
