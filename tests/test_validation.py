@@ -16,16 +16,16 @@ from mirl._registry import Registry
 from mirl._validation import (
     SEED,
     Boolean,
-    Choice,
     Instance,
     Interval,
+    OneOf,
     OptionError,
     Options,
     Satisfies,
     check_argument,
     option,
     same_option,
-    unknown_choice,
+    unknown_name,
 )
 
 
@@ -34,8 +34,10 @@ class Toy(Options):
 
     count: int = option(Interval(int, 1, 10), default=3, doc="a count", flag="--count")
     share: float | None = option(Interval(float, 0.0, 1.0), None, default=None, doc="a share")
-    rate: float = option(Interval(float, 0.0, None, closed="neither"), default=1.0, doc="rate")
-    colour: str = option(Choice(("red", "green", "blue")), default="red", doc="a colour")
+    rate: float = option(Interval(float, 0.0, None, open_low=True), default=1.0, doc="rate")
+    colour: str = option(
+        OneOf(("red", "green", "blue"), kind="colour"), default="red", doc="a colour"
+    )
     on: bool = option(Boolean(), default=True, doc="a switch", flag="--off")
     table: dict | None = option(Instance(dict, "a dict"), None, default=None, doc="a dict")
     even: str = option(
@@ -70,7 +72,7 @@ def test_defaults_and_the_declaration():
         ({"share": math.nan}, "`share` must be a number in [0, 1] or None, got nan"),
         ({"rate": 0.0}, "`rate` must be a number > 0, got 0.0"),
         ({"rate": math.inf}, "`rate` must be a number > 0, got inf"),
-        ({"colour": "gren"}, "`colour` must be one of red, green, blue, got 'gren' (did you mean"),
+        ({"colour": "gren"}, "`colour`: unknown colour 'gren' (did you mean 'green'? known: red,"),
         ({"on": 1}, "`on` must be True or False, got 1"),
         ({"table": [1]}, "`table` must be a dict or None, got [1]"),
         ({"even": "odd"}, "`even` must be an even-length text, got 'odd'"),
@@ -104,7 +106,7 @@ def test_frozen_replace_checks_again_and_of_coerces():
 def test_a_passed_on_option_is_the_same_declaration():
     assert Passing.spec("colour").constraints == Toy.spec("colour").constraints
     assert Passing().colour == "red"
-    with pytest.raises(OptionError, match="`colour` must be one of red, green, blue"):
+    with pytest.raises(OptionError, match="`colour`: unknown colour 'pink' \\(known: red,"):
         Passing(colour="pink")
 
 
@@ -142,7 +144,7 @@ def test_a_flag_is_parsed_by_its_declaration(name, text, value):
         ("count", "x", "'x' is not an integer"),
         ("count", "11", "must be an integer in [1, 10], got 11"),
         ("share", "nan", "must be a number in [0, 1], got nan"),  # a flag never says None
-        ("colour", "bleu", "must be one of red, green, blue, got 'bleu' (did you mean 'blue'?)"),
+        ("colour", "bleu", "unknown colour 'bleu' (did you mean 'blue'? known: red, green, blue)"),
     ],
 )
 def test_a_flag_refusal_is_the_options(name, text, problem):
@@ -153,25 +155,44 @@ def test_a_flag_refusal_is_the_options(name, text, problem):
 
 def test_a_choice_reads_a_registry_or_a_late_table():
     table = Registry("colour", ("red", "green"), name=str)
-    assert Choice(table).known() == ("red", "green")
-    assert Choice(lambda: ["late"]).accepts("late") and not Choice(lambda: ["late"]).accepts(3)
-    assert unknown_choice("gren", table) == (
-        "must be one of red, green, got 'gren' (did you mean 'green'?)"
+    assert OneOf(table).known() == ("red", "green")
+    assert OneOf(lambda: ["late"]).accepts("late") and not OneOf(lambda: ["late"]).accepts(3)
+    assert OneOf(table).unknown("gren") == (
+        "unknown colour 'gren' (did you mean 'green'? known: red, green)"
     )
-    assert unknown_choice(3, table) == "must be one of red, green, got 3"
+    assert unknown_name("colour", "x", table) == "unknown colour 'x' (known: red, green)"
+    late = OneOf(lambda: table)
+    assert late.lazy and not OneOf(table).lazy and late.table() is table
+
+
+def test_a_late_table_is_read_only_for_a_value_not_the_default():
+    read = []
+
+    def table():
+        read.append(1)
+        return ("a", "b")
+
+    class Late(Options):
+        x: str = option(OneOf(table), default="a", doc="x")
+
+    assert Late().x == "a" and read == []  # made without reading the table
+    assert Late(x="b").x == "b" and read == [1]
+    with pytest.raises(OptionError, match="`x`: unknown choice 'c'"):
+        Late(x="c")
 
 
 @given(
     low=st.integers(-100, 100),
     width=st.integers(0, 100),
     value=st.integers(-300, 300),
-    closed=st.sampled_from(["both", "left", "right", "neither"]),
+    open_low=st.booleans(),
+    open_high=st.booleans(),
 )
-def test_an_integer_interval_is_its_definition(low, width, value, closed):
+def test_an_integer_interval_is_its_definition(low, width, value, open_low, open_high):
     high = low + width
-    iv = Interval(int, low, high, closed=closed)
-    left = value >= low if closed in ("both", "left") else value > low
-    right = value <= high if closed in ("both", "right") else value < high
+    iv = Interval(int, low, high, open_low=open_low, open_high=open_high)
+    left = value > low if open_low else value >= low
+    right = value < high if open_high else value <= high
     assert iv.accepts(value) == (left and right)
     assert not iv.accepts(float(value)) and not iv.accepts(True)
 

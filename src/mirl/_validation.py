@@ -34,13 +34,13 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, ClassVar, Protocol, TypeVar, dataclass_transform
 
-from mirl._registry import did_you_mean
+from mirl._registry import Registry, did_you_mean
 
 __all__ = [
     "OptionError",
     "Constraint",
     "Interval",
-    "Choice",
+    "OneOf",
     "Boolean",
     "Instance",
     "Satisfies",
@@ -50,7 +50,7 @@ __all__ = [
     "same_option",
     "Options",
     "check_argument",
-    "unknown_choice",
+    "unknown_name",
 ]
 
 OptionsT = TypeVar("OptionsT", bound="Options")
@@ -66,7 +66,9 @@ class OptionError(ValueError, TypeError):
     """
 
     def __init__(self, option: str, problem: str, *, owner: str = "") -> None:
-        super().__init__(f"`{option}` {problem}")
+        # a name no table holds reads as the tables' own sentence, after the option's name
+        sep = ": " if problem.startswith("unknown ") else " "
+        super().__init__(f"`{option}`{sep}{problem}")
         self.option, self.problem, self.owner = option, problem, owner
 
 
@@ -87,20 +89,20 @@ def _show(v: float) -> str:
 
 @dataclass(frozen=True)
 class Interval:
-    """A number of ``kind`` (int or float) between ``low`` and ``high`` (None: unbounded);
-    ``closed`` says which ends belong to it ("both", "left", "right", "neither"). A bool is not
-    a number here; a float must be finite."""
+    """A number of ``kind`` (int or float) between ``low`` and ``high`` (None: unbounded),
+    both ends included unless ``open_low`` / ``open_high``. A bool is not a number here; a float
+    must be finite."""
 
     kind: type
     low: float | None = None
     high: float | None = None
-    closed: str = "both"
+    open_low: bool = False
+    open_high: bool = False
     text: str | None = None  # the phrase for messages, when the bounds read badly (2^63 - 1)
 
     def __post_init__(self) -> None:
-        if self.kind not in (int, float) or self.closed not in ("both", "left", "right", "neither"):
-            raise ValueError(f"an interval of int or float, closed at both, left, right or "
-                             f"neither end, not {self.kind} closed at {self.closed}")  # fmt: skip
+        if self.kind not in (int, float):
+            raise ValueError(f"an interval of int or float, not {self.kind}")
 
     def accepts(self, value: Any) -> bool:
         if isinstance(value, bool):
@@ -111,7 +113,7 @@ class Interval:
             return False
         if self.kind is float:
             value = float(value)
-        left, right = self.closed in ("both", "left"), self.closed in ("both", "right")
+        left, right = not self.open_low, not self.open_high
         if self.low is not None and not (value >= self.low if left else value > self.low):
             return False
         return self.high is None or (value <= self.high if right else value < self.high)
@@ -120,7 +122,7 @@ class Interval:
         if self.text is not None:
             return self.text
         what = "an integer" if self.kind is int else "a number"
-        left, right = self.closed in ("both", "left"), self.closed in ("both", "right")
+        left, right = not self.open_low, not self.open_high
         if self.low is not None and self.high is not None:
             return (f"{what} in {'[' if left else '('}{_show(self.low)}, {_show(self.high)}"
                     f"{']' if right else ')'}")  # fmt: skip
@@ -143,15 +145,31 @@ SEED = Interval(int, 0, 2**63 - 1, text="an integer in [0, 2^63 - 1]")
 
 
 @dataclass(frozen=True)
-class Choice:
-    """One of the ``names``: a tuple, a :class:`~mirl._registry.Registry` (its names), or a
-    callable returning them (read when first needed, for a table whose module is heavy)."""
+class OneOf:
+    """One of the names of a table: a :class:`~mirl._registry.Registry`, a tuple of names, or
+    a callable returning either, read when a value other than the option's default is checked
+    (a table whose module is heavy: the light option types do not import it to be made). A
+    name it does not hold is refused in the table's own sentence, with the nearest names
+    (:meth:`~mirl._registry.Registry.unknown`)."""
 
     names: Iterable[str] | Callable[[], Iterable[str]]
+    kind: str = "choice"  # what a name is, for a table that is not a Registry
+
+    @property
+    def lazy(self) -> bool:
+        return callable(self.names)
+
+    def table(self) -> Registry[Any]:
+        names = self.names() if callable(self.names) else self.names
+        if isinstance(names, Registry):
+            return names
+        return Registry(self.kind, tuple(names), name=str)
 
     def known(self) -> tuple[str, ...]:
-        names = self.names() if callable(self.names) else self.names
-        return tuple(names)
+        return self.table().names
+
+    def unknown(self, value: str) -> str:
+        return str(self.table().unknown(value))
 
     def accepts(self, value: Any) -> bool:
         return isinstance(value, str) and value in self.known()
@@ -216,27 +234,19 @@ def _shown(value: Any) -> str:
 
 
 def _problem(value: Any, constraints: tuple[Constraint | None, ...]) -> str:
-    """What is wrong with ``value``: the requirement, the value, and for a name the nearest
-    known ones."""
+    """What is wrong with ``value``: a name a table does not hold in the table's sentence,
+    with the nearest names; anything else the requirement and the value."""
+    choices = [c for c in constraints if isinstance(c, OneOf)]
+    if isinstance(value, str) and choices:
+        return choices[0].unknown(value)
     requirement = " or ".join("None" if c is None else c.describe() for c in constraints)
-    problem = f"must be {requirement}, got {_shown(value)}"
-    if isinstance(value, str):
-        choices = [c for c in constraints if isinstance(c, Choice)]
-        problem += _hint(value, [n for c in choices for n in c.known()])
-    return problem
+    return f"must be {requirement}, got {_shown(value)}"
 
 
-def _hint(value: str, known: Iterable[str]) -> str:
-    near = did_you_mean(value, known)
-    return f" (did you mean {' or '.join(repr(n) for n in near)}?)" if near else ""
-
-
-def unknown_choice(value: Any, known: Iterable[str]) -> str:
-    """The refusal of a name that is not one of ``known``, with the nearest ones: ``must be
-    one of a, b, got 'c' (did you mean 'a'?)`` (what an option's error says after its name)."""
-    known = [str(k) for k in known]
-    hint = _hint(value, known) if isinstance(value, str) else ""
-    return f"must be one of {', '.join(known)}, got {_shown(value)}{hint}"
+def unknown_name(kind: str, value: Any, known: Iterable[str]) -> str:
+    """The refusal of ``value`` as a ``kind`` among ``known``, in the tables' own sentence:
+    ``unknown method 'mirl_t' (did you mean 'mirl-t' or 'mirl'? known: …)``."""
+    return str(Registry(kind, tuple(known), name=str).unknown(str(value)))
 
 
 def _accepts(value: Any, constraints: tuple[Constraint | None, ...]) -> bool:
@@ -254,23 +264,34 @@ def check_argument(name: str, value: Any, *constraints: Constraint | None) -> No
 class Spec:
     """One option's declaration: its default, the values it takes, what it means (``doc``, one
     sentence: the flag's help), the flag that sets it on the command line (None: none) and that
-    flag's metavar, and, for an option that only some methods read, the name of the
-    :class:`~mirl.learning.methods.Method` property saying which (``applies``)."""
+    flag's metavar."""
 
     default: Any
     constraints: tuple[Constraint | None, ...]
     doc: str
     flag: str | None = None
     metavar: str | None = None
-    applies: str | None = None
     name: str = ""  # filled in by the options type
     owner: str = ""
 
     def accepts(self, value: Any) -> bool:
         return _accepts(value, self.constraints)
 
+    def is_default(self, value: Any) -> bool:
+        """Whether ``value`` is the declared default (of its type: True is not 1)."""
+        return type(value) is type(self.default) and value == self.default
+
+    @property
+    def lazy(self) -> bool:
+        """Whether a constraint reads its table only when needed (:class:`OneOf`)."""
+        return any(isinstance(c, OneOf) and c.lazy for c in self.constraints)
+
     def check(self, value: Any) -> None:
-        """Refuse ``value`` with an :class:`OptionError` naming this option."""
+        """Refuse ``value`` with an :class:`OptionError` naming this option. The declared
+        default passed where it was declared (or, read from a table when needed, is the
+        table's: a test checks every default), so it is not checked again."""
+        if self.is_default(value):
+            return
         if not self.accepts(value):
             raise OptionError(self.name, _problem(value, self.constraints), owner=self.owner)
 
@@ -279,9 +300,9 @@ class Spec:
 
     @property
     def choices(self) -> tuple[str, ...] | None:
-        """The names the option takes, if it is a choice."""
+        """The names the option takes, if it is a choice (of a table read now)."""
         for c in self.constraints:
-            if isinstance(c, Choice):
+            if isinstance(c, OneOf) and not c.lazy:
                 return c.known()
         return None
 
@@ -304,10 +325,9 @@ def option(
     doc: str,
     flag: str | None = None,
     metavar: str | None = None,
-    applies: str | None = None,
 ) -> Any:
     """Declare a field of an :class:`Options` type (see the module docstring)."""
-    spec = Spec(default, constraints, doc, flag, metavar, applies)
+    spec = Spec(default, constraints, doc, flag, metavar)
     return dataclasses.field(default=default, metadata={_SPEC: spec})
 
 
@@ -340,7 +360,10 @@ class Options:
             if spec is None:
                 raise TypeError(f"{cls.__name__}.{f.name} is not declared with option()")
             specs[f.name] = dataclasses.replace(spec, name=f.name, owner=cls.__name__)
-            specs[f.name].check(spec.default)  # a default that cannot work fails at import
+            if not spec.lazy and not spec.accepts(spec.default):  # fails at import, where declared
+                raise OptionError(
+                    f.name, _problem(spec.default, spec.constraints), owner=cls.__name__
+                )
         cls.__options__ = MappingProxyType(specs)
         made = cls.__init__
 

@@ -175,7 +175,7 @@ def test_cli_one_line_errors(tmp_path, capsys):
     with pytest.raises(SystemExit, match="2"):  # argparse refuses the name
         main(["experiment", "fig9", "--out", str(tmp_path)])
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "got 'fig9' (did you mean" in err
+    assert err.count("\n") == 1 and "unknown experiment 'fig9'" in err
     assert main(["report", str(tmp_path / "nothing")]) == 2
     assert capsys.readouterr().err.count("\n") == 1
     assert main(["experiment", "selftest", "--runs", "1", "--out", str(tmp_path), "--quiet"]) == 0

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 
 from mirl._validation import OptionError
-from mirl.learning.learn import REWARD_SOURCES, TRANSITION_SOURCES, learn
-from mirl.learning.methods import LEARNING_METHODS, METHODS
+from mirl.learning.learn import REWARD_BUILDERS, TRANSITION_BUILDERS, learn
+from mirl.learning.methods import LEARNING_METHODS, METHODS, TRANSITION_SOURCES
 from mirl.learning.options import (
     DEFAULT_P,
     EM_INITS,
@@ -39,7 +39,8 @@ def test_defaults_resolve_to_what_learning_uses():
         ({"optimizer": "bfgs"}, "did you mean 'lbfgs'"),
         ({"n_restarts": 0}, "`n_restarts` must be an integer >= 1 or None"),
         ({"irl_options": ["l2"]}, "`irl_options` must be a mapping"),
-        ({"em_init": "zeros"}, "`em_init` must be one of intended, uniform or None"),
+        ({"em_init": "zeros"}, "`em_init`: unknown EM initialisation 'zeros' (known: intended,"),
+        ({"em_init": 3}, "`em_init` must be one of intended, uniform or None, got 3"),
         ({"maxiter": 3}, "`maxiter` is not an option of LearnOptions"),
     ],
 )
@@ -76,15 +77,17 @@ def test_the_vocabularies_are_tables():
         IRL_OPTIMIZERS["lbgfs"]
 
 
-def test_every_learning_method_finds_its_sources():
-    """A method's row names its sources; each is a row of a table (the truth aside: learn()
-    returns it whole)."""
+def test_every_source_learn_builds_has_a_builder():
+    """A method's row names its sources; learn() has a builder for each it builds (the truth
+    aside: it returns that whole), and no builder of a source no table holds."""
     for name in LEARNING_METHODS:
         row = METHODS[name]
         if row.learns:
-            assert row.reward in REWARD_SOURCES and row.transitions in TRANSITION_SOURCES
-    assert REWARD_SOURCES["learned"].labelled and not REWARD_SOURCES["true"].labelled
-    assert TRANSITION_SOURCES["features"].labelled
+            assert row.reward in REWARD_BUILDERS and row.transitions in TRANSITION_BUILDERS
+    built = {s.name for s in TRANSITION_SOURCES.values() if s.built}
+    assert set(TRANSITION_BUILDERS) == built
+    assert REWARD_BUILDERS["learned"].labelled and not REWARD_BUILDERS["true"].labelled
+    assert TRANSITION_BUILDERS["features"].labelled
 
 
 def test_learn_takes_options_or_a_mapping_the_same():

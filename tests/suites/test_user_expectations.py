@@ -84,7 +84,7 @@ def test_learn_em_init_is_validated(boyd2):
     from mirl.simulation.grid import simulate
 
     obs = simulate(boyd2, 30, seed=2).observations
-    with pytest.raises(ValueError, match="`em_init` must be one of intended, uniform"):
+    with pytest.raises(ValueError, match="unknown EM initialisation 'zeros'"):
         learn(obs, boyd2, "dbn-em", options={"em_init": "zeros"})
 
 

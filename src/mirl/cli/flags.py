@@ -13,7 +13,7 @@ from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from mirl._registry import did_you_mean
-from mirl._validation import SEED, Constraint, Interval, OptionError, Spec, unknown_choice
+from mirl._validation import SEED, Constraint, Interval, OptionError, Spec, unknown_name
 from mirl.experiments.options import RunProtocol, SweepOptions
 from mirl.learning.options import LearnOptions
 
@@ -58,7 +58,7 @@ class OneLineParser(argparse.ArgumentParser):
 
     def error(self, message: str) -> NoReturn:
         msg = " ".join(message.split())
-        if "did you mean" not in msg:
+        if "did you mean" not in msg and "known: " not in msg:
             msg += f" (see {self.prog} --help)"
         self.exit(2, f"{self.prog}: error: {msg}\n")
 
@@ -97,7 +97,8 @@ class OneLineParser(argparse.ArgumentParser):
     def _check_value(self, action: argparse.Action, value: Any) -> None:
         # an unknown choice (a method, a world, an experiment, a sub-command) with the nearest
         if action.choices is not None and value not in action.choices:
-            raise argparse.ArgumentError(action, unknown_choice(value, list(action.choices)))
+            kind = action.dest.replace("_", " ")  # "method", "world", "command", …
+            raise argparse.ArgumentError(action, unknown_name(kind, value, action.choices))
 
 
 def constrained(*constraints: Constraint) -> Any:

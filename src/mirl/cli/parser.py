@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from mirl._validation import Boolean, Options, unknown_choice
+from mirl._validation import Boolean, Options
 from mirl.cli.checks import DEFAULT_POSE_RATE
 from mirl.cli.flags import (
     MAX_STEPS,
@@ -209,7 +209,7 @@ def _experiment_parsers(sub) -> None:
 def _experiment_name(text: str) -> str:
     """An experiment's name (the hidden ones too; the refusal lists the others)."""
     if text not in EXPERIMENTS:
-        raise argparse.ArgumentTypeError(unknown_choice(text, experiment_names()))
+        raise argparse.ArgumentTypeError(str(EXPERIMENTS.unknown(text, known=experiment_names())))
     return text
 
 

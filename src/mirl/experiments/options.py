@@ -23,8 +23,8 @@ from mirl._registry import Registry
 from mirl._validation import (
     SEED,
     Boolean,
-    Choice,
     Interval,
+    OneOf,
     Options,
     Satisfies,
     option,
@@ -38,7 +38,6 @@ __all__ = [
     "SweepOptions",
     "GoRule",
     "GO_RULES",
-    "HAZARDS",
     "PAPER_GO_RULE",
     "MAX_OBS_STEPS",
     "MAX_WAIT_STEPS",
@@ -96,9 +95,12 @@ GO_RULES: Registry[GoRule] = Registry(
 PAPER_GO_RULE = "value"
 """The paper's go rule."""
 
-HAZARDS: Registry[str] = Registry("hazard model", ("markov", "independent"), name=str)
-"""How L's planner combines the detection risk of successive steps
-(:func:`mirl.planning.go.solve_observer_mdp`): the first-order hazard, or independent steps."""
+
+
+def _hazards() -> Any:
+    """The planner's hazard models (:data:`mirl.planning.go.HAZARDS`), read when a protocol
+    names one that is not the default: the planner imports numpy."""
+    return import_module("mirl.planning.go").HAZARDS
 
 
 class RunProtocol(Options):
@@ -151,7 +153,7 @@ class RunProtocol(Options):
         Keep the first go time; by default a newer plan may move or cancel it (on boyd2 the two
         gave identical outcomes over 50 seeds: the best go time is almost always "now").
     hazard : {"markov", "independent"}, default "markov"
-        The planner's detection hazard (:data:`HAZARDS`).
+        The planner's detection hazard (:data:`mirl.planning.go.HAZARDS`).
     goal_reward : float > 0, default 1.0
         The planner's reward for reaching the goal.
     detection_penalty : float >= 0, default 0.5
@@ -191,7 +193,7 @@ class RunProtocol(Options):
         flag="--max-wait", metavar="N",
     )  # fmt: skip
     go_rule: str = option(
-        Choice(GO_RULES), default="adaptive",
+        OneOf(GO_RULES), default="adaptive",
         doc="; ".join(f"{r.name}: {r.description}" for r in GO_RULES.values()),
         flag="--go-rule",
     )  # fmt: skip
@@ -201,7 +203,7 @@ class RunProtocol(Options):
         flag="--learn-once",
     )  # fmt: skip
     relearn_growth: float = option(
-        Interval(float, 1.0, None, closed="neither"), default=1.5,
+        Interval(float, 1.0, None, open_low=True), default=1.5,
         doc="the growth of L's record that calls a re-learn",
     )  # fmt: skip
     window: int = option(Interval(int, 0, None), default=60, doc="go times a round scores")
@@ -217,9 +219,12 @@ class RunProtocol(Options):
         doc="the adaptive rule's steps per fresh chance to go after the window",
     )  # fmt: skip
     commit: bool = option(Boolean(), default=False, doc="keep the first go time")
-    hazard: str = option(Choice(HAZARDS), default="markov", doc="the planner's detection hazard")
+    hazard: str = option(
+        OneOf(_hazards), default="markov",
+        doc="the planner's detection hazard (mirl.planning.go.HAZARDS)",
+    )  # fmt: skip
     goal_reward: float = option(
-        Interval(float, 0.0, None, closed="neither"), default=1.0,
+        Interval(float, 0.0, None, open_low=True), default=1.0,
         doc="the planner's reward for reaching the goal",
     )  # fmt: skip
     detection_penalty: float = option(
@@ -335,8 +340,9 @@ class SweepOptions(Options):
         flag="--progress-every", metavar="N",
     )  # fmt: skip
     world: str = option(
-        Choice(WORLDS), default=DEFAULT_WORLD, doc="the world of every run", flag="--world"
-    )
+        OneOf(WORLDS, kind="world"), default=DEFAULT_WORLD,
+        doc="the world of every run", flag="--world",
+    )  # fmt: skip
     go_rule: str = same_option(RunProtocol, "go_rule")
     relearn: bool = same_option(RunProtocol, "relearn")
     em_init: str | None = same_option(LearnOptions, "em_init")

@@ -73,15 +73,12 @@ class EMResult:
         return sp.csr_array(self.transitions.reshape(S * A, S))
 
 
-
-
 def initial_transitions(domain: PatrolDomain, init: str = "intended") -> np.ndarray:
     """(S, A, S) initial T: uniform over {ψ(s, a')} (``intended``) or over all states."""
+    EM_INITS.lookup(init)  # an unknown name: UnknownNameError (a ValueError), one line
     S, A = domain.n_states, domain.n_actions
     if init == "uniform":
         return np.full((S, A, S), 1.0 / S)
-    if init != "intended":
-        raise ValueError(f"unknown EM initialisation '{init}' (known: intended, uniform)")
     support = np.zeros((S, S))
     support[np.repeat(np.arange(S), A), domain.intended.ravel()] = 1.0  # duplicates count once
     support /= support.sum(axis=1, keepdims=True)

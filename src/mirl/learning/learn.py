@@ -68,7 +68,13 @@ from mirl.learning.equilibria import (
     weigh_team_equilibria,
 )
 from mirl.learning.irl import OccludedMaxEntIRL
-from mirl.learning.methods import LEARNING_METHODS, Method, get_method
+from mirl.learning.methods import (
+    LEARNING_METHODS,
+    REWARD_SOURCES,
+    TRANSITION_SOURCES,
+    Method,
+    get_method,
+)
 from mirl.learning.options import LearnOptions
 from mirl.learning.results import LearnResult, RobotModel, behavior_accuracy, oracle_models
 from mirl.learning.transitions import (
@@ -93,10 +99,10 @@ __all__ = [
     "learn",
     "LoopTrace",
     "relabel_loop",
-    "RewardSource",
-    "TransitionSource",
-    "REWARD_SOURCES",
-    "TRANSITION_SOURCES",
+    "RewardBuilder",
+    "TransitionBuilder",
+    "REWARD_BUILDERS",
+    "TRANSITION_BUILDERS",
 ]
 
 
@@ -277,14 +283,14 @@ def _round_setup(
 
 def _method_models(setup: RoundSetup, row: Method, options: LearnOptions, trace: LoopTrace):
     """Weights, transition matrices, feature probabilities, equilibrium (None: to be weighed)
-    and a message, from the sources ``row`` names (:data:`REWARD_SOURCES`,
-    :data:`TRANSITION_SOURCES`)."""
+    and a message, built from the sources ``row`` names (:data:`REWARD_BUILDERS`,
+    :data:`TRANSITION_BUILDERS`)."""
     if row.relabels:
         return (
             *relabel_loop(setup, options.max_iterations, trace, options.label_tol),
             trace.message,
         )
-    reward, motion = REWARD_SOURCES[row.reward], TRANSITION_SOURCES[row.transitions]
+    reward, motion = REWARD_BUILDERS[row.reward], TRANSITION_BUILDERS[row.transitions]
     labels = None
     if reward.labelled or motion.labelled:
         with setup.clock("labels"):
@@ -620,11 +626,13 @@ def weigh(setup: RoundSetup, policies, transitions, trace: LoopTrace) -> Equilib
 
 
 # ---- the sources of models ------------------------------------------------------------------
-# A method's row names where its reward and its T come from; each source is a row below, so a
-# new source is a builder and a row (docs/design.md, "The table of methods").
+# A method's row names where its reward and its T come from, rows of the tables of sources
+# (mirl.learning.methods); how learn() builds each is a row below, by the same name, so a new
+# source is its row there and a builder here (docs/design.md, "The table of methods").
 @dataclass(frozen=True)
-class RewardSource:
-    """Where a method's rewards and interaction equilibrium come from (its ``reward``).
+class RewardBuilder:
+    """How :func:`learn` builds a method's rewards and interaction equilibrium from the source
+    its ``reward`` names (a row of :data:`~mirl.learning.methods.REWARD_SOURCES`).
 
     ``first_labels(setup)`` labels the observed steps before anything is learned;
     ``labelled`` says whether the rewards are learned from those labels;
@@ -638,8 +646,9 @@ class RewardSource:
 
 
 @dataclass(frozen=True)
-class TransitionSource:
-    """Where a method's transition models come from (its ``transitions``).
+class TransitionBuilder:
+    """How :func:`learn` builds a method's transition models from the source its
+    ``transitions`` names (a row of :data:`~mirl.learning.methods.TRANSITION_SOURCES`).
 
     ``labelled`` says whether T is learned from labelled steps; ``build(setup, labels,
     options)`` gives per robot T and the feature probabilities, and what the result's message
@@ -695,22 +704,32 @@ def _em_transitions(setup: RoundSetup, labels, options: LearnOptions):
     return [sp.csr_array(T) for T, _ in fits], [{} for _ in range(n)], message
 
 
-REWARD_SOURCES: Registry[RewardSource] = Registry(
+def _builds_a_reward_source(row: RewardBuilder) -> None:
+    REWARD_SOURCES.lookup(row.name)  # a builder of no source: refused here, at import
+
+
+def _builds_a_transition_source(row: TransitionBuilder) -> None:
+    TRANSITION_SOURCES.lookup(row.name)
+
+
+REWARD_BUILDERS: Registry[RewardBuilder] = Registry(
     "reward source",
     (
-        RewardSource("learned", True, perception, _learned_rewards),
-        RewardSource("true", False, _true_policy_labels, _true_rewards),
+        RewardBuilder("learned", True, perception, _learned_rewards),
+        RewardBuilder("true", False, _true_policy_labels, _true_rewards),
     ),
+    check=_builds_a_reward_source,
 )
-"""The rewards' sources by the name a method's ``reward`` gives."""
+"""How :func:`learn` builds the rewards of each source a learning method may name."""
 
-TRANSITION_SOURCES: Registry[TransitionSource] = Registry(
+TRANSITION_BUILDERS: Registry[TransitionBuilder] = Registry(
     "transition source",
     (
-        TransitionSource("features", True, _feature_transitions),
-        TransitionSource("fixed-p", False, _fixed_p_transitions),
-        TransitionSource("em", False, _em_transitions),
+        TransitionBuilder("features", True, _feature_transitions),
+        TransitionBuilder("fixed-p", False, _fixed_p_transitions),
+        TransitionBuilder("em", False, _em_transitions),
     ),
+    check=_builds_a_transition_source,
 )
-"""The transition models' sources by the name a method's ``transitions`` gives (a method with
-``transitions="true"`` learns nothing: :func:`learn` returns the truth)."""
+"""How :func:`learn` builds the transition models of each source it builds (a source it does
+not build, the truth, gives the scenario's models whole: :func:`learn` returns them)."""

@@ -15,8 +15,14 @@ from types import MappingProxyType
 from typing import Any
 
 from mirl._registry import Registry
-from mirl._validation import Choice, Instance, Interval, Options, option
-from mirl.learning.methods import METHODS, Method, get_method
+from mirl._validation import Instance, Interval, OneOf, Options, option
+from mirl.learning.methods import (
+    METHODS,
+    REWARD_SOURCES,
+    TRANSITION_SOURCES,
+    Method,
+    get_method,
+)
 
 __all__ = [
     "LearnOptions",
@@ -27,31 +33,37 @@ __all__ = [
     "DEFAULT_P",
 ]
 
-IRL_OBJECTIVES: Registry[str] = Registry(
-    "IRL objective", ("counts", "likelihood", "both", "sequence"), name=str
-)
+IRL_OBJECTIVES = Registry.of_choices("objective", {
+    "counts": "the paper's: squared difference of feature counts on observed steps",
+    "likelihood": "log-likelihood of the observed labelled actions",
+    "both": "counts and likelihood added",
+    "sequence": "log-likelihood of everything L saw of the robot, occlusion included",
+})  # fmt: skip
 """What :class:`~mirl.learning.irl.OccludedMaxEntIRL` fits (its module docstring)."""
 
 
 @dataclass(frozen=True)
 class Optimizer:
-    """An optimiser of the IRL and the starts it makes unless told (``n_restarts``)."""
+    """An optimiser of the IRL: its name, what it is, and the starts it makes unless told
+    (``n_restarts``)."""
 
     name: str
+    description: str
     restarts: int
 
 
-IRL_OPTIMIZERS: Registry[Optimizer] = Registry(
-    "IRL optimiser",
-    # the paper's derivative-free simplex, from three starts; L-BFGS-B with the exact gradient,
-    # whose restarts were measured to land on the same optimum
-    (Optimizer("nelder-mead", 3), Optimizer("lbfgs", 1)),
-)
+IRL_OPTIMIZERS: Registry[Optimizer] = Registry("optimizer", (
+    Optimizer("nelder-mead", "derivative-free Nelder-Mead from seeded restarts (the paper's)", 3),
+    # its restarts were measured to land on the same optimum
+    Optimizer("lbfgs", "L-BFGS-B with the exact gradient", 1),
+))  # fmt: skip
 """How the IRL fits, by name."""
 
-EM_INITS: Registry[str] = Registry("EM initialisation", ("intended", "uniform"), name=str)
-"""DBN-EM's initial T (:func:`~mirl.learning.dbn_em.initial_transitions`): uniform over the
-intended states of all actions, or over all states."""
+EM_INITS = Registry.of_choices("EM initialisation", {
+    "intended": "uniform over the intended outcomes ψ(s, a') of every action (the default)",
+    "uniform": "uniform over all states",
+})  # fmt: skip
+"""DBN-EM's initial transition models (:func:`~mirl.learning.dbn_em.initial_transitions`)."""
 
 DEFAULT_P = 0.9
 """The success probability of every action for the methods with a fixed T, when ``p`` is None."""
@@ -94,8 +106,9 @@ class LearnOptions(Options):
 
     p: float | None = option(
         Interval(float, 0.0, 1.0), None, default=None,
-        doc="fixed success probability of every action, for mirl and known-r",
-        flag="--p", metavar="P", applies="uses_p",
+        doc="fixed success probability of every action, for "
+        + " and ".join(m.name for m in METHODS.values() if m.uses_p),
+        flag="--p", metavar="P",
     )  # fmt: skip
     max_iterations: int = option(
         Interval(int, 1, 100), default=5,
@@ -108,11 +121,11 @@ class LearnOptions(Options):
         flag="--label-tol", metavar="F",
     )  # fmt: skip
     objective: str = option(
-        Choice(IRL_OBJECTIVES), default="sequence",
+        OneOf(IRL_OBJECTIVES), default="sequence",
         doc="IRL objective (paper: counts)", flag="--objective",
     )  # fmt: skip
     optimizer: str = option(
-        Choice(IRL_OPTIMIZERS), default="lbfgs",
+        OneOf(IRL_OPTIMIZERS), default="lbfgs",
         doc="IRL optimiser (paper: nelder-mead)", flag="--optimizer",
     )  # fmt: skip
     n_restarts: int | None = option(
@@ -124,10 +137,10 @@ class LearnOptions(Options):
         doc="further keyword arguments of the IRL estimator",
     )  # fmt: skip
     em_init: str | None = option(
-        Choice(EM_INITS), None, default=None,
+        OneOf(EM_INITS), None, default=None,
         doc="DBN-EM's initial transitions: uniform over the intended states of all actions, or "
         "over all states",
-        flag="--em-init", applies="uses_em_init",
+        flag="--em-init",
     )  # fmt: skip
 
     def _check(self) -> None:
@@ -152,13 +165,23 @@ class LearnOptions(Options):
         return IRL_OPTIMIZERS[self.optimizer].restarts
 
     def check_method(self, method: Method | str) -> None:
-        """Refuse an option set for a method it changes nothing for (``p`` for a method that
-        learns or knows T, ``em_init`` without DBN-EM): a setting is never silently ignored."""
+        """Refuse an option set for a method it changes nothing for: an option that one source
+        of models alone reads (:data:`~mirl.learning.methods.TRANSITION_SOURCES`' ``option``:
+        ``p`` for a fixed T, ``em_init`` for DBN-EM) given for a method without that source. A
+        setting is never silently ignored."""
         row = get_method(method) if isinstance(method, str) else method
-        for name, spec in self.__options__.items():
-            if spec.applies is None or getattr(self, name) is None:
-                continue
-            if not getattr(row, spec.applies):
-                users = [m.name for m in METHODS.values() if getattr(m, spec.applies)]
+        for name, users in _readers().items():
+            if getattr(self, name) is not None and row.name not in users:
                 which = f"the method{'s' * (len(users) > 1)} {' and '.join(users)}"
                 raise self.refuse(name, f"applies to {which} only, not {row.name}")
+
+
+def _readers() -> dict[str, list[str]]:
+    """Per option that a source of models alone reads, the methods with that source."""
+    out: dict[str, list[str]] = {}
+    for table, part in ((REWARD_SOURCES, "reward"), (TRANSITION_SOURCES, "transitions")):
+        for source in table.values():
+            if source.option is not None:
+                users = [m.name for m in METHODS.values() if getattr(m, part) == source.name]
+                out.setdefault(source.option, []).extend(users)
+    return out
