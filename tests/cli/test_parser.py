@@ -74,6 +74,15 @@ def test_a_bad_flag_is_one_line_naming_the_command_and_the_flag(capsys, argv, te
     assert lines[0].startswith(f"mirl {argv[0]}: error: {text}"), lines[0]
 
 
+def test_every_option_flag_that_takes_a_value_has_its_refusal_above():
+    tested = {a for argv, _ in FLAG_ERRORS for a in argv if a.startswith("--")}
+    for options in (LearnOptions, RunProtocol, SweepOptions):
+        for spec in options.__options__.values():
+            switch = isinstance(spec.default, bool)
+            if spec.flag is not None and not switch:
+                assert spec.flag in tested, spec.flag
+
+
 def test_an_unknown_command_gets_the_nearest(capsys):
     with pytest.raises(SystemExit):
         main(["rn"])
