@@ -102,7 +102,7 @@ def test_patroller_camera_range_and_walls(healthy):
 
 def test_default_camera_sees_the_first_four_upper_cells():
     sc = load_scenario("boyd2")
-    cfg = physics_config(sc.physics, sc.source, sc.robot_names)
+    cfg = physics_config(sc.section("physics"), sc.source, sc.robot_names)
     frame = sc.map.frame
     (cx, cy, cyaw), cone, overhead = observer_camera(sc, cfg, frame, 0.14)
     assert cone.fov_deg == 57 and cone.range == pytest.approx(4.5)
@@ -265,8 +265,8 @@ def test_a_weak_motor_still_pivots_in_time(healthy, wheel):
 def test_the_physical_world_is_modelled_with_turns_that_need_no_wheel(healthy):
     """What the test above measures is what L's model of this world says: its ξ takes the
     wheels out of the turns, failed steps stay put, and the rest is the scenario's."""
-    from mirl.experiments.physics_world import PhysicsRunWorld
     from mirl.world.motion import transition_matrix
+    from mirl.worlds.physics import PhysicsRunWorld
 
     model = PhysicsRunWorld.modelled(healthy)
     subsets = model.feature_map.action_subsets
@@ -291,9 +291,9 @@ def test_the_physical_world_states_how_far_a_weak_wheel_drifts_its_robot(healthy
     that states its own keeps it."""
     from dataclasses import replace
 
-    from mirl.experiments.physics_world import PhysicsRunWorld
     from mirl.physics.config import scenario_physics
     from mirl.world.faults import DriftSpec
+    from mirl.worlds.physics import PhysicsRunWorld
 
     cfg = scenario_physics(healthy)
     drift = PhysicsRunWorld.modelled(healthy).faults.drift
