@@ -376,7 +376,8 @@ def test_text_map_positions_in_metres_use_its_frame(tmp_path):
 # ---- the worlds' own sections --------------------------------------------------------------------
 def _with_section(tmp_path, section: str, top: str = "") -> Path:
     path = tmp_path / "s.toml"
-    path.write_text(textwrap.dedent(f'''
+    path.write_text(
+        textwrap.dedent(f"""
         map = "boyd2"
         {top}
         [[robots]]
@@ -384,7 +385,8 @@ def _with_section(tmp_path, section: str, top: str = "") -> Path:
         [[robots]]
         start = [0, 8, 0]
         {section}
-    '''))
+    """)
+    )
     return path
 
 

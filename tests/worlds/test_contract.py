@@ -16,7 +16,8 @@ from mirl.worlds.contract import Detection, Simulation
 def test_mypy_checks_a_world_class_against_the_contract(tmp_path):
     api = pytest.importorskip("mypy.api")
     module = tmp_path / "worlds_under_check.py"
-    module.write_text(textwrap.dedent('''
+    module.write_text(
+        textwrap.dedent("""
         import numpy as np
 
         from mirl.worlds.contract import World
@@ -39,7 +40,8 @@ def test_mypy_checks_a_world_class_against_the_contract(tmp_path):
         kept: World = GridRunWorld
         version: World = WrongVersion
         step: World = WrongStep
-    '''))
+    """)
+    )
     out, _, status = api.run(
         [str(module), "--cache-dir", str(tmp_path / "cache"), "--follow-imports=silent"]
     )
