@@ -40,7 +40,7 @@ __all__ = ["PhysicsRunWorld", "PhysicsExtras"]
 
 @dataclass(frozen=True)
 class PhysicsExtras:
-    """What a physics run records beyond the interface: the MuJoCo world itself (continuous
+    """What a physics run records beyond the contract: the MuJoCo world itself (continuous
     tracks, cameras, contacts) and the MuJoCo release that computed it."""
 
     world: PhysicalWorld
@@ -68,12 +68,12 @@ class PhysicsExtras:
 
 def _strengths(cfg: PhysicsConfig) -> str:
     """The motor strengths the scenario sets, as ``physics: I:left_wheel=0.6, ...``."""
-    set_ = [f"{r}:{w}={s:g}" for r, ws in cfg.motor_strength.items() for w, s in ws.items()]
-    return f"physics: {', '.join(set_) or 'all motors healthy'}"
+    given = [f"{r}:{w}={s:g}" for r, ws in cfg.motor_strength.items() for w, s in ws.items()]
+    return f"physics: {', '.join(given) or 'all motors healthy'}"
 
 
 class PhysicsRunWorld:
-    """A :class:`~mirl.physics.patrol.PhysicalWorld` behind the run interface.
+    """A :class:`~mirl.physics.patrol.PhysicalWorld` behind the world contract.
 
     Parameters
     ----------
