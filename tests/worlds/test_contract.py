@@ -13,6 +13,7 @@ from mirl.observations.trajectories import Trajectories
 from mirl.worlds.contract import Detection, Simulation
 
 
+@pytest.mark.slow  # about 15 s of mypy; `mypy src` checks the shipped worlds' classes every time
 def test_mypy_checks_a_world_class_against_the_contract(tmp_path):
     api = pytest.importorskip("mypy.api")
     module = tmp_path / "worlds_under_check.py"
