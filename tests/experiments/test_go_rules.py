@@ -10,12 +10,12 @@ import pytest
 
 from mirl.experiments.go_rules import AdaptiveRule, Planning, ValueRule, Waiting
 from mirl.experiments.options import GO_RULES
-from mirl.experiments.worlds import make_world
 from mirl.learning.results import oracle_models
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.go import solve_observer_mdp
 from mirl.planning.observer import observer_model
 from mirl.world.scenario import load_scenario
+from mirl.worlds import make_world
 
 
 def test_every_row_loads_a_strategy():

@@ -10,8 +10,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from mirl.experiments.worlds import get_world
 from mirl.world.actions import STEP_SECONDS
+from mirl.worlds import get_world
 
 if TYPE_CHECKING:
     import numpy as np

@@ -29,10 +29,10 @@ from mirl.cli.flags import (
 )
 from mirl.experiments.conditions import EXPERIMENTS, experiment_names
 from mirl.experiments.options import RunProtocol, SweepOptions
-from mirl.experiments.worlds import WORLDS
 from mirl.learning.methods import LEARNING_METHODS, METHODS
 from mirl.learning.options import DEFAULT_P, EM_INITS, LearnOptions
 from mirl.world.actions import STEP_SECONDS
+from mirl.worlds import WORLDS
 
 __all__ = ["build_parser"]
 

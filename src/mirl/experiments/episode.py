@@ -45,7 +45,6 @@ from mirl.experiments.execution import PlanFollower, execute, wait_for_go
 from mirl.experiments.go_rules import GoRuleStrategy, Planning, Waiting
 from mirl.experiments.options import GO_RULES, RunProtocol
 from mirl.experiments.records import Detection, PlanAttempt, Relearn, RunResult
-from mirl.experiments.worlds import DEFAULT_WORLD, RunWorld, get_world, make_world
 from mirl.learning.learn import learn
 from mirl.learning.methods import Method, get_method
 from mirl.learning.options import LearnOptions
@@ -55,6 +54,7 @@ from mirl.planning.belief import BeliefFilter
 from mirl.planning.go import ObserverPlan
 from mirl.planning.observer import ObserverModel, observer_model, shortest_path_policy
 from mirl.world.scenario import Scenario
+from mirl.worlds import DEFAULT_WORLD, RunWorld, get_world, make_world
 
 __all__ = ["run_episode"]
 
@@ -135,7 +135,7 @@ def run_episode(
     learned : LearnResult, optional
         Models to use instead of learning (tests, hand-made models).
     world : str, default "grid"
-        The world of :data:`~mirl.experiments.worlds.WORLDS` the run happens in (``"physics"``:
+        The world of :data:`~mirl.worlds.WORLDS` the run happens in (``"physics"``:
         MuJoCo).
 
     Returns
@@ -227,6 +227,7 @@ def run_episode(
         protocol=run,
         predicted_success=going.predicted_success,
         relearns=going.relearns if learner is not None and learner.growth is not None else None,
+        world=world,
     )
 
 

@@ -18,11 +18,11 @@ import numpy as np
 
 from mirl.experiments.execution import Decision
 from mirl.experiments.records import PlanAttempt
-from mirl.experiments.worlds import RunWorld
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.go import ObserverPlan, solve_observer_mdp, waiting_value
 from mirl.planning.observer import ObserverModel
 from mirl.planning.success import success_probability
+from mirl.worlds import RunWorld
 
 __all__ = ["Planning", "Waiting", "Watching", "GoRuleStrategy", "ValueRule", "AdaptiveRule"]
 

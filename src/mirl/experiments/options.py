@@ -30,8 +30,8 @@ from mirl._validation import (
     option,
     same_option,
 )
-from mirl.experiments.worlds import DEFAULT_WORLD, WORLDS
 from mirl.learning.options import LearnOptions
+from mirl.worlds import DEFAULT_WORLD, WORLDS
 
 __all__ = [
     "RunProtocol",
@@ -303,7 +303,7 @@ class SweepOptions(Options):
         When stderr is not a terminal, a progress line every this many runs; by default about
         every 5 % of the sweep.
     world : str, default "grid"
-        The world every condition runs in (:data:`~mirl.experiments.worlds.WORLDS`).
+        The world every condition runs in (:data:`~mirl.worlds.WORLDS`).
     go_rule, relearn : str, bool
         How L decides and whether it re-learns, on every condition
         (:class:`RunProtocol`'s; ``go_rule="value", relearn=False`` keeps the conditions' own,

@@ -9,13 +9,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from mirl.experiments.options import RunProtocol
-from mirl.experiments.worlds import Detection
 from mirl.learning.results import LearnResult
 from mirl.observations.trajectories import Trajectories
 from mirl.planning.go import ObserverPlan
+from mirl.worlds import DEFAULT_WORLD, Detection
 
 if TYPE_CHECKING:
-    from mirl.experiments.worlds import WorldExtras
+    from mirl.worlds import WorldExtras
 
 __all__ = [
     "Detection",
@@ -103,6 +103,7 @@ class RunResult:
     def watch_until_seen(self) -> int | None:
         """The protocol's watching rule (None: a fixed observation time)."""
         return None if self.protocol is None else self.protocol.watch_until_seen
+    world: str = DEFAULT_WORLD  # the run's world, a name in mirl.worlds.WORLDS
 
     def to_dict(self) -> dict[str, Any]:
         return {
