@@ -29,7 +29,6 @@ from mirl.world.rewards import RewardSpec, read_reward_spec, read_weights
 from mirl.world.scenario_sections import (
     PLAYED,
     TRUE_WEIGHTS,
-    WORLD_SECTIONS,
     RobotSpec,
     read_feature_map,
     read_game,
@@ -37,6 +36,7 @@ from mirl.world.scenario_sections import (
     read_pairs,
     read_robots,
 )
+from mirl.world.world_sections import WORLD_SECTIONS
 
 __all__ = [
     "RobotSpec",

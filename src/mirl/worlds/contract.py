@@ -257,7 +257,7 @@ class World(Protocol):
 
     def read_section(self, scenario: Scenario) -> object:
         """The world's own parameters from its scenario section
-        (:data:`~mirl.world.scenario_sections.WORLD_SECTIONS`), validated (ValueError, one line
+        (:data:`~mirl.world.world_sections.WORLD_SECTIONS`), validated (ValueError, one line
         naming the file and the field); None for a world without a section."""
         ...
 
