@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from mirl.experiments.atlas import atlas_design, atlas_run
 from mirl.experiments.worlds import DEFAULT_WORLD, WORLDS
 from mirl.learning.methods import METHODS
 
@@ -48,7 +49,7 @@ DEFAULT_OBS_STEPS = 300
 GO_RULE_PUBLISHED = "value"  # the paper's rule
 GO_RULE_DEFAULT = "adaptive"  # mirl's rule, run_episode's and the command line's default
 DEFAULT_RUNS = 200  # per point, as in the paper's simulations
-OUTCOMES = ("success", "detected", "timeout")
+OUTCOMES = ("success", "detected", "timeout", "learned")  # learned: a run with no L to go (atlas)
 
 
 @dataclass(frozen=True)
@@ -379,6 +380,13 @@ EXPERIMENTS: dict[str, Experiment] = {
             _verdicts(),
             episode_run,
             default_runs=10,
+        ),
+        Experiment(
+            "atlas",
+            "calibration atlas of the fault verdicts: worlds, data paths, faults, views, lengths",
+            tuple(Condition(**p) for p in atlas_design()),
+            atlas_run,
+            default_runs=1,
         ),
         Experiment(
             "selftest",

@@ -18,6 +18,7 @@ from scipy import stats
 
 from mirl.experiments.conditions import Condition
 from mirl.viz.aggregate import FIG4A_PAPER, PAPER_NAMES, TABLE1_PAPER, Group, method_name
+from mirl.viz.atlas import atlas_markdown
 from mirl.viz.verdicts import verdicts_markdown
 
 __all__ = [
@@ -493,4 +494,5 @@ SECTIONS: dict[str, Callable[[list[Group], Path], str]] = {
     "fig4c": lambda gs, d: fig4bc_markdown(gs, d, "fig4c"),
     "table1": table1_markdown,
     "verdicts": verdicts_markdown,
+    "atlas": atlas_markdown,
 }
