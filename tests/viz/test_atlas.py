@@ -114,3 +114,20 @@ def test_confident_false_counts_a_confident_no_part_of_a_damaged_robot():
     assert item(("floor",), 0.9, ("left_wheel",), False).confident_false
     assert not item(("floor",), 0.89, ("left_wheel",), False).confident_false
     assert not item(("left_wheel",), 0.99, ("left_wheel",), True).confident_false
+
+
+def test_the_cost_estimate_fits_each_world_and_scenario_linear_in_the_length():
+    from mirl.viz.atlas import estimate_cpu
+
+    def group(world, scenario, steps, cpus):
+        c = Condition("mirl-t", scenario, 1.0, steps, world=world, damage="none")
+        return Group(c, [{"run": k, "time.simulate": t} for k, t in enumerate(cpus)])
+
+    gs = [group("grid", "boydright", 150, [3.0, 5.0]), group("grid", "boydright", 450, [10.0]),
+          group("physics", "office", 150, [6.0])]  # fmt: skip
+    # grid: least squares through (150, 3), (150, 5), (450, 10): 1 + 0.02 n; physics: ∝ n
+    design = [Condition("mirl-t", "boydright", 0.14, 900, world="grid", damage="none"),
+              Condition("mirl-t", "office", 1.0, 900, world="physics", damage="none")]  # fmt: skip
+    assert estimate_cpu(gs, design) == pytest.approx(1 + 0.02 * 900 + 6.0 * 6)
+    other = Condition("mirl-t", "boyd2-healthy", 1.0, 150, world="grid", damage="none")
+    assert estimate_cpu(gs, [*design, other]) is None

@@ -20,6 +20,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from mirl.experiments.atlas import DATA_PATHS, fault_kind, parse_damage
+from mirl.experiments.conditions import EXPERIMENTS, Condition
 from mirl.viz.aggregate import Group
 from mirl.viz.verdicts import (
     CONFIDENT,
@@ -28,7 +29,10 @@ from mirl.viz.verdicts import (
     reliability_table,
 )
 
-__all__ = ["AtlasVerdict", "Measures", "atlas_items", "measures", "atlas_markdown", "TARGETS"]
+__all__ = [
+    "AtlasVerdict", "Measures", "TARGETS", "atlas_items", "atlas_markdown", "estimate_cpu",
+    "measures",
+]  # fmt: skip
 
 TARGETS = {
     "false overall": 0.02,  # confidently false, share of all verdicts
@@ -378,8 +382,42 @@ def costs_markdown(gs: Sequence[Group]) -> str:
             + " | ".join(f"{mean(f'time.learn.{p}'):.1f}" for p in DATA_PATHS)
             + f" | {sum(cpu) / max(verdicts, 1):.2f} |"
         )
-    lines += ["", f"CPU in all: {total / 3600:.2f} h (seconds of CPU per run, mean)."]
+    lines += ["", f"CPU of these runs: {total / 3600:.2f} h (the table: seconds per run, mean)."]
+    design = EXPERIMENTS["atlas"].conditions if "atlas" in EXPERIMENTS else ()
+    estimate = estimate_cpu(gs, design)
+    if estimate is not None:
+        lines.append(
+            f"Estimated CPU of all {len(design)} design points, one run each: "
+            f"{estimate / 3600:.1f} h (per world and scenario, CPU per run linear in the record "
+            "length, fitted to these runs)."
+        )
     return "\n".join(lines)
+
+
+def estimate_cpu(gs: Sequence[Group], design: Sequence[Condition]) -> float | None:
+    """CPU seconds that one run of each of ``design``'s points would take, from the stored runs:
+    per (world, scenario), CPU per run fitted by least squares as linear in the record length
+    (proportional to it where the runs have one length). None when a (world, scenario) of
+    ``design`` has no stored run."""
+    fits: dict[tuple[str, str], list[tuple[int, float]]] = {}
+    for g in gs:
+        c = g.condition
+        for r in g.rows:
+            cpu = sum(float(v) for k, v in r.items() if k.startswith("time.") and v)
+            fits.setdefault((c.world, c.scenario), []).append((c.obs_steps, cpu))
+    total = 0.0
+    for c in design:
+        runs = fits.get((c.world, c.scenario))
+        if not runs:
+            return None
+        x = np.array([n for n, _ in runs], dtype=float)
+        y = np.array([t for _, t in runs])
+        if len(set(x)) > 1:
+            slope, intercept = np.polyfit(x, y, 1)
+            total += max(intercept + slope * c.obs_steps, 0.0)
+        else:
+            total += float(y.mean() / x[0] * c.obs_steps)
+    return total
 
 
 def _agreement(items: Sequence[AtlasVerdict]) -> str:
