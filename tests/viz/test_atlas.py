@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from mirl.experiments.conditions import Condition
@@ -119,15 +120,22 @@ def test_confident_false_counts_a_confident_no_part_of_a_damaged_robot():
 def test_the_cost_estimate_fits_each_world_and_scenario_linear_in_the_length():
     from mirl.viz.atlas import estimate_cpu
 
-    def group(world, scenario, steps, cpus):
+    def group(world, scenario, steps, cpus, robots=("I", "J")):
         c = Condition("mirl-t", scenario, 1.0, steps, world=world, damage="none")
-        return Group(c, [{"run": k, "time.simulate": t} for k, t in enumerate(cpus)])
+        rows = [{"run": k, "time.simulate": t, **{f"truth.{r}": "" for r in robots}}
+                for k, t in enumerate(cpus)]  # fmt: skip
+        return Group(c, rows)
 
     gs = [group("grid", "boydright", 150, [3.0, 5.0]), group("grid", "boydright", 450, [10.0]),
-          group("physics", "office", 150, [6.0])]  # fmt: skip
-    # grid: least squares through (150, 3), (150, 5), (450, 10): 1 + 0.02 n; physics: ∝ n
+          group("grid", "office", 150, [6.0], robots="IJKM")]  # fmt: skip
+    # boydright: least squares through (150, 3), (150, 5), (450, 10): 1 + 0.02 n; the office,
+    # one length, the line through its mean with the grid's slope per robot and step (fitted
+    # to robot-steps and CPU of every grid run) times its 4 robots
     design = [Condition("mirl-t", "boydright", 0.14, 900, world="grid", damage="none"),
-              Condition("mirl-t", "office", 1.0, 900, world="physics", damage="none")]  # fmt: skip
-    assert estimate_cpu(gs, design) == pytest.approx(1 + 0.02 * 900 + 6.0 * 6)
-    other = Condition("mirl-t", "boyd2-healthy", 1.0, 150, world="grid", damage="none")
+              Condition("mirl-t", "office", 1.0, 900, world="grid", damage="none")]  # fmt: skip
+    px, py = [300, 300, 900, 600], [3.0, 5.0, 10.0, 6.0]
+    per_robot_step = np.polyfit(px, py, 1)[0]
+    office = 6.0 + 4 * per_robot_step * (900 - 150)
+    assert estimate_cpu(gs, design) == pytest.approx(1 + 0.02 * 900 + office)
+    other = Condition("mirl-t", "boyd2-healthy", 1.0, 150, world="physics", damage="none")
     assert estimate_cpu(gs, [*design, other]) is None

@@ -368,7 +368,7 @@ def costs_markdown(gs: Sequence[Group]) -> str:
         "| world | scenario | length | runs | simulations (both) | learn: "
         + " | learn: ".join(DATA_PATHS.values())
         + " | CPU per verdict |",
-        "| --- | --- | --- | --- | --- |" + " --- |" * len(DATA_PATHS),
+        "| --- | --- | --- | --- | --- | --- |" + " --- |" * len(DATA_PATHS),
     ]
     total = 0.0
     for (world, scenario, length), rows in sorted(groups.items()):
@@ -396,27 +396,35 @@ def costs_markdown(gs: Sequence[Group]) -> str:
 
 def estimate_cpu(gs: Sequence[Group], design: Sequence[Condition]) -> float | None:
     """CPU seconds that one run of each of ``design``'s points would take, from the stored runs:
-    per (world, scenario), CPU per run fitted by least squares as linear in the record length
-    (proportional to it where the runs have one length). None when a (world, scenario) of
-    ``design`` has no stored run."""
-    fits: dict[tuple[str, str], list[tuple[int, float]]] = {}
+    per (world, scenario), CPU per run fitted by least squares as linear in the record length;
+    where the runs have one length, the line through their mean with the slope per robot and
+    step of the world's runs. None when a (world, scenario) of ``design`` has no stored run."""
+    runs: dict[tuple[str, str], list[tuple[int, int, float]]] = {}
     for g in gs:
         c = g.condition
         for r in g.rows:
             cpu = sum(float(v) for k, v in r.items() if k.startswith("time.") and v)
-            fits.setdefault((c.world, c.scenario), []).append((c.obs_steps, cpu))
-    total = 0.0
-    for c in design:
-        runs = fits.get((c.world, c.scenario))
-        if not runs:
-            return None
-        x = np.array([n for n, _ in runs], dtype=float)
-        y = np.array([t for _, t in runs])
+            robots = sum(k.startswith("truth.") for k in r)
+            runs.setdefault((c.world, c.scenario), []).append((c.obs_steps, robots, cpu))
+    lines: dict[tuple[str, str], tuple[float, float]] = {}  # (intercept, slope)
+    for (world, scenario), rs in runs.items():
+        x = np.array([n for n, _, _ in rs], dtype=float)
+        y = np.array([t for _, _, t in rs])
         if len(set(x)) > 1:
             slope, intercept = np.polyfit(x, y, 1)
-            total += max(intercept + slope * c.obs_steps, 0.0)
         else:
-            total += float(y.mean() / x[0] * c.obs_steps)
+            pooled = [(n * k, t) for (w, _), more in runs.items() if w == world for n, k, t in more]
+            px = np.array([a for a, _ in pooled], dtype=float)
+            per_robot_step = np.polyfit(px, [t for _, t in pooled], 1)[0] if len(set(px)) > 1 else 0
+            slope = per_robot_step * rs[0][1]
+            intercept = y.mean() - slope * x.mean()
+        lines[(world, scenario)] = (float(intercept), float(slope))
+    total = 0.0
+    for c in design:
+        if (c.world, c.scenario) not in lines:
+            return None
+        intercept, slope = lines[(c.world, c.scenario)]
+        total += max(intercept + slope * c.obs_steps, 0.0)
     return total
 
 
