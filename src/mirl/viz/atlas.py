@@ -335,7 +335,9 @@ def _figure(items: Sequence[AtlasVerdict], figdir: Path) -> str:
             sel = [a.base for a in items if a.base.world == world and a.path == path]
             rows = reliability_table(sel)
             if rows:
-                ax.plot([r[3] for r in rows], [r[4] for r in rows], "-o", ms=4, color=f"C{k}",
+                # the pose CSV and the MCAP file often agree: dashes keep both lines visible
+                style = ("-o", "--s", ":^")[k % 3]
+                ax.plot([r[3] for r in rows], [r[4] for r in rows], style, ms=4, color=f"C{k}",
                         label=f"{DATA_PATHS[path]} ({len(sel)})")  # fmt: skip
         ax.set_xlim(0.4, 1.01)
         ax.set_ylim(0.0, 1.02)
