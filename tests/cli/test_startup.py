@@ -71,12 +71,12 @@ def test_parser_choices_match_their_sources():
     from mirl.experiments import records
     from mirl.learning import dbn_em, irl
 
-    assert parser.IRL_OBJECTIVES == irl.OBJECTIVES
-    assert parser.IRL_OPTIMIZERS == irl.OPTIMIZERS
+    assert parser.IRL_OBJECTIVES == irl.OBJECTIVES.names
+    assert parser.IRL_OPTIMIZERS == irl.OPTIMIZERS.names
     assert parser.RUN_MAX_WAIT == records.MAX_WAIT
     assert parser.RUN_WATCH_UNTIL_SEEN == records.WATCH_UNTIL_SEEN
     assert parser.RUN_WATCH_LIMIT == records.WATCH_LIMIT
-    assert parser.EM_INITS == dbn_em.EM_INITS
+    assert parser.EM_INITS == dbn_em.EM_INITS.names
 
 
 def test_pure_equilibrium_by_best_response_is_the_enumerated_one():

@@ -60,11 +60,8 @@ def test_exact_team_filter_equals_the_pair_filter():
     model = observer_model(sc)
     vis = sc.domain.visible_states(sc.observability)
     pair = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
-    team = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
-    # force the general tensor code on two robots
-    from mirl.planning.team_filter import ExactTeam, TeamParts
-
-    team.mode, team._team = "team", ExactTeam(TeamParts(sc.domain, learned))
+    team = BeliefFilter(sc.domain, learned, visible=vis, mode="team")  # the tensor code on two
+    assert pair.mode == "pair"
     res = simulate(sc, 60, seed=4, random_starts=True)
     seen = np.stack([res.observations.state_series(sc.domain, i) for i in range(2)], axis=1)
     for row in seen:
@@ -113,7 +110,7 @@ def test_factored_filter_is_closer_to_exact_than_independent_marginals(tmp_path)
     indep = BeliefFilter(sc.domain, learned, visible=vis, joint=False)
     parts = TeamParts(sc.domain, learned)
     parts.meet = [m * 0.0 for m in parts.meet]
-    indep._team = FactoredTeam(parts)
+    indep.form.team = FactoredTeam(parts)
     assert exact.mode == "team" and fact.mode == "factored"
     res = simulate(sc, 30, seed=1, random_starts=True)
     assert res.interactions > 0
@@ -163,7 +160,7 @@ def _reference_filter(sc, learned, vis):
     from tests.references.team_filter import ReferenceExactTeam
 
     f = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
-    f._team = ReferenceExactTeam(TeamParts(sc.domain, learned))
+    f.form.team = ReferenceExactTeam(TeamParts(sc.domain, learned))
     return f
 
 
@@ -177,9 +174,10 @@ def test_exact_team_propagation_equals_the_first_implementation(tmp_path):
     ref = _reference_filter(sc, learned, vis)
     b = np.random.default_rng(0).random((sc.domain.n_states,) * 3)
     b /= b.sum()
-    assert len(new._team.meetings.idx) > 0
-    np.testing.assert_allclose(new._team.propagate(b), ref._team.propagate(b), rtol=1e-12, atol=0)
-    np.testing.assert_allclose(new._team.marginals(b), ref._team.marginals(b), rtol=1e-12)
+    assert len(new.form.team.meetings.idx) > 0
+    new_team, ref_team = new.form.team, ref.form.team
+    np.testing.assert_allclose(new_team.propagate(b), ref_team.propagate(b), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(new_team.marginals(b), ref_team.marginals(b), rtol=1e-12)
     res = simulate(sc, 25, seed=3, random_starts=True)
     assert res.interactions > 0
     seen = np.stack([res.observations.state_series(sc.domain, i) for i in range(3)], axis=1)

@@ -150,6 +150,17 @@ def test_good_toml_loads_with_defaults(tmp_path):
     np.testing.assert_allclose(sc.robots[0].weights, [1.0, 0.05, 0.05, 0.3])
 
 
+def test_a_file_s_defaults_are_the_scenario_s_fields(tmp_path):
+    """A key a file leaves out takes the default the Scenario dataclass declares (one home)."""
+    from dataclasses import fields
+
+    declared = {f.name: f.default for f in fields(Scenario)}
+    sc = load_scenario(write(tmp_path, GOOD.replace('played = ["stop", "go"]', "")))
+    for key in ("detect_distance", "observability", "discount", "error_model", "played"):
+        assert getattr(sc, key) == declared[key], key
+    assert sc.played == ("stop", "go")  # the paper's
+
+
 def test_map_path_relative_to_scenario(tmp_path):
     (tmp_path / "maps").mkdir()
     text = (Path(__file__).parents[2] / "src/mirl/data/maps/boyd2.txt").read_text()

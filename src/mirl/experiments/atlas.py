@@ -37,21 +37,24 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 from mirl.physics.config import PhysicsConfig
+from mirl.world.faults import WHEELS
 
 if TYPE_CHECKING:
-    from mirl.experiments.conditions import Condition
     from mirl.world.scenario import Scenario
 
 __all__ = [
     "DATA_PATHS",
     "DESIGN_SEED",
     "FAULT_KINDS",
+    "NO_DAMAGE",
+    "POSE_PATHS",
     "AtlasFault",
+    "DesignPoint",
     "atlas_design",
     "atlas_run",
     "damaged_truth",
@@ -60,6 +63,7 @@ __all__ = [
     "format_damage",
     "parse_damage",
     "run_commands",
+    "simulation_seed",
     "verdict_metrics",
 ]
 
@@ -76,14 +80,12 @@ SCENARIO_ROBOTS: Mapping[str, tuple[str, ...]] = {
 map; a test checks them against the scenarios)."""
 VIEWS = (0.14, 1.0)
 LENGTHS = (150, 450, 900)
-WHEELS = ("left_wheel", "right_wheel")
 FAULT_KINDS = ("none", "one wheel", "two robots", "two wheels")
 """No damage; one wheel of one robot; one wheel of each of two robots; both wheels of one
 robot."""
 STRENGTHS: Mapping[str, tuple[float, ...]] = {"grid": (0.7,), "physics": (0.5, 0.6, 0.8)}
 """A damaged part's value: a success probability on the grid (the paper's damaged wheel), a
 motor strength in the physical world."""
-HEALTHY_MOTOR = 1.0
 DAMAGED_PER_STRATUM = 60
 """Design points per world and kind of damage."""
 POSE_NOISE = (PhysicsConfig.measurement_sigma, PhysicsConfig.measurement_sigma_deg)
@@ -91,8 +93,29 @@ POSE_NOISE = (PhysicsConfig.measurement_sigma, PhysicsConfig.measurement_sigma_d
 degrees), so that both worlds' pose data are as noisy."""
 DATA_PATHS: Mapping[str, str] = {"grid-csv": "grid CSV", "pose-csv": "pose CSV", "mcap": "MCAP"}
 """The files a run learns from, by key (as stored) and in words."""
+POSE_PATHS = ("pose-csv", "mcap")
+"""The data paths whose files carry poses; both hold the same poses of a run."""
+NO_DAMAGE = "none"
+"""A condition's ``damage`` when every part is healthy."""
 OUTCOME = "learned"
 """A run's outcome: it learned from its files (there is no L to go)."""
+
+
+class DesignPoint(Protocol):
+    """What a run reads of its :class:`~mirl.experiments.conditions.Condition`."""
+
+    @property
+    def world(self) -> str: ...
+    @property
+    def scenario(self) -> str: ...
+    @property
+    def observability(self) -> float: ...
+    @property
+    def obs_steps(self) -> int: ...
+    @property
+    def damage(self) -> str | None: ...
+    @property
+    def key(self) -> str: ...
 
 
 # ---------------------------------------------------------------------------------------------
@@ -117,12 +140,12 @@ class AtlasFault:
 def format_damage(faults: Sequence[AtlasFault]) -> str:
     """A condition's ``damage`` field: the faults' ``--damage`` values joined by commas, or
     ``"none"`` (every part healthy, the scenario's own damage included)."""
-    return ",".join(f.flag for f in faults) or "none"
+    return ",".join(f.flag for f in faults) or NO_DAMAGE
 
 
 def parse_damage(damage: str | None) -> tuple[AtlasFault, ...]:
     """The faults of a condition's ``damage`` field (:func:`format_damage`'s inverse)."""
-    if damage in (None, "none"):
+    if damage is None or damage == NO_DAMAGE:
         return ()
     out = []
     for item in str(damage).split(","):
@@ -267,24 +290,32 @@ def _scenario(name: str) -> Scenario:
 
 def damage_flags(world: str, scenario: Scenario, faults: Sequence[AtlasFault]) -> list[str]:
     """The ``--damage`` values that make ``scenario`` the design point's: the scenario's own
-    damaged parts healed (on the grid to their healthy level, in the physical world to a
-    healthy motor), then ``faults``. The atlas states all of a point's damage, so a scenario
-    that ships with a damaged wheel (boydright's J) counts as healthy with no fault."""
+    damaged parts healed (:func:`_healthy_value`), then ``faults``. The atlas states all of a
+    point's damage, so a scenario that ships with a damaged wheel (boydright's J on the grid)
+    counts as healthy with no fault."""
+    named = {(f.robot, f.feature) for f in faults}
+    heal = [
+        AtlasFault(robot, part, _healthy_value(world, scenario, robot, part))
+        for robot, parts in damaged_truth(world, scenario).items()
+        for part in parts
+        if (robot, part) not in named
+    ]
+    return [f.flag for f in (*heal, *faults)]
+
+
+def _healthy_value(world: str, scenario: Scenario, robot: str, part: str) -> float:
+    """The value that makes ``robot``'s ``part`` healthy in ``world``: its healthy level
+    (``[faults] healthy``), or where the world counts that as damaged too (a motor weaker
+    than full strength), 1."""
     from mirl.experiments.worlds import get_world
     from mirl.world.faults import DEFAULT_HEALTHY
 
-    named = {(f.robot, f.feature) for f in faults}
-    heal = []
-    for robot, parts in get_world(world).load().damaged_parts(scenario).items():
-        for part in parts:
-            if (robot, part) not in named:
-                value = (
-                    HEALTHY_MOTOR
-                    if world == "physics"
-                    else scenario.faults.healthy.get(part, DEFAULT_HEALTHY)
-                )
-                heal.append(AtlasFault(robot, part, value))
-    return [f.flag for f in (*heal, *faults)]
+    spec = get_world(world).load()
+    for value in (scenario.faults.healthy.get(part, DEFAULT_HEALTHY), 1.0):
+        healed = spec.apply_damage(scenario, robot, part, value)
+        if part not in spec.damaged_parts(healed)[robot]:
+            return value
+    raise ValueError(f"atlas: no value makes {robot}'s {part} healthy in the {world} world")
 
 
 def damaged_truth(world: str, scenario: Scenario) -> dict[str, tuple[str, ...]]:
@@ -311,11 +342,13 @@ def _with_flags(world: str, scenario: Scenario, flags: Sequence[str]) -> Scenari
 
 
 def run_commands(
-    condition: Condition, sim_seed: int, flags: Sequence[str], robots: Sequence[str]
+    condition: DesignPoint, sim_seed: int, flags: Sequence[str], robots: Sequence[str]
 ) -> dict[str, list[str]]:
     """The ``mirl`` argument lists of one run, by step: ``simulate`` (the grid CSV and the pose
     CSV), ``simulate-mcap`` (the same simulation into an MCAP file) and ``learn.PATH`` per
     :data:`DATA_PATHS` key. Files are named relative to the run's directory."""
+    from mirl.experiments.worlds import get_world
+
     c = condition
     common = ["--scenario", c.scenario]
     view = ["--observability", f"{c.observability:g}"]
@@ -323,7 +356,9 @@ def run_commands(
         "simulate", *common, "--world", c.world, *_pairs("--damage", flags),
         "--steps", str(c.obs_steps), "--seed", str(sim_seed), *view, "--random-starts",
     ]  # fmt: skip
-    noise = [] if c.world == "physics" else ["--pose-noise", *(f"{x:g}" for x in POSE_NOISE)]
+    # a world that measures its own poses (L's camera) takes no --pose-noise
+    synthesised = not get_world(c.world).records_poses
+    noise = ["--pose-noise", *(f"{x:g}" for x in POSE_NOISE)] if synthesised else []
     learn = ["learn", *common, *view, "--json"]
     poses = ["--start-time", "0"]  # the simulation's steps start at t = 0, as it prints
     topics = _pairs("--topic", [f"/{r}/pose={r}" for r in robots])
@@ -381,14 +416,14 @@ def _checked(step: str, argv: Sequence[str], done: _Finished) -> None:
 # One run
 
 
-def simulation_seed(seed: int, condition: Condition) -> int:
+def simulation_seed(seed: int, condition: DesignPoint) -> int:
     """The ``--seed`` of a run's simulations: a function of the run's seed and its design
     point, so that points differing only in their length or fault do not replay one patrol."""
     ss = np.random.SeedSequence([seed, zlib.crc32(condition.key.encode())])
     return int(ss.generate_state(1, np.uint64)[0] >> np.uint64(1))
 
 
-def atlas_run(condition: Condition, seed: int) -> dict[str, Any]:
+def atlas_run(condition: DesignPoint, seed: int) -> dict[str, Any]:
     """One run of a design point (the module's steps 1–3), as a result mapping for the sweep:
     per data path and robot the verdict (``verdict.PATH.R``, the named parts), its confidence,
     whether it is right, its model check where the verdict has one; per robot the truth and the

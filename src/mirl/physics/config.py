@@ -14,6 +14,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import TYPE_CHECKING, Any
 
+from mirl.world.faults import WHEELS
+
 if TYPE_CHECKING:
     from mirl.world.domain import FeatureMap
 
@@ -23,11 +25,9 @@ __all__ = [
     "scenario_physics",
     "with_motor_strength",
     "physical_feature_map",
-    "WHEELS",
     "PIVOTS",
 ]
 
-WHEELS = ("left_wheel", "right_wheel")
 PIVOTS = ("turn_left", "turn_right")
 
 

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from mirl.experiments.atlas import DATA_PATHS, fault_kind, parse_damage
+from mirl.experiments.atlas import DATA_PATHS, POSE_PATHS, fault_kind, parse_damage
 from mirl.experiments.conditions import EXPERIMENTS, Condition
 from mirl.viz.aggregate import Group
 from mirl.viz.verdicts import (
@@ -48,7 +48,6 @@ MIN_ROW = 20
 """Rows with fewer verdicts are reported but not held to the per-row targets."""
 STRONG = 0.7
 """Full-view damage at most this strong (a motor strength ≤ 0.6, the grid's 0.7) must be named."""
-POSE_PATHS = ("pose-csv", "mcap")
 
 
 @dataclass(frozen=True)
@@ -434,11 +433,8 @@ def _agreement(items: Sequence[AtlasVerdict]) -> str:
     """How often the pose CSV's and the MCAP file's verdicts (the same poses) agree."""
     by_key = {(a.base.damage, a.base.world, a.scenario, a.length, a.base.observability,
                a.base.run, a.base.robot, a.path): a for a in items}  # fmt: skip
-    pairs = [
-        (a, by_key.get((*key[:-1], "mcap")))
-        for key, a in by_key.items()
-        if key[-1] == "pose-csv"
-    ]
+    first, second = POSE_PATHS
+    pairs = [(a, by_key.get((*key[:-1], second))) for key, a in by_key.items() if key[-1] == first]
     both = [(a, b) for a, b in pairs if b is not None]
     same = sum(
         a.base.verdict == b.base.verdict and abs(a.base.confidence - b.base.confidence) < 1e-3

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -21,13 +21,13 @@ from mirl.mdp import TabularMDP, value_iteration
 from mirl.world import schema
 from mirl.world._resources import read_shipped_or_file, shipped_names
 from mirl.world.domain import DEFAULT_FEATURE_MAP, FeatureMap, PatrolDomain
-from mirl.world.faults import DamageDefinition, read_faults
+from mirl.world.faults import HEALTHY_PROBABILITIES, DamageDefinition, read_faults
 from mirl.world.game import Equilibrium, InteractionGame
 from mirl.world.maps import GridMap
 from mirl.world.motion import ERROR_MODELS, transition_matrix
 from mirl.world.rewards import RewardSpec, read_reward_spec, read_weights
 from mirl.world.scenario_sections import (
-    HEALTHY_PROBABILITIES,
+    PLAYED,
     TRUE_WEIGHTS,
     RobotSpec,
     read_feature_map,
@@ -61,13 +61,14 @@ class Scenario:
     feature_map: FeatureMap = DEFAULT_FEATURE_MAP
     reward_spec: RewardSpec = field(default_factory=RewardSpec)
     game: InteractionGame = field(default_factory=InteractionGame)
-    played: tuple[str, str] = ("stop", "go")
+    played: tuple[str, str] = PLAYED
     # per pair (i < j, i the game's row player) the equilibrium it plays, if not ``played``
     pair_played: Mapping[tuple[int, int], tuple[str, str]] = field(default_factory=dict)
     observer_start: tuple[int, int] | None = None
     goal: tuple[int, int] | None = None
-    detect_distance: int = 6
-    observability: float = 0.14
+    # the defaults of a scenario file's top-level keys, read here by _from_dict
+    detect_distance: int = 6  # cells
+    observability: float = 0.14  # the paper's L at its door
     discount: float = 0.95
     error_model: str = "uniform"
     source: str = "<memory>"
@@ -234,6 +235,8 @@ def _from_text(text: str, source: str, base: Path | None) -> Scenario:
         raise ScenarioError(f"{source}: {msg.splitlines()[0] if msg else msg}") from None
 
 
+_FIELD_DEFAULTS = {f.name: f.default for f in fields(Scenario)}
+
 _TOP_KEYS = (
     "name",
     "map",
@@ -274,6 +277,11 @@ def _observer(data: Any, gridmap: GridMap) -> tuple[tuple[int, int], tuple[int, 
     if spots["start"] == spots["goal"]:
         raise schema.FieldError("observer.goal", f"{list(spots['goal'])} is L's start cell")
     return spots["start"], spots["goal"]
+
+
+def _given(data: dict, key: str) -> Any:
+    """The file's ``key``, or the default the :class:`Scenario` field of that name declares."""
+    return data[key] if key in data else _FIELD_DEFAULTS[key]
 
 
 def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
@@ -324,15 +332,15 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         observer_start=start,
         goal=goal,
         detect_distance=schema.integer(
-            data.get("detect_distance", 6), "detect_distance", low=0, high=max(shape)
+            _given(data, "detect_distance"), "detect_distance", low=0, high=max(shape)
         ),  # fmt: skip
         observability=schema.number(
-            data.get("observability", 0.14), "observability", low=0.0, high=1.0
+            _given(data, "observability"), "observability", low=0.0, high=1.0
         ),  # fmt: skip
         discount=schema.number(
-            data.get("discount", 0.95), "discount", low=0.0, high=1.0, high_open=True
+            _given(data, "discount"), "discount", low=0.0, high=1.0, high_open=True
         ),  # fmt: skip
-        error_model=schema.string(data.get("error_model", "uniform"), "error_model", ERROR_MODELS),
+        error_model=schema.string(_given(data, "error_model"), "error_model", ERROR_MODELS),
         source=source,
         # the physical world's parameters, checked by mirl.physics.config where they are used
         physics=schema.table(physics, "physics", physics if isinstance(physics, dict) else ()),

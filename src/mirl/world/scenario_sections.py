@@ -15,12 +15,13 @@ import numpy as np
 from mirl.world import schema
 from mirl.world.catalog import is_ros_map, load_map
 from mirl.world.domain import FeatureMap, PatrolDomain
+from mirl.world.faults import HEALTHY_PROBABILITIES
 from mirl.world.game import GAME_ACTIONS, InteractionGame
 from mirl.world.maps import GridMap, MapError, MapFrame
 from mirl.world.rewards import RewardSpec, read_weights
 
 __all__ = [
-    "HEALTHY_PROBABILITIES",
+    "PLAYED",
     "TRUE_WEIGHTS",
     "RobotSpec",
     "read_map",
@@ -30,7 +31,7 @@ __all__ = [
     "read_pairs",
 ]
 
-HEALTHY_PROBABILITIES = {"left_wheel": 0.95, "right_wheel": 0.95, "navigation": 0.97, "floor": 0.99}
+PLAYED = ("stop", "go")  # the equilibrium met robots play by default: the paper's (row stops)
 TRUE_WEIGHTS = {"moved": 1.0, "upper_hallway": 0.05, "lower_hallway": 0.05, "turn_around": 0.3}
 MAX_ROBOTS = 26  # a team, not a crowd: every pair is checked for meetings each step
 FieldError = schema.FieldError
@@ -186,7 +187,7 @@ def read_game(data: Any) -> tuple[InteractionGame, tuple[str, str], list]:
     kwargs = {
         k: _payoffs(game[k], f"game.{k}") for k in ("row_payoffs", "col_payoffs") if k in game
     }
-    played = _played(game["played"], "game.played") if "played" in game else ("stop", "go")
+    played = _played(game["played"], "game.played") if "played" in game else PLAYED
     return InteractionGame(**kwargs), played, schema.array(game.get("pairs", []), "game.pairs")
 
 
