@@ -374,3 +374,10 @@ def test_an_atlas_killed_mid_sweep_resumes_without_loss_or_duplication(tmp_path)
     assert len(keys) == len(set(keys)) == 4
     kept = {(r["condition_key"], r["run"]): r["finished_at"] for r in rows}
     assert all(kept[(r["condition_key"], r["run"])] == r["finished_at"] for r in before)
+
+
+def test_the_atlas_is_not_moved_to_one_world():
+    from mirl.experiments.conditions import StoreError, in_world
+
+    with pytest.raises(StoreError, match="'atlas' runs in every world already"):
+        in_world(EXPERIMENTS["atlas"], "physics")

@@ -136,10 +136,10 @@ def in_world(experiment: Experiment, world: str) -> Experiment:
         return experiment
     if world not in WORLDS:
         raise StoreError(f"unknown world '{world}' (known: {', '.join(WORLDS)})")
-    if experiment.run_function is not episode_run:
-        raise StoreError(f"experiment '{experiment.name}' has no physical version")
     if any(c.world != DEFAULT_WORLD for c in experiment.conditions):
         raise StoreError(f"experiment '{experiment.name}' runs in every world already")
+    if experiment.run_function is not episode_run:
+        raise StoreError(f"experiment '{experiment.name}' has no physical version")
     conds = tuple(replace(c, world=world) for c in experiment.conditions)
     desc = experiment.description.replace("on the grid simulator", f"in the {world} world")
     return replace(experiment, conditions=conds, description=f"{desc} ({world} world)")
