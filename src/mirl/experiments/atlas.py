@@ -307,8 +307,8 @@ def _healthy_value(world: str, scenario: Scenario, robot: str, part: str) -> flo
     """The value that makes ``robot``'s ``part`` healthy in ``world``: its healthy level
     (``[faults] healthy``), or where the world counts that as damaged too (a motor weaker
     than full strength), 1."""
-    from mirl.experiments.worlds import get_world
     from mirl.world.faults import DEFAULT_HEALTHY
+    from mirl.worlds import get_world
 
     spec = get_world(world).load()
     for value in (scenario.faults.healthy.get(part, DEFAULT_HEALTHY), 1.0):
@@ -321,14 +321,14 @@ def _healthy_value(world: str, scenario: Scenario, robot: str, part: str) -> flo
 def damaged_truth(world: str, scenario: Scenario) -> dict[str, tuple[str, ...]]:
     """Per robot, the parts really damaged in ``world``: the one definition the atlas scores
     against, the world's own (:meth:`damaged_parts`; docs/design.md, "Fault verdicts")."""
-    from mirl.experiments.worlds import get_world
+    from mirl.worlds import get_world
 
     return get_world(world).load().damaged_parts(scenario)
 
 
 def _with_flags(world: str, scenario: Scenario, flags: Sequence[str]) -> Scenario:
     """``scenario`` with ``--damage`` values applied as the command line applies them."""
-    from mirl.experiments.worlds import get_world
+    from mirl.worlds import get_world
 
     apply = get_world(world).load().apply_damage
     for flag in flags:
@@ -347,7 +347,7 @@ def run_commands(
     """The ``mirl`` argument lists of one run, by step: ``simulate`` (the grid CSV and the pose
     CSV), ``simulate-mcap`` (the same simulation into an MCAP file) and ``learn.PATH`` per
     :data:`DATA_PATHS` key. Files are named relative to the run's directory."""
-    from mirl.experiments.worlds import get_world
+    from mirl.worlds import get_world
 
     c = condition
     common = ["--scenario", c.scenario]
