@@ -4,8 +4,6 @@ world, experiment or sub-command gets the nearest known one; help lists every ex
 
 from __future__ import annotations
 
-import re
-
 import pytest
 
 from mirl.cli import main
@@ -154,4 +152,4 @@ def test_experiment_help_lists_every_experiment(capsys):
     with pytest.raises(SystemExit):
         main(["--help"])
     top = " ".join(capsys.readouterr().out.split())
-    assert re.search(r"experiment\s+run one of the paper's experiments \(fig3.*verdicts\)", top)
+    assert "`mirl experiment --help` lists them" in top

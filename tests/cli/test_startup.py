@@ -31,7 +31,6 @@ TABLES = {
     "mirl.worlds.contract",
     "mirl.worlds.registry",
     "mirl.experiments.options",
-    "mirl.experiments.conditions",
 }
 
 

@@ -27,7 +27,6 @@ from mirl.cli.flags import (
     spec_type,
     step_seconds,
 )
-from mirl.experiments.conditions import EXPERIMENTS, experiment_names
 from mirl.experiments.options import RunProtocol, SweepOptions
 from mirl.learning.methods import LEARNING_METHODS, METHODS
 from mirl.learning.options import DEFAULT_P, EM_INITS, LearnOptions
@@ -179,18 +178,42 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+class _ExperimentHelp(argparse.Action):
+    """``mirl experiment --help``: every experiment of the table with what it measures, read
+    when asked for (building the table designs the atlas's grid, with numpy), as is a name."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, **kwargs) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        from mirl.experiments.conditions import EXPERIMENTS, experiment_names
+
+        listed = experiment_names()
+        parser.description = (
+            f"{parser.description} The experiments: "
+            + "; ".join(f"{n}: {EXPERIMENTS[n].description}" for n in listed)
+            + "."
+        )
+        for action in parser._actions:
+            if action.dest == "name":
+                action.help = ", ".join(listed)
+        parser.print_help()
+        parser.exit()
+
+
 def _experiment_parsers(sub) -> None:
-    listed = experiment_names()
     ex = sub.add_parser(
         "experiment",
-        help=f"run one of the paper's experiments ({', '.join(listed)})",
+        help="run one of the paper's experiments or calibrations (`mirl experiment --help` "
+        "lists them)",
         description="Runs a grid of conditions × seeds in parallel, committing every finished "
-        "run to DIR/results.sqlite; --resume continues an interrupted (or extends a) sweep. "
-        "The experiments: "
-        + "; ".join(f"{n}: {EXPERIMENTS[n].description}" for n in listed)
-        + ".",
+        "run to DIR/results.sqlite; --resume continues an interrupted (or extends a) sweep.",
+        add_help=False,
     )
-    ex.add_argument("name", metavar="NAME", type=_experiment_name, help=", ".join(listed))
+    ex.add_argument("-h", "--help", action=_ExperimentHelp, help="show this help message and exit")
+    ex.add_argument(
+        "name", metavar="NAME", type=_experiment_name, help="an experiment (listed below)"
+    )
     _option(ex, SweepOptions, "world", help=_world_help())
     for name in ("runs", "workers"):
         _option(ex, SweepOptions, name)
@@ -208,6 +231,8 @@ def _experiment_parsers(sub) -> None:
 
 def _experiment_name(text: str) -> str:
     """An experiment's name (the hidden ones too; the refusal lists the others)."""
+    from mirl.experiments.conditions import EXPERIMENTS, experiment_names
+
     if text not in EXPERIMENTS:
         raise argparse.ArgumentTypeError(str(EXPERIMENTS.unknown(text, known=experiment_names())))
     return text

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from mirl._registry import Registry
+from mirl.experiments.atlas import atlas_design, atlas_run
 from mirl.experiments.options import PAPER_GO_RULE, RunProtocol
 from mirl.learning.methods import METHODS
 from mirl.worlds import DEFAULT_WORLD, WORLDS
@@ -48,7 +49,7 @@ DEFAULT_OBS_STEPS: int = RunProtocol.default("obs_steps")
 GO_RULE_PUBLISHED = PAPER_GO_RULE
 GO_RULE_DEFAULT: str = RunProtocol.default("go_rule")  # mirl's, the API's and the command line's
 DEFAULT_RUNS = 200  # per point, as in the paper's simulations
-OUTCOMES = ("success", "detected", "timeout")
+OUTCOMES = ("success", "detected", "timeout", "learned")  # learned: a run with no L to go (atlas)
 
 
 @dataclass(frozen=True)
@@ -134,10 +135,10 @@ def in_world(experiment: Experiment, world: str) -> Experiment:
         return experiment
     if world not in WORLDS:
         raise StoreError(f"unknown world '{world}' (known: {', '.join(WORLDS)})")
-    if experiment.run_function is not episode_run:
-        raise StoreError(f"experiment '{experiment.name}' has no physical version")
     if any(c.world != DEFAULT_WORLD for c in experiment.conditions):
         raise StoreError(f"experiment '{experiment.name}' runs in every world already")
+    if experiment.run_function is not episode_run:
+        raise StoreError(f"experiment '{experiment.name}' has no physical version")
     conds = tuple(replace(c, world=world) for c in experiment.conditions)
     desc = experiment.description.replace("on the grid simulator", f"in the {world} world")
     return replace(experiment, conditions=conds, description=f"{desc} ({world} world)")
@@ -399,6 +400,13 @@ EXPERIMENTS: Registry[Experiment] = Registry(
             _verdicts(),
             episode_run,
             default_runs=10,
+        ),
+        Experiment(
+            "atlas",
+            "calibration atlas of the fault verdicts: worlds, data paths, faults, views, lengths",
+            tuple(Condition(**p) for p in atlas_design()),
+            atlas_run,
+            default_runs=1,
         ),
         Experiment(
             "selftest",
