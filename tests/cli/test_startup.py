@@ -54,7 +54,7 @@ def test_light_commands_import_nothing_heavy(argv):
     assert not any(m.startswith(stages) for m in loaded - TABLES), sorted(loaded - TABLES)
 
 
-@pytest.mark.parametrize("argv", [["--version"], ["run", "--help"], ["experiment", "--help"]])
+@pytest.mark.parametrize("argv", [["--version"], ["run", "--help"], ["learn", "--help"]])
 def test_building_the_parser_imports_no_numpy(argv):
     """The flags are built from the option types and tables, which import nothing heavy."""
     loaded = _modules_after(argv)
