@@ -34,9 +34,7 @@ def _text(path: Path) -> str:
 
 
 def _cited_paths() -> list[tuple[str, str]]:
-    return [
-        (str(f.relative_to(ROOT)), m) for f in CITING for m in PATH.findall(_text(f))
-    ]
+    return [(str(f.relative_to(ROOT)), m) for f in CITING for m in PATH.findall(_text(f))]
 
 
 def test_the_citations_are_found():
@@ -64,7 +62,7 @@ def test_every_cited_section_exists():
             if page not in headings:
                 headings[page] = HEADING.findall(_text(ROOT / page))
             if not any(h.startswith(section) for h in headings[page]):
-                missing.append(f"{f.relative_to(ROOT)}: {page}, \"{section}\"")
+                missing.append(f'{f.relative_to(ROOT)}: {page}, "{section}"')
     assert not missing, "cited sections that do not exist:\n" + "\n".join(sorted(set(missing)))
 
 
