@@ -399,9 +399,14 @@ def _experiment(args: argparse.Namespace) -> int:
 
 @command("report")
 def _report(args: argparse.Namespace) -> int:
-    from mirl.viz.report import write_report
+    from mirl.viz.report import write_report_and_figures
 
-    print(f"wrote {write_report(args.dir)}")
+    written = write_report_and_figures(args.dir)
+    print(f"wrote {written.report}")
+    for figure in written.figures:
+        print(f"wrote {figure}")
+    if not written.figures:
+        print("(no figures: no experiment here has one to draw)")
     return 0
 
 
