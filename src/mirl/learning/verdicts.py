@@ -55,7 +55,7 @@ import scipy.sparse as sp
 from scipy.special import betaln, expit, log_ndtr
 
 from mirl.world.domain import FORWARD, N_HEADINGS, PatrolDomain
-from mirl.world.faults import DamageDefinition, DriftSpec
+from mirl.world.faults import WHEELS, DamageDefinition, DriftSpec
 from mirl.world.maps import HEADING_DELTAS
 
 __all__ = [
@@ -175,11 +175,6 @@ class FeatureUncertainty:
     dispersion: float = 1.0
     effective_draws: float = 0.0
     drift: LateralDrift | None = None
-
-
-WHEELS = ("left_wheel", "right_wheel")
-"""The features the lateral drift speaks of: a differential drive's left and right wheels (a
-robot veers towards the weaker one). A feature map without both has no drift term."""
 
 
 @dataclass(frozen=True)
