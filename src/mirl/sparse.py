@@ -6,8 +6,8 @@ behind ``A @ x``) directly. They are private to scipy, and used anyway for speed
 value-iteration sweep makes thousands of small products, and scipy's per-call dispatch (format
 checks, allocating and upcasting the result) was measured to cost more than such a product
 itself. Called directly they add the same products in the same order as ``A @ x``, so the
-results are bit for bit those of the public operator (``tests/test_speed_paths.py``). This is
-the only module that imports them.
+results are bit for bit those of the public operator (``tests/learning/test_fast_paths.py``).
+This is the only module that imports them.
 """
 
 from __future__ import annotations

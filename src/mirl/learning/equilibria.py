@@ -15,7 +15,7 @@ is M ← Pᵢᵀ (M off meetings) Pⱼ + Gᵢᵀ (M at meetings) Gⱼ, where P a
 steps and G the equilibrium's game moves. Each step adds the same products in the same order as
 the plain form (two dense-by-sparse products of the whole S × S matrix, and scipy's
 sparse-sparse kernel for the meeting part), so the likelihood is bit for bit the plain one
-(``tests/joint_filter_reference.py``), but it skips what is known to be zero:
+(``tests/references/joint_filter.py``), but it skips what is known to be zero:
 
 * after a step at which L saw robot I, M is zero off that robot's row, so the next step is an
   outer product of two vectors (and after one at which it saw J, the product of Pᵢᵀ with the few

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from mirl._registry import Registry
-from mirl.observations._csv import csv_header
+from mirl.observations._csv import csv_header, is_text
 from mirl.observations.bags import SUPPORTED_TYPES, BagError, bag_topics, is_bag, read_bag
 from mirl.observations.discretise import Discretised, discretise
 from mirl.observations.poses import PoseError, PoseTracks, read_pose_csv
@@ -147,6 +147,8 @@ def input_format(path: str | Path) -> InputFormat:
         header: tuple[str, ...] = ()
     elif path.is_dir():
         raise PoseError(f"{path}: a directory but not a ROS 2 bag (no metadata.yaml)")
+    elif not is_text(path):  # an image, say: no format below, which the message lists
+        header = ()
     else:
         header = tuple(csv_header(path, TrajectoryError))
     for fmt in FORMATS.values():

@@ -110,7 +110,8 @@ class FactoredTeam:
     output entry adds the same products in the same order as the per-robot products did (a
     transposed mask is read as the CSR of its transpose: its entries in column order, as the CSC
     kernel adds them), and a game move with no meeting adds exact zeros, so the step is bit for
-    bit the per-robot loop's (``tests/test_team.py`` keeps that loop as the reference)."""
+    bit the per-robot loop's (``tests/experiments/test_teams.py`` keeps that loop as the
+    reference)."""
 
     def __init__(self, parts: TeamParts) -> None:
         self.parts = p = parts

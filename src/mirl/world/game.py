@@ -56,8 +56,9 @@ _PAPER_ROW = ((-10.0, 2.0, 2.0), (0.0, 0.0, 0.0), (-1.0, -1.0, -1.0))
 _PAPER_COL = ((-10.0, 0.0, -1.0), (2.0, 0.0, -1.0), (2.0, 0.0, -1.0))
 
 # Its equilibria as :func:`_nash_equilibria` enumerates them with nashpy (the same values and
-# order; tests/test_game.py re-enumerates and compares exactly), so learning on it never imports
-# nashpy, networkx and scipy.integrate (~0.2 s of a ~1.5 s `mirl run`). Other games enumerate.
+# order; tests/world/test_game.py re-enumerates and compares exactly), so learning on it never
+# imports nashpy, networkx and scipy.integrate (~0.2 s of a ~1.5 s `mirl run`). Other games
+# enumerate.
 _STORED_EQUILIBRIA: dict[tuple[bytes, bytes], tuple[tuple[float, ...], ...]] = {
     (np.array(_PAPER_ROW).tobytes(), np.array(_PAPER_COL).tobytes()): (
         (1.0, 0.0, 0.0, 0.0, 1.0, 0.0),  # go/stop: row strategy, then column strategy
