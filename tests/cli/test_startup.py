@@ -40,10 +40,11 @@ def test_light_commands_import_nothing_heavy(argv):
     assert heavy == [], heavy
     # the parser reads the tables of methods and worlds, and nothing else of those stages
     tables = {"mirl.learning", "mirl.learning.methods"} | {
-        "mirl.experiments",
-        "mirl.experiments.worlds",
+        "mirl.worlds",
+        "mirl.worlds.contract",
+        "mirl.worlds.registry",
     }
-    stages = ("mirl.learning", "mirl.planning", "mirl.experiments")
+    stages = ("mirl.learning", "mirl.planning", "mirl.worlds", "mirl.experiments")
     assert not any(m.startswith(stages) for m in loaded - tables), sorted(loaded - tables)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from mirl.experiments.conditions import Condition, StoreError, get_experiment, in_world
-from mirl.experiments.worlds import WORLDS
+from mirl.worlds import WORLDS
 
 
 def test_damage_is_part_of_the_key_only_when_set():

@@ -152,10 +152,10 @@ def test_default_run_is_the_main_job(capsys):
 
 def test_l_replans_when_it_outlives_its_plan(boyd2):
     from mirl.experiments.execution import PlanFollower, execute
-    from mirl.experiments.grid_world import GridRunWorld
-    from mirl.experiments.worlds import RunSetup
     from mirl.planning.belief import BeliefFilter
     from mirl.planning.go import solve_observer_mdp
+    from mirl.worlds import RunSetup
+    from mirl.worlds.grid import GridRunWorld
 
     model = observer_model(boyd2)
     setup = RunSetup(boyd2, model, 0.14, seed=2, noise=np.random.SeedSequence(0))

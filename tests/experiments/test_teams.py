@@ -1,6 +1,6 @@
 """Teams of N ≥ 2 patrollers: meetings between any pair in the simulator, the sparse
 meeting masks, the exact N-robot joint filter against the pair filter and the factored one,
-equilibrium weighing over pairs, three-robot learning, and the RL environments."""
+equilibrium weighing over pairs and three-robot learning (the RL environments: tests/envs)."""
 
 from __future__ import annotations
 
@@ -265,73 +265,3 @@ def test_learn_prints_each_pair_of_a_team(tmp_path, capsys):
     lines = capsys.readouterr().out.splitlines()
     (pairs,) = [x for x in lines if x.startswith("pairs ")]
     assert "I/J " in pairs and "(other pairs: the equilibrium above)" in pairs
-
-
-# ---- environments ------------------------------------------------------------------------------
-def test_gymnasium_env_passes_the_checker():
-    from gymnasium.utils.env_checker import check_env
-
-    from mirl.envs import PenetrationEnv
-
-    env = PenetrationEnv("boyd2", max_steps=200)
-    check_env(env, skip_render_check=True)
-    a, _ = env.reset(seed=5)
-    b, _ = env.reset(seed=5)
-    np.testing.assert_array_equal(a["patrollers"], b["patrollers"])
-
-
-def test_pettingzoo_env_passes_the_parallel_api_test():
-    from pettingzoo.test import parallel_api_test
-
-    from mirl.envs import TeamEnv
-
-    env = TeamEnv("boydright-3", max_cycles=40)
-    parallel_api_test(env, num_cycles=50)
-    assert env.possible_agents == ["I", "J", "K", "L"]
-
-
-def test_envs_end_with_goal_or_detection():
-    from mirl.envs import PenetrationEnv
-
-    env = PenetrationEnv("boyd2", max_steps=300)
-    outcomes = set()
-    for seed in range(3):
-        env.reset(seed=seed)
-        env.action_space.seed(seed)
-        while True:
-            _, reward, term, trunc, info = env.step(env.action_space.sample())
-            if term or trunc:
-                break
-        outcomes.add(info["outcome"])
-        if info["outcome"] == "detected":
-            assert reward == -1.0
-    assert outcomes <= {"detected", "success", None}
-
-
-def test_envs_refuse_what_they_would_otherwise_default_or_drop():
-    from gymnasium.error import ResetNeeded
-
-    from mirl.envs import PenetrationEnv, TeamEnv
-
-    with pytest.raises(ResetNeeded, match="reset"):
-        PenetrationEnv("boyd2").step(0)
-    env = TeamEnv("boyd2")
-    with pytest.raises(ValueError, match="reset"):
-        env.step({"I": 0, "J": 0, "L": 0})
-    env.reset(seed=0)
-    good = {"I": 0, "J": 3, "L": 3}
-    for actions, needle in [
-        (good | {"X": 0}, r"unknown \['X'\]"),
-        ({"I": 0, "L": 3}, r"missing \['J'\]"),
-        (good | {"J": 99}, "agent J: action 99"),
-        (good | {"L": -1}, "agent L: action -1"),
-    ]:
-        with pytest.raises(ValueError, match=needle):
-            env.step(actions)
-    obs, *_ = env.step(good)  # nothing refused above moved anyone
-    fresh = TeamEnv("boyd2")
-    fresh.reset(seed=0)
-    expected, *_ = fresh.step(good)
-    for name in ("I", "J"):
-        np.testing.assert_array_equal(obs[name], expected[name])
-    np.testing.assert_array_equal(obs["L"]["observer"], expected["L"]["observer"])

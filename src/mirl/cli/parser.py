@@ -20,8 +20,8 @@ from mirl.cli.flags import (
     seed,
     step_seconds,
 )
-from mirl.experiments.worlds import DEFAULT_WORLD, WORLDS
 from mirl.learning.methods import LEARNING_METHODS, METHODS
+from mirl.worlds import DEFAULT_WORLD, WORLDS
 
 __all__ = ["build_parser"]
 

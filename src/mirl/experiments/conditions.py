@@ -27,8 +27,8 @@ from typing import Any
 import numpy as np
 
 from mirl._registry import Registry
-from mirl.experiments.worlds import DEFAULT_WORLD, WORLDS
 from mirl.learning.methods import METHODS
+from mirl.worlds import DEFAULT_WORLD, WORLDS
 
 __all__ = [
     "Condition",
@@ -57,14 +57,14 @@ class Condition:
     """One point of an experiment grid. ``p`` is the fixed success probability of the
     fixed-T methods (``mirl``, ``known-r``); None for methods that learn or know T.
     ``damage`` (``"ROBOT:FEATURE"``) damages one part of the scenario, to the world's
-    :attr:`~mirl.experiments.worlds.WorldSpec.experiment_damage`."""
+    :attr:`~mirl.worlds.registry.WorldSpec.experiment_damage`."""
 
     method: str
     scenario: str = "boyd2"
     observability: float = 0.14
     obs_steps: int = DEFAULT_OBS_STEPS
     p: float | None = None
-    world: str = DEFAULT_WORLD  # a name in mirl.experiments.worlds.WORLDS
+    world: str = DEFAULT_WORLD  # a name in mirl.worlds.WORLDS
     em_init: str | None = None  # DBN-EM's initial T; None: the default ("intended")
     # how L decides to go and whether it re-learns while it waits; None and False are the
     # paper's protocol (``with_protocol`` gives mirl's, the command line's default), so that

@@ -29,6 +29,7 @@ from mirl.world.rewards import RewardSpec, read_reward_spec, read_weights
 from mirl.world.scenario_sections import (
     PLAYED,
     TRUE_WEIGHTS,
+    WORLD_SECTIONS,
     RobotSpec,
     read_feature_map,
     read_game,
@@ -72,7 +73,8 @@ class Scenario:
     discount: float = 0.95
     error_model: str = "uniform"
     source: str = "<memory>"
-    physics: Mapping[str, Any] = field(default_factory=dict)  # [physics] table (mirl.physics)
+    # the worlds' own tables ([physics]) as written, by name; each world reads its own
+    sections: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     faults: DamageDefinition = field(default_factory=DamageDefinition)  # what "damaged" means
 
     def __post_init__(self) -> None:
@@ -88,6 +90,8 @@ class Scenario:
             raise ScenarioError(
                 f"{self.source}: error_model: '{self.error_model}' is not one of {ERROR_MODELS}"
             )
+        for name in self.sections:
+            WORLD_SECTIONS.lookup(name)  # a world section the format does not know: refused
 
     @property
     def robot_names(self) -> tuple[str, ...]:
@@ -194,6 +198,17 @@ class Scenario:
         model.__dict__["_true_models"] = [(t, b[1]) for t, b in zip(T, behaviour, strict=True)]
         return model
 
+    def section(self, name: str) -> Mapping[str, Any]:
+        """The world section ``name`` (a table of :data:`~mirl.world.scenario_sections.
+        WORLD_SECTIONS`) as written in the scenario; empty when the file has none."""
+        WORLD_SECTIONS.lookup(name)
+        return self.sections.get(name, {})
+
+    def with_section(self, name: str, table: Mapping[str, Any]) -> Scenario:
+        """A copy whose world section ``name`` is ``table``."""
+        WORLD_SECTIONS.lookup(name)
+        return replace(self, sections={**self.sections, name: table})
+
     def with_options(self, **changes: Any) -> Scenario:
         return replace(self, **changes)
 
@@ -250,7 +265,6 @@ _TOP_KEYS = (
     "game",
     "robots",
     "frame",
-    "physics",
     "faults",
 )
 
@@ -285,11 +299,16 @@ def _given(data: dict, key: str) -> Any:
 
 
 def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
-    """Every section read and validated in file order (:mod:`mirl.world.scenario_sections`)."""
-    schema.table(data, "", _TOP_KEYS)
+    """Every section read and validated in file order (:mod:`mirl.world.scenario_sections`);
+    a world's own section is kept as written, a table, for that world to read."""
+    schema.table(data, "", (*_TOP_KEYS, *WORLD_SECTIONS.names))
     gridmap = read_map(data, base)
     shape = gridmap.shape
-    physics = data.get("physics", {})
+    sections = {
+        name: schema.table(data[name], name, data[name] if isinstance(data[name], dict) else ())
+        for name in WORLD_SECTIONS
+        if name in data
+    }
     feature_map = DEFAULT_FEATURE_MAP
     if "transition_features" in data:
         feature_map = read_feature_map(data["transition_features"], gridmap)
@@ -342,7 +361,6 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         ),  # fmt: skip
         error_model=schema.string(_given(data, "error_model"), "error_model", ERROR_MODELS),
         source=source,
-        # the physical world's parameters, checked by mirl.physics.config where they are used
-        physics=schema.table(physics, "physics", physics if isinstance(physics, dict) else ()),
+        sections=sections,
         faults=read_faults(data.get("faults", {}), feature_map.features),
     )
