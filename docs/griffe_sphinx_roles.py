@@ -29,7 +29,7 @@ logger = logging.getLogger("mkdocs.plugins.griffe_sphinx_roles")
 
 ROLE = re.compile(r":(?:py:)?(func|class|mod|meth|attr|data|exc|obj|const):`([^`]+)`")
 CALLABLE_ROLES = {"func", "meth"}
-API_PAGES = Path("docs/api")
+API_PAGES = Path(__file__).parent / "api"  # the pages beside this file
 
 
 def _rendered_roots() -> tuple[str, ...]:
@@ -85,9 +85,10 @@ def _rendered(found: griffe.Object | griffe.Alias, roots: tuple[str, ...]) -> st
     except (griffe.AliasResolutionError, griffe.CyclicAliasError):
         return None
     path = target.path
-    stage = ".".join(path.split(".")[:2])
-    top_level_member = path.count(".") == 1 and not target.is_module and "mirl" in roots
-    if path != "mirl" and stage not in roots and not top_level_member:
+    parts = path.split(".")
+    # a name of the package itself is on the top-level page, anything else on its stage's page
+    page = parts[0] if len(parts) == 2 and not target.is_module else ".".join(parts[:2])
+    if page not in roots:
         return None  # no API page renders it (the command line's modules)
     if any(part.startswith("_") and not part.startswith("__") for part in path.split(".")):
         return None  # a private module or name: not on the site
@@ -110,7 +111,9 @@ class SphinxRoles(griffe.Extension):
         self.roots = _rendered_roots()
         for obj in self._walk(pkg):
             if obj.docstring is not None and ":" in obj.docstring.value:
-                obj.docstring.value = ROLE.sub(lambda m: self._link(m, obj, pkg), obj.docstring.value)
+                obj.docstring.value = ROLE.sub(
+                    lambda m, obj=obj: self._link(m, obj, pkg), obj.docstring.value
+                )
 
     def _walk(self, obj: griffe.Object):
         yield obj
@@ -143,5 +146,7 @@ class SphinxRoles(griffe.Extension):
             if found is not None:
                 path = _rendered(found, self.roots)
                 return f"[{code}][{path}]" if path else code
-        logger.warning("%s: the %s role names '%s', which mirl does not have", obj.path, role, target)
+        logger.warning(
+            "%s: the %s role names '%s', which %s does not have", obj.path, role, target, pkg.name
+        )
         return code

@@ -13,8 +13,9 @@ What it holds:
 - :mod:`~mirl.physics.contacts` — contact events, robot–robot and robot–wall;
 - :mod:`~mirl.physics.records` — what a run recorded: grid states, actions, tick poses, L's
   camera measurements;
-- :mod:`~mirl.physics.patrol` — :class:`PhysicalWorld`: patrollers deciding on the grid from a
-  noisy pose estimate and driving in physics, composed of the objects above;
+- :mod:`~mirl.physics.patrol` — :class:`~mirl.physics.patrol.PhysicalWorld`: patrollers
+  deciding on the grid from a noisy pose estimate and driving in physics, composed of the
+  objects above;
 - :mod:`~mirl.physics.config` — the ``[physics]`` scenario table and its defaults;
 - :mod:`~mirl.physics.calibration` — effective per-action success rates of the physics.
 

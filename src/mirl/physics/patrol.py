@@ -65,6 +65,12 @@ class PhysicalWorld:
     below that read them are views of those objects.
     """
 
+    # set while the model is built (in ``__init__``), declared here so the class names them
+    contact_log: ContactLog
+    """Contact events, robot–robot and robot–wall."""
+    patroller_cameras: PatrollerCameras
+    """The patrollers' view cones and their sightings of L."""
+
     def __init__(
         self,
         scenario,
