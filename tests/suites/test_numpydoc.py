@@ -10,6 +10,7 @@ import importlib
 import inspect
 import pkgutil
 import warnings
+from functools import cached_property
 
 import numpydoc.validate
 import pytest
@@ -96,7 +97,7 @@ def public_definitions(module_name: str) -> list[str]:
                     continue
                 if isinstance(member, staticmethod | classmethod):
                     member = member.__func__
-                if inspect.isfunction(member) or isinstance(member, property):
+                if inspect.isfunction(member) or isinstance(member, property | cached_property):
                     found.append(f"{module_name}.{name}.{attr}")
     return found
 
