@@ -47,6 +47,7 @@ class LoadedObservations:
     discretised : Discretised, optional
         For pose data: the discretisation's counts and the cells L could see.
     """
+
     trajectories: Trajectories
     kind: str  # the name of its format in FORMATS: "grid-csv", "pose-csv" or "bag"
     discretised: Discretised | None = None  # for pose data: the counts and the visible cells

@@ -57,9 +57,17 @@ def require_mujoco() -> None:
 
 
 def mujoco_version() -> str:
-    """The installed MuJoCo's version. Physics results depend on it — the same seed gives other
-    trajectories under another MuJoCo (3.17.0 against 4.0.0: 30 against 7 robot–robot contacts in
-    the same 25 minutes) — so runs record it beside mirl's own fingerprint."""
+    """The installed MuJoCo's version.
+
+    Physics results depend on it — the same seed gives other trajectories under another MuJoCo
+    (3.17.0 against 4.0.0: 30 against 7 robot–robot contacts in the same 25 minutes) — so runs
+    record it beside mirl's own fingerprint.
+
+    Returns
+    -------
+    str
+        ``mujoco.__version__``.
+    """
     import mujoco
 
     return str(mujoco.__version__)

@@ -105,6 +105,7 @@ class Scenario:
     UnknownNameError
         A world section the format does not know.
     """
+
     name: str
     map: GridMap
     robots: tuple[RobotSpec, ...]

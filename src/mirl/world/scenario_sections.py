@@ -90,6 +90,7 @@ class RobotSpec:
     weights : ndarray of shape (K,)
         Its true reward weights, over the domain's reward feature names.
     """
+
     name: str
     start: tuple[int, int, int]  # row, col, heading
     feature_probabilities: Mapping[str, float]
