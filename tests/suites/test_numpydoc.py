@@ -97,9 +97,23 @@ def public_definitions(module_name: str) -> list[str]:
                     continue
                 if isinstance(member, staticmethod | classmethod):
                     member = member.__func__
-                if inspect.isfunction(member) or isinstance(member, property | cached_property):
-                    found.append(f"{module_name}.{name}.{attr}")
+                if not (
+                    inspect.isfunction(member) or isinstance(member, property | cached_property)
+                ):
+                    continue
+                if member.__doc__ is None and _documented_in_a_base(value, attr):
+                    continue  # an override without its own text: documented where it is declared
+                found.append(f"{module_name}.{name}.{attr}")
     return found
+
+
+def _documented_in_a_base(cls: type, attr: str) -> bool:
+    """Whether a base class of mirl's declares ``attr`` with a docstring (an abstract method
+    of a strategy's interface, say); that base is validated where it is defined."""
+    return any(
+        base.__module__.startswith("mirl") and getattr(vars(base).get(attr), "__doc__", None)
+        for base in cls.__mro__[1:]
+    )
 
 
 def _errors(name: str) -> list[str]:
