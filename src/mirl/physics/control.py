@@ -197,7 +197,7 @@ class Controller:
         idx : int, slice or array_like of int
             The robots.
         mode : int or array_like of int
-            :data:`DRIVE`, :data:`PIVOT` or :data:`HOLD`.
+            ``DRIVE``, ``PIVOT`` or ``HOLD`` (this module's constants).
         tx : float or array_like
             The target point's x on the centre line (m).
         ty : float or array_like
