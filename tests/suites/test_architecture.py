@@ -71,6 +71,18 @@ def test_every_stage_is_a_documented_package():
         assert doc and len(doc.split()) >= 15, f"{path}: needs a docstring saying what it holds"
 
 
+def test_every_package_is_a_stage_and_a_layer():
+    """A new stage is listed here and in import-linter's layers, or neither test sees it."""
+    import tomllib
+
+    packages = {p.parent.name for p in ROOT.glob("*/__init__.py")}
+    assert sorted(set(STAGES) - {"mdp"}) == sorted(packages)
+    config = tomllib.loads((ROOT.parents[1] / "pyproject.toml").read_text())
+    (layers,) = [c["layers"] for c in config["tool"]["importlinter"]["contracts"] if "layers" in c]
+    layered = {m.strip().removeprefix("mirl.") for layer in layers for m in layer.split("|")}
+    assert set(STAGES) <= layered
+
+
 def test_long_modules_and_functions_have_a_reason():
     for path in _modules():
         text = path.read_text()
