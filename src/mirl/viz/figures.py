@@ -20,6 +20,7 @@ from scipy import stats
 from mirl._registry import Registry
 from mirl.experiments.conditions import EXPERIMENTS, Condition
 from mirl.viz.aggregate import FIG4A_PAPER, PAPER_NAMES, TABLE1_PAPER, Group, method_name
+from mirl.viz.atlas import atlas_markdown
 from mirl.viz.verdicts import verdicts_markdown
 
 __all__ = [
@@ -635,6 +636,7 @@ SECTIONS: Registry[Section] = Registry(
         Section("fig4c", lambda gs, d: fig4bc_markdown(gs, d, "fig4c")),
         Section("table1", table1_markdown),
         Section("verdicts", verdicts_markdown),
+        Section("atlas", atlas_markdown),
     ),
     check=_check_section,
 )

@@ -56,6 +56,13 @@ class VerdictItem:
         return self.confidence >= CONFIDENT and bool(self.verdict) and not self.right
 
     @property
+    def confident_false(self) -> bool:
+        """A confident statement naming no damaged part: a part that is not damaged, candidates
+        without a damaged one, or "no part" of a damaged robot (the calibration atlas's
+        measure; unlike :attr:`confident_wrong`, it counts a confident "no part" too)."""
+        return self.confidence >= CONFIDENT and not self.right
+
+    @property
     def false_alarm(self) -> bool:
         """A healthy robot confidently said to be damaged."""
         return not self.truth and bool(self.verdict) and self.confidence >= CONFIDENT
