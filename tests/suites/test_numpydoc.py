@@ -47,6 +47,7 @@ PENDING = {
     "mirl.cli.flags",
     "mirl.cli.learn_report",
     "mirl.cli.parser",
+    "mirl.experiments.atlas",
     "mirl.experiments.conditions",
     "mirl.experiments.cost",
     "mirl.experiments.episode",
