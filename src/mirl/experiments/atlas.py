@@ -320,7 +320,8 @@ def _healthy_value(world: str, scenario: Scenario, robot: str, part: str) -> flo
 
 def damaged_truth(world: str, scenario: Scenario) -> dict[str, tuple[str, ...]]:
     """Per robot, the parts really damaged in ``world``: the one definition the atlas scores
-    against, the world's own (:meth:`damaged_parts`; docs/design.md, "Fault verdicts")."""
+    against, the world's own (:meth:`~mirl.worlds.contract.World.damaged_parts`;
+    docs/design.md, "Fault verdicts")."""
     from mirl.worlds import get_world
 
     return get_world(world).load().damaged_parts(scenario)

@@ -1,5 +1,5 @@
-"""Pose tracks onto a scenario's grid: the :class:`~mirl.observations.Trajectories` every learner
-takes, plus a per-robot account of what happened to every pose.
+"""Pose tracks onto a scenario's grid: the :class:`~mirl.observations.trajectories.Trajectories`
+every learner takes, plus a per-robot account of what happened to every pose.
 
 - **Space.** The map frame (``MapFrame``: cell size, centre of cell (0, 0); x east with the
   column, y north with decreasing row) turns (x, y) into fractional (row, col); a pose belongs

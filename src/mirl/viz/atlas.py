@@ -52,7 +52,29 @@ STRONG = 0.7
 
 @dataclass(frozen=True)
 class AtlasVerdict:
-    """One robot's verdict from one data path of one atlas run."""
+    """One robot's verdict from one data path of one atlas run.
+
+    Parameters
+    ----------
+    base : VerdictItem
+        World, view, damage, robot, run, verdict, confidence, truth and whether it is right.
+    path : str
+        The data path it was learned from, a key of :data:`~mirl.experiments.atlas.DATA_PATHS`.
+    scenario : str
+        The run's scenario.
+    length : int
+        The record's length, steps.
+    kind : str
+        The run's kind of damage, one of :data:`~mirl.experiments.atlas.FAULT_KINDS`.
+    strength : float or None
+        The damaged parts' value; None without damage.
+    fit : str or None
+        The verdict's model check: "ok", why it failed, or None when none was made.
+    seen : int
+        Steps L saw the robot.
+    commands : (str, str)
+        The simulation and the learning that gave it.
+    """
 
     base: VerdictItem  # world, view, damage, robot, run, verdict, confidence, truth, right
     path: str  # a key of DATA_PATHS
@@ -66,19 +88,33 @@ class AtlasVerdict:
 
     @property
     def damaged(self) -> bool:
+        """Whether some part of the robot is really damaged."""
         return bool(self.base.truth)
 
     @property
     def named_alone(self) -> bool:
+        """Whether the verdict names one part, a damaged one."""
         return len(self.base.verdict) == 1 and self.base.verdict[0] in self.base.truth
 
     @property
     def named_among(self) -> bool:
+        """Whether the verdict names several parts, a damaged one among them."""
         return len(self.base.verdict) > 1 and any(p in self.base.truth for p in self.base.verdict)
 
 
 def atlas_items(gs: Sequence[Group]) -> list[AtlasVerdict]:
-    """Every verdict of every stored atlas run."""
+    """Every verdict of every stored atlas run.
+
+    Parameters
+    ----------
+    gs : sequence of Group
+        The stored runs by design point.
+
+    Returns
+    -------
+    list of AtlasVerdict
+        One per run, data path and robot with a verdict.
+    """
     out = []
     for g in gs:
         c = g.condition
@@ -113,7 +149,31 @@ def atlas_items(gs: Sequence[Group]) -> list[AtlasVerdict]:
 
 @dataclass(frozen=True)
 class Measures:
-    """What the atlas reports of a set of verdicts."""
+    """What the atlas reports of a set of verdicts.
+
+    Parameters
+    ----------
+    n : int
+        Verdicts.
+    false : int
+        Confidently false statements.
+    ece : float
+        The expected calibration error.
+    damaged : int
+        Verdicts on damaged robots.
+    alone : int
+        Of those, naming a damaged part alone.
+    among : int
+        Of those, naming one among candidates.
+    healthy : int
+        Verdicts on healthy robots.
+    healthy_ok : int
+        Of those, without a confidently false statement.
+    checked : int
+        Verdicts with a model check.
+    misfit : int
+        Of those, whose check failed.
+    """
 
     n: int
     false: int  # confidently false statements
@@ -128,10 +188,23 @@ class Measures:
 
     @property
     def false_share(self) -> float:
+        """The share of confidently false statements (NaN for no verdict)."""
         return self.false / self.n if self.n else float("nan")
 
 
 def measures(items: Sequence[AtlasVerdict]) -> Measures:
+    """The atlas's measures of ``items``.
+
+    Parameters
+    ----------
+    items : sequence of AtlasVerdict
+        The verdicts.
+
+    Returns
+    -------
+    Measures
+        Counts, shares and the calibration error.
+    """
     damaged = [a for a in items if a.damaged]
     healthy = [a for a in items if not a.damaged]
     checked = [a for a in items if a.fit is not None]
@@ -396,10 +469,24 @@ def costs_markdown(gs: Sequence[Group]) -> str:
 
 
 def estimate_cpu(gs: Sequence[Group], design: Sequence[Condition]) -> float | None:
-    """CPU seconds that one run of each of ``design``'s points would take, from the stored runs:
-    per (world, scenario), CPU per run fitted by least squares as linear in the record length;
-    where the runs have one length, the line through their mean with the slope per robot and
-    step of the world's runs. None when a (world, scenario) of ``design`` has no stored run."""
+    """CPU seconds that one run of each of ``design``'s points would take, from the stored runs.
+
+    Per (world, scenario), CPU per run fitted by least squares as linear in the record length;
+    where the runs have one length, the line through their mean with the slope per robot and step
+    of the world's runs.
+
+    Parameters
+    ----------
+    gs : sequence of Group
+        The stored runs.
+    design : sequence of Condition
+        The design points to estimate.
+
+    Returns
+    -------
+    float or None
+        The total; None when a (world, scenario) of ``design`` has no stored run.
+    """
     runs: dict[tuple[str, str], list[tuple[int, int, float]]] = {}
     for g in gs:
         c = g.condition
@@ -464,7 +551,20 @@ def _refusals(gs: Sequence[Group]) -> str:
 
 
 def atlas_markdown(gs: list[Group], figdir: Path) -> str:
-    """The atlas's section of ``report.md``."""
+    """The atlas's section of ``report.md``.
+
+    Parameters
+    ----------
+    gs : list of Group
+        The stored atlas runs by design point.
+    figdir : Path
+        The folder the figure is written into.
+
+    Returns
+    -------
+    str
+        Markdown: the figure, the measures per axis and per cell, and against the targets.
+    """
     items = atlas_items(gs)
     if not items:
         return "No verdicts were stored for these runs."

@@ -5,8 +5,9 @@ error, the confident-and-wrong and false-alarm rates, and the verdict rates per 
 
 A verdict is right when the part it names is damaged; when one of its candidates is ("cannot
 tell which"); or, naming none, when no part is. The truth is the world's
-(:meth:`damaged_parts` of the world's class): on the grid a success probability below the
-scenario's damage threshold, in the physics world a motor weaker than a healthy one.
+(:meth:`~mirl.worlds.contract.World.damaged_parts` of the world's class): on the grid a success
+probability below the scenario's damage threshold, in the physics world a motor weaker than a
+healthy one.
 """
 
 from __future__ import annotations

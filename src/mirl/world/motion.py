@@ -23,7 +23,27 @@ def transition_matrix(
     feature_probabilities: Mapping[str, float],
     error_model: str = "uniform",
 ) -> sp.csr_array:
-    """T(s, a, ·) from transition-feature probabilities (Eq. 2 and Eq. 5), shape (S·A, S)."""
+    """T(s, a, ·) from transition-feature probabilities (Eq. 2 and Eq. 5), shape (S·A, S).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain: its states, intended outcomes ψ and features ξ.
+    feature_probabilities : mapping of str to float
+        A probability in [0, 1] for every transition feature.
+    error_model : {"uniform", "stop"}, default "uniform"
+        Where a failed step goes (see :func:`transition_matrix_from_success`).
+
+    Returns
+    -------
+    scipy.sparse.csr_array of shape (S*A, S)
+        T, every row summing to 1.
+
+    Raises
+    ------
+    ValueError
+        An unknown or missing feature, a probability outside [0, 1], or an unknown error model.
+    """
     success = domain.success_probabilities(feature_probabilities)
     return transition_matrix_from_success(domain, success, error_model)
 
@@ -31,13 +51,31 @@ def transition_matrix(
 def transition_matrix_from_success(
     domain: PatrolDomain, success: np.ndarray | float, error_model: str = "uniform"
 ) -> sp.csr_array:
-    """T(s, a, ·) as a CSR matrix of shape (S·A, S) from success probabilities T(s, a, ψ(s, a))
-    (an (S, A) array, or one number for the fixed-p baselines).
+    """T(s, a, ·) as a CSR matrix of shape (S·A, S) from success probabilities T(s, a, ψ(s, a)).
 
     ``uniform``: the failure mass 1 − Π p_τ is split equally over the intended states of the
     other |A| − 1 actions (Eq. 5). ``stop``: it all goes to the current state (the robot stops
     and relocalises). Several actions may share an intended state (a forward into a wall stays
     put, like stop); their masses are summed, so every row sums to 1.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain: its states and intended outcomes ψ.
+    success : ndarray of shape (S, A), or float
+        The probability that (s, a) reaches ψ(s, a); one number for the fixed-p baselines.
+    error_model : {"uniform", "stop"}, default "uniform"
+        Where the failure mass goes.
+
+    Returns
+    -------
+    scipy.sparse.csr_array of shape (S*A, S)
+        T, every row summing to 1.
+
+    Raises
+    ------
+    ValueError
+        An unknown error model, or a probability outside [0, 1].
     """
     if error_model not in ERROR_MODELS:
         raise ValueError(f"unknown error model '{error_model}' (known: {', '.join(ERROR_MODELS)})")
