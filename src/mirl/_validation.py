@@ -60,9 +60,17 @@ class OptionError(ValueError, TypeError):
     """An option or argument that cannot work, or an option that does not exist.
 
     Its text is one line naming the option in backquotes (```p``` must be a number in [0, 1],
-    got 1.5); ``option`` is the name and ``problem`` the text after it, which the command line
-    puts after the flag. A ValueError and a TypeError, as scikit-learn's
-    ``InvalidParameterError``: a wrong type and a wrong value are one mistake to the caller.
+    got 1.5). A ValueError and a TypeError, as scikit-learn's ``InvalidParameterError``: a wrong
+    type and a wrong value are one mistake to the caller.
+
+    Parameters
+    ----------
+    option : str
+        The option's (or argument's) name.
+    problem : str
+        What is wrong, the text after the name, which the command line puts after the flag.
+    owner : str, default ""
+        The options type that declares the option ("" for a function's argument).
     """
 
     def __init__(self, option: str, problem: str, *, owner: str = "") -> None:
@@ -73,14 +81,47 @@ class OptionError(ValueError, TypeError):
 
 
 class Constraint(Protocol):
-    """What a field accepts: ``accepts(value)``, a phrase for messages (``describe()``: "an
-    integer in [1, 100]") and the conversion of a flag's text (``convert``)."""
+    """What a field accepts, a phrase for messages and the conversion of a flag's text."""
 
-    def accepts(self, value: Any) -> bool: ...
+    def accepts(self, value: Any) -> bool:
+        """Whether ``value`` meets the constraint.
 
-    def describe(self) -> str: ...
+        Parameters
+        ----------
+        value : object
+            A value given for the option.
 
-    def convert(self, text: str) -> Any: ...
+        Returns
+        -------
+        bool
+            True when it is accepted.
+        """
+        ...
+
+    def describe(self) -> str:
+        """The requirement in words, for messages.
+
+        Returns
+        -------
+        str
+            A phrase such as "an integer in [1, 100]".
+        """
+        ...
+
+    def convert(self, text: str) -> Any:
+        """A flag's text as a value the constraint checks.
+
+        Parameters
+        ----------
+        text : str
+            The flag's text.
+
+        Returns
+        -------
+        object
+            The value (ValueError, one line, for text that is not one).
+        """
+        ...
 
 
 def _show(v: float) -> str:
@@ -88,10 +129,20 @@ def _show(v: float) -> str:
 
 
 @dataclass(frozen=True)
-class Interval:
-    """A number of ``kind`` (int or float) between ``low`` and ``high`` (None: unbounded),
-    both ends included unless ``open_low`` / ``open_high``. A bool is not a number here; a float
-    must be finite."""
+class Interval(Constraint):
+    """A number between two bounds. A bool is not a number here; a float must be finite.
+
+    Parameters
+    ----------
+    kind : type
+        ``int`` or ``float``.
+    low, high : float, optional
+        The bounds (None: unbounded), included unless open.
+    open_low, open_high : bool, default False
+        Whether the bound is left out.
+    text : str, optional
+        The phrase for messages, when the bounds read badly (2^63 - 1).
+    """
 
     kind: type
     low: float | None = None
@@ -145,30 +196,64 @@ SEED = Interval(int, 0, 2**63 - 1, text="an integer in [0, 2^63 - 1]")
 
 
 @dataclass(frozen=True)
-class OneOf:
-    """One of the names of a table: a :class:`~mirl._registry.Registry`, a tuple of names, or
-    a callable returning either, read when a value other than the option's default is checked
-    (a table whose module is heavy: the light option types do not import it to be made). A
-    name it does not hold is refused in the table's own sentence, with the nearest names
-    (:meth:`~mirl._registry.Registry.unknown`)."""
+class OneOf(Constraint):
+    """One of the names of a table. A name it does not hold is refused in the table's own
+    sentence, with the nearest names (:meth:`~mirl._registry.Registry.unknown`).
+
+    Parameters
+    ----------
+    names : Registry, iterable of str or callable
+        The table, its names, or a callable returning either, read when a value other than the
+        option's default is checked (a table whose module is heavy: the light option types do
+        not import it to be made).
+    kind : str, default "choice"
+        What a name is, for messages, when the table is not a Registry.
+    """
 
     names: Iterable[str] | Callable[[], Iterable[str]]
-    kind: str = "choice"  # what a name is, for a table that is not a Registry
+    kind: str = "choice"
 
     @property
     def lazy(self) -> bool:
+        """Whether the table is read only when needed."""
         return callable(self.names)
 
     def table(self) -> Registry[Any]:
+        """The table, read now.
+
+        Returns
+        -------
+        Registry
+            The table itself, or its names as one.
+        """
         names = self.names() if callable(self.names) else self.names
         if isinstance(names, Registry):
             return names
         return Registry(self.kind, tuple(names), name=str)
 
     def known(self) -> tuple[str, ...]:
+        """The names, read now.
+
+        Returns
+        -------
+        tuple of str
+            In the table's order.
+        """
         return self.table().names
 
     def unknown(self, value: str) -> str:
+        """The refusal of ``value``, in the table's sentence.
+
+        Parameters
+        ----------
+        value : str
+            A name the table does not hold.
+
+        Returns
+        -------
+        str
+            ``unknown KIND 'value' (did you mean …? known: …)``.
+        """
         return str(self.table().unknown(value))
 
     def accepts(self, value: Any) -> bool:
@@ -182,7 +267,7 @@ class OneOf:
 
 
 @dataclass(frozen=True)
-class Boolean:
+class Boolean(Constraint):
     """True or False (not 0 and 1: a number where a switch belongs is a mistake)."""
 
     def accepts(self, value: Any) -> bool:
@@ -196,8 +281,16 @@ class Boolean:
 
 
 @dataclass(frozen=True)
-class Instance:
-    """An instance of ``kind`` (a mapping of an estimator's further options, say)."""
+class Instance(Constraint):
+    """An instance of a type (a mapping of an estimator's further options, say).
+
+    Parameters
+    ----------
+    kind : type
+        The type.
+    what : str
+        What it is, for messages.
+    """
 
     kind: type
     what: str
@@ -213,8 +306,16 @@ class Instance:
 
 
 @dataclass(frozen=True)
-class Satisfies:
-    """A string for which ``predicate`` holds (``what`` says which, for messages)."""
+class Satisfies(Constraint):
+    """A string for which a predicate holds.
+
+    Parameters
+    ----------
+    predicate : callable
+        ``predicate(text) -> bool``.
+    what : str
+        Which strings it accepts, for messages.
+    """
 
     predicate: Callable[[str], bool]
     what: str
@@ -244,8 +345,22 @@ def _problem(value: Any, constraints: tuple[Constraint | None, ...]) -> str:
 
 
 def unknown_name(kind: str, value: Any, known: Iterable[str]) -> str:
-    """The refusal of ``value`` as a ``kind`` among ``known``, in the tables' own sentence:
-    ``unknown method 'mirl_t' (did you mean 'mirl-t' or 'mirl'? known: …)``."""
+    """The refusal of a name in the tables' own sentence.
+
+    Parameters
+    ----------
+    kind : str
+        What a name is ("method").
+    value : object
+        The name given.
+    known : iterable of str
+        The names it may be.
+
+    Returns
+    -------
+    str
+        ``unknown method 'mirl_t' (did you mean 'mirl-t' or 'mirl'? known: …)``.
+    """
     return str(Registry(kind, tuple(known), name=str).unknown(str(value)))
 
 
@@ -254,17 +369,46 @@ def _accepts(value: Any, constraints: tuple[Constraint | None, ...]) -> bool:
 
 
 def check_argument(name: str, value: Any, *constraints: Constraint | None) -> None:
-    """Refuse a function's argument ``name`` that meets none of ``constraints``
-    (:class:`OptionError`), as an option's field is refused."""
+    """Refuse a function's argument that meets none of its constraints, as an option's field is
+    refused.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name.
+    value : object
+        Its value.
+    *constraints : Constraint or None
+        What it may be (None: None).
+
+    Raises
+    ------
+    OptionError
+        The value meets none of them.
+    """
     if not _accepts(value, constraints):
         raise OptionError(name, _problem(value, constraints))
 
 
 @dataclass(frozen=True)
 class Spec:
-    """One option's declaration: its default, the values it takes, what it means (``doc``, one
-    sentence: the flag's help), the flag that sets it on the command line (None: none) and that
-    flag's metavar."""
+    """One option's declaration.
+
+    Parameters
+    ----------
+    default : object
+        The option's default.
+    constraints : tuple of Constraint or None
+        The values it takes (any one of them; None: None).
+    doc : str
+        What it means, one sentence: the flag's help.
+    flag : str, optional
+        The flag that sets it on the command line (None: none).
+    metavar : str, optional
+        The flag's metavar.
+    name, owner : str, default ""
+        The option's name and its options type, filled in by the type.
+    """
 
     default: Any
     constraints: tuple[Constraint | None, ...]
@@ -275,10 +419,33 @@ class Spec:
     owner: str = ""
 
     def accepts(self, value: Any) -> bool:
+        """Whether ``value`` meets one of the constraints.
+
+        Parameters
+        ----------
+        value : object
+            A value for the option.
+
+        Returns
+        -------
+        bool
+            True when it is accepted.
+        """
         return _accepts(value, self.constraints)
 
     def is_default(self, value: Any) -> bool:
-        """Whether ``value`` is the declared default (of its type: True is not 1)."""
+        """Whether ``value`` is the declared default.
+
+        Parameters
+        ----------
+        value : object
+            A value for the option.
+
+        Returns
+        -------
+        bool
+            True for the default itself, of its type (True is not 1).
+        """
         return type(value) is type(self.default) and value == self.default
 
     @property
@@ -287,15 +454,33 @@ class Spec:
         return any(isinstance(c, OneOf) and c.lazy for c in self.constraints)
 
     def check(self, value: Any) -> None:
-        """Refuse ``value`` with an :class:`OptionError` naming this option. The declared
-        default passed where it was declared (or, read from a table when needed, is the
-        table's: a test checks every default), so it is not checked again."""
+        """Refuse a value that meets none of the constraints. The declared default passed where
+        it was declared (or, read from a table when needed, is the table's: a test checks every
+        default), so it is not checked again.
+
+        Parameters
+        ----------
+        value : object
+            A value for the option.
+
+        Raises
+        ------
+        OptionError
+            Naming this option.
+        """
         if self.is_default(value):
             return
         if not self.accepts(value):
             raise OptionError(self.name, _problem(value, self.constraints), owner=self.owner)
 
     def requirement(self) -> str:
+        """The constraints in words ("an integer in [1, 100] or None").
+
+        Returns
+        -------
+        str
+            The phrase.
+        """
         return " or ".join("None" if c is None else c.describe() for c in self.constraints)
 
     @property
@@ -307,8 +492,24 @@ class Spec:
         return None
 
     def parse(self, text: str) -> Any:
-        """A flag's ``text`` as this option's value, checked (:class:`OptionError`; a flag
-        cannot say None, so the message does not offer it)."""
+        """A flag's text as this option's value, checked.
+
+        Parameters
+        ----------
+        text : str
+            The flag's text.
+
+        Returns
+        -------
+        object
+            The value.
+
+        Raises
+        ------
+        OptionError
+            Text that is not a value the option takes (a flag cannot say None, so the message
+            does not offer it).
+        """
         given = tuple(c for c in self.constraints if c is not None)
         try:
             value = given[0].convert(text)
@@ -326,14 +527,46 @@ def option(
     flag: str | None = None,
     metavar: str | None = None,
 ) -> Any:
-    """Declare a field of an :class:`Options` type (see the module docstring)."""
+    """Declare a field of an :class:`Options` type (see the module docstring).
+
+    Parameters
+    ----------
+    *constraints : Constraint or None
+        The values it takes (any one of them; None: None).
+    default : object
+        Its default, checked where it is declared.
+    doc : str
+        What it means, one sentence: the flag's help.
+    flag : str, optional
+        The flag that sets it (None: none).
+    metavar : str, optional
+        The flag's metavar.
+
+    Returns
+    -------
+    dataclasses.Field
+        The field, its :class:`Spec` in its metadata.
+    """
     spec = Spec(default, constraints, doc, flag, metavar)
     return dataclasses.field(default=default, metadata={_SPEC: spec})
 
 
 def same_option(owner: type[Options], name: str) -> Any:
-    """Declare a field as option ``name`` of ``owner`` (its constraints, default, doc and
-    flag), for an options type that passes that option on: declared once, read twice."""
+    """Declare a field as another type's option, for an options type that passes that option
+    on: declared once, read twice.
+
+    Parameters
+    ----------
+    owner : type
+        The options type that declares it.
+    name : str
+        The option's name there.
+
+    Returns
+    -------
+    dataclasses.Field
+        A field of the same constraints, default, doc and flag.
+    """
     spec = owner.spec(name)
     return dataclasses.field(default=spec.default, metadata={_SPEC: spec})
 
@@ -386,7 +619,20 @@ class Options:
         work."""
 
     def refuse(self, name: str, problem: str) -> OptionError:
-        """The error for option ``name`` (``problem`` follows its name)."""
+        """The error for one of this type's options.
+
+        Parameters
+        ----------
+        name : str
+            The option.
+        problem : str
+            What is wrong, after its name.
+
+        Returns
+        -------
+        OptionError
+            To raise.
+        """
         return OptionError(name, problem, owner=type(self).__name__)
 
     @classmethod
@@ -401,20 +647,53 @@ class Options:
 
     @classmethod
     def spec(cls, name: str) -> Spec:
-        """The declaration of option ``name``."""
+        """The declaration of an option.
+
+        Parameters
+        ----------
+        name : str
+            The option.
+
+        Returns
+        -------
+        Spec
+            Its declaration (:class:`OptionError` for a name that is no option).
+        """
         if name not in cls.__options__:
             raise cls._unknown(name)
         return cls.__options__[name]
 
     @classmethod
     def default(cls, name: str) -> Any:
-        """Option ``name``'s declared default."""
+        """An option's declared default.
+
+        Parameters
+        ----------
+        name : str
+            The option.
+
+        Returns
+        -------
+        object
+            Its default.
+        """
         return cls.spec(name).default
 
     @classmethod
     def of(cls: type[OptionsT], options: OptionsT | Mapping[str, Any] | None) -> OptionsT:
-        """``options`` as this type: itself, the defaults (None), or made from a mapping of
-        option names to values (unknown names refused with the nearest known ones)."""
+        """Options of this type, from what a caller gave.
+
+        Parameters
+        ----------
+        options : Options, mapping or None
+            The options, a mapping of option names to values (unknown names refused with the
+            nearest known ones), or None for the defaults.
+
+        Returns
+        -------
+        Options
+            Of this type.
+        """
         if options is None:
             return cls()
         if isinstance(options, cls):
@@ -426,14 +705,31 @@ class Options:
         )
 
     def replace(self: OptionsT, **changes: Any) -> OptionsT:
-        """A copy with ``changes``, checked like a new one."""
+        """A copy with some options changed, checked like a new one.
+
+        Parameters
+        ----------
+        **changes : object
+            New values by option name.
+
+        Returns
+        -------
+        Options
+            The copy.
+        """
         for name in changes:
             if name not in self.__options__:
                 raise self._unknown(name)
         return dataclasses.replace(self, **changes)  # type: ignore[type-var]
 
     def changed(self) -> dict[str, Any]:
-        """The options that differ from their declared defaults."""
+        """The options that differ from their declared defaults.
+
+        Returns
+        -------
+        dict
+            Their values by name.
+        """
         return {
             name: getattr(self, name)
             for name, spec in self.__options__.items()
@@ -441,5 +737,11 @@ class Options:
         }
 
     def to_dict(self) -> dict[str, Any]:
-        """Every option by name."""
+        """Every option by name.
+
+        Returns
+        -------
+        dict
+            The values by name, in the declaration's order.
+        """
         return {name: getattr(self, name) for name in self.__options__}

@@ -51,14 +51,11 @@ PENDING = {
     "cli/checks.py",
     "cli/flags.py",
     "cli/learn_report.py",
-    "cli/parser.py",
     "experiments/execution.py",
     "experiments/records.py",
-    "experiments/run_report.py",
     "experiments/store.py",
     "learning/results.py",
     "physics/calibration.py",
-    "viz/report.py",
 }
 
 

@@ -29,36 +29,82 @@ __all__ = ["Planning", "Waiting", "Watching", "GoRuleStrategy", "ValueRule", "Ad
 
 @dataclass(frozen=True)
 class Planning:
-    """How L plans in a run: the go window, the deadline (the last step at which L may still
-    go: the end of observing + ``max_wait``), the horizons and the MDP's settings, from the
-    run's :class:`~mirl.experiments.options.RunProtocol`."""
+    """How L plans in a run, from the run's :class:`~mirl.experiments.options.RunProtocol`.
+
+    Parameters
+    ----------
+    window : int
+        Go times a round scores after now.
+    deadline : int
+        The last step at which L may still go (the end of observing + ``max_wait``).
+    travel : int
+        The planning horizon after the last go time.
+    replan_every : int
+        Steps between planning rounds while no go time is set.
+    commit : bool
+        Whether the first go time is kept.
+    hazard : str
+        The planner's detection hazard (:data:`mirl.planning.go.HAZARDS`).
+    goal_reward : float
+        The planner's reward for reaching the goal.
+    detection_penalty : float
+        The value rule's cost of being seen.
+    opportunity_steps : int
+        The adaptive rule's steps per fresh chance to go after the window.
+    moment_travel : int
+        The horizon of the plans that score the record's moments.
+    """
 
     window: int
     deadline: int
-    travel: int  # planning horizon after the last go time
+    travel: int
     replan_every: int
     commit: bool
     hazard: str
     goal_reward: float
     detection_penalty: float
     opportunity_steps: int
-    moment_travel: int  # horizon of the plans that score the record's moments
+    moment_travel: int
 
 
 class Watching(Protocol):
-    """L's view from its room as a go rule reads it: its current belief, and what going at
-    each of the record's moments promised, ``chances(chance_at)`` (computed once per moment
-    and models by ``chance_at(t, belief)``)."""
+    """L's view from its room as a go rule reads it: its current belief (``belief``), and what
+    going at each of the record's moments promised."""
 
     belief: BeliefFilter
 
-    def chances(self, chance_at: Callable[[int, np.ndarray], float]) -> list[float]: ...
+    def chances(self, chance_at: Callable[[int, np.ndarray], float]) -> list[float]:
+        """What going at each of the record's moments promised, computed once per moment and
+        models.
+
+        Parameters
+        ----------
+        chance_at : callable
+            ``chance_at(t, belief)``: the chance of going at step t with that step's belief.
+
+        Returns
+        -------
+        list of float
+            One chance per moment, in the record's order.
+        """
+        ...
 
 
 @dataclass(frozen=True)
 class Waiting:
-    """What a planning round reads: the world (its step), L's model and belief, and the
-    planning settings."""
+    """What a planning round reads.
+
+    Parameters
+    ----------
+    world : RunWorld
+        The run's world (its step).
+    watcher : Watching
+        L's view from its room: its belief and the record's chances.
+    model : ObserverModel
+        L's model.
+    planning : Planning
+        The planning settings.
+    """
 
     world: RunWorld
     watcher: Watching
@@ -68,7 +114,24 @@ class Waiting:
     def solve(
         self, steps: int, window: int, penalty: float, min_value: float = 0.0
     ) -> ObserverPlan:
-        """L's time-indexed MDP over the next ``steps`` steps of its current prediction."""
+        """L's time-indexed MDP over the next steps of its current prediction.
+
+        Parameters
+        ----------
+        steps : int
+            The prediction's steps (the plan's horizon).
+        window : int
+            Go times scored after now.
+        penalty : float
+            The cost of being seen.
+        min_value : float, default 0.0
+            A go time needs a value above this.
+
+        Returns
+        -------
+        ObserverPlan
+            The plan.
+        """
         p = self.planning
         return solve_observer_mdp(
             self.model,
@@ -81,15 +144,42 @@ class Waiting:
         )
 
 
-class GoRuleStrategy(Protocol):
-    """A go rule (module docstring)."""
+class GoRuleStrategy:
+    """A go rule (module docstring): the interface its strategies implement."""
 
-    def decide(self, waiting: Waiting) -> Decision: ...
+    def decide(self, waiting: Waiting) -> Decision:
+        """One planning round.
 
-    def replan_penalty(self, planning: Planning) -> float: ...
+        Parameters
+        ----------
+        waiting : Waiting
+            What the round reads.
+
+        Returns
+        -------
+        Decision
+            The plan, the go time (None: not yet), the next round's step and the round's
+            record.
+        """
+        raise NotImplementedError
+
+    def replan_penalty(self, planning: Planning) -> float:
+        """The detection penalty of the plans L makes once it has left its room.
+
+        Parameters
+        ----------
+        planning : Planning
+            The run's planning settings.
+
+        Returns
+        -------
+        float
+            The penalty.
+        """
+        raise NotImplementedError
 
 
-class ValueRule:
+class ValueRule(GoRuleStrategy):
     """The published rule: the best go value in the window, if positive; the detection penalty
     weighs being seen against reaching the goal."""
 
@@ -106,7 +196,7 @@ class ValueRule:
         return planning.detection_penalty
 
 
-class AdaptiveRule:
+class AdaptiveRule(GoRuleStrategy):
     """Go now when the window's best go time is now and its chance beats the value of the
     chances still to come before the deadline, drawn like those of the record's moments; on
     going, state the exact P(success) (docs/design.md, "The go rule"). Plans maximise

@@ -60,16 +60,31 @@ MIN_TRAVEL = 20
 
 @dataclass(frozen=True)
 class GoRule:
-    """One row of the table of go rules: a name, what the rule does (``--go-rule``'s help) and
-    its strategy's class as an entry point (``"module:Class"``, in
-    :mod:`mirl.experiments.go_rules`), imported when a run uses it."""
+    """One row of the table of go rules.
+
+    Parameters
+    ----------
+    name : str
+        What ``--go-rule`` and ``RunProtocol.go_rule`` take.
+    description : str
+        What the rule does (``--go-rule``'s help).
+    entry_point : str
+        Its strategy's class, ``"module:Class"`` (in :mod:`mirl.experiments.go_rules`),
+        imported when a run uses it.
+    """
 
     name: str
     description: str
     entry_point: str
 
     def load(self) -> Any:
-        """The rule's strategy class."""
+        """The rule's strategy class.
+
+        Returns
+        -------
+        type
+            A :class:`~mirl.experiments.go_rules.GoRuleStrategy` class.
+        """
         module, _, attr = self.entry_point.partition(":")
         return getattr(import_module(module), attr)
 
@@ -249,7 +264,18 @@ class RunProtocol(Options):
     @classmethod
     def paper(cls, **changes: Any) -> RunProtocol:
         """The paper's protocol, which the experiments' conditions run: exactly ``obs_steps``
-        observed, the value rule, learning once (``changes`` set other options)."""
+        observed, the value rule, learning once.
+
+        Parameters
+        ----------
+        **changes : object
+            Other options, by name.
+
+        Returns
+        -------
+        RunProtocol
+            The protocol.
+        """
         fields: dict[str, Any] = {
             "watch_until_seen": None,
             "go_rule": PAPER_GO_RULE,
@@ -263,8 +289,18 @@ class RunProtocol(Options):
         return self.watch_until_seen is None
 
     def travel(self, path_length: int) -> int:
-        """The planning horizon after the last go time, for a shortest path to the goal of
-        ``path_length`` steps."""
+        """The planning horizon after the last go time.
+
+        Parameters
+        ----------
+        path_length : int
+            Steps of L's shortest path to its goal.
+
+        Returns
+        -------
+        int
+            ``travel_steps``, or 3 × the path, at least 20.
+        """
         if self.travel_steps is not None:
             return int(self.travel_steps)
         return max(MIN_TRAVEL, TRAVEL_PER_PATH_STEP * int(path_length))

@@ -634,10 +634,19 @@ class RewardBuilder:
     """How :func:`learn` builds a method's rewards and interaction equilibrium from the source
     its ``reward`` names (a row of :data:`~mirl.learning.methods.REWARD_SOURCES`).
 
-    ``first_labels(setup)`` labels the observed steps before anything is learned;
-    ``labelled`` says whether the rewards are learned from those labels;
-    ``build(setup, transitions, labels, trace)`` gives per robot the reward weights and the
-    equilibrium (None: to be weighed against the observations)."""
+    Parameters
+    ----------
+    name : str
+        The source's name.
+    labelled : bool
+        Whether the rewards are learned from labelled steps.
+    first_labels : callable
+        ``first_labels(setup)``: per robot the labels of the observed steps before anything is
+        learned.
+    build : callable
+        ``build(setup, transitions, labels, trace)``: per robot the reward weights, and the
+        equilibrium (None: to be weighed against the observations).
+    """
 
     name: str
     labelled: bool
@@ -650,9 +659,16 @@ class TransitionBuilder:
     """How :func:`learn` builds a method's transition models from the source its
     ``transitions`` names (a row of :data:`~mirl.learning.methods.TRANSITION_SOURCES`).
 
-    ``labelled`` says whether T is learned from labelled steps; ``build(setup, labels,
-    options)`` gives per robot T and the feature probabilities, and what the result's message
-    says of them."""
+    Parameters
+    ----------
+    name : str
+        The source's name.
+    labelled : bool
+        Whether T is learned from labelled steps.
+    build : callable
+        ``build(setup, labels, options)``: per robot T and the feature probabilities, and what
+        the result's message says of them.
+    """
 
     name: str
     labelled: bool

@@ -44,8 +44,17 @@ IRL_OBJECTIVES = Registry.of_choices("objective", {
 
 @dataclass(frozen=True)
 class Optimizer:
-    """An optimiser of the IRL: its name, what it is, and the starts it makes unless told
-    (``n_restarts``)."""
+    """An optimiser of the IRL.
+
+    Parameters
+    ----------
+    name : str
+        What ``optimizer`` takes.
+    description : str
+        What it is.
+    restarts : int
+        The starts it makes unless told (``n_restarts``).
+    """
 
     name: str
     description: str
@@ -168,7 +177,18 @@ class LearnOptions(Options):
         """Refuse an option set for a method it changes nothing for: an option that one source
         of models alone reads (:data:`~mirl.learning.methods.TRANSITION_SOURCES`' ``option``:
         ``p`` for a fixed T, ``em_init`` for DBN-EM) given for a method without that source. A
-        setting is never silently ignored."""
+        setting is never silently ignored.
+
+        Parameters
+        ----------
+        method : Method or str
+            The method's row or name.
+
+        Raises
+        ------
+        OptionError
+            Naming the option and the methods it applies to.
+        """
         row = get_method(method) if isinstance(method, str) else method
         for name, users in _readers().items():
             if getattr(self, name) is not None and row.name not in users:
