@@ -54,11 +54,9 @@ PENDING = {
     "cli/parser.py",
     "experiments/execution.py",
     "experiments/records.py",
-    "experiments/run_report.py",
     "experiments/store.py",
     "learning/results.py",
     "physics/calibration.py",
-    "viz/report.py",
 }
 
 
