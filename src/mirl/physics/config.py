@@ -31,7 +31,7 @@ __all__ = [
 
 SECTION = "physics"
 """The scenario table these parameters are read from (one of
-:data:`mirl.world.scenario_sections.WORLD_SECTIONS`)."""
+:data:`mirl.world.world_sections.WORLD_SECTIONS`)."""
 PIVOTS = ("turn_left", "turn_right")
 
 
