@@ -31,6 +31,7 @@ _EXPORTS = {
     "simulate": "mirl.simulation.grid",
     "solve_feature_probabilities": "mirl.learning.feature_solver",
     "TransitionFeatureLearner": "mirl.learning.transitions",
+    "IRLProblem": "mirl.learning.irl",
     "OccludedMaxEntIRL": "mirl.learning.irl",
     "learn": "mirl.learning.learn",
     "LearnResult": "mirl.learning.results",
@@ -62,6 +63,7 @@ __all__ = [
     "simulate",
     "solve_feature_probabilities",
     "TransitionFeatureLearner",
+    "IRLProblem",
     "OccludedMaxEntIRL",
     "learn",
     "LearnResult",
@@ -102,7 +104,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from mirl.experiments.options import RunProtocol, SweepOptions
     from mirl.experiments.records import RunResult
     from mirl.learning.feature_solver import solve_feature_probabilities
-    from mirl.learning.irl import OccludedMaxEntIRL
+    from mirl.learning.irl import IRLProblem, OccludedMaxEntIRL
     from mirl.learning.learn import learn
     from mirl.learning.options import LearnOptions
     from mirl.learning.results import LearnResult

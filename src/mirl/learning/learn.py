@@ -67,7 +67,7 @@ from mirl.learning.equilibria import (
     potential_meetings,
     weigh_team_equilibria,
 )
-from mirl.learning.irl import OccludedMaxEntIRL
+from mirl.learning.irl import IRLProblem, OccludedMaxEntIRL
 from mirl.learning.methods import (
     LEARNING_METHODS,
     REWARD_SOURCES,
@@ -576,14 +576,12 @@ def irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.nd
             options = dict(setup.irl_options)
             if init is not None:
                 options["n_restarts"] = 1
-            irl = OccludedMaxEntIRL(
-                d.reward_features,
-                T,
-                discount=setup.scenario.discount,
-                visible=setup.visible,
-                random_state=setup.robot_seed(i, round_),
-                **options,
-            ).fit(x, labels[i], exclude=setup.exclude, initial_weights=init)
+            problem = IRLProblem(
+                d.reward_features, T, discount=setup.scenario.discount, visible=setup.visible
+            )
+            irl = OccludedMaxEntIRL(random_state=setup.robot_seed(i, round_), **options).fit(
+                problem, x, labels[i], exclude=setup.exclude, initial_weights=init
+            )
             weights.append(irl.weights_)
             estimators.append(irl)
     # A robot L never saw gets the mean reward of those it saw — the patrollers are robots of one
@@ -604,7 +602,7 @@ def policies_of(setup: RoundSetup, transitions, weights, trace: LoopTrace) -> li
     irl = trace.irl + [None] * (len(weights) - len(trace.irl))  # none before the first IRL
     return [
         e.policy_
-        if e is not None and e.weights_ is w and e.transitions_source is T
+        if e is not None and e.weights_ is w and e.problem_.transitions is T
         else value_iteration(TabularMDP(T, setup.domain.rewards(w), setup.scenario.discount)).policy
         for e, T, w in zip(irl, transitions, weights, strict=True)
     ]

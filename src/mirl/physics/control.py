@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mirl.physics.robot import KOBUKI, Kobuki
 from mirl.world.game import KEEP_RIGHT_BEARING
 
 __all__ = ["DRIVE", "PIVOT", "HOLD", "Controller", "crowded", "in_company", "wrap"]
@@ -134,19 +135,15 @@ class Controller:
     ----------
     n : int
         The number of robots.
-    separation : float
-        Metres between a robot's wheels.
-    wheel_radius : float
-        Metres.
+    robot : Kobuki, default KOBUKI
+        The robots' build: their wheels' separation and radius and a wheel's speed limit
+        (a command beyond it is scaled down, both wheels alike).
     max_speed : float
         Cruise speed, m/s.
     max_accel : float
         Acceleration limit, m/s².
     turn_speed : float
         Pivot rate limit, rad/s.
-    max_wheel_speed : float
-        A wheel's angular speed limit, rad/s; a command beyond it is scaled down, both wheels
-        alike.
     dt : float
         Seconds a control tick.
     arrive : float, default 0.06
@@ -162,13 +159,11 @@ class Controller:
     def __init__(
         self,
         n: int,
+        robot: Kobuki = KOBUKI,
         *,
-        separation: float,
-        wheel_radius: float,
         max_speed: float,
         max_accel: float,
         turn_speed: float,
-        max_wheel_speed: float,
         dt: float,
         arrive: float = 0.06,
         k_heading: float = 2.5,
@@ -178,9 +173,9 @@ class Controller:
         self.turn_first = turn_first
         self.pass_speed = pass_speed
         self.n = n
-        self.sep, self.r = separation, wheel_radius
+        self.sep, self.r = robot.wheel_separation, robot.wheel_radius
         self.vmax, self.amax, self.wturn = max_speed, max_accel, turn_speed
-        self.wheel_max = max_wheel_speed * wheel_radius  # m/s at the rim
+        self.wheel_max = robot.max_wheel_speed * robot.wheel_radius  # m/s at the rim
         self.dt, self.arrive, self.kh = dt, arrive, k_heading
         self.mode = np.full(n, HOLD)
         self.tx = np.zeros(n)
