@@ -556,4 +556,11 @@ def _options(args: argparse.Namespace, options: type[OptionsT]) -> OptionsT:
 
 
 def print_json(obj) -> None:
+    """Print ``obj`` as indented JSON, its keys in the order given.
+
+    Parameters
+    ----------
+    obj : object
+        Anything :func:`json.dumps` writes (the records' ``to_dict()``).
+    """
     print(json.dumps(obj, indent=2, sort_keys=False))

@@ -162,6 +162,15 @@ def _run_parser(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``mirl`` command's parser, every sub-command's flags built from the tables and the
+    option types (it imports neither numpy nor scipy).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        A :class:`~mirl.cli.flags.OneLineParser`; ``parse_args`` puts the sub-command's name
+        in ``command``.
+    """
     p = OneLineParser(
         prog="mirl",
         description="Learn other robots' rewards, policies and faulty motion under occlusion.",

@@ -16,7 +16,18 @@ HEADING_NAMES = ("east", "north", "west", "south")  # heading 0-3 (the map's x e
 
 
 def state_text(state) -> str:
-    """A patroller state (row, col, heading) in words: ``(16, 8) facing west``."""
+    """A patroller state (row, col, heading) in words: ``(16, 8) facing west``.
+
+    Parameters
+    ----------
+    state : sequence of int
+        (row, col, heading), a heading an index into the domain's headings.
+
+    Returns
+    -------
+    str
+        The state in words.
+    """
     r, c, h = (int(x) for x in state)
     return f"({r}, {c}) facing {HEADING_NAMES[h]}"
 
@@ -96,7 +107,22 @@ def _equilibrium_lines(learned, names: list[str]) -> list[str]:
 
 # ---- the readable report of `mirl run` -------------------------------------------------------
 def policy_cycle(domain, policy: np.ndarray, start: int) -> np.ndarray:
-    """States of the loop that ``policy`` settles into from ``start`` under intended outcomes."""
+    """States of the loop that ``policy`` settles into from ``start`` under intended outcomes.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain (its intended next states).
+    policy : ndarray of shape (S,) of int
+        A deterministic policy.
+    start : int
+        The state to start from.
+
+    Returns
+    -------
+    ndarray of int
+        The loop's states in order, from where the walk first met it.
+    """
     s = int(start)
     for _ in range(domain.n_states):  # walk long enough to be on the loop
         s = int(domain.intended[s, policy[s]])
@@ -159,7 +185,20 @@ def _relearn_lines(result: RunResult) -> list[str]:
 
 
 def format_report(scenario: Scenario, result: RunResult) -> str:
-    """The short readable report printed by ``mirl run``."""
+    """The short readable report printed by ``mirl run``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The run's scenario, as run (its damage applied).
+    result : RunResult
+        The run.
+
+    Returns
+    -------
+    str
+        The report's lines, joined (the timings' line last).
+    """
     dom = scenario.domain
     paper, meaning = METHODS[result.method].paper_name, METHODS[result.method].description
     n_vis = int(scenario.map.visible_mask(result.observability).sum())
@@ -170,7 +209,8 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         _wrapped(
             f"{result.method} ({paper} in the paper's figures): {meaning}. L hides in its room at "
             f"{scenario.observer_start} and wants to reach {scenario.goal} unseen; cells "
-            "are (row, col), a patroller's state is its cell and the way it faces; a step is 2 s."
+            "are (row, col), a patroller's state is its cell and the way it faces; a step is "
+            f"{STEP_SECONDS:g} s."
         ),
         "",
         _observed_line(result),

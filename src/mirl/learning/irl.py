@@ -146,7 +146,7 @@ class OccludedMaxEntIRL:
     The estimator holds how it fits; the problem (the robot's features, T, discount and L's
     view, an :class:`IRLProblem`) and the robot's record are :meth:`fit`'s.
 
-    .. versionchanged:: 0.1.0
+    .. versionchanged:: 0.2.0
        The problem's data (``features``, ``transitions``, ``discount``, ``visible``) moved from
        the constructor to :meth:`fit`, as an :class:`IRLProblem`.
 

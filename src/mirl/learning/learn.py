@@ -387,12 +387,35 @@ def _checked_visible(visible, n_states: int) -> np.ndarray:
 def relabel_loop(
     setup: RoundSetup, max_iterations: int, trace: LoopTrace, label_tol: float
 ) -> tuple[list[np.ndarray], list[sp.csr_array], list[dict[str, float]], Equilibrium]:
-    """The relabelling rounds (module docstring, steps 1–4); returns weights, T, feature
-    probabilities and the best equilibrium of the last round.
+    """The relabelling rounds (module docstring, steps 1–4).
 
     The loop ends when a relabelling changes at most ``label_tol`` of the labelled steps
     (converged), when it reproduces the labels of an earlier round (a cycle: the labels will
-    never fixate), or after ``max_iterations``."""
+    never fixate), or after ``max_iterations``.
+
+    Parameters
+    ----------
+    setup : RoundSetup
+        What every round reads: the scenario, the robots' series, L's view, the IRL's options.
+    max_iterations : int
+        Rounds at most.
+    trace : LoopTrace
+        Filled in with each round's labels and changes, the last round's estimators and
+        policies, and why the loop ended.
+    label_tol : float
+        The share of the labelled steps a relabelling may change and still count as settled.
+
+    Returns
+    -------
+    weights : list of ndarray
+        Per robot the reward weights θ, (K,).
+    transitions : list of sparse array
+        Per robot T, (S·A, S) CSR.
+    feature_probabilities : list of dict of str to float
+        Per robot, per feature, the learned success probability.
+    equilibrium : Equilibrium
+        The best equilibrium of the last round.
+    """
     clock = setup.clock
     with clock("labels"):
         labels = perception(setup) if setup.warm_start is None else warm_labels(setup)
@@ -456,9 +479,30 @@ class Clock:
 
 @dataclass
 class LoopTrace:
-    """What happened in the learning rounds: labels used per round and per robot ((horizon,)
-    arrays, -1 where unobserved or unlabelled), labels changed by each relabelling, and the
-    IRL estimators and equilibrium weights of the last round."""
+    """What happened in the learning rounds, filled in by :func:`learn` when given one.
+
+    Parameters
+    ----------
+    labels : list of list of ndarray, default []
+        Per round, per robot the action labels used, (horizon,) arrays of int, -1 where
+        unobserved or unlabelled.
+    label_changes : list of int, default []
+        Labels changed by each relabelling.
+    irl : list of OccludedMaxEntIRL or None, default []
+        The last round's IRL estimator per robot (None: a robot L never saw).
+    equilibria : EquilibriumWeights, optional
+        The last round's equilibrium weights.
+    team_equilibria : TeamEquilibria, optional
+        The last round's weights per pair L saw meet (N ≥ 2).
+    policies : list of ndarray, default []
+        The last round's policy per robot, (S,) arrays of int.
+    converged : bool, default False
+        Whether the labels settled.
+    message : str, default ""
+        Why the rounds ended.
+    notes : set of str, default set()
+        Remarks for the report (a robot never observed, …).
+    """
 
     labels: list[list[np.ndarray]] = field(default_factory=list)
     label_changes: list[int] = field(default_factory=list)
