@@ -3,10 +3,15 @@ occluded observations (Bogert & Doshi, mIRL*/T+Int), and act on it.
 
 The entry points a user needs are importable from here (``from mirl import load_scenario,
 simulate, learn, run_episode``); they are loaded on first use, so ``import mirl`` stays cheap.
-The package is layered by pipeline stage — :mod:`mirl.mdp` → :mod:`mirl.world` →
-:mod:`mirl.observations` → :mod:`mirl.simulation` → :mod:`mirl.learning` →
-:mod:`mirl.planning` → :mod:`mirl.worlds` → :mod:`mirl.experiments` → :mod:`mirl.viz` →
-:mod:`mirl.cli` — and a stage imports only the stages before it (checked by import-linter).
+The package is layered by pipeline stage, and a stage imports only the stages before it
+(checked by import-linter; docs/design.md, "Layers"): :mod:`mirl.mdp` → :mod:`mirl.world` →
+:mod:`mirl.observations` → :mod:`mirl.simulation` | :mod:`mirl.physics` (the grid simulator |
+the MuJoCo world) → :mod:`mirl.learning` → :mod:`mirl.planning` → :mod:`mirl.worlds` (the
+world contract and its table) → :mod:`mirl.experiments` | :mod:`mirl.envs` (runs and sweeps |
+gymnasium and PettingZoo environments) → :mod:`mirl.viz` → :mod:`mirl.cli`; ``a | b`` are
+siblings that do not import each other. Below every stage: ``mirl.sparse`` (the shared sparse
+kernels), ``mirl._validation`` (options declared once) and ``mirl._registry`` (the one table
+type).
 """
 
 from __future__ import annotations

@@ -204,7 +204,7 @@ def test_bad_inputs_are_rejected(expert):
         with pytest.raises(ValueError, match=near):
             OccludedMaxEntIRL(**{option: typo})
     with pytest.raises(ValueError, match="never observed"):
-        OccludedMaxEntIRL().fit(IRLProblem(phi, T), np.full(10, -1))
+        OccludedMaxEntIRL().fit(IRLProblem(phi, T, 0.9), np.full(10, -1))
 
 
 def test_a_problem_that_does_not_fit_together_is_refused_where_it_is_made(expert):
@@ -216,8 +216,8 @@ def test_a_problem_that_does_not_fit_together_is_refused_where_it_is_made(expert
         ({"discount": 1.0}, r"discount must be in \[0, 1\), got 1.0"),
     ):
         with pytest.raises(ValueError, match=needle):
-            IRLProblem(**{"features": phi, "transitions": T, **kwargs})
-    problem = IRLProblem(phi.astype(int), T, visible=[1, 1, 0, 0, 1])
+            IRLProblem(**{"features": phi, "transitions": T, "discount": 0.9, **kwargs})
+    problem = IRLProblem(phi.astype(int), T, 0.9, visible=[1, 1, 0, 0, 1])
     assert problem.features.dtype == float and problem.visible.dtype == bool
     assert problem.transitions is T  # kept as given: learn() asks which T a fit used
 

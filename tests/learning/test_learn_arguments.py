@@ -91,7 +91,7 @@ def test_an_irl_problem_with_a_view_of_another_map_is_refused():
 
     stay = sp.csr_array((np.ones(6), (np.arange(6), np.repeat(np.arange(3), 2))), shape=(6, 3))
     with pytest.raises(ValueError, match=r"visible must be \(3,\)"):
-        IRLProblem(np.zeros((3, 2, 1)), stay, visible=np.ones(7, bool))
+        IRLProblem(np.zeros((3, 2, 1)), stay, 0.9, visible=np.ones(7, bool))
 
 
 def test_backward_induction_refuses_a_negative_horizon():

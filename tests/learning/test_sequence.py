@@ -126,7 +126,7 @@ def test_auto_takes_forward_mode_on_the_small_maps_and_reverse_on_the_office():
         d = sc.domain
         run = simulate(sc, 300, seed=1, observability=1.0)
         irl = OccludedMaxEntIRL()
-        problem = IRLProblem(d.reward_features, sc.true_transitions(0))
+        problem = IRLProblem(d.reward_features, sc.true_transitions(0), sc.discount)
         irl._prepare(problem, run.observations.state_series(d, 0), None, None)
         modes[name] = irl._reverse_mode()
     assert modes == {"boyd2": False, "boydright-3": False, "office": True}
@@ -139,7 +139,9 @@ def test_auto_falls_back_to_forward_mode_when_the_history_would_not_fit(monkeypa
     d = sc.domain
     x = simulate(sc, 200, seed=2, observability=sc.observability).observations.state_series(d, 0)
     irl = OccludedMaxEntIRL()
-    problem = IRLProblem(d.reward_features, sc.true_transitions(0), visible=d.visible_states(0.14))
+    problem = IRLProblem(
+        d.reward_features, sc.true_transitions(0), sc.discount, visible=d.visible_states(0.14)
+    )
     irl._prepare(problem, x, None, None)
     assert irl._sequence.history_size > 0 and irl._reverse_mode()
     monkeypatch.setattr(irl_module, "_HISTORY_BYTES", 16 * irl._sequence.history_size - 1)

@@ -29,6 +29,7 @@ from mirl.cli.checks import (
 from mirl.cli.flags import parse_damage, parse_same_frame, parse_topic
 from mirl.experiments.options import RunProtocol, SweepOptions
 from mirl.learning.options import LearnOptions
+from mirl.world.actions import HEADING_NAMES
 from mirl.worlds import DEFAULT_WORLD, WorldSpec, get_world
 
 __all__ = ["COMMANDS", "UsageError", "print_json"]
@@ -171,11 +172,10 @@ def _scenario_summary(scenario, routes) -> list[str]:
     for what, cell in (("start", scenario.observer_start), ("goal", scenario.goal)):
         x, y = f.cell_centre(*cell)
         lines.append(f"  L's {what}: cell {tuple(cell)}, x = {float(x):g}, y = {float(y):g} m")
-    headings = ("east", "north", "west", "south")
     for robot, (name, route) in zip(scenario.robots, routes.items(), strict=True):
         r, c, h = robot.start
         lines.append(
-            f"  {name}: starts on cell ({r}, {c}) facing {headings[h]}; its true policy "
+            f"  {name}: starts on cell ({r}, {c}) facing {HEADING_NAMES[h]}; its true policy "
             f"covers {len({tuple(x) for x in route.tolist()})} cells"
         )
     return lines

@@ -49,6 +49,8 @@ DEFAULT_OBS_STEPS: int = RunProtocol.default("obs_steps")
 GO_RULE_PUBLISHED = PAPER_GO_RULE
 GO_RULE_DEFAULT: str = RunProtocol.default("go_rule")  # mirl's, the API's and the command line's
 DEFAULT_RUNS = 200  # per point, as in the paper's simulations
+DOOR_VIEW = 0.14  # the paper's L at its door on boyd2 (its scenario's observability)
+FULL_VIEW = 1.0  # L sees every patroller cell
 OUTCOMES = ("success", "detected", "timeout", "learned")  # learned: a run with no L to go (atlas)
 
 
@@ -85,7 +87,7 @@ class Condition:
 
     method: str
     scenario: str = "boyd2"
-    observability: float = 0.14
+    observability: float = DOOR_VIEW
     obs_steps: int = DEFAULT_OBS_STEPS
     p: float | None = None
     world: str = DEFAULT_WORLD  # a name in mirl.worlds.WORLDS
@@ -423,7 +425,7 @@ def selftest_run(condition: Condition, seed: int) -> dict[str, Any]:
 # ---------------------------------------------------------------------------------------------
 # Grids (docs/design.md, "The paper's experiments as data")
 
-OBSERVABILITIES = (0.14, 0.3, 0.5, 0.75, 1.0)
+OBSERVABILITIES = (DOOR_VIEW, 0.3, 0.5, 0.75, FULL_VIEW)
 OBS_STEPS = (150, 300, 450, 900)
 FIXED_PS = (0.7, 0.8, 0.9, 0.95)
 
@@ -439,7 +441,7 @@ def _fig3() -> tuple[Condition, ...]:
 
 def _fig4a() -> tuple[Condition, ...]:
     conds: list[Condition] = []
-    for d in (0.14, 1.0):
+    for d in (DOOR_VIEW, FULL_VIEW):
         conds += [Condition(m, "boyd2", d) for m in ("oracle", "known-r-t", "mirl-t")]
         conds.append(Condition("known-r", "boyd2", d, p=0.9))
         conds += [Condition("mirl", "boyd2", d, p=p) for p in FIXED_PS]
@@ -448,7 +450,9 @@ def _fig4a() -> tuple[Condition, ...]:
 
 
 def _features(scenario: str) -> tuple[Condition, ...]:
-    return tuple(Condition(m, scenario, d) for d in (0.14, 1.0) for m in ("mirl-t", "known-r-t"))
+    return tuple(
+        Condition(m, scenario, d) for d in (DOOR_VIEW, FULL_VIEW) for m in ("mirl-t", "known-r-t")
+    )
 
 
 def _verdicts() -> tuple[Condition, ...]:
@@ -458,21 +462,21 @@ def _verdicts() -> tuple[Condition, ...]:
     return tuple(
         Condition("mirl-t", "boyd2-healthy", d, world=w, damage=x)
         for w in WORLDS
-        for d in (0.14, 1.0)
+        for d in (DOOR_VIEW, FULL_VIEW)
         for x in damages
     )
 
 
 def _table1() -> tuple[Condition, ...]:
     return tuple(
-        Condition(m, s, 0.14, p=p)
+        Condition(m, s, DOOR_VIEW, p=p)
         for s in ("boyd2", "boyd2-healthy")
         for m, p in (("mirl-t", None), ("mirl", 0.9), ("random", None))
     )
 
 
 def _selftest() -> tuple[Condition, ...]:
-    return tuple(Condition(m, "boyd2", d, 10) for m in ("a", "b") for d in (0.14, 1.0))
+    return tuple(Condition(m, "boyd2", d, 10) for m in ("a", "b") for d in (DOOR_VIEW, FULL_VIEW))
 
 
 def _check_experiment(exp: Experiment) -> None:

@@ -31,6 +31,7 @@ from mirl._validation import (
     same_option,
 )
 from mirl.learning.options import LearnOptions
+from mirl.world.actions import STEP_SECONDS
 from mirl.worlds import DEFAULT_WORLD, WORLDS
 
 __all__ = [
@@ -189,7 +190,7 @@ class RunProtocol(Options):
 
     obs_steps: int = option(
         Interval(int, 1, MAX_OBS_STEPS), default=300,
-        doc="steps L observes before it first learns, 2 s each",
+        doc=f"steps L observes before it first learns, {STEP_SECONDS:g} s each",
         flag="--obs-steps", metavar="N",
     )  # fmt: skip
     watch_until_seen: int | None = option(

@@ -8,11 +8,9 @@ import numpy as np
 from mirl.experiments.records import RunResult
 from mirl.learning.methods import METHODS
 from mirl.learning.verdicts import estimate_outside_interval, outside_interval_note
-from mirl.world.actions import STEP_SECONDS
+from mirl.world.actions import HEADING_NAMES, STEP_SECONDS
 from mirl.world.game import GAME_ACTIONS, Equilibrium
 from mirl.world.scenario import Scenario
-
-HEADING_NAMES = ("east", "north", "west", "south")  # heading 0-3 (the map's x east, y north)
 
 
 def state_text(state) -> str:
@@ -147,9 +145,11 @@ def _turn_cells(domain, cycle: np.ndarray) -> list[tuple[int, int]]:
 
 
 def _truth(scenario: Scenario, result: RunResult) -> str:
-    """What is really damaged: in the grid world the scenario's success probabilities below 0.9;
-    in the physics world the motor strengths the robots drive with (the grid probabilities are
-    then only what the scenario would mean on the grid, not what L watches)."""
+    """What is really damaged: in the grid world the success probabilities the scenario's
+    definition of damage (``[faults]``, the one the verdicts are held against) counts as
+    damaged; in the physics world the motor strengths the robots drive with (the grid
+    probabilities are then only what the scenario would mean on the grid, not what L
+    watches)."""
     world_truth = result.extras.truth() if result.extras is not None else None
     if world_truth is not None:
         return world_truth
@@ -157,7 +157,7 @@ def _truth(scenario: Scenario, result: RunResult) -> str:
         f"{r.name}:{f}={p:g}"
         for r in scenario.robots
         for f, p in r.feature_probabilities.items()
-        if p < 0.9
+        if scenario.faults.damaged(f, p)
     ]
     return f"truth: {', '.join(damaged) or 'no damage'}"
 

@@ -104,8 +104,8 @@ class IRLProblem:
     transitions : sparse array or ndarray of shape (S·A, S)
         The robot's transition model (learned by mIRL*/T, or fixed); kept as given, so that a
         caller can tell which model an estimator was fitted with.
-    discount : float, default 0.95
-        The robot's discount factor γ.
+    discount : float
+        The robot's discount factor γ, in [0, 1).
     visible : ndarray of shape (S,) of bool, optional
         The states L can observe (all if None). Observed states are always treated as
         observable.
@@ -119,7 +119,7 @@ class IRLProblem:
 
     features: np.ndarray
     transitions: sp.sparray | np.ndarray
-    discount: float = 0.95
+    discount: float
     visible: np.ndarray | None = None
 
     def __post_init__(self) -> None:

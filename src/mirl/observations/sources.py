@@ -22,6 +22,7 @@ from mirl.observations.discretise import Discretised, discretise
 from mirl.observations.poses import PoseError, PoseTracks, read_pose_csv
 from mirl.observations.tf import TF_TYPE
 from mirl.observations.trajectories import Trajectories, TrajectoryError, read_csv
+from mirl.world.actions import STEP_SECONDS
 from mirl.world.scenario import Scenario
 
 __all__ = [
@@ -230,7 +231,8 @@ def load_observations(
         For a bag, topic → robot (required); for a pose CSV, an optional renaming of the file's
         robot names.
     step_seconds : float, optional
-        Pose data: seconds a decision step; 2 if None.
+        Pose data: seconds a decision step; :data:`~mirl.world.actions.STEP_SECONDS` (2) if
+        None.
     start_time : float, optional
         Pose data: the time of step 0; the first pose's if None.
     tolerance : float, optional
@@ -290,7 +292,7 @@ def load_observations(
     d = discretise(
         tracks,
         scenario,
-        step_seconds=2.0 if step_seconds is None else step_seconds,
+        step_seconds=STEP_SECONDS if step_seconds is None else step_seconds,
         start_time=start_time,
         tolerance=tolerance,
         drop_off_map=drop_off_map,
