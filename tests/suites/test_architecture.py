@@ -217,7 +217,8 @@ def test_tables_are_registries_found_by_the_string_switch_test():
     found = {key.split(":")[1] for key in _tables()}
     for table in ("METHODS", "FORMATS", "KINDS", "EXPERIMENTS", "SECTIONS", "GO_RULES",
                   "HAZARDS", "BELIEF_MODES", "IRL_OBJECTIVES", "IRL_OPTIMIZERS", "EM_INITS",
-                  "REWARD_BUILDERS", "TRANSITION_BUILDERS"):  # fmt: skip
+                  "REWARD_BUILDERS", "TRANSITION_BUILDERS", "FEATURE_SOLVERS", "LABELLINGS",
+                  "WORLDS", "GRADIENTS", "ANCHORS"):  # fmt: skip
         assert table in found, table
     assert set(CARRIED_OUT_BY) <= set(_tables()), "stale entries"
 

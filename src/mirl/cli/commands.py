@@ -339,27 +339,20 @@ def _nothing_placed(report) -> str:
 
 @command("learn-transitions")
 def _learn_transitions(args: argparse.Namespace) -> int:
-    from mirl.learning.transitions import (
-        TransitionFeatureLearner,
-        observed_steps,
-        perception_labels,
-        policy_labels,
-    )
+    from mirl.learning.options import LABELLINGS
+    from mirl.learning.transitions import TransitionFeatureLearner, observed_steps
 
     scenario = _load_scenario(args)
     domain = scenario.domain
     obs = _read_observations(args, scenario).trajectories
     check_observations(args.observations, obs, domain)
     series = [obs.state_series(domain, i) for i in range(len(scenario.robots))]
-    if args.labels == "true-policy":
-        # Known R/T setting: the scenario's true policies and played equilibrium label the steps
-        policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
-        labels = policy_labels(domain, series, policies, scenario.played_equilibrium)
+    labels = LABELLINGS[args.labels].load()(scenario, series)
     learned = {}
     for i, name in enumerate(scenario.robot_names):
         t, s, s_next = observed_steps(series[i])
-        a = labels[i][t] if args.labels == "true-policy" else perception_labels(domain, s, s_next)
-        learned[name] = TransitionFeatureLearner(domain, scenario.error_model).fit(s, a, s_next)
+        fit = TransitionFeatureLearner(domain, scenario.error_model).fit
+        learned[name] = fit(s, labels[i][t], s_next)
     if args.json:
         print_json({n: m.feature_probabilities_ for n, m in learned.items()})
         return 0

@@ -29,7 +29,7 @@ from mirl.cli.flags import (
 )
 from mirl.experiments.options import RunProtocol, SweepOptions
 from mirl.learning.methods import LEARNING_METHODS, METHODS
-from mirl.learning.options import DEFAULT_P, EM_INITS, LearnOptions
+from mirl.learning.options import DEFAULT_P, EM_INITS, LABELLINGS, LearnOptions
 from mirl.world.actions import STEP_SECONDS
 from mirl.worlds import WORLDS
 
@@ -449,9 +449,10 @@ def _data_parsers(sub) -> None:
     _observation_args(lt)
     lt.add_argument(
         "--labels",
-        choices=("true-policy", "perception"),
+        choices=tuple(LABELLINGS),
         default="true-policy",
-        help="label observed steps with the true policy (Known R/T) or by perception",
+        help="how observed steps are labelled with actions: "
+        + "; ".join(f"{r.name}: {r.description}" for r in LABELLINGS.values()),
     )
     lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
     cv = sub.add_parser(

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from importlib import import_module
 from typing import Any
 
-from mirl._registry import Registry
+from mirl._registry import Registry, Strategy, check_entry_point
 from mirl._validation import (
     SEED,
     Boolean,
@@ -60,8 +60,9 @@ MIN_TRAVEL = 20
 
 
 @dataclass(frozen=True)
-class GoRule:
-    """One row of the table of go rules.
+class GoRule(Strategy):
+    """One row of the table of go rules; ``load()`` gives its strategy class, a
+    :class:`~mirl.experiments.go_rules.GoRuleStrategy`.
 
     Parameters
     ----------
@@ -73,21 +74,6 @@ class GoRule:
         Its strategy's class, ``"module:Class"`` (in :mod:`mirl.experiments.go_rules`),
         imported when a run uses it.
     """
-
-    name: str
-    description: str
-    entry_point: str
-
-    def load(self) -> Any:
-        """The rule's strategy class.
-
-        Returns
-        -------
-        type
-            A :class:`~mirl.experiments.go_rules.GoRuleStrategy` class.
-        """
-        module, _, attr = self.entry_point.partition(":")
-        return getattr(import_module(module), attr)
 
 
 GO_RULES: Registry[GoRule] = Registry(
@@ -105,6 +91,7 @@ GO_RULES: Registry[GoRule] = Registry(
             "mirl.experiments.go_rules:ValueRule",
         ),
     ),
+    check=lambda rule: check_entry_point(rule.entry_point, f"go rule '{rule.name}': entry point"),
 )
 """How L decides to go, by name (docs/design.md, "The go rule")."""
 

@@ -80,7 +80,7 @@ from mirl.learning.results import LearnResult, RobotModel, behavior_accuracy, or
 from mirl.learning.transitions import (
     TransitionFeatureLearner,
     observed_steps,
-    perception_labels,
+    perceived_labels,
     policy_labels,
 )
 from mirl.learning.verdicts import (
@@ -550,13 +550,7 @@ class RoundSetup:
 
 def perception(setup: RoundSetup) -> list[np.ndarray]:
     """Per robot (horizon,) perception labels of the steps with both ends observed, else -1."""
-    out = []
-    for x in setup.series:
-        lab = np.full(len(x), -1, dtype=int)
-        t, s, s_next = observed_steps(x)
-        lab[t] = perception_labels(setup.domain, s, s_next)
-        out.append(lab)
-    return out
+    return perceived_labels(setup.scenario, setup.series)
 
 
 def warm_labels(setup: RoundSetup) -> list[np.ndarray]:

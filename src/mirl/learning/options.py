@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any
 
-from mirl._registry import Registry
+from mirl._registry import Registry, Strategy, check_entry_point
 from mirl._validation import Instance, Interval, OneOf, Options, option
 from mirl.learning.methods import (
     METHODS,
@@ -30,6 +30,7 @@ __all__ = [
     "IRL_OPTIMIZERS",
     "Optimizer",
     "EM_INITS",
+    "LABELLINGS",
     "DEFAULT_P",
 ]
 
@@ -73,6 +74,25 @@ EM_INITS = Registry.of_choices("EM initialisation", {
     "uniform": "uniform over all states",
 })  # fmt: skip
 """DBN-EM's initial transition models (:func:`~mirl.learning.dbn_em.initial_transitions`)."""
+
+LABELLINGS: Registry[Strategy] = Registry(
+    "labelling",
+    (
+        Strategy(
+            "true-policy",
+            "the scenario's true policies and played equilibrium label the steps (Known R/T)",
+            "mirl.learning.transitions:true_policy_labels",
+        ),
+        Strategy(
+            "perception",
+            "each step is labelled with the action whose intended outcome L saw",
+            "mirl.learning.transitions:perceived_labels",
+        ),
+    ),
+    check=lambda row: check_entry_point(row.entry_point, f"labelling '{row.name}': entry point"),
+)
+"""How ``mirl learn-transitions`` labels the observed steps with actions; a row's entry point is
+``labels(scenario, series_list)``, per robot its (horizon,) labels, -1 where unlabelled."""
 
 DEFAULT_P = 0.9
 """The success probability of every action for the methods with a fixed T, when ``p`` is None."""
