@@ -364,8 +364,8 @@ class OccludedMaxEntIRL:
         PT = self._dyn.transposed_policy(pi)
         loss = self.l2 * float(theta @ theta)
         g = 2 * self.l2 * theta
-        counts = self.objective in ("counts", "both")
-        actions = self.objective in ("likelihood", "both")
+        terms = OBJECTIVES[self.objective]
+        counts, actions = terms.counts, terms.likelihood
         dpi: np.ndarray | None = None
         dPT: sp.csr_array | None = None
         if grad:
@@ -376,7 +376,7 @@ class OccludedMaxEntIRL:
             # dπ(a|s)/dθ = π (dQ(s,a) − Σ_b π dQ(s,b)) / τ
             dQ_c = dQ - np.einsum("sa,sak->sk", pi, dQ)[:, None, :]
             dpi = pi[:, :, None] * dQ_c / self.temperature  # (S, A, K)
-        reverse = grad and self.objective == "sequence" and self._reverse_mode()
+        reverse = grad and terms.sequence and self._reverse_mode()
         if dpi is not None and (counts or not reverse):  # forward mode needs dP_πᵀ/dθ itself
             dPT = self._dyn.transposed_policy(dpi)
         B = self._forward_operator(PT, dPT)
@@ -394,7 +394,7 @@ class OccludedMaxEntIRL:
                 )
                 expert_g = dphi_pi[self._unl_s].sum(axis=0)
                 g = g + 2 * (diff @ (expected_g - expert_g)) / self._n_obs
-        if self.objective == "sequence":
+        if terms.sequence:
             if reverse:
                 ll, g_ll = self._sequence.loglik_reverse(pi, PT, self._vis, dpi)
             else:

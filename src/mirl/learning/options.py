@@ -27,6 +27,7 @@ from mirl.learning.methods import (
 __all__ = [
     "LearnOptions",
     "IRL_OBJECTIVES",
+    "Objective",
     "IRL_OPTIMIZERS",
     "Optimizer",
     "EM_INITS",
@@ -34,12 +35,49 @@ __all__ = [
     "DEFAULT_P",
 ]
 
-IRL_OBJECTIVES = Registry.of_choices("objective", {
-    "counts": "the paper's: squared difference of feature counts on observed steps",
-    "likelihood": "log-likelihood of the observed labelled actions",
-    "both": "counts and likelihood added",
-    "sequence": "log-likelihood of everything L saw of the robot, occlusion included",
-})  # fmt: skip
+@dataclass(frozen=True)
+class Objective:
+    """What the IRL fits: the terms its loss adds up.
+
+    Parameters
+    ----------
+    name : str
+        What ``objective`` takes.
+    description : str
+        What it is.
+    counts : bool, default False
+        Whether the loss has the squared difference of feature counts on the observed steps.
+    likelihood : bool, default False
+        Whether it has the negative log-likelihood of the observed labelled actions.
+    sequence : bool, default False
+        Whether it has the negative log-likelihood of everything L saw, occlusion included.
+    """
+
+    name: str
+    description: str
+    counts: bool = False
+    likelihood: bool = False
+    sequence: bool = False
+
+
+def _adds_a_term(row: Objective) -> None:
+    if not (row.counts or row.likelihood or row.sequence):
+        raise ValueError(f"objective '{row.name}' adds no term to the loss")
+
+
+IRL_OBJECTIVES: Registry[Objective] = Registry(
+    "objective",
+    (
+        Objective("counts", "the paper's: squared difference of feature counts on observed "
+                  "steps", counts=True),
+        Objective("likelihood", "log-likelihood of the observed labelled actions",
+                  likelihood=True),
+        Objective("both", "counts and likelihood added", counts=True, likelihood=True),
+        Objective("sequence", "log-likelihood of everything L saw of the robot, occlusion "
+                  "included", sequence=True),
+    ),
+    check=_adds_a_term,
+)  # fmt: skip
 """What :class:`~mirl.learning.irl.OccludedMaxEntIRL` fits (its module docstring)."""
 
 
