@@ -149,8 +149,10 @@ def test_help_shows_defaults_and_a_switch_as_off():
     parser = OneLineParser(prog="mirl demo")
     parser.add_argument("--runs", type=int, default=20, help="runs")
     parser.add_argument("--learn-once", action="store_true", help="learn once")
-    text = parser.format_help()
+    parser.add_argument("--p", type=float, help="fixed p (None: 0.9)")
+    text = " ".join(parser.format_help().split())
     assert "runs (default: 20)" in text and "learn once (default: off)" in text
+    assert "fixed p (None: 0.9)" in text and "default: None" not in text
 
 
 def test_library_messages_name_the_flags():

@@ -396,13 +396,16 @@ def _experiment(args: argparse.Namespace) -> int:
     suffix = "" if options.world == DEFAULT_WORLD else f"-{options.world}"
     out = args.out or f"results/{exp.name}{suffix}"
     summary = run_experiment(exp, out, options)
-    from mirl.viz.report import write_report
+    from mirl.viz.report import write_report_and_figures
 
-    report = write_report(out)
-    print(
-        f"wrote {out}/results.sqlite, {out}/results.csv, {report} and the figures in "
-        f"{out}/figures/ (`mirl report {out}` redraws them)"
+    written = write_report_and_figures(out)
+    figures = (
+        f" and {len(written.figures)} figure files in {out}/figures/ (`mirl report {out}` "
+        "redraws them)"
+        if written.figures
+        else " (no figures: the experiment has none to draw)"
     )
+    print(f"wrote {out}/results.sqlite, {out}/results.csv, {written.report}{figures}")
     return 1 if summary.outcomes.get("error") else 0
 
 

@@ -40,11 +40,14 @@ MAX_STEPS = 1_000_000  # `simulate --steps`: the record is 2 x 3 int64 per step 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
     """Defaults in help; a switch's is "off" (its option's value is the flag's opposite when
-    the flag turns a default of True over, as ``--learn-once`` does ``relearn``)."""
+    the flag turns a default of True over, as ``--learn-once`` does ``relearn``); a flag left
+    out by default shows none (its help says what leaving it out means: "None: 0.9")."""
 
     def _get_help_string(self, action: argparse.Action) -> str | None:
         if isinstance(action, argparse._StoreTrueAction | argparse._StoreFalseAction):
             return f"{action.help} (default: off)"
+        if action.default is None:
+            return action.help
         return super()._get_help_string(action)
 
 

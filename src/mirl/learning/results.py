@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -67,6 +68,29 @@ class RobotModel:
     feature_intervals: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     verdict: Verdict | None = None
     lateral_drift: LateralDrift | None = None
+
+    def uncertainty(self) -> dict[str, Any]:
+        """What the model says of its own certainty, in its JSON form (``mirl learn --json``'s
+        per robot, ``mirl run --json``'s per key); empty for a model without a verdict.
+
+        Returns
+        -------
+        dict
+            ``feature_intervals`` (per feature [lo, hi], rounded to 4 places), ``verdict`` and,
+            where poses gave one, ``lateral_drift``.
+        """
+        if self.verdict is None:
+            return {}
+        out: dict[str, Any] = {
+            "feature_intervals": {
+                f: [round(float(lo), 4), round(float(hi), 4)]
+                for f, (lo, hi) in self.feature_intervals.items()
+            },
+            "verdict": self.verdict.to_dict(),
+        }
+        if self.lateral_drift is not None:
+            out["lateral_drift"] = self.lateral_drift.to_dict()
+        return out
 
 
 @dataclass(frozen=True, eq=False)
