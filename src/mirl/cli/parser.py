@@ -9,6 +9,7 @@ default and its help. The tables (methods, worlds, experiments, go rules) give t
 from __future__ import annotations
 
 import argparse
+from functools import partial
 from typing import Any
 
 from mirl._validation import Boolean, Options
@@ -96,11 +97,11 @@ def _learn_parser(sub) -> None:
         default="mirl-t",
         help="learning method (mirl-t is the paper's mIRL*/T+Int; see README 'Methods')",
     )
-    _p_arg(le)
     _observability_arg(le, "degree the observations were taken at (default: the scenario's)")
-    for name in ("max_iterations", "label_tol", "objective", "optimizer"):
-        _option(le, LearnOptions, name)
-    _em_init_arg(le)
+    # every option of learning that has a flag is a flag of learn: a new one needs no line here
+    for name, spec in LearnOptions.__options__.items():
+        if spec.flag is not None:
+            {"p": _p_arg, "em_init": _em_init_arg}.get(name, partial(_learn_option, name=name))(le)
     _max_memory_arg(le)
     le.add_argument(
         "--compare",
@@ -257,6 +258,10 @@ def _protocol_args(sp: argparse.ArgumentParser) -> None:
         help=f"learn once after observing, as published (default: re-learn while waiting, "
         f"whenever the record has grown {growth:g}x)",
     )  # fmt: skip
+
+
+def _learn_option(sp: argparse.ArgumentParser, *, name: str) -> None:
+    _option(sp, LearnOptions, name)
 
 
 def _p_arg(sp: argparse.ArgumentParser) -> None:
