@@ -3,14 +3,33 @@ text form printed without ``--json``."""
 
 from __future__ import annotations
 
-__all__ = ["drift_line", "learn_record", "print_learn", "verdict_sentence"]
+from mirl.world.motion import WHEELS
+
+__all__ = [
+    "drift_line",
+    "learn_record",
+    "print_learn",
+    "verdict_sentence",
+    "feature_lines",
+    "motion_line",
+]
 
 
 def verdict_sentence(robot: str, record: dict) -> str:
     """A verdict's JSON record (:meth:`~mirl.learning.verdicts.Verdict.to_dict`) in words."""
+    from mirl.learning.model_check import Check, ModelFit
     from mirl.learning.verdicts import Verdict
 
-    verdict = Verdict(record["part"], record["confidence"], tuple(record["candidates"]))
+    fit = None
+    if "fit" in record:  # only its words are needed here
+        fit = ModelFit((Check("record", record["fit"]["ok"], None, record["fit"]["reason"]),))
+    verdict = Verdict(
+        record["part"],
+        record["confidence"],
+        tuple(record["candidates"]),
+        fit=fit,
+        seen_moving=record.get("seen_moving", True),
+    )
     return verdict.sentence(robot)
 
 
@@ -77,21 +96,102 @@ def drift_line(record: dict) -> str:
 
 
 def _uncertainty(robot) -> dict:
-    """``feature_intervals`` (95 %, [lo, hi]) and ``verdict`` of a model that has them."""
+    """``feature_intervals`` (95 %, [lo, hi]), ``feature_medians``, the motion models,
+    the parts the steps cannot tell apart and ``verdict`` of a model that has them."""
     if robot.verdict is None:
         return {}
-    return {
+    u = robot.uncertainty
+    out: dict = {
         "feature_intervals": {
             f: [round(float(lo), 4), round(float(hi), 4)]
             for f, (lo, hi) in robot.feature_intervals.items()
-        },
-        "verdict": robot.verdict.to_dict(),
-        **(
-            {"lateral_drift": robot.lateral_drift.to_dict()}
-            if robot.lateral_drift is not None
-            else {}
-        ),
+        }
     }
+    if u is not None:
+        out["feature_medians"] = {f: round(float(v), 4) for f, v in u.medians.items()}
+        out["motion_model"] = robot.motion_model
+        out["motion_models"] = {m: round(float(w), 4) for m, w in u.motion_models.items()}
+        out["indistinguishable"] = [
+            {
+                "features": list(g),
+                "told_apart_by": "drift" if u.sided_by_drift and set(g) == set(WHEELS) else None,
+            }
+            for g in u.indistinguishable
+        ]
+    out["verdict"] = robot.verdict.to_dict()
+    if robot.lateral_drift is not None:
+        out["lateral_drift"] = robot.lateral_drift.to_dict()
+    return out
+
+
+def feature_lines(r: dict) -> list[str]:
+    """A robot's features, intervals and, where Eq. 4's estimate lies outside its interval, the
+    posterior's medians as the answer and Eq. 4's labelled as the paper's estimate — one
+    answer per question (docs/design.md, "Fault verdicts")."""
+    from mirl.learning.verdicts import estimate_outside_interval
+
+    probs = r["feature_probabilities"]
+    spans = r.get("feature_intervals")
+    same = _same_value_note(r)
+    if not spans:
+        return [f"features      {_values(probs, '=', 3)}{same}"]
+    interval = "  ".join(f"{k} {lo:.2f}–{hi:.2f}" for k, (lo, hi) in spans.items())
+    if not estimate_outside_interval(probs, spans) or "feature_medians" not in r:
+        return [f"features      {_values(probs, '=', 3)}{same}", f"95 % interval {interval}"]
+    return [
+        f"features      {_values(r['feature_medians'], ' ', 2)}  (the posterior's medians){same}",
+        f"95 % interval {interval}",
+        f"Eq. 4         {_values(probs, '=', 3)}  (the paper's estimate, from the step outcomes "
+        "alone; L plans with it)",
+    ]
+
+
+def _values(values: dict, sep: str, digits: int) -> str:
+    return "  ".join(f"{k}{sep}{v:.{digits}f}" for k, v in values.items())
+
+
+def _same_value_note(r: dict) -> str:
+    """The parts the steps cannot tell apart, as a note for the features line."""
+    notes = []
+    for group in r.get("indistinguishable", []):
+        names = " and ".join(group["features"])
+        side = (
+            "; the drift tells the side" if group["told_apart_by"] == "drift" else ""
+        )
+        notes.append(f"{names}: the steps cannot tell them apart{side}")
+    return f"  ({'; '.join(notes)})" if notes else ""
+
+
+def motion_line(r: dict) -> str | None:
+    """The motion models' weights and the one L plans with, in words."""
+    from mirl.learning.motion_models import describe_model
+
+    weights = r.get("motion_models")
+    if not weights:
+        return None
+    best = max(weights, key=weights.get)
+    others = ", ".join(f"{m} {w:.2f}" for m, w in weights.items() if m != best)
+    line = f"motion        {describe_model(best)} ({best}, {weights[best]:.2f}; {others})"
+    planned = r.get("motion_model")
+    if planned and planned != best:
+        line += f"; L plans with {planned}, the scenario's, which the record does not reject"
+    return line
+
+
+def record_lines(verdict: dict) -> list[str]:
+    """What the verdict left out of the record, and what would make a misfit record fit."""
+    from mirl.cli.flags import in_flags
+
+    fit = verdict.get("fit")
+    if not fit:
+        return []
+    lines = []
+    left = ", ".join(f"{n} {why}" for why, n in fit.get("left_out", {}).items())
+    if left:
+        lines.append(f"left out      {left}")
+    if fit.get("fix"):
+        lines.append(f"to fit        {in_flags(fit['fix'])}")
+    return lines
 
 
 def _observed_line(m: dict) -> str:
@@ -119,8 +219,6 @@ def _pair_labels(result, scenario) -> dict:
 
 def print_learn(out: dict, result, scenario_name: str) -> None:
     """The text form of ``mirl learn``'s result."""
-    from mirl.learning.verdicts import estimate_outside_interval, outside_interval_note
-
     robots = out["robots"]
     print(
         f"{result.method} on {scenario_name}: {out['observations']} ({out['steps']} steps, "
@@ -130,18 +228,19 @@ def print_learn(out: dict, result, scenario_name: str) -> None:
         print(f"robot {name}")
         print("  weights       " + "  ".join(f"{k}={v:.3f}" for k, v in r["weights"].items()))
         probs = r["feature_probabilities"]
-        line = "  ".join(f"{k}={v:.3f}" for k, v in probs.items()) if probs else result.message
-        print(f"  features      {line}")
-        if "feature_intervals" in r:
-            spans = "  ".join(
-                f"{k} {lo:.2f}–{hi:.2f}" for k, (lo, hi) in r["feature_intervals"].items()
-            )
-            print(f"  95 % interval {spans}")
-            if estimate_outside_interval(probs, r["feature_intervals"]):
-                print("  " + outside_interval_note("lateral_drift" in r))
-            if "lateral_drift" in r:
-                print("  " + drift_line(r["lateral_drift"]))
+        if not probs:
+            print(f"  features      {result.message}")
+        for line in feature_lines(r) if probs else []:
+            print(f"  {line}")
+        motion = motion_line(r)
+        if motion is not None:
+            print(f"  {motion}")
+        if "lateral_drift" in r:
+            print("  " + drift_line(r["lateral_drift"]))
+        if "verdict" in r:
             print(f"  verdict       {verdict_sentence(name, r['verdict'])}")
+            for line in record_lines(r["verdict"]):
+                print(f"  {line}")
         if r["behavior_accuracy"] is not None:
             print(f"  behaviour accuracy {r['behavior_accuracy']:.3f} (vs the scenario's truth)")
         if "observed_moves" in r:

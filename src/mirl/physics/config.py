@@ -14,6 +14,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import TYPE_CHECKING, Any
 
+from mirl.world.motion import PIVOTS, WHEELS, turns_without_wheels
+
 if TYPE_CHECKING:
     from mirl.world.domain import FeatureMap
 
@@ -26,9 +28,6 @@ __all__ = [
     "WHEELS",
     "PIVOTS",
 ]
-
-WHEELS = ("left_wheel", "right_wheel")
-PIVOTS = ("turn_left", "turn_right")
 
 
 def physical_feature_map(feature_map: FeatureMap) -> FeatureMap:
@@ -45,8 +44,7 @@ def physical_feature_map(feature_map: FeatureMap) -> FeatureMap:
     near 1 and blame the other one for every forward failure (docs/design.md, "Fault
     verdicts").
     """
-    wheels = [w for w in WHEELS if w in feature_map.features]
-    return feature_map.without(wheels, PIVOTS)
+    return turns_without_wheels(feature_map)
 
 
 PHYSICAL_ERROR_MODEL = "stop"

@@ -1,0 +1,352 @@
+"""Does a robot's record fit L's motion models? A posterior-predictive check before a verdict
+(docs/design.md, "Fault verdicts").
+
+A verdict is a probability computed under L's models of motion
+(:mod:`mirl.learning.motion_models`); where the record shows what no model of them produces,
+that probability is not one of the world. Each check compares a statistic of the record with
+what the models, at their posterior, predict for it (a posterior-predictive check, Gelman, Meng
+& Stern 1996), or with a tolerance where the models predict none at all:
+
+* **Unexplained steps** — a next state that no action's intended state is (a move across two
+  cells, a jump sideways, a turn and a move in one step). No model produces one; a tracker's
+  misreads do, now and then. The check fails when they are more than a tolerated share of
+  misreads (:data:`MISREAD_RATE`) makes plausible (a binomial tail below :data:`ALPHA`); moves
+  longer than one cell say the record's time step is too long for the robot's pace.
+* **Stalls** — the longest run of consecutive steps on which the robot stayed put. Under the
+  models each step stays put with its own probability (a failed move, a stop), consecutive
+  steps correlated as far as the record's dispersion grants (a two-state Markov chain with the
+  lag-1 correlation of :func:`~mirl.learning.verdicts.failure_dispersion`); the chance of a run
+  this long somewhere in the record is the Poisson clumping approximation (Arratia, Goldstein
+  & Gordon 1990), averaged over the posterior. A robot jammed against an unseen robot or wedged
+  on a wall stalls longer than any failure rate explains.
+* **Jams** — steps on which the robot stayed put while another robot L saw was within one cell
+  (beside, behind, diagonally: the steps with one in the robot's cell or the cell ahead are no
+  evidence of its parts in the first place, :func:`~mirl.learning.verdicts.held_by_others`).
+  The models say a step stays put as often next to another robot as anywhere; physical robots
+  touching say otherwise.
+* **Moves** — how often the robot moved forward, turned and stayed put, against how often the
+  models with L's policy say it would (a χ² discrepancy averaged over the posterior; turns
+  left and right pooled, because which way a robot turns round at a patrol's end is a tie L
+  may break otherwise than the robot, which says nothing of its parts). L's policy is L's
+  estimate of what the robot meant to do; where it is wrong — a robot that stood in a queue
+  for half its record can teach the IRL that it likes to stop — every failure lands on the
+  wrong part.
+* **Few trials** — a feature whose Eq. 4 estimate is pinned at 0 or 1 by fewer than
+  :data:`PINNED_TRIALS` trials of the subsets that fix it: a fit the steps barely inform, where
+  a few misread steps decide.
+
+Steps a failed check points at (the unexplained steps, the stalled runs, the stays in a jam)
+are *misfit steps*: the verdict leaves them out, never counting them as failures of a part, and
+says what it left out and why. A failed check also tempers the verdict
+(:data:`~mirl.learning.verdicts.MODEL_TRUST`): a probability computed under models the record
+does not fit is not L's to state as high.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import binom, chi2, norm
+
+__all__ = [
+    "ALPHA",
+    "MISREAD_RATE",
+    "PINNED_TRIALS",
+    "MOVES_SHARE",
+    "Check",
+    "ModelFit",
+    "check_unexplained",
+    "check_stalls",
+    "check_jams",
+    "check_moves",
+    "MOVE_KINDS",
+    "check_pinned",
+    "stay_runs",
+    "longest_run_tail",
+    "model_fit",
+]
+
+ALPHA = 1e-3
+"""A check fails when the record's statistic is this improbable under the models."""
+MISREAD_RATE = 0.03
+"""The share of steps a tracker may misread (a heading or a cell at a boundary) before
+unexplained steps count against the models."""
+PINNED_TRIALS = 10
+"""Fewer trials than this do not pin a feature at 0 or 1."""
+MOVES_SHARE = 0.05
+"""The share of steps by which the kinds of moves must be off for the moves check to fail: a
+third of the damage margin (0.15), so that what the check lets pass cannot move a part's
+success probability across the margin by itself."""
+
+
+@dataclass(frozen=True)
+class Check:
+    """One check's outcome.
+
+    Parameters
+    ----------
+    name : str
+        ``"unexplained"``, ``"stalls"``, ``"jams"`` or ``"few trials"``.
+    ok : bool
+    p_value : float or None
+        How probable a statistic this extreme is under the models (None: not a tail test).
+    reason : str
+        What the record shows, in words (empty when ok).
+    fix : str
+        What would make the record fit (empty when nothing in the user's hands would).
+    misfit : ndarray of int
+        Indices (into the steps checked) of the steps the failure points at.
+    """
+
+    name: str
+    ok: bool
+    p_value: float | None = None
+    reason: str = ""
+    fix: str = ""
+    misfit: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+
+    def to_dict(self) -> dict:
+        out: dict = {"ok": self.ok}
+        if self.p_value is not None:
+            out["p_value"] = float(f"{self.p_value:.3g}")
+        if self.reason:
+            out["reason"] = self.reason
+        return out
+
+
+@dataclass(frozen=True)
+class ModelFit:
+    """Whether a robot's record fits L's motion models, and what was left out.
+
+    Parameters
+    ----------
+    checks : tuple of Check
+    left_out : mapping of str to int
+        Steps left out of the verdict's evidence, by reason (misfit steps, and steps in
+        another robot's way).
+    """
+
+    checks: tuple[Check, ...] = ()
+    left_out: Mapping[str, int] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return all(c.ok for c in self.checks)
+
+    @property
+    def reason(self) -> str:
+        """The failed checks in words (empty when the record fits)."""
+        return "; ".join(c.reason for c in self.checks if not c.ok)
+
+    @property
+    def fix(self) -> str:
+        """What would make the record fit."""
+        return "; ".join(dict.fromkeys(c.fix for c in self.checks if not c.ok and c.fix))
+
+    def to_dict(self) -> dict:
+        out: dict = {"ok": self.ok, "reason": self.reason}
+        if self.fix:
+            out["fix"] = self.fix
+        out["checks"] = {c.name: c.to_dict() for c in self.checks}
+        out["left_out"] = {k: int(v) for k, v in self.left_out.items() if v}
+        return out
+
+
+# ---- unexplained steps --------------------------------------------------------------------------
+def check_unexplained(
+    unexplained: np.ndarray, long_moves: np.ndarray, *, rate: float = MISREAD_RATE
+) -> Check:
+    """Unexplained steps (bool, one per observed step) against a tolerated misread ``rate``;
+    ``long_moves`` marks those that moved more than one cell."""
+    unexplained = np.asarray(unexplained, dtype=bool)
+    n, k = len(unexplained), int(unexplained.sum())
+    misfit = np.flatnonzero(unexplained)
+    if k == 0:
+        return Check("unexplained", True, 1.0, misfit=misfit)
+    p = float(binom.sf(k - 1, n, rate))
+    if p >= ALPHA:
+        return Check("unexplained", True, p, misfit=misfit)
+    n_long = int(np.asarray(long_moves, dtype=bool)[unexplained].sum())
+    reason = f"{k} of {n} observed steps are explained by no action"
+    fix = ""
+    if n_long:
+        reason += f" ({n_long} moved more than one cell in one step)"
+        fix = "a shorter time step (`step_seconds`), at which a move is one cell"
+    return Check("unexplained", False, p, reason, fix, misfit)
+
+
+# ---- stalls -------------------------------------------------------------------------------------
+def stay_runs(t: np.ndarray, stayed: np.ndarray) -> list[np.ndarray]:
+    """The runs of consecutive steps (times ``t`` one apart) on which the robot stayed put, as
+    arrays of indices into ``t``."""
+    t, stayed = np.asarray(t, dtype=int), np.asarray(stayed, dtype=bool)
+    runs: list[np.ndarray] = []
+    start = None
+    for i in range(len(t) + 1):
+        going_on = i < len(t) and stayed[i] and start is not None and t[i] == t[i - 1] + 1
+        if going_on:
+            continue
+        if start is not None:
+            runs.append(np.arange(start, i))
+            start = None
+        if i < len(t) and stayed[i]:
+            start = i
+    return runs
+
+
+def longest_run_tail(q: np.ndarray, t: np.ndarray, length: int, rho: float = 0.0) -> np.ndarray:
+    """P(some run of at least ``length`` consecutive stays) under stay probabilities ``q``
+    (r, n) — r draws, n steps at times ``t`` — with lag-1 correlation ``rho`` between consecutive
+    steps (a two-state Markov chain: P(stay | stayed) = q + ρ (1 − q), P(stay | moved) =
+    q (1 − ρ)); the Poisson clumping approximation 1 − exp(−E[runs of that length begun])."""
+    q = np.clip(np.atleast_2d(np.asarray(q, dtype=float)), 1e-12, 1 - 1e-12)
+    t = np.asarray(t, dtype=int)
+    r, n = q.shape
+    if length < 1 or n < length:
+        return np.zeros(r) if length >= 1 else np.ones(r)
+    follows = np.zeros(n, dtype=bool)
+    follows[1:] = np.diff(t) == 1
+    stay_after_stay = q + rho * (1 - q)
+    stay_after_move = q * (1 - rho)
+    # log P(stays at i+1 … i+length-1 | stayed at i), 0 where a gap breaks the stretch
+    csum = np.concatenate([np.zeros((r, 1)), np.cumsum(np.log(stay_after_stay), axis=1)], axis=1)
+    breaks = np.concatenate([[0], np.cumsum(~follows)])
+    idx = np.arange(n - length + 1)
+    log_chain = csum[:, idx + length] - csum[:, idx + 1]
+    unbroken = breaks[idx + length] == breaks[idx + 1]
+    log_chain = np.where(unbroken[None, :], log_chain, -np.inf)
+    # a run begins at i: a stay after a move (or after a gap, or at the first step)
+    first = q.copy()
+    after = np.flatnonzero(follows)
+    first[:, after] = (1 - q[:, after - 1]) * stay_after_move[:, after]
+    expected = (first[:, idx] * np.exp(log_chain)).sum(axis=1)
+    return -np.expm1(-expected)
+
+
+def check_stalls(
+    t: np.ndarray, stayed: np.ndarray, q: np.ndarray, rho: float = 0.0
+) -> tuple[Check, int]:
+    """The record's longest stall against the posterior predictive (``q``: (r, n) stay
+    probabilities of r posterior draws at the n steps, times ``t``); also the shortest stall
+    length the models make improbable (runs this long are the misfit steps)."""
+    runs = stay_runs(t, stayed)
+    longest = max((len(r) for r in runs), default=0)
+    if longest == 0:
+        return Check("stalls", True, 1.0), 0
+    p = float(longest_run_tail(q, t, longest, rho).mean())
+    if p >= ALPHA:
+        return Check("stalls", True, p), 0
+    limit = longest
+    while limit > 1 and float(longest_run_tail(q, t, limit - 1, rho).mean()) < ALPHA:
+        limit -= 1
+    misfit = np.concatenate([r for r in runs if len(r) >= limit])
+    n_runs = sum(len(r) >= limit for r in runs)
+    reason = (
+        f"stood still for {longest} steps in a row ({n_runs} stall"
+        f"{'s' if n_runs > 1 else ''} of {limit} or more), longer than its failures explain "
+        f"(p = {p:.1g}): jammed or wedged"
+    )
+    return Check("stalls", False, p, reason, "", misfit), limit
+
+
+# ---- jams ---------------------------------------------------------------------------------------
+def check_jams(
+    stayed: np.ndarray, near: np.ndarray, q: np.ndarray, dispersion: float = 1.0
+) -> Check:
+    """Stays on the steps with another robot within one cell (``near``) against the posterior
+    predictive (``q``: (r, n) stay probabilities), a normal tail with the variance inflated by
+    the record's ``dispersion``."""
+    stayed, near = np.asarray(stayed, dtype=bool), np.asarray(near, dtype=bool)
+    k = int((stayed & near).sum())
+    if k == 0:
+        return Check("jams", True, 1.0)
+    qn = np.atleast_2d(q)[:, near]
+    mean, var = qn.sum(axis=1), (qn * (1 - qn)).sum(axis=1) * dispersion
+    p = float(norm.sf((k - 0.5 - mean) / np.sqrt(np.maximum(var, 1e-12))).mean())
+    if p >= ALPHA:
+        return Check("jams", True, p)
+    reason = (
+        f"stood still on {k} of {int(near.sum())} steps beside another robot, where its "
+        f"failures explain about {float(mean.mean()):.0f} (p = {p:.1g}): robots jammed"
+    )
+    return Check("jams", False, p, reason, "", np.flatnonzero(stayed & near))
+
+
+# ---- the kinds of moves -------------------------------------------------------------------------
+MOVE_KINDS = ("forward", "turn", "stay")
+"""The kinds of move the moves check counts: the intended states of forward, of either turn,
+and staying put (which a forward step into a wall is too)."""
+
+
+def check_moves(
+    observed: np.ndarray,
+    probabilities: np.ndarray,
+    dispersion: float = 1.0,
+    min_share: float = MOVES_SHARE,
+) -> Check:
+    """The record's counts of each kind of move against the posterior predictive.
+
+    ``observed`` (n,) is each step's kind (an index into :data:`MOVE_KINDS`); ``probabilities``
+    (r, n, k) the probability of each kind at each step under r posterior draws. For a draw,
+    the counts of a record drawn from it have mean E = Σ_t q_t and covariance
+    φ Σ_t (diag q_t − q_t q_tᵀ) (φ the record's ``dispersion``), and the record's Mahalanobis
+    distance from E is χ² with k − 1 degrees of freedom (the central limit theorem); p is its
+    tail, averaged over the draws (a posterior-predictive p-value). The check fails when that is
+    below :data:`ALPHA` and the counts are off by at least ``min_share`` of the steps (half the
+    sum of the kinds' differences): on a long record a few mislabelled steps are significant
+    and harmless."""
+    observed = np.asarray(observed, dtype=int)
+    q = np.asarray(probabilities, dtype=float)
+    r, n, k = q.shape
+    if n == 0 or r == 0:
+        return Check("moves", True, 1.0)
+    q = q / np.maximum(q.sum(axis=2, keepdims=True), 1e-300)
+    counts = np.bincount(observed, minlength=k)[:k].astype(float)
+    expected = q.sum(axis=1)  # (r, k)
+    cov = np.einsum("rnk,kl->rkl", q, np.eye(k)) - np.einsum("rnk,rnl->rkl", q, q)
+    cov = dispersion * cov + 1e-6 * np.eye(k)
+    diff = counts[None, :] - expected
+    d2 = np.einsum("rk,rk->r", diff, np.linalg.solve(cov, diff[:, :, None])[:, :, 0])
+    p = float(chi2.sf(d2, k - 1).mean())
+    mean = expected.mean(axis=0)
+    if p >= ALPHA or 0.5 * np.abs(counts - mean).sum() < min_share * n:
+        return Check("moves", True, p)
+    far = int(np.argmax(np.abs(counts - mean) / np.sqrt(np.maximum(mean, 1))))
+    reason = (
+        f"{_kind_words(far)} on {counts[far]:.0f} of {n} steps where L's policy and models "
+        f"expect about {mean[far]:.0f} (p = {p:.1g}): L's policy does not say what the robot "
+        "meant to do"
+    )
+    return Check("moves", False, p, reason)
+
+
+def _kind_words(kind: int) -> str:
+    return ("moved forward", "turned", "stayed put")[kind]
+
+
+# ---- few trials ---------------------------------------------------------------------------------
+def check_pinned(
+    probabilities: Mapping[str, float],
+    counts: Sequence[tuple[Sequence[str], float, float]],
+    *,
+    min_trials: int = PINNED_TRIALS,
+) -> Check:
+    """Eq. 4's estimates pinned at 0 or 1 (within 0.005) by fewer than ``min_trials`` trials of
+    the subsets holding the feature (``counts``: (subset, successes, trials))."""
+    pinned = []
+    for f, p in probabilities.items():
+        if 0.005 < p < 0.995:
+            continue
+        trials = sum(n for sub, _, n in counts if f in sub)
+        if 0 < trials < min_trials:
+            pinned.append(f"{f.replace('_', ' ')} at {p:.0f} by {trials:g} trials")
+    if not pinned:
+        return Check("few trials", True)
+    return Check("few trials", False, None, "Eq. 4 pins " + ", ".join(pinned))
+
+
+def model_fit(checks: Sequence[Check], left_out: Mapping[str, int]) -> ModelFit:
+    """The record's fit from its checks, and the steps left out of the evidence."""
+    return ModelFit(tuple(checks), dict(left_out))
