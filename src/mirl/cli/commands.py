@@ -497,7 +497,7 @@ def _learn(args: argparse.Namespace) -> int:
     else:
         if loaded.discretised is not None:
             print(f"{args.observations}: " + loaded.discretised.summary())
-        print_learn(out, result, scenario.name)
+        print_learn(out, result, scenario)
     return 0
 
 

@@ -124,11 +124,12 @@ def _uncertainty(robot) -> dict:
     return out
 
 
-def feature_lines(r: dict) -> list[str]:
-    """A robot's features, intervals and, where Eq. 4's estimate lies outside its interval, the
-    posterior's medians as the answer and Eq. 4's labelled as the paper's estimate — one
+def feature_lines(r: dict, definition) -> list[str]:
+    """A robot's features, intervals and, where Eq. 4's estimate and the posterior disagree
+    (:func:`~mirl.learning.verdicts.estimate_disagrees`; ``definition`` what "damaged" means),
+    the posterior's medians as the answer and Eq. 4's labelled as the paper's estimate — one
     answer per question (docs/design.md, "Fault verdicts")."""
-    from mirl.learning.verdicts import estimate_outside_interval
+    from mirl.learning.verdicts import estimate_disagrees
 
     probs = r["feature_probabilities"]
     spans = r.get("feature_intervals")
@@ -136,7 +137,8 @@ def feature_lines(r: dict) -> list[str]:
     if not spans:
         return [f"features      {_values(probs, '=', 3)}{same}"]
     interval = "  ".join(f"{k} {lo:.2f}–{hi:.2f}" for k, (lo, hi) in spans.items())
-    if not estimate_outside_interval(probs, spans) or "feature_medians" not in r:
+    medians = r.get("feature_medians")
+    if medians is None or not estimate_disagrees(probs, spans, medians, definition):
         return [f"features      {_values(probs, '=', 3)}{same}", f"95 % interval {interval}"]
     return [
         f"features      {_values(r['feature_medians'], ' ', 2)}  (the posterior's medians){same}",
@@ -155,27 +157,19 @@ def _same_value_note(r: dict) -> str:
     notes = []
     for group in r.get("indistinguishable", []):
         names = " and ".join(group["features"])
-        side = (
-            "; the drift tells the side" if group["told_apart_by"] == "drift" else ""
-        )
+        side = "; the drift tells the side" if group["told_apart_by"] == "drift" else ""
         notes.append(f"{names}: the steps cannot tell them apart{side}")
     return f"  ({'; '.join(notes)})" if notes else ""
 
 
 def motion_line(r: dict) -> str | None:
     """The motion models' weights and the one L plans with, in words."""
-    from mirl.learning.motion_models import describe_model
+    from mirl.learning.motion_models import motion_sentence
 
     weights = r.get("motion_models")
     if not weights:
         return None
-    best = max(weights, key=weights.get)
-    others = ", ".join(f"{m} {w:.2f}" for m, w in weights.items() if m != best)
-    line = f"motion        {describe_model(best)} ({best}, {weights[best]:.2f}; {others})"
-    planned = r.get("motion_model")
-    if planned and planned != best:
-        line += f"; L plans with {planned}, the scenario's, which the record does not reject"
-    return line
+    return f"motion        {motion_sentence(weights, r.get('motion_model', ''))}"
 
 
 def record_lines(verdict: dict) -> list[str]:
@@ -217,11 +211,11 @@ def _pair_labels(result, scenario) -> dict:
     }
 
 
-def print_learn(out: dict, result, scenario_name: str) -> None:
+def print_learn(out: dict, result, scenario) -> None:
     """The text form of ``mirl learn``'s result."""
     robots = out["robots"]
     print(
-        f"{result.method} on {scenario_name}: {out['observations']} ({out['steps']} steps, "
+        f"{result.method} on {scenario.name}: {out['observations']} ({out['steps']} steps, "
         f"observability {out['observability']:g})"
     )
     for name, r in robots.items():
@@ -230,7 +224,7 @@ def print_learn(out: dict, result, scenario_name: str) -> None:
         probs = r["feature_probabilities"]
         if not probs:
             print(f"  features      {result.message}")
-        for line in feature_lines(r) if probs else []:
+        for line in feature_lines(r, scenario.faults) if probs else []:
             print(f"  {line}")
         motion = motion_line(r)
         if motion is not None:

@@ -590,7 +590,7 @@ class RoundSetup:
 
 
 # ---- which motion model L learns with ------------------------------------------------------
-SWITCH_ODDS = 100.0
+SWITCH_ODDS = 100.0  # motion_models.motion_sentence says so in words
 """L leaves the scenario's motion model for another when a robot's record makes that one this
 many times more probable: a bound on how often it leaves a true model (the data would make a
 wrong model this much more probable than the true one with probability at most 1/100, by

@@ -91,6 +91,7 @@ __all__ = [
     "lateral_drift",
     "drift_log_likelihood",
     "estimate_outside_interval",
+    "estimate_disagrees",
     "failure_dispersion",
     "action_distribution",
     "NEAR_TIE",
@@ -458,6 +459,26 @@ def estimate_outside_interval(
     return any(
         not lo - slack <= probabilities[f] <= hi + slack
         for f, (lo, hi) in intervals.items()
+        if f in probabilities
+    )
+
+
+def estimate_disagrees(
+    probabilities: Mapping[str, float],
+    intervals: Mapping[str, tuple[float, float]],
+    medians: Mapping[str, float],
+    definition: DamageDefinition,
+) -> bool:
+    """Whether Eq. 4's estimates and the posterior give two answers: an estimate well outside
+    its 95 % interval (:func:`estimate_outside_interval`), or one that reads a part as damaged
+    (or healthy) where the posterior's median does not — the verdict follows the posterior, so
+    the report then shows the posterior's medians as the answer (docs/design.md, "Fault
+    verdicts")."""
+    if estimate_outside_interval(probabilities, intervals):
+        return True
+    return any(
+        definition.damaged(f, probabilities[f]) != definition.damaged(f, m)
+        for f, m in medians.items()
         if f in probabilities
     )
 
