@@ -320,6 +320,8 @@ def _learn_transitions(args: argparse.Namespace) -> int:
     for i, name in enumerate(scenario.robot_names):
         t, s, s_next = observed_steps(series[i])
         a = labels[i][t] if args.labels == "true-policy" else perception_labels(domain, s, s_next)
+        a = a.copy()
+        a[perception_labels(domain, s, s_next) < 0] = -1  # no trial of any part
         learned[name] = TransitionFeatureLearner(domain, scenario.error_model).fit(s, a, s_next)
     if args.json:
         print_json({n: m.feature_probabilities_ for n, m in learned.items()})

@@ -189,7 +189,7 @@ def run_episode(
 
     clock = time.perf_counter()
     model = observer_model(scenario)
-    # L's models of the patrollers (learned, the oracle's, the filter's) take the world's ξ
+    # the oracle's models of the patrollers take the world's ξ (the learner weighs its own)
     modelled = get_world(world).load().modelled(scenario)
     run_world = make_world(
         world, scenario, model, observability=degree,
@@ -209,7 +209,11 @@ def run_episode(
         # the run's observability (maybe not the scenario's) and the run's learning stream
         kwargs.setdefault("visible", run_world.visible)
         kwargs.setdefault("random_state", learn_seed_int)
-        learner = _Learner(modelled, run_world, spec, kwargs, relearn_growth if relearn else None)
+        # L learns with the scenario's motion model and lets the record decide whether another
+        # fits it better; of the world's model it takes only how its robots drift
+        # (docs/design.md, "Fault verdicts")
+        learning = replace(scenario, faults=modelled.faults)
+        learner = _Learner(learning, run_world, spec, kwargs, relearn_growth if relearn else None)
         learned = learner.learn_now()
     timings["learn"] += time.perf_counter() - clock
 
