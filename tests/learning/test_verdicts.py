@@ -386,4 +386,5 @@ def test_steps_held_by_another_robot_are_no_evidence_of_a_part():
     assert jammed.verdict.part is not None or jammed.verdict.candidates or not jammed.verdict.fit.ok
     assert free.verdict.fit.ok
     assert free.verdict.part is None and free.verdict.confidence > 0.99
-    assert free.verdict.fit.left_out["in another robot's way"] == 41
+    # the stuck robot's jump back to its own track at step 140 is explained by no action
+    assert free.verdict.fit.left_out["in another robot's way"] == 40

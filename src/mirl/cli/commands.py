@@ -453,7 +453,7 @@ def _run(args: argparse.Namespace) -> int:
 
 @command("learn")
 def _learn(args: argparse.Namespace) -> int:
-    from mirl.cli.learn_report import learn_record, print_learn
+    from mirl.cli.learn_report import learn_record, pace_record, print_learn
     from mirl.learning.learn import learn
 
     scenario = _load_scenario(args)
@@ -494,6 +494,7 @@ def _learn(args: argparse.Namespace) -> int:
             for i, r in enumerate(result.robots)
         }
     out = learn_record(result, scenario, str(args.observations), obs.horizon, degree, agreement)
+    out.update(pace_record(loaded.discretised))
     if args.json:
         print_json(out)
     else:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from mirl.world.motion import WHEELS
 
 __all__ = [
+    "pace_record",
     "drift_line",
     "learn_record",
     "print_learn",
@@ -83,6 +84,17 @@ def learn_record(
         **_pair_labels(result, scenario),
         "message": result.message,
         "timings": {k: round(v, 4) for k, v in result.timings.items()},
+    }
+
+
+def pace_record(discretised) -> dict:
+    """The step pose data were read at, and how it was chosen (``{}`` for grid data)."""
+    if discretised is None:
+        return {}
+    auto = discretised.auto_step
+    return {
+        "step_seconds": discretised.step_seconds,
+        "step_chosen": "given" if auto is None else auto.sentence(),
     }
 
 

@@ -19,6 +19,7 @@ from mirl.cli.flags import (
     positive_float,
     seed,
     step_seconds,
+    step_seconds_or_auto,
 )
 from mirl.experiments.worlds import DEFAULT_WORLD, WORLDS
 from mirl.learning.methods import LEARNING_METHODS, METHODS
@@ -287,10 +288,11 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
     )
     g.add_argument(
         "--step-seconds",
-        type=step_seconds,
+        type=step_seconds_or_auto,
         default=None,
-        metavar="S",
-        help="seconds per time step (None: 2, the paper's)",
+        metavar="S|auto",
+        help="seconds per time step, or auto: the robots' own pace, at which a typical move "
+        "is one cell (None: auto; the report states the step chosen)",
     )
     g.add_argument(
         "--start-time",

@@ -58,6 +58,7 @@ from mirl.learning.model_check import (
     check_pinned,
     check_stalls,
     check_unexplained,
+    held_back,
 )
 from mirl.learning.motion_models import (
     DEFAULT_PRIOR,
@@ -813,6 +814,28 @@ def never_seen_moving(
     return FeatureUncertainty(intervals, verdict, medians=medians)
 
 
+def _kind_probabilities(post: MotionPosterior, domain, s, action, random_state: int):
+    """(draws, steps, 3) probabilities of each kind of move
+    (:data:`~mirl.learning.model_check.MOVE_KINDS`) under posterior draws, and under the draws
+    of the highest likelihood (:data:`FITTED_SHARE`)."""
+    ahead = [domain.intended[s, a] for a in (FORWARD, TURN_LEFT, TURN_RIGHT)]
+    out = []
+    for best in (1.0, FITTED_SHARE):
+        q = np.stack(
+            [
+                post.outcome_probabilities(
+                    domain, s, target, action, random_state=random_state, best=best
+                )
+                for target in (*ahead, s)
+            ],
+            axis=2,
+        )  # (draws, steps, forward / turn left / turn right / stay)
+        q = np.stack([q[:, :, 0], q[:, :, 1] + q[:, :, 2], q[:, :, 3]], axis=2)
+        q[:, ahead[0] == s, 0] = 0.0  # a forward step into a wall stays put
+        out.append(q)
+    return out[0], out[1]
+
+
 def _move_kinds(domain: PatrolDomain, s: np.ndarray, s_next: np.ndarray) -> np.ndarray:
     """Each step's kind of move, an index into
     :data:`~mirl.learning.model_check.MOVE_KINDS` (staying put first: a forward step into a
@@ -875,16 +898,17 @@ def robot_uncertainty(
     unexplained = unexplained_steps(domain, s, s_next)
     held = np.zeros(len(t), dtype=bool) if record.held is None else np.asarray(record.held)[t]
     beside = np.zeros(len(t), dtype=bool) if record.beside is None else np.asarray(record.beside)[t]
-    keep = ~unexplained & ~held
+    keep = ~unexplained
     action = action_distribution(s, lab, domain.n_actions, soft_policy, own_policy)
     plan_domain = model_domain(domain, learned_with)
     dispersion = failure_dispersion(
         plan_domain, t[keep], s[keep], lab[keep], s_next[keep], probabilities
     )
     drift = None
-    if record.lateral is not None:
+    if record.lateral is not None:  # a robot beside another is off the centre line for it
+        alone = keep & ~held
         drift = lateral_drift(
-            domain, t[keep], s[keep], lab[keep], s_next[keep], record.lateral, record.company
+            domain, t[alone], s[alone], lab[alone], s_next[alone], record.lateral, record.company
         )
     healthy = {f: definition.healthy.get(f, 0.95) for f in features}
 
@@ -899,43 +923,29 @@ def robot_uncertainty(
     cells = domain.states[:, :2]
     long_moves = np.abs(cells[s_next] - cells[s]).sum(axis=1) >= 2
     checks = [check_unexplained(unexplained, long_moves)]
-    kept = np.flatnonzero(keep)
     misfit = np.zeros(len(t), dtype=bool)
+    in_the_way = np.zeros(len(t), dtype=bool)
+    kept = np.flatnonzero(keep)
     if len(kept):
         kinds = _move_kinds(domain, s[kept], s_next[kept])
-        ahead = [domain.intended[s[kept], a] for a in (FORWARD, TURN_LEFT, TURN_RIGHT)]
-        q, fitted = (
-            np.stack(
-                [
-                    post.outcome_probabilities(
-                        domain, s[kept], target, action[kept], random_state=random_state,
-                        best=best,
-                    )
-                    for target in (*ahead, s[kept])
-                ],
-                axis=2,
-            )  # (draws, steps, forward / turn left / turn right / stay)
-            for best in (1.0, FITTED_SHARE)
-        )  # fmt: skip
-        q, fitted = (
-            np.stack([x[:, :, 0], x[:, :, 1] + x[:, :, 2], x[:, :, 3]], axis=2)
-            for x in (q, fitted)
-        )
-        for probs_ in (q, fitted):
-            probs_[:, ahead[0] == s[kept], 0] = 0.0  # a forward step into a wall stays put
+        q, fitted = _kind_probabilities(post, domain, s[kept], action[kept], random_state)
         stayed = kinds == len(MOVE_KINDS) - 1
+        # a robot held by another stays put for the other's reason, if the record says so
+        way = held_back(stayed, held[kept], lab[kept], dispersion)
+        in_the_way[kept[way.misfit]] = True
+        free = ~in_the_way[kept]
         rho = (dispersion - 1) / (dispersion + 1)
-        stalls, _ = check_stalls(t[kept], stayed, q[:, :, -1], rho)
-        jams = check_jams(stayed, beside[kept], q[:, :, -1], dispersion)
+        stalls, _ = check_stalls(t[kept][free], stayed[free], q[:, free, -1], rho)
+        jams = check_jams(stayed[free], beside[kept][free], q[:, free, -1], dispersion)
         checks += [check_moves(kinds, fitted, dispersion), stalls, jams]
         for c in (stalls, jams):
-            misfit[kept[c.misfit]] = True
+            misfit[kept[free][c.misfit]] = True
     counts = count_subsets(plan_domain, s[keep], lab[keep], s_next[keep]).observations()
     checks.append(check_pinned(probabilities, counts))
-    if misfit.any():  # misfit steps are never failures of a part
-        post = posterior(keep & ~misfit)
+    if misfit.any() or in_the_way.any():  # neither is a failure of a part
+        post = posterior(keep & ~misfit & ~in_the_way)
     left_out = {
-        "in another robot's way": int(held.sum()),
+        "in another robot's way": int(in_the_way.sum()),
         "explained by no action": int(unexplained.sum()),
         "misfit (stalls, jams)": int(misfit.sum()),
     }
@@ -949,7 +959,8 @@ def robot_uncertainty(
         w = np.concatenate([MODEL_TRUST * w, np.full(len(q), (1 - MODEL_TRUST) / len(q))])
     intervals, medians = _summaries(features, p, w)
     verdict = verdict_from_draws(features, p, w, definition)
-    groups = indistinguishable(plan_domain, s[keep], lab[keep])
+    used = keep & ~misfit & ~in_the_way
+    groups = indistinguishable(plan_domain, s[used], lab[used])
     wheels_group = any(set(g) == set(WHEELS) for g in groups)
     return FeatureUncertainty(
         intervals,

@@ -13,6 +13,10 @@ takes, plus a per-robot account of what happened to every pose.
   (default half a step, so every pose is a candidate for exactly one step and none is used
   twice). A step with no pose within the tolerance is unobserved — never interpolated.
   ``n_steps`` defaults to the step nearest the last pose, plus one.
+- **The robots' pace.** ``step_seconds="auto"`` takes the longest step at which the robots'
+  moves stay within one cell (:func:`auto_step_seconds`): L's models move a robot at most one
+  cell a step, and a step longer than a robot's pace makes moves no action explains, while a
+  shorter one cuts moves in halves that look like failed steps.
 
 Problems are one-line :class:`DiscretisationError` messages naming the source and robot.
 """
@@ -35,6 +39,11 @@ __all__ = [
     "discretise",
     "heading_of_yaw",
     "lateral_offset",
+    "auto_step_seconds",
+    "AutoStep",
+    "AUTO_LONG_MOVES",
+    "AUTO_MIN_MOVES",
+    "AUTO_MIN_CHANGES",
 ]
 
 # fraction of a cell a wall/off-map pose may be from a patroller cell and still snap to it
@@ -44,6 +53,18 @@ SNAP_CELLS = 0.5
 # no clock's; checked before arithmetic that would overflow on 1e300
 MAX_XY = 2 * MAX_FRAME_ORIGIN
 MAX_POSE_TIME = 1e11
+
+
+AUTO_LONG_MOVES = 0.01
+"""The share of a record's moves that may span more than one cell at the step
+:func:`auto_step_seconds` chooses: a third of the misreads the model check tolerates
+(:data:`mirl.learning.model_check.MISREAD_RATE`), which it must not use up."""
+AUTO_STEPS = np.round(np.arange(0.1, 10.0 + 1e-9, 0.05), 2)
+"""The steps (s) :func:`auto_step_seconds` tries."""
+AUTO_MIN_MOVES = 20
+"""A step at which fewer consecutive observed steps of a moving robot fall is not judged."""
+AUTO_MIN_CHANGES = 10
+"""Fewer changes of cell than this do not tell a track's period."""
 
 
 class DiscretisationError(PoseError):
@@ -95,6 +116,45 @@ class RobotCounts:
 
 
 @dataclass(frozen=True)
+class AutoStep:
+    """How :func:`auto_step_seconds` chose a step.
+
+    Parameters
+    ----------
+    seconds : float
+        The step chosen.
+    long_moves : float
+        The share of consecutive observed steps, at that step, whose move spans more than one
+        cell.
+    why : {"pace", "few moves", "no fit"}
+        The robots' pace; or the paper's 2 s because the robots were not seen moving on enough
+        consecutive steps to tell it, or because no step kept their moves within one cell.
+    """
+
+    seconds: float
+    long_moves: float
+    why: str = "pace"
+
+    @property
+    def found(self) -> bool:
+        """Whether the step is the robots' pace."""
+        return self.why == "pace"
+
+    def sentence(self) -> str:
+        if self.why == "few moves":
+            return "the paper's 2 s: the robots were not seen moving enough to tell their pace"
+        if self.why == "no fit":
+            return (
+                f"the paper's 2 s: no step kept the robots' moves within one cell "
+                f"({self.long_moves:.1%} span more at 2 s)"
+            )
+        return (
+            f"chosen: the robots' pace, at which {self.long_moves:.1%} of their moves span "
+            "more than one cell"
+        )
+
+
+@dataclass(frozen=True)
 class Discretised:
     trajectories: Trajectories
     report: tuple[RobotCounts, ...]
@@ -102,6 +162,7 @@ class Discretised:
     step_seconds: float
     tolerance: float
     visible: np.ndarray  # (rows, cols) bool: the cells L could see (see ``discretise``)
+    auto_step: AutoStep | None = None  # how the step was chosen, when it was
 
     def visible_states(self, scenario: Scenario) -> np.ndarray:
         """(S,) bool states on visible cells, for :func:`mirl.learning.learn`'s ``visible``."""
@@ -110,9 +171,11 @@ class Discretised:
 
     def summary(self) -> str:
         tr = self.trajectories
+        chosen = f", {self.auto_step.sentence()}" if self.auto_step is not None else ""
         head = (
             f"{tr.horizon} steps of {self.step_seconds:g} s from t = {self.start_time:.3f} s "
-            f"(tolerance {self.tolerance:g} s); {int(self.visible.sum())} cells visible to L"
+            f"(tolerance {self.tolerance:g} s{chosen}); {int(self.visible.sum())} cells visible "
+            "to L"
         )
         return "\n".join([head, *("  " + c.line() for c in self.report)])
 
@@ -138,7 +201,7 @@ def discretise(
     tracks: PoseTracks,
     scenario: Scenario,
     *,
-    step_seconds: float = 2.0,
+    step_seconds: float | str = 2.0,
     start_time: float | None = None,
     n_steps: int | None = None,
     tolerance: float | None = None,
@@ -150,8 +213,21 @@ def discretise(
     ``visible`` says which cells L could see, handed on to the learner: ``None`` (default) the
     scenario's observability degree and visibility order; ``"observed"`` every cell a robot was
     observed on; or a (rows, cols) bool mask. Observed steps outside it are counted
-    (``outside_visible``), never dropped.
+    (``outside_visible``), never dropped. ``step_seconds="auto"``: the robots' own pace
+    (:func:`auto_step_seconds`).
+
+    .. versionchanged:: 0.2.0
+       ``step_seconds="auto"``.
     """
+    auto = None
+    if isinstance(step_seconds, str):
+        if step_seconds != "auto":
+            raise DiscretisationError(
+                f"{tracks.source}: `step_seconds` must be a number of seconds or 'auto', got "
+                f"{step_seconds!r}"
+            )
+        auto = auto_step_seconds(tracks, scenario, start_time=start_time)
+        step_seconds = auto.seconds
     tracks, tol = _checked(tracks, scenario, step_seconds, tolerance)
     start_time, n_steps = _watch(tracks, start_time, n_steps, step_seconds)
 
@@ -207,7 +283,115 @@ def discretise(
         replace(RobotCounts(name, *(c[i] for c in columns)), unplaced=tracks.unplaced.get(name, 0))
         for i, name in enumerate(tracks.robot_names)
     )
-    return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis)
+    return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis, auto)
+
+
+def auto_step_seconds(
+    tracks: PoseTracks,
+    scenario: Scenario,
+    *,
+    start_time: float | None = None,
+    long_moves: float = AUTO_LONG_MOVES,
+) -> AutoStep:
+    """The robots' pace: the step at which a typical move of theirs is one cell.
+
+    A step longer than a robot's pace lets it cross two cells, which no action explains; a
+    shorter one cuts its moves into pieces that stay in one cell and read as failed steps.
+    Two kinds of track say their pace differently:
+
+    * **In jumps** — a tracker reporting at a robot's decisions, poses written from grid
+      states: the robot changes cells at multiples of one period (of the times between its
+      consecutive changes of cell, at least 80 % lie within a pose interval of a multiple of
+      their lower quartile; spells out of view make the longer ones). That period is its pace.
+    * **Smoothly** — a robot tracked at 10–30 Hz: the longest of :data:`AUTO_STEPS` at which at
+      most ``long_moves`` of the consecutive observed steps move a robot more than one cell
+      (by the cells its nearest poses lie in, as :func:`discretise` reads them).
+
+    Steps at which the robots were seen moving on fewer than :data:`AUTO_MIN_MOVES`
+    consecutive steps are not judged. When no step fits (poses too noisy to keep a moving
+    robot in one cell at any step) or none is judged, the paper's 2 s, and the model check
+    will say whether the record fits (:mod:`mirl.learning.model_check`).
+    """
+    t = np.asarray(tracks.t, dtype=float)
+    if not len(t) or not np.isfinite(t).all():
+        return AutoStep(2.0, 0.0, "few moves")
+    rf, cf = scenario.map.frame.cell_coordinates(tracks.x, tracks.y)
+    row, col = np.floor(rf + 0.5).astype(np.int64), np.floor(cf + 0.5).astype(np.int64)
+    start = float(t.min()) if start_time is None else float(start_time)
+    robots = [np.flatnonzero(tracks.robot == i) for i in range(len(tracks.robot_names))]
+    robots = [idx[np.argsort(t[idx], kind="stable")] for idx in robots if len(idx)]
+
+    def judged(step: float) -> tuple[int, int, int]:
+        pairs = long = moved = 0
+        for idx in robots:
+            cells = _cells_at_steps(t[idx], row[idx], col[idx], start, step)
+            both = (cells[:-1, 0] != _UNSEEN) & (cells[1:, 0] != _UNSEEN)
+            dist = np.abs(cells[1:] - cells[:-1]).sum(axis=1)[both]
+            pairs += len(dist)
+            long += int((dist >= 2).sum())
+            moved += int((dist >= 1).sum())
+        return pairs, long, moved
+
+    period = _jump_period(t, row, col, robots)
+    if period is not None:
+        pairs, long, moved = judged(period)
+        if moved >= AUTO_MIN_MOVES and long <= long_moves * pairs:
+            return AutoStep(period, long / pairs)
+    best: AutoStep | None = None
+    judged_any = False
+    for step in AUTO_STEPS:
+        pairs, long, moved = judged(float(step))
+        judged_any |= moved >= AUTO_MIN_MOVES
+        if moved >= AUTO_MIN_MOVES and long <= long_moves * pairs:
+            best = AutoStep(float(step), long / pairs)
+    if best is not None:
+        return best
+    if not judged_any:
+        return AutoStep(2.0, 0.0, "few moves")
+    pairs, long, _ = judged(2.0)
+    return AutoStep(2.0, long / pairs if pairs else 0.0, "no fit")
+
+
+def _jump_period(t, row, col, robots: list[np.ndarray]) -> float | None:
+    """The period of a track whose robots change cells in jumps (class docstring of
+    :func:`auto_step_seconds`), or None for one that moves smoothly."""
+    gaps, tick = [], []
+    for idx in robots:
+        ti = t[idx]
+        if len(ti) < 2:
+            continue
+        tick.append(np.diff(ti))
+        moved = (row[idx][1:] != row[idx][:-1]) | (col[idx][1:] != col[idx][:-1])
+        when = 0.5 * (ti[1:] + ti[:-1])[moved]
+        gaps.append(np.diff(when))
+    if not gaps or sum(len(g) for g in gaps) < AUTO_MIN_CHANGES:
+        return None
+    between = np.concatenate(gaps)
+    pose_interval = float(np.median(np.concatenate(tick)))
+    period = float(np.quantile(between, 0.25))  # out-of-view spells make the longer ones
+    if period <= 1.5 * pose_interval:  # a move at almost every pose: the poses' own pace
+        return round(pose_interval, 3)
+    off = np.abs(between / period - np.rint(between / period)) * period
+    if np.mean(off <= pose_interval) < 0.8:
+        return None
+    return round(period, 3)
+
+
+_UNSEEN = np.iinfo(np.int64).min
+
+
+def _cells_at_steps(t, row, col, start: float, step: float) -> np.ndarray:
+    """(steps, 2) the cell of the pose nearest each step time within half a step (ties: the
+    earlier pose), :data:`_UNSEEN` where there is none; ``t`` sorted."""
+    k = np.arange(int(np.floor((t[-1] - start) / step + 0.5)) + 1)
+    times = start + k * step
+    right = np.clip(np.searchsorted(t, times), 0, len(t) - 1)
+    left = np.clip(right - 1, 0, len(t) - 1)
+    nearest = np.where(np.abs(t[left] - times) <= np.abs(t[right] - times), left, right)
+    ok = np.abs(t[nearest] - times) <= step / 2 * (1 + 1e-12)
+    out = np.full((len(k), 2), _UNSEEN, dtype=np.int64)
+    out[ok] = np.column_stack([row[nearest[ok]], col[nearest[ok]]])
+    return out
 
 
 def _watch(

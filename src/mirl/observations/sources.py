@@ -165,7 +165,7 @@ def load_observations(
     scenario: Scenario,
     *,
     topics: Mapping[str, str] | Sequence[tuple[str, str]] | None = None,
-    step_seconds: float | None = None,
+    step_seconds: float | str | None = None,
     start_time: float | None = None,
     tolerance: float | None = None,
     drop_off_map: bool = False,
@@ -182,7 +182,11 @@ def load_observations(
     scenario's degree) along the map's visibility order; ``"observed"``: every cell a robot was
     observed on; or a (rows, cols) bool mask. ``same_frames`` (bags): frames that coincide
     (frame -> frame), so that topics recorded in both may be mixed (:func:`~mirl.observations.
-    bags.read_bag`).
+    bags.read_bag`). ``step_seconds`` (pose data): seconds per step, or ``"auto"`` (the
+    default), the robots' own pace (:func:`~mirl.observations.discretise.auto_step_seconds`).
+
+    .. versionchanged:: 0.2.0
+       ``step_seconds`` defaults to ``"auto"`` (it was 2 s).
     """
     path = Path(path)
     fmt = input_format(path)
@@ -214,7 +218,7 @@ def load_observations(
     d = discretise(
         tracks,
         scenario,
-        step_seconds=2.0 if step_seconds is None else step_seconds,
+        step_seconds="auto" if step_seconds is None else step_seconds,
         start_time=start_time,
         tolerance=tolerance,
         drop_off_map=drop_off_map,
