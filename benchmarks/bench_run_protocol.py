@@ -33,9 +33,9 @@ from mirl.cli.flags import parse_damage  # noqa: E402
 from mirl.experiments.conditions import DEFAULT_OBS_STEPS  # noqa: E402
 from mirl.experiments.episode import run_episode  # noqa: E402
 from mirl.experiments.records import WATCH_UNTIL_SEEN  # noqa: E402
-from mirl.experiments.worlds import WORLDS  # noqa: E402
 from mirl.viz.verdicts import VerdictItem, expected_calibration_error  # noqa: E402
 from mirl.world.scenario import load_scenario  # noqa: E402
+from mirl.worlds import WORLDS  # noqa: E402
 
 
 def _run(scenario, args, seed: int, truth) -> dict:

@@ -80,7 +80,7 @@ def speed() -> None:
     sc = boyd2_three()
     exact, fact, seen = _filters(sc, 20, 0)
     first, _, _ = _filters(sc, 20, 0)
-    first._team = ReferenceExactTeam(exact._team.parts)
+    first.form.team = ReferenceExactTeam(exact.form.team.parts)
     model = observer_model(sc)
     rows = []
     for rep in range(2):  # the filters alternate, twice: the machine is shared

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import pytest
 
-from mirl._registry import Registry, UnknownNameError, did_you_mean
+from mirl._registry import Choice, Registry, UnknownNameError, did_you_mean
 
 
 @dataclass(frozen=True)
@@ -60,3 +60,11 @@ def test_did_you_mean_prefers_the_closest_and_prefixes():
     near = did_you_mean("obs", ["obs-steps", "observations", "seed"])
     assert near == ["obs-steps", "observations"]
     assert did_you_mean("xyz", ["seed"]) == []
+
+
+def test_a_table_of_choices_is_names_and_what_they_mean():
+    table = Registry.of_choices("hazard", {"markov": "first order", "independent": "naive"})
+    assert table.names == ("markov", "independent")
+    assert table["markov"] == Choice("markov", "first order")
+    with pytest.raises(UnknownNameError, match="did you mean 'markov'"):
+        table.lookup("markow")

@@ -5,8 +5,8 @@ The entry points a user needs are importable from here (``from mirl import load_
 simulate, learn, run_episode``); they are loaded on first use, so ``import mirl`` stays cheap.
 The package is layered by pipeline stage — :mod:`mirl.mdp` → :mod:`mirl.world` →
 :mod:`mirl.observations` → :mod:`mirl.simulation` → :mod:`mirl.learning` →
-:mod:`mirl.planning` → :mod:`mirl.experiments` → :mod:`mirl.viz` → :mod:`mirl.cli` — and a
-stage imports only the stages before it (checked by import-linter).
+:mod:`mirl.planning` → :mod:`mirl.worlds` → :mod:`mirl.experiments` → :mod:`mirl.viz` →
+:mod:`mirl.cli` — and a stage imports only the stages before it (checked by import-linter).
 """
 
 from __future__ import annotations

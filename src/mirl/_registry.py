@@ -18,9 +18,10 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Callable, Iterable, Iterator, Mapping
+from dataclasses import dataclass
 from typing import Generic, TypeVar
 
-__all__ = ["Registry", "UnknownNameError", "did_you_mean"]
+__all__ = ["Choice", "Registry", "UnknownNameError", "did_you_mean"]
 
 T = TypeVar("T")
 
@@ -44,6 +45,15 @@ def did_you_mean(name: str, known: Iterable[str], n: int = 3) -> list[str]:
     close = difflib.get_close_matches(name, known, n=n, cutoff=0.6)
     starts = [k for k in known if name and k.startswith(name) and k not in close]
     return (close + starts)[:n]
+
+
+@dataclass(frozen=True)
+class Choice:
+    """A row that is a name and what it means: the row of a table whose choices the code of
+    its own module carries out (an estimator's objectives, an initialisation)."""
+
+    name: str
+    description: str
 
 
 class Registry(Mapping[str, T], Generic[T]):
@@ -81,6 +91,11 @@ class Registry(Mapping[str, T], Generic[T]):
         self._rows: dict[str, T] = {}
         for row in rows:
             self.register(row)
+
+    @classmethod
+    def of_choices(cls, kind: str, descriptions: Mapping[str, str]) -> Registry[Choice]:
+        """A table of :class:`Choice` rows from ``{name: description}``, in its order."""
+        return Registry(kind, (Choice(n, d) for n, d in descriptions.items()))
 
     def register(self, row: T) -> T:
         """Add ``row`` (checked first); returns it."""

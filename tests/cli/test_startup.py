@@ -40,10 +40,11 @@ def test_light_commands_import_nothing_heavy(argv):
     assert heavy == [], heavy
     # the parser reads the tables of methods and worlds, and nothing else of those stages
     tables = {"mirl.learning", "mirl.learning.methods"} | {
-        "mirl.experiments",
-        "mirl.experiments.worlds",
+        "mirl.worlds",
+        "mirl.worlds.contract",
+        "mirl.worlds.registry",
     }
-    stages = ("mirl.learning", "mirl.planning", "mirl.experiments")
+    stages = ("mirl.learning", "mirl.planning", "mirl.worlds", "mirl.experiments")
     assert not any(m.startswith(stages) for m in loaded - tables), sorted(loaded - tables)
 
 
@@ -71,12 +72,12 @@ def test_parser_choices_match_their_sources():
     from mirl.experiments import records
     from mirl.learning import dbn_em, irl
 
-    assert parser.IRL_OBJECTIVES == irl.OBJECTIVES
-    assert parser.IRL_OPTIMIZERS == irl.OPTIMIZERS
+    assert parser.IRL_OBJECTIVES == irl.OBJECTIVES.names
+    assert parser.IRL_OPTIMIZERS == irl.OPTIMIZERS.names
     assert parser.RUN_MAX_WAIT == records.MAX_WAIT
     assert parser.RUN_WATCH_UNTIL_SEEN == records.WATCH_UNTIL_SEEN
     assert parser.RUN_WATCH_LIMIT == records.WATCH_LIMIT
-    assert parser.EM_INITS == dbn_em.EM_INITS
+    assert parser.EM_INITS == dbn_em.EM_INITS.names
 
 
 def test_pure_equilibrium_by_best_response_is_the_enumerated_one():

@@ -189,6 +189,15 @@ def test_bad_inputs_are_rejected(expert):
     T, _, phi, *_ = expert
     with pytest.raises(ValueError, match="objective"):
         OccludedMaxEntIRL(phi, T, objective="magic")
+    for option, typo, meant in (
+        ("objective", "sequense", "sequence"),
+        ("optimizer", "l-bfgs", "lbfgs"),
+        ("anchor", "re-entry", "reentry"),
+        ("gradient", "reversed", "reverse"),
+    ):  # each choice is a table's name: an unknown one answers with the nearest
+        near = f"unknown {option} '{typo}' \\(did you mean '{meant}'"
+        with pytest.raises(ValueError, match=near):
+            OccludedMaxEntIRL(phi, T, **{option: typo})
     with pytest.raises(ValueError, match="never observed"):
         OccludedMaxEntIRL(phi, T).fit(np.full(10, -1))
 

@@ -102,7 +102,7 @@ def test_patroller_camera_range_and_walls(healthy):
 
 def test_default_camera_sees_the_first_four_upper_cells():
     sc = load_scenario("boyd2")
-    cfg = physics_config(sc.physics, sc.source, sc.robot_names)
+    cfg = physics_config(sc.section("physics"), sc.source, sc.robot_names)
     frame = sc.map.frame
     (cx, cy, cyaw), cone, overhead = observer_camera(sc, cfg, frame, 0.14)
     assert cone.fov_deg == 57 and cone.range == pytest.approx(4.5)
@@ -260,47 +260,6 @@ def test_a_weak_motor_still_pivots_in_time(healthy, wheel):
             w.ctrl.set_targets(np.array([0]), PIVOT, p[0], p[1], HEADING_YAWS[target])
             w._run_ticks(w.cfg.ticks_per_step)
             assert int(np.rint(wrap(w.poses()[0][2]) / (np.pi / 2))) % 4 == target
-
-
-def test_the_physical_world_is_modelled_with_turns_that_need_no_wheel(healthy):
-    """What the test above measures is what L's model of this world says: its ξ takes the
-    wheels out of the turns, failed steps stay put, and the rest is the scenario's."""
-    from mirl.experiments.physics_world import PhysicsRunWorld
-    from mirl.world.motion import transition_matrix
-
-    model = PhysicsRunWorld.modelled(healthy)
-    subsets = model.feature_map.action_subsets
-    assert subsets["turn_left"] == subsets["turn_right"] == ("navigation", "floor")
-    assert subsets["forward"] == healthy.feature_map.action_subsets["forward"]
-    assert model.robots == healthy.robots and model.map is not None
-    assert healthy.error_model == "uniform" and model.error_model == "stop"
-    # the patrollers follow the scenario's policies; only the model of their motion changes
-    for sc in (healthy, load_scenario("boydright")):
-        model = PhysicsRunWorld.modelled(sc)
-        for i in range(len(sc.robots)):
-            assert np.array_equal(model.true_policy(i), sc.true_policy(i))
-            probs = sc.robots[i].feature_probabilities
-            expected = transition_matrix(model.domain, probs, "stop")
-            assert abs(model.true_transitions(i) - expected).max() == 0
-            success = model.domain.success_probabilities(probs)[:, 1:3]  # the turns
-            assert np.allclose(success, probs["navigation"] * probs["floor"])
-
-
-def test_the_physical_world_states_how_far_a_weak_wheel_drifts_its_robot(healthy):
-    """L's model of this world reads a robot's drift with the world's measured κ; a scenario
-    that states its own keeps it."""
-    from dataclasses import replace
-
-    from mirl.experiments.physics_world import PhysicsRunWorld
-    from mirl.physics.config import scenario_physics
-    from mirl.world.faults import DriftSpec
-
-    cfg = scenario_physics(healthy)
-    drift = PhysicsRunWorld.modelled(healthy).faults.drift
-    assert healthy.faults.drift.per_gap is None
-    assert (drift.per_gap, drift.spread) == (cfg.drift_per_gap, cfg.drift_spread)
-    own = replace(healthy, faults=replace(healthy.faults, drift=DriftSpec(per_gap=0.1)))
-    assert PhysicsRunWorld.modelled(own).faults.drift.per_gap == 0.1
 
 
 @pytest.mark.slow

@@ -35,7 +35,7 @@ LONG_ON_PURPOSE = {  # "path/in/package.py" or "path.py:function" -> the reason
     "world/ros_maps.py:load_ros_map": "checks each field of a map_server YAML where it is read, "
     "in the order of the format, each refusal one line naming the field",
 }
-STAGES = ("mdp", "world", "observations", "simulation", "learning", "planning",
+STAGES = ("mdp", "world", "observations", "simulation", "physics", "learning", "planning", "worlds",
           "experiments", "envs", "viz", "cli")  # fmt: skip
 
 
@@ -91,11 +91,11 @@ def test_long_modules_and_functions_have_a_reason():
 def test_no_string_comparison_with_a_method_or_world_name_outside_its_table():
     """What differs between methods or worlds is read from their tables' rows, never decided by
     comparing a name, so adding one is a row and not a hunt through the code."""
-    from mirl.experiments.worlds import WORLDS
     from mirl.learning.methods import METHODS
+    from mirl.worlds import WORLDS
 
     names = set(METHODS) | set(WORLDS)
-    tables = {"learning/methods.py", "experiments/worlds.py"}
+    tables = {"learning/methods.py", "worlds/registry.py"}
     found = []
     for path in _modules():
         rel = path.relative_to(ROOT).as_posix()
@@ -110,6 +110,113 @@ def test_no_string_comparison_with_a_method_or_world_name_outside_its_table():
                     if any(isinstance(c, ast.Constant) and c.value in names for c in consts):
                         found.append(f"{rel}:{node.lineno}")
     assert found == []
+
+
+# Comparisons with a table's name outside the table's module that are not switches on that
+# table, or that other work removes; "path/in/package.py:name" -> the reason. A stale entry
+# fails, so the list shrinks as they go.
+NOT_A_SWITCH_ON_A_TABLE = {
+    "cli/commands.py:auto": "the --compare flag's value, not an IRL gradient",
+    "physics/calibration.py:forward": "an action's name, not an IRL gradient",
+    "world/motion.py:uniform": "Eq. 5's error model, not DBN-EM's initialisation",
+    "experiments/episode.py:adaptive": "the go rule's switch: strategies replace it (issue 38)",
+    "experiments/episode.py:value": "the go rule's switch: strategies replace it (issue 38)",
+    "learning/learn.py:true": "learn()'s model sources: strategies replace them (issue 38)",
+    "learning/learn.py:learned": "learn()'s model sources: strategies replace them (issue 38)",
+    "learning/learn.py:features": "learn()'s model sources: strategies replace them (issue 38)",
+    "learning/learn.py:fixed-p": "learn()'s model sources: strategies replace them (issue 38)",
+    "learning/learn.py:em": "learn()'s model sources: strategies replace them (issue 38)",
+    "learning/learn.py:lbfgs": "learn()'s default restarts per optimizer: options (issue 38)",
+}
+
+
+def _tables() -> dict[str, tuple[str, ...]]:
+    """Every table of names (a module-level ``NAME = Registry(...)`` or
+    ``Registry.of_choices(...)``), as "module path:NAME" -> its names."""
+    import importlib
+
+    out = {}
+    for path in _modules():
+        rel = path.relative_to(ROOT).as_posix()
+        for node in ast.parse(path.read_text()).body:
+            target = node.targets[0] if isinstance(node, ast.Assign) else None
+            target = node.target if isinstance(node, ast.AnnAssign) else target
+            call = getattr(node, "value", None)
+            if not (isinstance(target, ast.Name) and isinstance(call, ast.Call)):
+                continue
+            made_by = call.func.value if isinstance(call.func, ast.Attribute) else call.func
+            if isinstance(made_by, ast.Name) and made_by.id == "Registry":
+                module = importlib.import_module("mirl." + rel[:-3].replace("/", "."))
+                out[f"{rel}:{target.id}"] = tuple(getattr(module, target.id))
+    return out
+
+
+def _string_switches(tree: ast.AST) -> list[tuple[int, str]]:
+    """(line, string) of every switch on a string: ``x == "a"``, ``x != "a"``,
+    ``x in ("a", "b")`` and ``case "a":``. (A literal looked up in data, ``"a" in row``,
+    is not a switch.)"""
+    out = []
+    for node in ast.walk(tree):
+        consts: list[ast.expr] = []
+        if isinstance(node, ast.Compare):
+            for op, right in zip(node.ops, node.comparators, strict=True):
+                if isinstance(op, ast.Eq | ast.NotEq):
+                    consts += [node.left, right]
+                elif isinstance(op, ast.In | ast.NotIn) and isinstance(
+                    right, ast.Tuple | ast.List | ast.Set
+                ):
+                    consts += right.elts
+        elif isinstance(node, ast.MatchValue):
+            consts = [node.value]
+        out += [
+            (node.lineno, c.value)
+            for c in consts
+            if isinstance(c, ast.Constant) and isinstance(c.value, str)
+        ]
+    return out
+
+
+def test_string_switches_are_found():
+    code = (
+        'if self.mode == "pair": pass\n'
+        'if "yaw" in header: pass\n'
+        'if hazard not in ("markov", "independent"): pass\n'
+        'match kind:\n    case "moved": pass\n'
+    )
+    assert _string_switches(ast.parse(code)) == [
+        (1, "pair"), (3, "markov"), (3, "independent"), (5, "moved")
+    ]
+
+
+def test_tables_are_registries_found_by_the_string_switch_test():
+    """The tables issue 38 names are found (so the next test reads them all)."""
+    found = {key.split(":")[1] for key in _tables()}
+    for table in ("METHODS", "FORMATS", "KINDS", "EXPERIMENTS", "SECTIONS", "GO_RULES",
+                  "HAZARDS", "BELIEF_MODES", "OBJECTIVES", "OPTIMIZERS", "EM_INITS"):  # fmt: skip
+        assert table in found, table
+
+
+def test_no_string_switch_on_a_table_outside_its_module():
+    """What differs between the rows of a table (modes, hazards, formats, kinds, sources…) is
+    the row's to say, not a comparison with its name somewhere else; so adding a row is the
+    row. A table's own module may compare its names (its rows' checks, its estimator's
+    choices)."""
+    homes: dict[str, set[str]] = {}
+    for key, names in _tables().items():
+        for name in names:
+            homes.setdefault(name, set()).add(key.split(":")[0])
+    found, allowed_seen = [], set()
+    for path in _modules():
+        rel = path.relative_to(ROOT).as_posix()
+        for line, value in _string_switches(ast.parse(path.read_text())):
+            if value not in homes or rel in homes[value]:
+                continue
+            if f"{rel}:{value}" in NOT_A_SWITCH_ON_A_TABLE:
+                allowed_seen.add(f"{rel}:{value}")
+            else:
+                found.append(f"{rel}:{line} compares with '{value}'")
+    assert found == []
+    assert sorted(set(NOT_A_SWITCH_ON_A_TABLE) - allowed_seen) == [], "stale entries"
 
 
 def test_public_face_resolves_every_name():

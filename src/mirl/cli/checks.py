@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mirl.experiments.worlds import get_world
 from mirl.learning.methods import METHODS
+from mirl.worlds import get_world
 
 __all__ = [
     "UsageError",

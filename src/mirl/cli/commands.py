@@ -26,8 +26,8 @@ from mirl.cli.checks import (
     warn,
 )
 from mirl.cli.flags import parse_damage, parse_same_frame, parse_topic
-from mirl.experiments.worlds import DEFAULT_WORLD, WorldSpec, get_world
 from mirl.learning.methods import METHODS
+from mirl.worlds import DEFAULT_WORLD, WorldSpec, get_world
 
 __all__ = ["COMMANDS", "UsageError", "print_json"]
 
@@ -170,8 +170,6 @@ def _scenario_summary(scenario, routes) -> list[str]:
 
 @command("simulate")
 def _simulate(args: argparse.Namespace) -> int:
-    from mirl.simulation.grid import simulate
-
     check_pose_flags(args)
     outputs = (("--observations", args.observations), ("--truth", args.truth))
     check_distinct(*outputs, ("--poses", args.poses))
@@ -180,12 +178,9 @@ def _simulate(args: argparse.Namespace) -> int:
             check_output(path, flag)
     check_poses_output(args.poses, args.world)
     scenario = _load_scenario(args)
-    if get_world(args.world).records_poses:
-        from mirl.cli.simulate_physics import simulate_physics
-
-        return simulate_physics(args, scenario)
-    start = time.perf_counter()
-    result = simulate(
+    world = _world(args.world).load()
+    start, cpu = time.perf_counter(), time.process_time()
+    sim = world.simulate(
         scenario,
         args.steps,
         seed=args.seed,
@@ -193,27 +188,58 @@ def _simulate(args: argparse.Namespace) -> int:
         heading_noise=args.heading_noise,
         random_starts=args.random_starts,
     )
-    elapsed = time.perf_counter() - start
-    share = result.observed_share()
-    degree = scenario.observability if args.observability is None else args.observability
-    print(
-        f"scenario {scenario.name}: {args.steps} steps, seed {args.seed}, "
-        f"observability {degree:g} ({int(scenario.domain.visible_states(degree).sum() // 4)}"
-        f"/{scenario.map.n_patroller_cells} cells)"
-    )
-    for name, s in zip(scenario.robot_names, share, strict=True):
-        print(f"  {name}: observed {s:.1%} of steps")
-    print(f"  interactions: {result.interactions} ({result.interactions_seen} seen by L)")
-    print(f"  simulated in {elapsed:.3f} s")
+    elapsed, cpu = time.perf_counter() - start, time.process_time() - cpu
+    print(*_simulation_summary(scenario, sim, args.seed, elapsed, cpu), sep="\n")
     if args.observations:
-        result.observations.to_csv(args.observations)
-        print(f"wrote {args.observations} ({len(result.observations)} rows)")
+        sim.observations.to_csv(args.observations)
+        print(f"wrote {args.observations} ({len(sim.observations)} rows)")
     if args.truth:
-        result.truth.to_csv(args.truth)
-        print(f"wrote {args.truth} ({len(result.truth)} rows)")
-    if args.poses:
-        _write_poses(args, scenario, result.observations)
+        sim.truth.to_csv(args.truth)
+        print(f"wrote {args.truth} ({len(sim.truth)} rows)")
+    if args.poses and sim.poses is not None:
+        _write_measured_poses(Path(args.poses), sim.poses)
+    elif args.poses:
+        _write_poses(args, scenario, sim.observations)
     return 0
+
+
+def _simulation_summary(scenario, sim, seed: int, elapsed: float, cpu: float) -> list[str]:
+    """What ``mirl simulate`` says of a simulation: the scenario and what the world ran with,
+    the steps (and the simulated time, for a world with a clock), L's view, how often L saw
+    each patroller, the world's own counts and the time it took."""
+    conditions = f" ({sim.conditions})" if sim.conditions else ""
+    clock = sim.step_seconds is not None
+    simulated = (sim.steps - 1) * sim.step_seconds if clock else 0.0
+    minutes = f" ({simulated / 60:.1f} min)" if clock else ""
+    cells = int(scenario.map.visible_mask(sim.observability).sum())
+    lines = [
+        f"scenario {scenario.name}{conditions}: {sim.steps} steps{minutes}, seed {seed}, "
+        f"observability {sim.observability:g} ({cells}/{scenario.map.n_patroller_cells} cells)"
+    ]
+    for name, share in zip(scenario.robot_names, sim.observed_share(), strict=True):
+        lines.append(f"  {name}: observed {share:.1%} of steps")
+    lines += [f"  {line}" for line in sim.report]
+    factor = f" (real-time factor {simulated / max(cpu, 1e-9):.0f} on CPU time)" if clock else ""
+    lines.append(f"  simulated in {elapsed:.3f} s wall, {cpu:.3f} s CPU{factor}")
+    return lines
+
+
+def _write_measured_poses(out: Path, poses) -> None:
+    """``--poses OUT`` of a world that measures poses itself: what L's sensor measured to
+    ``OUT``, the true poses beside it (``.true`` before the suffix)."""
+    from mirl.observations.poses import write_pose_csv
+
+    if out.suffix.lower() == ".csv":  # .csv or .mcap: checked before the simulation
+        write = write_pose_csv
+    else:
+        from mirl.observations.bags import write_mcap as write
+    true_out = out.with_name(out.stem + ".true" + out.suffix)
+    write(poses.observed, out)
+    write(poses.true, true_out)
+    print(
+        f"wrote {out} ({len(poses.observed)} poses L's camera measured, one per seen patroller "
+        f"per step) and {true_out} ({len(poses.true)} true poses at {poses.true_rate_hz:g} Hz)"
+    )
 
 
 def _write_poses(args: argparse.Namespace, scenario, observations) -> None:

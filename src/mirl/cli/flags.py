@@ -209,6 +209,7 @@ PARAMETER_FLAGS = {
     "cell_size": "--cell-size",
     "max_memory": "--max-memory",
     "same_frames": "--same-frame",
+    "heading_noise": "--heading-noise",
 }
 
 

@@ -3,7 +3,7 @@ text form printed without ``--json``."""
 
 from __future__ import annotations
 
-from mirl.world.motion import WHEELS
+from mirl.world.faults import WHEELS
 
 __all__ = [
     "pace_record",

@@ -21,8 +21,8 @@ from mirl.cli.flags import (
     step_seconds,
     step_seconds_or_auto,
 )
-from mirl.experiments.worlds import DEFAULT_WORLD, WORLDS
 from mirl.learning.methods import LEARNING_METHODS, METHODS
+from mirl.worlds import DEFAULT_WORLD, WORLDS
 
 __all__ = ["build_parser"]
 

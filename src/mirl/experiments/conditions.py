@@ -26,8 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from mirl.experiments.worlds import DEFAULT_WORLD, WORLDS
+from mirl._registry import Registry
 from mirl.learning.methods import METHODS
+from mirl.worlds import DEFAULT_WORLD, WORLDS
 
 __all__ = [
     "Condition",
@@ -56,14 +57,14 @@ class Condition:
     """One point of an experiment grid. ``p`` is the fixed success probability of the
     fixed-T methods (``mirl``, ``known-r``); None for methods that learn or know T.
     ``damage`` (``"ROBOT:FEATURE"``) damages one part of the scenario, to the world's
-    :attr:`~mirl.experiments.worlds.WorldSpec.experiment_damage`."""
+    :attr:`~mirl.worlds.registry.WorldSpec.experiment_damage`."""
 
     method: str
     scenario: str = "boyd2"
     observability: float = 0.14
     obs_steps: int = DEFAULT_OBS_STEPS
     p: float | None = None
-    world: str = DEFAULT_WORLD  # a name in mirl.experiments.worlds.WORLDS
+    world: str = DEFAULT_WORLD  # a name in mirl.worlds.WORLDS
     em_init: str | None = None  # DBN-EM's initial T; None: the default ("intended")
     # how L decides to go and whether it re-learns while it waits; None and False are the
     # paper's protocol (``with_protocol`` gives mirl's, the command line's default), so that
@@ -348,9 +349,26 @@ def _selftest() -> tuple[Condition, ...]:
     return tuple(Condition(m, "boyd2", d, 10) for m in ("a", "b") for d in (0.14, 1.0))
 
 
-EXPERIMENTS: dict[str, Experiment] = {
-    e.name: e
-    for e in (
+def _check_experiment(exp: Experiment) -> None:
+    """An experiment runs as its table row says: at least one run per condition by default,
+    conditions of known methods and worlds, no condition twice (its key names its rows in
+    the store). The fake run of ``selftest`` takes any method name."""
+    where = f"experiment '{exp.name}'"
+    if exp.default_runs < 1:
+        raise ValueError(f"{where}: default_runs must be at least 1, got {exp.default_runs}")
+    keys = [c.key for c in exp.conditions]
+    if not keys or len(set(keys)) != len(keys):
+        raise ValueError(f"{where}: needs conditions, each once")
+    for c in exp.conditions:
+        if c.world not in WORLDS:
+            raise ValueError(f"{where}: condition {c.label}: unknown world '{c.world}'")
+        if exp.run_function is episode_run and c.method not in METHODS:
+            raise ValueError(f"{where}: condition {c.label}: {METHODS.unknown(c.method)}")
+
+
+EXPERIMENTS: Registry[Experiment] = Registry(
+    "experiment",
+    (
         Experiment(
             "fig3",
             "behaviour accuracy and success vs observability × observation time",
@@ -388,8 +406,11 @@ EXPERIMENTS: dict[str, Experiment] = {
             default_runs=6,
             hidden=True,
         ),
-    )
-}
+    ),
+    check=_check_experiment,
+)
+"""Every experiment by name, in the order of the paper's figures (docs/design.md, "The paper's
+experiments as data")."""
 
 
 def experiment_names(include_hidden: bool = False) -> list[str]:
@@ -397,11 +418,11 @@ def experiment_names(include_hidden: bool = False) -> list[str]:
 
 
 def get_experiment(name: str) -> Experiment:
-    try:
-        return EXPERIMENTS[name]
-    except KeyError:
-        known = ", ".join(experiment_names())
-        raise StoreError(f"unknown experiment '{name}' (known: {known})") from None
+    """The experiment ``name``; a :class:`StoreError` naming the nearest and the listed ones
+    otherwise (hidden experiments run when named, and are not offered)."""
+    if name not in EXPERIMENTS:
+        raise StoreError(str(EXPERIMENTS.unknown(name, known=experiment_names())))
+    return EXPERIMENTS[name]
 
 
 class StoreError(ValueError):

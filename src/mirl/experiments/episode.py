@@ -57,7 +57,6 @@ from mirl.experiments.records import (
     Relearn,
     RunResult,
 )
-from mirl.experiments.worlds import DEFAULT_WORLD, RunWorld, get_world, make_world
 from mirl.learning.learn import learn
 from mirl.learning.methods import Method, get_method
 from mirl.learning.results import LearnResult, behavior_accuracy, oracle_models
@@ -67,6 +66,7 @@ from mirl.planning.go import GO_RULES, ObserverPlan, solve_observer_mdp, waiting
 from mirl.planning.observer import ObserverModel, observer_model, shortest_path_policy
 from mirl.planning.success import success_probability
 from mirl.world.scenario import Scenario
+from mirl.worlds import DEFAULT_WORLD, RunWorld, get_world, make_world
 
 __all__ = ["run_episode", "RELEARN_GROWTH", "OPPORTUNITY_STEPS"]
 
@@ -151,7 +151,7 @@ def run_episode(
     """Run one penetration (module doc). ``learned`` overrides learning (for tests and
     experiments with hand-made models). ``travel_steps`` is the part of the planning horizon
     after the last go time (default: 3 × L's shortest path, at least 20). ``world`` names the
-    world of :data:`~mirl.experiments.worlds.WORLDS` the run happens in (``"physics"``: MuJoCo).
+    world of :data:`~mirl.worlds.WORLDS` the run happens in (``"physics"``: MuJoCo).
 
     ``watch_until_seen=K`` (``mirl run``'s default; None here, so experiments keep the paper's
     fixed observation time): L observes at least ``obs_steps`` steps and then keeps watching
@@ -270,6 +270,7 @@ def run_episode(
         watch_until_seen=watch_until_seen,
         predicted_success=going.predicted_success,
         relearns=going.relearns if learner is not None and learner.growth is not None else None,
+        world=world,
     )
 
 

@@ -1,6 +1,6 @@
 """The two halves of a run after learning: L waiting in its room and re-planning until its go
 time (:func:`wait_for_go`), then L following its plan while the patrollers move on
-(:func:`execute`), in any :class:`~mirl.experiments.worlds.RunWorld`."""
+(:func:`execute`), in any :class:`~mirl.worlds.contract.RunWorld`."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from mirl.experiments.records import Detection, PlanAttempt
-from mirl.experiments.worlds import RunWorld
 from mirl.planning.belief import NOT_WATCHING, BeliefFilter
 from mirl.planning.go import ObserverPlan
 from mirl.planning.observer import ObserverModel
+from mirl.worlds import RunWorld
 
 __all__ = ["Decision", "wait_for_go", "execute", "PlanFollower", "propagate_blind"]
 

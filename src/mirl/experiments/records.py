@@ -8,13 +8,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mirl.experiments.worlds import Detection
 from mirl.learning.results import LearnResult
 from mirl.observations.trajectories import Trajectories
 from mirl.planning.go import ObserverPlan
+from mirl.worlds import DEFAULT_WORLD, Detection
 
 if TYPE_CHECKING:
-    from mirl.experiments.worlds import WorldExtras
+    from mirl.worlds import WorldExtras
 
 __all__ = [
     "MAX_WAIT",
@@ -109,6 +109,7 @@ class RunResult:
     watch_until_seen: int | None = None  # the observation rule of `mirl run` (None: fixed)
     predicted_success: float | None = None  # the adaptive rule's P(success) at the go time
     relearns: tuple[Relearn, ...] | None = None  # None: L learned once
+    world: str = DEFAULT_WORLD  # the run's world, a name in mirl.worlds.WORLDS
 
     def to_dict(self) -> dict[str, Any]:
         return {

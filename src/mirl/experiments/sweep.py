@@ -30,7 +30,7 @@ from mirl.experiments.conditions import (
     run_seed,
 )
 from mirl.experiments.store import RunRecord, open_store
-from mirl.experiments.worlds import get_world
+from mirl.worlds import get_world
 
 __all__ = ["Summary", "run_experiment", "conditions_of"]
 

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from mirl._registry import Registry
 from mirl.world.domain import PatrolDomain
 
 __all__ = [
@@ -72,16 +73,19 @@ class EMResult:
         return sp.csr_array(self.transitions.reshape(S * A, S))
 
 
-EM_INITS = ("intended", "uniform")
+EM_INITS = Registry.of_choices("EM initialisation", {
+    "intended": "uniform over the intended outcomes ψ(s, a') of every action (the default)",
+    "uniform": "uniform over all states",
+})  # fmt: skip
+"""DBN-EM's initial transition models (:func:`initial_transitions`)."""
 
 
 def initial_transitions(domain: PatrolDomain, init: str = "intended") -> np.ndarray:
     """(S, A, S) initial T: uniform over {ψ(s, a')} (``intended``) or over all states."""
+    EM_INITS.lookup(init)  # an unknown name: UnknownNameError (a ValueError), one line
     S, A = domain.n_states, domain.n_actions
     if init == "uniform":
         return np.full((S, A, S), 1.0 / S)
-    if init != "intended":
-        raise ValueError(f"unknown EM initialisation '{init}' (known: intended, uniform)")
     support = np.zeros((S, S))
     support[np.repeat(np.arange(S), A), domain.intended.ravel()] = 1.0  # duplicates count once
     support /= support.sum(axis=1, keepdims=True)

@@ -58,6 +58,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import OptimizeResult, minimize
 
+from mirl._registry import Registry
 from mirl.learning.sequence import BlockOperator, ObservedSequence
 from mirl.learning.soft_policy import _Dynamics, soft_policy_iteration
 from mirl.mdp import TabularMDP, value_iteration
@@ -65,10 +66,26 @@ from mirl.sparse import csr_matmul
 
 __all__ = ["OBJECTIVES", "ANCHORS", "OPTIMIZERS", "OccludedMaxEntIRL"]
 
-OBJECTIVES = ("counts", "likelihood", "both", "sequence")
-ANCHORS = ("first", "reentry")
-OPTIMIZERS = ("nelder-mead", "lbfgs")
-GRADIENTS = ("auto", "forward", "reverse")
+# the estimator's choices (module docstring), each carried out by this module's code
+OBJECTIVES = Registry.of_choices("objective", {
+    "counts": "the paper's: squared difference of feature counts on observed steps",
+    "likelihood": "log-likelihood of the observed labelled actions",
+    "both": "counts and likelihood added",
+    "sequence": "log-likelihood of everything L saw of the robot, occlusion included",
+})  # fmt: skip
+ANCHORS = Registry.of_choices("anchor", {
+    "first": "the counts' expected visits propagate from the first observation",
+    "reentry": "and restart at every re-entry into view",
+})  # fmt: skip
+OPTIMIZERS = Registry.of_choices("optimizer", {
+    "nelder-mead": "derivative-free Nelder-Mead from seeded restarts (the paper's)",
+    "lbfgs": "L-BFGS-B with the exact gradient",
+})  # fmt: skip
+GRADIENTS = Registry.of_choices("gradient", {
+    "auto": "reverse mode on large models, forward on small ones",
+    "forward": "the derivatives propagated with the distributions",
+    "reverse": "an adjoint pass over the filter's history",
+})  # fmt: skip
 # "auto" takes the sequence gradient in reverse mode from this many nonzeros of the forward
 # operator ((2K + 1)·nnz(P_πᵀ)); below it the reverse pass's per-step bookkeeping eats what it
 # saves (benchmarks/bench_gradients.py, forward/reverse per evaluation: boyd2 (3 888) 0.73-0.96,
@@ -159,14 +176,13 @@ class OccludedMaxEntIRL:
         gradient: str = "auto",
         random_state: int | np.random.Generator | None = None,
     ) -> None:
-        for name, value, allowed in (
-            ("objective", objective, OBJECTIVES),
-            ("anchor", anchor, ANCHORS),
-            ("optimizer", optimizer, OPTIMIZERS),
-            ("gradient", gradient, GRADIENTS),
+        for value, table in (
+            (objective, OBJECTIVES),
+            (anchor, ANCHORS),
+            (optimizer, OPTIMIZERS),
+            (gradient, GRADIENTS),
         ):
-            if value not in allowed:
-                raise ValueError(f"unknown {name} '{value}' (known: {', '.join(allowed)})")
+            table.lookup(value)  # an unknown name: UnknownNameError (a ValueError), one line
         self.features = np.asarray(features, dtype=float)
         self._V_warm: np.ndarray | None = None  # soft values of the last evaluation (warm start)
         self._forward_operator = BlockOperator()  # P_πᵀ with its derivatives, forward mode

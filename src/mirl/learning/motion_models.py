@@ -52,7 +52,8 @@ from scipy.special import betaln, expit
 
 from mirl.learning.smc import WeightedDraws, tempered_smc
 from mirl.world.domain import FeatureMap, PatrolDomain
-from mirl.world.motion import ERROR_MODELS, WHEELS, turns_without_wheels
+from mirl.world.faults import WHEELS
+from mirl.world.motion import ERROR_MODELS, turns_without_wheels
 
 __all__ = [
     "MotionModel",

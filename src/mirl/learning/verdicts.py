@@ -75,9 +75,8 @@ from mirl.learning.motion_models import (
 )
 from mirl.learning.smc import tempered_smc
 from mirl.world.domain import FORWARD, N_HEADINGS, TURN_LEFT, TURN_RIGHT, PatrolDomain
-from mirl.world.faults import DamageDefinition, DriftSpec
+from mirl.world.faults import WHEELS, DamageDefinition, DriftSpec
 from mirl.world.maps import HEADING_DELTAS
-from mirl.world.motion import WHEELS
 
 __all__ = [
     "Verdict",

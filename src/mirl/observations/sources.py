@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mirl._registry import Registry
 from mirl.observations._csv import csv_header
 from mirl.observations.bags import SUPPORTED_TYPES, BagError, bag_topics, is_bag, read_bag
 from mirl.observations.discretise import Discretised, discretise
@@ -36,7 +37,7 @@ __all__ = [
 @dataclass(frozen=True)
 class LoadedObservations:
     trajectories: Trajectories
-    kind: str  # "grid-csv", "pose-csv" or "bag"
+    kind: str  # the name of its format in FORMATS: "grid-csv", "pose-csv" or "bag"
     discretised: Discretised | None = None  # for pose data: the counts and the visible cells
 
     def visible_states(self, scenario: Scenario) -> np.ndarray | None:
@@ -117,7 +118,7 @@ def _read_grid_csv(path: Path, scenario: Scenario, options: _ReadOptions) -> Tra
     return read_csv(path, scenario.domain, options.robot_names)
 
 
-FORMATS: tuple[InputFormat, ...] = (
+FORMATS: Registry[InputFormat] = Registry("input format", (
     InputFormat(
         "bag", "a ROS 1 .bag, a ROS 2 bag directory or an .mcap file",
         lambda path, header: is_bag(path), robot_data=True, read=_read_bag,
@@ -132,10 +133,10 @@ FORMATS: tuple[InputFormat, ...] = (
         lambda path, header: "x" in header and "y" in header, robot_data=True,
         read=_read_pose_csv,
     ),
-)  # fmt: skip
-"""Every input format, tried in this order."""
+))  # fmt: skip
+"""Every input format by name, tried in this order."""
 
-ROBOT_DATA_KINDS = tuple(f.name for f in FORMATS if f.robot_data)
+ROBOT_DATA_KINDS = tuple(f.name for f in FORMATS.values() if f.robot_data)
 """The formats that hold robot data (measured poses), not a simulation of a scenario."""
 
 
@@ -148,10 +149,10 @@ def input_format(path: str | Path) -> InputFormat:
         raise PoseError(f"{path}: a directory but not a ROS 2 bag (no metadata.yaml)")
     else:
         header = tuple(csv_header(path, TrajectoryError))
-    for fmt in FORMATS:
+    for fmt in FORMATS.values():
         if fmt.recognises(path, header):
             return fmt
-    known = "; ".join(f.description for f in FORMATS)
+    known = "; ".join(f.description for f in FORMATS.values())
     raise TrajectoryError(f"{path}: line 1: not a file of observations mirl reads ({known})")
 
 

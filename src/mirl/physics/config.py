@@ -14,20 +14,25 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import TYPE_CHECKING, Any
 
-from mirl.world.motion import PIVOTS, WHEELS, turns_without_wheels
+from mirl.world.faults import WHEELS
+from mirl.world.motion import PIVOTS, turns_without_wheels
 
 if TYPE_CHECKING:
     from mirl.world.domain import FeatureMap
 
 __all__ = [
     "PhysicsConfig",
+    "SECTION",
     "physics_config",
     "scenario_physics",
     "with_motor_strength",
     "physical_feature_map",
-    "WHEELS",
     "PIVOTS",
 ]
+
+SECTION = "physics"
+"""The scenario table these parameters are read from (one of
+:data:`mirl.world.scenario_sections.WORLD_SECTIONS`)."""
 
 
 def physical_feature_map(feature_map: FeatureMap) -> FeatureMap:
@@ -176,18 +181,13 @@ _POSITIVE = frozenset(
 def with_motor_strength(scenario, robot: str, wheel: str, strength: float):
     """A copy of ``scenario`` whose ``[physics]`` table gives ``robot``'s ``wheel`` motor this
     strength (what ``--damage ROBOT:WHEEL=S`` means in the physics world)."""
-    from dataclasses import replace as _replace
-
     scenario.robot_index(robot)  # unknown robot: ValueError naming the robots
-    cfg = physics_config(scenario.physics, scenario.source, scenario.robot_names)
-    cfg = cfg.with_strength(robot, wheel, strength)
-    table = dict(scenario.physics)
+    cfg = scenario_physics(scenario).with_strength(robot, wheel, strength)
+    table = dict(scenario.section(SECTION))
     table["motor_strength"] = {r: dict(w) for r, w in cfg.motor_strength.items()}
-    return _replace(scenario, physics=table)
+    return scenario.with_section(SECTION, table)
 
 
 def scenario_physics(scenario) -> PhysicsConfig:
     """The scenario's ``[physics]`` table as a validated :class:`PhysicsConfig`."""
-    return physics_config(
-        getattr(scenario, "physics", None) or {}, scenario.source, scenario.robot_names
-    )
+    return physics_config(scenario.section(SECTION), scenario.source, scenario.robot_names)

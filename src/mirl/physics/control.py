@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from mirl.world.game import KEEP_RIGHT_BEARING
+
 __all__ = ["DRIVE", "PIVOT", "HOLD", "Controller", "crowded", "in_company", "wrap"]
 
 DRIVE, PIVOT, HOLD = 0, 1, 2
@@ -65,12 +67,13 @@ def crowded(p: np.ndarray, cell_size: float, pass_distance: float) -> np.ndarray
 
 def in_company(p: np.ndarray, cell_size: float, distance: float) -> np.ndarray:
     """Robots that keep right: another robot coming the other way less than ``distance``
-    cells ahead or alongside (±110°, so that it keeps right until they have passed). A robot
-    followed or led by another stays in the middle. ``p``: true poses, one row a robot."""
+    cells ahead or alongside (within :data:`~mirl.world.game.KEEP_RIGHT_BEARING`, so that it
+    keeps right until they have passed). A robot followed or led by another stays in the
+    middle. ``p``: true poses, one row a robot."""
     if len(p) < 2 or not (_nearest(p) / cell_size < distance):
         return np.zeros(len(p), dtype=bool)
     dist, bearing, oncoming = _others(p, cell_size)
-    return ((bearing < np.radians(110)) & oncoming & (dist < distance)).any(axis=1)
+    return ((bearing < np.radians(KEEP_RIGHT_BEARING)) & oncoming & (dist < distance)).any(axis=1)
 
 
 def _nearest(p: np.ndarray) -> float:

@@ -18,7 +18,8 @@ the exact survival is ≈0.2). The MDP therefore uses the *first-order* hazard h
 P(seen on c at t | not seen on c' at t−1), computed per robot from its predicted marginal and
 one-step matrix and combined over robots as independent; it depends on L's move (c' → c), so the
 arrival term is evaluated per non-zero of L's transition matrix. hazard="independent" gives
-the naive d_t(c) for comparison.
+the naive d_t(c) for comparison. The two are the rows of :data:`HAZARDS`, each a function
+that fetches the rows the backward pass multiplies by.
 
 The continuation (1 − h) multiplies the next value, i.e. the dynamics are time-indexed, which
 :func:`mirl.mdp.backward_induction` (stationary transitions) cannot express; the loop below is
@@ -27,20 +28,79 @@ the same one-sparse-product-per-step recursion with that factor.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from mirl._registry import Registry
 from mirl.planning.belief import Prediction, StreamedPrediction
 from mirl.planning.observer import ObserverModel
 from mirl.world.domain import STOP
 
-__all__ = ["GO_RULES", "ObserverPlan", "TimedPolicy", "solve_observer_mdp", "waiting_value"]
+__all__ = [
+    "GO_RULES",
+    "HAZARDS",
+    "HazardModel",
+    "ObserverPlan",
+    "TimedPolicy",
+    "solve_observer_mdp",
+    "waiting_value",
+]
 
-GO_RULES = ("adaptive", "value")
+GO_RULES = Registry.of_choices("go rule", {
+    "adaptive": "goes when its stated chance of success beats the value of waiting",
+    "value": "the published rule: the best go value in the window, if positive",
+})  # fmt: skip
 """How L decides to go (docs/design.md, "The go rule"): ``adaptive`` stops on its stated
 probability of success against the value of waiting; ``value`` is the published rule (the best
 go value in the window, if positive)."""
+
+Rows = Callable[[Prediction | StreamedPrediction, int, int], np.ndarray]
+
+
+@dataclass(frozen=True)
+class HazardModel:
+    """How the backward pass reads the chance of L being seen on a step (module doc).
+
+    Parameters
+    ----------
+    name : str
+        What ``solve_observer_mdp(hazard=...)`` takes.
+    description : str
+        What it assumes, in a few words.
+    rows : callable
+        ``rows(prediction, lo, hi)`` -> (hi − lo, n_pairs): steps lo … hi − 1 of the
+        probability that L is seen on the second cell of each of L's cell pairs
+        (``prediction.pairs``).
+    """
+
+    name: str
+    description: str
+    rows: Rows
+
+
+def _markov_rows(prediction: Prediction | StreamedPrediction, lo: int, hi: int) -> np.ndarray:
+    return prediction.hazard_rows(lo, hi)
+
+
+def _independent_rows(
+    prediction: Prediction | StreamedPrediction, lo: int, hi: int
+) -> np.ndarray:
+    return prediction.detection_rows(lo, hi)[:, prediction.pairs[:, 1]]
+
+
+HAZARDS: Registry[HazardModel] = Registry("hazard model", (
+    HazardModel(
+        "markov", "first order: P(seen at t | not seen a step before), per L's move",
+        _markov_rows,
+    ),
+    HazardModel(
+        "independent", "each step's detection probability taken as independent of the last",
+        _independent_rows,
+    ),
+))  # fmt: skip
+"""The hazard models of the backward pass, by name (the first-order one is the default)."""
 
 # hazard rows fetched from a prediction at once by the backward pass (a streamed prediction
 # computes them block by block from its checkpoints, so its blocks bound the memory)
@@ -141,8 +201,9 @@ def solve_observer_mdp(
     """Backward induction over K = ``prediction.steps`` steps (see the module doc).
 
     ``window`` bounds the go times considered (default: all k < K); a go time needs a go value
-    above ``min_value``. ``hazard`` is ``"markov"`` (first-order hazard, default) or
-    ``"independent"`` (per-step detection probabilities taken as independent).
+    above ``min_value``. ``hazard`` names a row of :data:`HAZARDS`: ``"markov"`` (first-order
+    hazard, default) or ``"independent"`` (per-step detection probabilities taken as
+    independent).
     ``keep_values`` keeps the (K+1, S_L) values in the plan; without it the pass holds one
     step's values at a time, the hazards a block of rows at a time, and the policy as its
     changes (:class:`TimedPolicy`), so its memory does not grow with K × S_L.
@@ -150,8 +211,7 @@ def solve_observer_mdp(
     K = prediction.steps
     if K < 1:
         raise ValueError("the plan needs at least one step of prediction")
-    if hazard not in ("markov", "independent"):
-        raise ValueError(f"unknown hazard model '{hazard}' (known: markov, independent)")
+    hazard_rows = HAZARDS.lookup(hazard).rows
     window = K - 1 if window is None else min(int(window), K - 1)
     dom = model.domain
     S, A = dom.n_states, dom.n_actions
@@ -168,7 +228,7 @@ def solve_observer_mdp(
     for k in range(K - 1, -1, -1):
         if k + 1 < lo:  # the next block of rows, going back in time
             lo = max(1, k + 2 - _ROWS_AT_ONCE)
-            block = _hazard_rows(prediction, hazard, lo, k + 2)
+            block = hazard_rows(prediction, lo, k + 2)
         h = block[k + 1 - lo, pair]
         cont = V[cols]  # the goal is absorbing: V[goal] = goal_reward
         Q = np.bincount(
@@ -186,15 +246,6 @@ def solve_observer_mdp(
     best = int(np.argmax(go_values))
     go_time = best if go_values[best] > min_value else None
     return ObserverPlan(prediction.t0, values, policy, go_values, go_time)
-
-
-def _hazard_rows(
-    prediction: Prediction | StreamedPrediction, hazard: str, lo: int, hi: int
-) -> np.ndarray:
-    """Rows lo … hi − 1 of the hazard the pass uses, indexed by L's cell pairs."""
-    if hazard == "markov":
-        return prediction.hazard_rows(lo, hi)
-    return prediction.detection_rows(lo, hi)[:, prediction.pairs[:, 1]]
 
 
 _MASKS: dict[int, tuple[ObserverModel, np.ndarray]] = {}

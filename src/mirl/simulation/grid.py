@@ -135,6 +135,30 @@ class PatrolSimulator:
         info = {"t": self.t, "states": self.states.copy(), "interaction": met, "actions": acts}
         return self._observe(), 0.0, False, False, info
 
+    def step_actions(self, actions: np.ndarray):
+        """Advance one step with each robot taking the given action (an index into
+        :data:`~mirl.world.domain.ACTIONS`) through its true transition function: no policy
+        and no game at meetings, since whoever gave the actions chose them (the agents of
+        :class:`mirl.envs.TeamEnv`). Returns as :meth:`step`; a ValueError, moving nobody,
+        for anything but one valid action per robot."""
+        acts = np.asarray(actions)
+        A = self.domain.n_actions
+        if (
+            acts.shape != (self.n_robots,)
+            or not np.issubdtype(acts.dtype, np.integer)
+            or ((acts < 0) | (acts >= A)).any()
+        ):
+            raise ValueError(
+                f"`actions` must be {self.n_robots} integers in [0, {A}), one per robot, "
+                f"got {actions!r}"
+            )
+        for i, a in enumerate(acts.astype(int)):
+            row = self._T[i][[int(self.states[i]) * A + int(a)]].toarray().ravel()
+            self.states[i] = int(self.np_random.choice(len(row), p=row / row.sum()))
+        self.t += 1
+        info = {"t": self.t, "states": self.states.copy(), "interaction": False, "actions": acts}
+        return self._observe(), 0.0, False, False, info
+
     def _observe(self) -> np.ndarray:
         """(k, 4) rows (robot, row, col, heading) of the robots on visible cells."""
         seen = np.flatnonzero(self.visible[self.states])

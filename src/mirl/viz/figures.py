@@ -10,13 +10,15 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 from scipy import stats
 
-from mirl.experiments.conditions import Condition
+from mirl._registry import Registry
+from mirl.experiments.conditions import EXPERIMENTS, Condition
 from mirl.viz.aggregate import FIG4A_PAPER, PAPER_NAMES, TABLE1_PAPER, Group, method_name
 from mirl.viz.verdicts import verdicts_markdown
 
@@ -28,6 +30,8 @@ __all__ = [
     "fig4bc_markdown",
     "table1_markdown",
     "outcomes_markdown",
+    "Section",
+    "SECTIONS",
 ]
 
 
@@ -486,11 +490,35 @@ def outcomes_markdown(gs: list[Group]) -> str:
     return "\n".join(lines)
 
 
-SECTIONS: dict[str, Callable[[list[Group], Path], str]] = {
-    "fig3": fig3_markdown,
-    "fig4a": fig4a_markdown,
-    "fig4b": lambda gs, d: fig4bc_markdown(gs, d, "fig4b"),
-    "fig4c": lambda gs, d: fig4bc_markdown(gs, d, "fig4c"),
-    "table1": table1_markdown,
-    "verdicts": verdicts_markdown,
-}
+@dataclass(frozen=True)
+class Section:
+    """The report's section of one experiment: ``write(groups, figdir)`` draws its figures
+    into ``figdir`` and returns its markdown (a section is called as its ``write``)."""
+
+    name: str
+    write: Callable[[list[Group], Path], str]
+
+    def __call__(self, groups: list[Group], figdir: Path) -> str:
+        return self.write(groups, figdir)
+
+
+def _check_section(section: Section) -> None:
+    """A section belongs to an experiment of :data:`~mirl.experiments.conditions.EXPERIMENTS`."""
+    if section.name not in EXPERIMENTS:
+        raise ValueError(f"report section '{section.name}': {EXPERIMENTS.unknown(section.name)}")
+
+
+SECTIONS: Registry[Section] = Registry(
+    "report section",
+    (
+        Section("fig3", fig3_markdown),
+        Section("fig4a", fig4a_markdown),
+        Section("fig4b", lambda gs, d: fig4bc_markdown(gs, d, "fig4b")),
+        Section("fig4c", lambda gs, d: fig4bc_markdown(gs, d, "fig4c")),
+        Section("table1", table1_markdown),
+        Section("verdicts", verdicts_markdown),
+    ),
+    check=_check_section,
+)
+"""The report's own section of each experiment that has one, by the experiment's name (the
+others get the table of outcomes alone)."""

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from mirl.viz.maps import draw_map
+from mirl.viz.runs import OBSERVER_COLOR, ROBOT_COLORS
 
 __all__ = ["draw_physical_run"]
 
@@ -33,10 +34,11 @@ def _cone(ax, frame, x, y, yaw, fov_deg, rng, color, label):
     return poly
 
 
-def draw_physical_run(ax, scenario, result, colors, observer_color, *, context: int = 10):
+def draw_physical_run(ax, scenario, result, *, context: int = 10):
     """Draw a physics-world run (its ``result.extras`` is a
-    :class:`~mirl.experiments.physics_world.PhysicsExtras`; ``colors``: one per patroller,
-    cycled; the caller's palette)."""
+    :class:`~mirl.worlds.physics.PhysicsExtras`) on ``ax``, from ``context`` steps before L
+    left; the physics row's drawing in :data:`mirl.worlds.WORLDS`."""
+    colors, observer_color = ROBOT_COLORS, OBSERVER_COLOR
     world = result.extras.world
     gm = scenario.map
     frame = gm.frame

@@ -14,10 +14,10 @@ from mirl.experiments.conditions import (
     experiment_names,
 )
 from mirl.experiments.store import load_results
-from mirl.experiments.worlds import DEFAULT_WORLD
 from mirl.learning.methods import METHODS
 from mirl.viz.aggregate import PAPER, Row, groups
 from mirl.viz.figures import SECTIONS, outcomes_markdown
+from mirl.worlds import DEFAULT_WORLD
 
 __all__ = ["write_report", "report_markdown"]
 

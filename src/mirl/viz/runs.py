@@ -1,7 +1,10 @@
 """Drawing one penetration run: the map with the cells L sees, the patrollers' true paths while L
 was moving, L's path and the detection events; beside it the go values of the executed plan.
 
-Only matplotlib's object API is used (no pyplot), like :mod:`mirl.viz.maps`.
+The map panel is the run's world's drawing, named by its row of :data:`mirl.worlds.WORLDS`
+(:func:`draw_run`, the grid trace, unless the world draws itself, as the physics world does with
+:func:`mirl.viz.physics_run.draw_physical_run`). Only matplotlib's object API is used (no
+pyplot), like :mod:`mirl.viz.maps`.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ import numpy as np
 from mirl.experiments.records import RunResult
 from mirl.viz.maps import MAP_COLORS, draw_map
 from mirl.world.scenario import Scenario
+from mirl.worlds.registry import get_world, resolve
 
 __all__ = ["ROBOT_COLORS", "draw_run", "run_figure", "save_run_png"]
 
@@ -106,8 +110,10 @@ def draw_go_values(ax, result: RunResult):
     return ax
 
 
-def run_figure(scenario: Scenario, result: RunResult, *, context: int = 0):
-    """A new ``Figure`` with the map panel and the go-value panel; returns ``(fig, axes)``."""
+def run_figure(scenario: Scenario, result: RunResult, *, context: int | None = None):
+    """A new ``Figure`` with the map panel (the drawing of the run's world, with ``context``
+    steps before L left; None: that drawing's default) and the go-value panel; returns
+    ``(fig, axes)``."""
     from matplotlib.figure import Figure
 
     rows, cols = scenario.map.shape
@@ -116,12 +122,8 @@ def run_figure(scenario: Scenario, result: RunResult, *, context: int = 0):
     grid = fig.add_gridspec(1, 2, width_ratios=[cols * scale + 1.0, 4.5])
     ax_map = fig.add_subplot(grid[0, 0])
     ax_val = fig.add_subplot(grid[0, 1])
-    if result.extras is not None:  # a world with continuous tracks (the physics world)
-        from mirl.viz.physics_run import draw_physical_run
-
-        draw_physical_run(ax_map, scenario, result, ROBOT_COLORS, OBSERVER_COLOR)
-    else:
-        draw_run(ax_map, scenario, result, context=context)
+    draw = resolve(get_world(result.world).drawing)
+    draw(ax_map, scenario, result, **({} if context is None else {"context": context}))
     draw_go_values(ax_val, result)
     fig.tight_layout()
     return fig, (ax_map, ax_val)

@@ -270,10 +270,7 @@ class PatrolDomain:
     @cached_property
     def turn_around_cells(self) -> tuple[tuple[int, int], ...]:
         """Cells of the (first) ``turn_around`` feature: its own, or the map's dead ends."""
-        for f in self.reward_spec.features:
-            if f.kind == "turn_around" and f.cells is not None:
-                return f.cells
-        return dead_ends(self.map)
+        return self.reward_spec.turn_around_cells(self.map)
 
     def cell_mask(self, cells: Sequence[tuple[int, int]]) -> np.ndarray:
         """(S,) bool: the states on ``cells`` (every heading); a cell off the hallway is an

@@ -12,9 +12,22 @@ from numpy.typing import ArrayLike
 
 from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
 
-__all__ = ["GAME_ACTIONS", "Equilibrium", "InteractionGame", "meeting", "game_action_to_action"]
+__all__ = [
+    "GAME_ACTIONS",
+    "KEEP_RIGHT_BEARING",
+    "Equilibrium",
+    "InteractionGame",
+    "meeting",
+    "game_action_to_action",
+]
 
 GAME_ACTIONS: tuple[str, ...] = ("go", "stop", "turn")
+
+KEEP_RIGHT_BEARING = 110.0
+"""Degrees either side of a robot's heading within which another robot coming the other way
+is being passed: ahead of it or alongside, until they have passed. Physical robots passing so
+keep right (:func:`mirl.physics.control.in_company`), so their steps then are no evidence of a
+wheel's drift (:func:`mirl.learning.verdicts.in_company`)."""
 
 
 @dataclass(frozen=True)

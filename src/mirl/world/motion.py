@@ -17,10 +17,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from mirl.world.domain import FeatureMap, PatrolDomain
+from mirl.world.faults import WHEELS
 
 __all__ = [
     "ERROR_MODELS",
-    "WHEELS",
     "PIVOTS",
     "transition_matrix",
     "transition_matrix_from_success",
@@ -31,8 +31,6 @@ ERROR_MODELS = ("uniform", "stop")
 """Where the failure mass 1 − Π p_τ of a step goes: ``uniform`` (Eq. 5) to the intended states
 of the other actions, ``stop`` to the state the robot started in."""
 
-WHEELS = ("left_wheel", "right_wheel")
-"""A differential drive's wheels, as transition features."""
 PIVOTS = ("turn_left", "turn_right")
 """The actions that turn a robot in place."""
 

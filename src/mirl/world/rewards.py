@@ -27,6 +27,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from mirl._registry import Registry
 from mirl.world import schema
 from mirl.world.actions import FORWARD, TURN_LEFT, TURN_RIGHT
 from mirl.world.maps import GridMap, dead_ends
@@ -44,6 +45,7 @@ __all__ = [
 ]
 
 HEADING_NAMES = ("east", "north", "west", "south")
+FIELDS = ("cells", "headings")  # what a feature may have besides its name and kind
 LEGACY_KEYS = ("upper_hallway", "lower_hallway", "turn_around")
 Cells = tuple[tuple[int, int], ...]
 
@@ -60,7 +62,7 @@ class RewardFeature:
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
-            raise ValueError(f"reward feature '{self.name}': unknown kind '{self.kind}'")
+            raise ValueError(f"reward feature '{self.name}': {KINDS.unknown(self.kind)}")
 
 
 class StateSpace(Protocol):
@@ -140,16 +142,22 @@ def _heading_in_region(domain: StateSpace, feature: RewardFeature) -> np.ndarray
     return np.repeat(mask[:, None].astype(float), domain.n_actions, axis=1)
 
 
-KINDS: dict[str, FeatureKind] = {
-    k.name: k
-    for k in (
-        FeatureKind("moved", (), (), _moved),
-        FeatureKind("region", ("cells",), ("cells",), _region),
-        FeatureKind("turn_around", ("cells",), (), _turn_around),
-        FeatureKind("heading_in_region", ("cells", "headings"), ("cells", "headings"),
-                    _heading_in_region),
-    )
-}  # fmt: skip
+def _check_kind(kind: FeatureKind) -> None:
+    """A kind needs only fields it takes, of those a scenario's feature may have."""
+    if not set(kind.needs) <= set(kind.takes) <= set(FIELDS):
+        raise ValueError(
+            f"reward-feature kind '{kind.name}': takes {kind.takes} and needs {kind.needs}; "
+            f"it may take only {FIELDS} and need only what it takes"
+        )
+
+
+KINDS: Registry[FeatureKind] = Registry("reward-feature kind", (
+    FeatureKind("moved", (), (), _moved),
+    FeatureKind("region", ("cells",), ("cells",), _region),
+    FeatureKind("turn_around", ("cells",), (), _turn_around),
+    FeatureKind("heading_in_region", ("cells", "headings"), ("cells", "headings"),
+                _heading_in_region),
+), check=_check_kind)  # fmt: skip
 """Every kind of reward feature by name."""
 
 
@@ -184,6 +192,14 @@ class RewardSpec:
 
     def feature(self, name: str) -> RewardFeature:
         return self.features[self.names.index(name)]
+
+    def turn_around_cells(self, gridmap: GridMap) -> Cells:
+        """The cells of the first ``turn_around`` feature that names its own, else the map's
+        dead ends (where that kind rewards a turn by default)."""
+        for f in self.features:
+            if f.kind == "turn_around" and f.cells is not None:
+                return f.cells
+        return dead_ends(gridmap)
 
 
 def read_region(
@@ -239,10 +255,10 @@ def _headings(value: Any, path: str) -> tuple[int, ...]:
 def _feature(
     value: Any, path: str, shape: tuple[int, int], gridmap: GridMap | None
 ) -> RewardFeature:
-    value = schema.table(value, path, ("name", "kind", "cells", "headings"), ("name", "kind"))
+    value = schema.table(value, path, ("name", "kind", *FIELDS), ("name", "kind"))
     name = schema.string(value["name"], f"{path}.name")
     kind = schema.string(value["kind"], f"{path}.kind", tuple(KINDS))
-    for key in ("cells", "headings"):
+    for key in FIELDS:
         if key in value and key not in KINDS[kind].takes:
             raise schema.FieldError(f"{path}.{key}", f"a '{kind}' feature takes no {key}")
     for key in KINDS[kind].needs:

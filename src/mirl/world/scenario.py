@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -21,14 +21,15 @@ from mirl.mdp import TabularMDP, value_iteration
 from mirl.world import schema
 from mirl.world._resources import read_shipped_or_file, shipped_names
 from mirl.world.domain import DEFAULT_FEATURE_MAP, FeatureMap, PatrolDomain
-from mirl.world.faults import DamageDefinition, read_faults
+from mirl.world.faults import HEALTHY_PROBABILITIES, DamageDefinition, read_faults
 from mirl.world.game import Equilibrium, InteractionGame
 from mirl.world.maps import GridMap
 from mirl.world.motion import ERROR_MODELS, transition_matrix
 from mirl.world.rewards import RewardSpec, read_reward_spec, read_weights
 from mirl.world.scenario_sections import (
-    HEALTHY_PROBABILITIES,
+    PLAYED,
     TRUE_WEIGHTS,
+    WORLD_SECTIONS,
     RobotSpec,
     read_feature_map,
     read_game,
@@ -61,17 +62,19 @@ class Scenario:
     feature_map: FeatureMap = DEFAULT_FEATURE_MAP
     reward_spec: RewardSpec = field(default_factory=RewardSpec)
     game: InteractionGame = field(default_factory=InteractionGame)
-    played: tuple[str, str] = ("stop", "go")
+    played: tuple[str, str] = PLAYED
     # per pair (i < j, i the game's row player) the equilibrium it plays, if not ``played``
     pair_played: Mapping[tuple[int, int], tuple[str, str]] = field(default_factory=dict)
     observer_start: tuple[int, int] | None = None
     goal: tuple[int, int] | None = None
-    detect_distance: int = 6
-    observability: float = 0.14
+    # the defaults of a scenario file's top-level keys, read here by _from_dict
+    detect_distance: int = 6  # cells
+    observability: float = 0.14  # the paper's L at its door
     discount: float = 0.95
     error_model: str = "uniform"
     source: str = "<memory>"
-    physics: Mapping[str, Any] = field(default_factory=dict)  # [physics] table (mirl.physics)
+    # the worlds' own tables ([physics]) as written, by name; each world reads its own
+    sections: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     faults: DamageDefinition = field(default_factory=DamageDefinition)  # what "damaged" means
 
     def __post_init__(self) -> None:
@@ -87,6 +90,8 @@ class Scenario:
             raise ScenarioError(
                 f"{self.source}: error_model: '{self.error_model}' is not one of {ERROR_MODELS}"
             )
+        for name in self.sections:
+            WORLD_SECTIONS.lookup(name)  # a world section the format does not know: refused
 
     @property
     def robot_names(self) -> tuple[str, ...]:
@@ -193,6 +198,17 @@ class Scenario:
         model.__dict__["_true_models"] = [(t, b[1]) for t, b in zip(T, behaviour, strict=True)]
         return model
 
+    def section(self, name: str) -> Mapping[str, Any]:
+        """The world section ``name`` (a table of :data:`~mirl.world.scenario_sections.
+        WORLD_SECTIONS`) as written in the scenario; empty when the file has none."""
+        WORLD_SECTIONS.lookup(name)
+        return self.sections.get(name, {})
+
+    def with_section(self, name: str, table: Mapping[str, Any]) -> Scenario:
+        """A copy whose world section ``name`` is ``table``."""
+        WORLD_SECTIONS.lookup(name)
+        return replace(self, sections={**self.sections, name: table})
+
     def with_options(self, **changes: Any) -> Scenario:
         return replace(self, **changes)
 
@@ -234,6 +250,8 @@ def _from_text(text: str, source: str, base: Path | None) -> Scenario:
         raise ScenarioError(f"{source}: {msg.splitlines()[0] if msg else msg}") from None
 
 
+_FIELD_DEFAULTS = {f.name: f.default for f in fields(Scenario)}
+
 _TOP_KEYS = (
     "name",
     "map",
@@ -247,7 +265,6 @@ _TOP_KEYS = (
     "game",
     "robots",
     "frame",
-    "physics",
     "faults",
 )
 
@@ -276,12 +293,22 @@ def _observer(data: Any, gridmap: GridMap) -> tuple[tuple[int, int], tuple[int, 
     return spots["start"], spots["goal"]
 
 
+def _given(data: dict, key: str) -> Any:
+    """The file's ``key``, or the default the :class:`Scenario` field of that name declares."""
+    return data[key] if key in data else _FIELD_DEFAULTS[key]
+
+
 def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
-    """Every section read and validated in file order (:mod:`mirl.world.scenario_sections`)."""
-    schema.table(data, "", _TOP_KEYS)
+    """Every section read and validated in file order (:mod:`mirl.world.scenario_sections`);
+    a world's own section is kept as written, a table, for that world to read."""
+    schema.table(data, "", (*_TOP_KEYS, *WORLD_SECTIONS.names))
     gridmap = read_map(data, base)
     shape = gridmap.shape
-    physics = data.get("physics", {})
+    sections = {
+        name: schema.table(data[name], name, data[name] if isinstance(data[name], dict) else ())
+        for name in WORLD_SECTIONS
+        if name in data
+    }
     feature_map = DEFAULT_FEATURE_MAP
     if "transition_features" in data:
         feature_map = read_feature_map(data["transition_features"], gridmap)
@@ -324,17 +351,16 @@ def _from_dict(data: dict, source: str, base: Path | None) -> Scenario:
         observer_start=start,
         goal=goal,
         detect_distance=schema.integer(
-            data.get("detect_distance", 6), "detect_distance", low=0, high=max(shape)
+            _given(data, "detect_distance"), "detect_distance", low=0, high=max(shape)
         ),  # fmt: skip
         observability=schema.number(
-            data.get("observability", 0.14), "observability", low=0.0, high=1.0
+            _given(data, "observability"), "observability", low=0.0, high=1.0
         ),  # fmt: skip
         discount=schema.number(
-            data.get("discount", 0.95), "discount", low=0.0, high=1.0, high_open=True
+            _given(data, "discount"), "discount", low=0.0, high=1.0, high_open=True
         ),  # fmt: skip
-        error_model=schema.string(data.get("error_model", "uniform"), "error_model", ERROR_MODELS),
+        error_model=schema.string(_given(data, "error_model"), "error_model", ERROR_MODELS),
         source=source,
-        # the physical world's parameters, checked by mirl.physics.config where they are used
-        physics=schema.table(physics, "physics", physics if isinstance(physics, dict) else ()),
+        sections=sections,
         faults=read_faults(data.get("faults", {}), feature_map.features),
     )

@@ -12,17 +12,21 @@ from typing import Any
 
 import numpy as np
 
+from mirl._registry import Registry
 from mirl.world import schema
 from mirl.world.catalog import is_ros_map, load_map
 from mirl.world.domain import FeatureMap, PatrolDomain
+from mirl.world.faults import HEALTHY_PROBABILITIES
 from mirl.world.game import GAME_ACTIONS, InteractionGame
 from mirl.world.maps import GridMap, MapError, MapFrame
 from mirl.world.rewards import RewardSpec, read_weights
 
 __all__ = [
-    "HEALTHY_PROBABILITIES",
+    "PLAYED",
     "TRUE_WEIGHTS",
     "RobotSpec",
+    "WorldSection",
+    "WORLD_SECTIONS",
     "read_map",
     "read_feature_map",
     "read_robots",
@@ -30,10 +34,45 @@ __all__ = [
     "read_pairs",
 ]
 
-HEALTHY_PROBABILITIES = {"left_wheel": 0.95, "right_wheel": 0.95, "navigation": 0.97, "floor": 0.99}
+PLAYED = ("stop", "go")  # the equilibrium met robots play by default: the paper's (row stops)
 TRUE_WEIGHTS = {"moved": 1.0, "upper_hallway": 0.05, "lower_hallway": 0.05, "turn_around": 0.3}
 MAX_ROBOTS = 26  # a team, not a crowd: every pair is checked for meetings each step
 FieldError = schema.FieldError
+
+
+@dataclass(frozen=True)
+class WorldSection:
+    """A top-level table of a scenario that belongs to one world (``[physics]``): the scenario
+    keeps it as written (:meth:`Scenario.section <mirl.world.scenario.Scenario.section>`) and
+    that world reads it (:meth:`mirl.worlds.contract.World.read_section`).
+
+    Parameters
+    ----------
+    name : str
+        The table's name in the TOML file, the world's ``section`` in :data:`mirl.worlds.WORLDS`.
+    holds : str
+        What the table sets, for messages and documentation.
+    """
+
+    name: str
+    holds: str
+
+
+def _check_section(row: WorldSection) -> None:
+    if not row.name.isidentifier():
+        raise ValueError(f"world section '{row.name}': not a TOML bare key of letters and '_'")
+
+
+# The scenario format names every world's section so that a file is checked when it is loaded:
+# a misspelt table is refused then, not run as if absent. The worlds sit above this stage and
+# cannot be asked; a world's row names its section here and is refused if it is not declared
+# (docs/design.md, "The world interface").
+WORLD_SECTIONS: Registry[WorldSection] = Registry(
+    "world section",
+    [WorldSection("physics", "the physical world's parameters (mirl.physics.config)")],
+    check=_check_section,
+)
+"""Every world's own scenario section, by name."""
 
 
 @dataclass(frozen=True)
@@ -186,7 +225,7 @@ def read_game(data: Any) -> tuple[InteractionGame, tuple[str, str], list]:
     kwargs = {
         k: _payoffs(game[k], f"game.{k}") for k in ("row_payoffs", "col_payoffs") if k in game
     }
-    played = _played(game["played"], "game.played") if "played" in game else ("stop", "go")
+    played = _played(game["played"], "game.played") if "played" in game else PLAYED
     return InteractionGame(**kwargs), played, schema.array(game.get("pairs", []), "game.pairs")
 
 

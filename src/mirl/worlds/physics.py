@@ -1,5 +1,5 @@
-"""The physical world as a :class:`~mirl.experiments.worlds.RunWorld`: the same protocol as the
-grid's with :class:`mirl.physics.patrol.PhysicalWorld` in place of the grid simulator.
+"""The physical world: the same contract as the grid's with
+:class:`mirl.physics.patrol.PhysicalWorld` in place of the grid simulator.
 
 Only the world changes. L learns from what its camera saw (discretised pose measurements) and
 plans on the grid with the unchanged code; then it *drives* its time-indexed plan with the same
@@ -16,25 +16,31 @@ from typing import Any
 
 import numpy as np
 
-from mirl.experiments.worlds import Detection, RunSetup
 from mirl.physics import mujoco_version
 from mirl.physics.config import (
     PHYSICAL_ERROR_MODEL,
     WHEELS,
+    PhysicsConfig,
     physical_feature_map,
-    physics_config,
     scenario_physics,
     with_motor_strength,
 )
 from mirl.physics.patrol import PhysicalWorld
 from mirl.world.scenario import Scenario
+from mirl.worlds.contract import (
+    Detection,
+    MeasuredPoses,
+    RunSetup,
+    Simulation,
+    World,
+)
 
 __all__ = ["PhysicsRunWorld", "PhysicsExtras"]
 
 
 @dataclass(frozen=True)
 class PhysicsExtras:
-    """What a physics run records beyond the interface: the MuJoCo world itself (continuous
+    """What a physics run records beyond the contract: the MuJoCo world itself (continuous
     tracks, cameras, contacts) and the MuJoCo release that computed it."""
 
     world: PhysicalWorld
@@ -60,8 +66,14 @@ class PhysicsExtras:
         return any(s < 1 for ws in strengths.values() for s in ws.values())
 
 
+def _strengths(cfg: PhysicsConfig) -> str:
+    """The motor strengths the scenario sets, as ``physics: I:left_wheel=0.6, ...``."""
+    given = [f"{r}:{w}={s:g}" for r, ws in cfg.motor_strength.items() for w, s in ws.items()]
+    return f"physics: {', '.join(given) or 'all motors healthy'}"
+
+
 class PhysicsRunWorld:
-    """A :class:`~mirl.physics.patrol.PhysicalWorld` behind the run interface.
+    """A :class:`~mirl.physics.patrol.PhysicalWorld` behind the world contract.
 
     Parameters
     ----------
@@ -69,6 +81,8 @@ class PhysicsRunWorld:
         As for the grid world; its ``noise`` stream is unused, since L's failures here are
         physical.
     """
+
+    takes_patroller_actions = False  # the patrollers drive by their policies and the game
 
     def __init__(self, setup: RunSetup) -> None:
         scenario, observer = setup.scenario, setup.observer
@@ -91,6 +105,47 @@ class PhysicsRunWorld:
         self._sightings_before = 0
         goal = observer.domain.states[np.flatnonzero(observer.goal)]
         self._goal_cells = {(int(r), int(c)) for r, c, _ in goal}
+
+    # ---- the class-level half of the contract ------------------------------------------------
+    @staticmethod
+    def simulate(
+        scenario: Scenario,
+        steps: int,
+        *,
+        seed: int,
+        observability: float | None = None,
+        heading_noise: float = 0.0,
+        random_starts: bool = False,
+    ) -> Simulation:
+        """The patrollers in MuJoCo with L's camera at its door (L stands still): its grid
+        record, contact events, and the poses the camera measured with the true ones at the
+        control rate. L's camera measures headings with its own noise, so ``heading_noise``
+        must be 0."""
+        if heading_noise:
+            raise ValueError(
+                "`heading_noise` applies to the grid world's perception; the physics world's "
+                "camera measures headings with its own noise ([physics] measurement_sigma_deg)"
+            )
+        if steps < 1:
+            raise ValueError(f"steps must be at least 1, got {steps}")
+        world = PhysicalWorld(
+            scenario, observability=observability, seed=seed, random_starts=random_starts
+        )
+        for _ in range(steps - 1):
+            world.step()
+        cfg = world.cfg
+        poses = MeasuredPoses(world.observed_tracks(), world.true_tracks(), cfg.control_hz)
+        contacts = f"contacts: {world.contacts} between robots, {world.wall_contacts} with walls"
+        return Simulation(
+            world.observations(), world.truth(), world.degree, conditions=_strengths(cfg),
+            step_seconds=cfg.step_seconds, report=(contacts,), poses=poses,
+        )  # fmt: skip
+
+    @staticmethod
+    def read_section(scenario: Scenario) -> PhysicsConfig:
+        """The scenario's ``[physics]`` table, validated (:func:`~mirl.physics.config.
+        physics_config`)."""
+        return scenario_physics(scenario)
 
     @staticmethod
     def apply_damage(scenario: Scenario, robot: str, feature: str, value: float) -> Scenario:
@@ -119,7 +174,7 @@ class PhysicsRunWorld:
     def damaged_parts(scenario: Scenario) -> dict[str, tuple[str, ...]]:
         """Per robot, the wheels whose motor is weaker than a healthy one (strength < 1): what
         the grid calls a damaged wheel is, here, any weakened motor."""
-        strengths = physics_config(scenario.physics, scenario.source, scenario.robot_names)
+        strengths = scenario_physics(scenario)
         return {
             name: tuple(w for w in WHEELS if strengths.strength(name, w) < 1.0)
             for name in scenario.robot_names
@@ -131,11 +186,19 @@ class PhysicsRunWorld:
         under another one)."""
         return f"mujoco.{mujoco_version()}"
 
+    # ---- one run ----------------------------------------------------------------------------
     @property
     def t(self) -> int:
         return self.physics.t
 
-    def step(self, observer_action: int | None = None) -> np.ndarray:
+    def step(
+        self, observer_action: int | None = None, *, patroller_actions: np.ndarray | None = None
+    ) -> np.ndarray:
+        if patroller_actions is not None:
+            raise NotImplementedError(
+                "the physics world's patrollers drive by their true policies and the game; it "
+                "takes no `patroller_actions`"
+            )
         self._sightings_before = len(self.physics.sightings)
         truth = self.physics.step(observer_action)
         if observer_action is not None:
@@ -165,3 +228,6 @@ class PhysicsRunWorld:
 
     def extras(self) -> PhysicsExtras:
         return PhysicsExtras(self.physics, mujoco_version())
+
+
+_CONTRACT: World = PhysicsRunWorld  # mypy checks the class (and its instances) against the contract

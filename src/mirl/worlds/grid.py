@@ -1,15 +1,15 @@
-"""The grid world of the paper's simulations, as a :class:`~mirl.experiments.worlds.RunWorld`:
-the patrollers in a :class:`~mirl.simulation.grid.PatrolSimulator`, L watching at an
-observability degree, and L moving on its own grid once it goes — each of its actions fails
-(it stays put) with its model's failure probability — seen by the scenario's detection rule."""
+"""The grid world of the paper's simulations: the patrollers in a
+:class:`~mirl.simulation.grid.PatrolSimulator`, L watching at an observability degree, and L
+moving on its own grid once it goes — each of its actions fails (it stays put) with its model's
+failure probability — seen by the scenario's detection rule."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from mirl.experiments.worlds import Detection, RunSetup
-from mirl.simulation.grid import PatrolSimulator
+from mirl.simulation.grid import PatrolSimulator, simulate
 from mirl.world.scenario import Scenario
+from mirl.worlds.contract import Detection, RunSetup, Simulation, World
 
 __all__ = ["GridRunWorld"]
 
@@ -22,6 +22,8 @@ class GridRunWorld:
     setup : RunSetup
         The scenario, L's model, L's view, the patrollers' seed and L's failure stream.
     """
+
+    takes_patroller_actions = True
 
     def __init__(self, setup: RunSetup) -> None:
         scenario, observer = setup.scenario, setup.observer
@@ -37,6 +39,36 @@ class GridRunWorld:
         self.seen: list[np.ndarray] = [self._seen(obs)]
         self.seen_lateral: list[np.ndarray] | None = None  # grid states only: no poses
         self._t = 0
+
+    # ---- the class-level half of the contract ------------------------------------------------
+    @staticmethod
+    def simulate(
+        scenario: Scenario,
+        steps: int,
+        *,
+        seed: int,
+        observability: float | None = None,
+        heading_noise: float = 0.0,
+        random_starts: bool = False,
+    ) -> Simulation:
+        """The grid simulator's record (:func:`mirl.simulation.grid.simulate`) and how often
+        two patrollers met."""
+        result = simulate(
+            scenario,
+            steps,
+            seed=seed,
+            observability=observability,
+            heading_noise=heading_noise,
+            random_starts=random_starts,
+        )
+        degree = scenario.observability if observability is None else float(observability)
+        meetings = f"interactions: {result.interactions} ({result.interactions_seen} seen by L)"
+        return Simulation(result.observations, result.truth, degree, report=(meetings,))
+
+    @staticmethod
+    def read_section(scenario: Scenario) -> None:
+        """The grid world has no section of its own: the scenario's grid model is its world."""
+        return None
 
     @staticmethod
     def apply_damage(scenario: Scenario, robot: str, feature: str, value: float) -> Scenario:
@@ -61,6 +93,7 @@ class GridRunWorld:
         """The grid world's results depend on mirl alone."""
         return ""
 
+    # ---- one run ----------------------------------------------------------------------------
     @property
     def t(self) -> int:
         return self._t
@@ -70,12 +103,19 @@ class GridRunWorld:
         out[obs[:, 0]] = self.domain.state_index(obs[:, 1], obs[:, 2], obs[:, 3])
         return out
 
-    def step(self, observer_action: int | None = None) -> np.ndarray:
+    def step(
+        self, observer_action: int | None = None, *, patroller_actions: np.ndarray | None = None
+    ) -> np.ndarray:
+        # the patrollers first, so that actions the simulator refuses move nobody; L's failures
+        # have a stream of their own, so the order changes no outcome
+        if patroller_actions is None:
+            obs, _, _, _, info = self.sim.step()
+        else:
+            obs, _, _, _, info = self.sim.step_actions(patroller_actions)
         if observer_action is not None:
             s, model = self._observer_state, self.observer
             fails = self._noise.random() < model.failure
             self._observer_state = s if fails else int(model.domain.intended[s, observer_action])
-        obs, _, _, _, info = self.sim.step()
         self._t += 1
         self.true.append(info["states"].copy())
         self.seen.append(self._seen(obs))
@@ -99,3 +139,6 @@ class GridRunWorld:
 
     def extras(self) -> None:
         return None
+
+
+_CONTRACT: World = GridRunWorld  # mypy checks the class (and its instances) against the contract
