@@ -118,6 +118,9 @@ def learned(case: Case, data: Path) -> dict:
 
 
 def false_statement(verdict: dict, damaged: tuple[str, ...]) -> bool:
+    """Whether the verdict names no damaged part (a robot L never saw move has no verdict)."""
+    if verdict.get("seen_moving") is False:
+        return False
     named = [verdict["part"]] if verdict["part"] else list(verdict["candidates"])
     if not named:
         return bool(damaged)
@@ -152,6 +155,8 @@ def main() -> None:
                 n += 1
                 wrong += confident
                 named = v["part"] or "|".join(v["candidates"]) or "none"
+                if v.get("seen_moving") is False:
+                    named = "(never seen moving)"
                 probs = " ".join(f"{k[:4]}={p:.2f}" for k, p in r["feature_probabilities"].items())
                 fit = r["verdict"].get("fit")
                 extra = "" if fit is None else f" fit={'ok' if fit['ok'] else 'FAIL'}"

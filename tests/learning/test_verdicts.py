@@ -388,3 +388,23 @@ def test_steps_held_by_another_robot_are_no_evidence_of_a_part():
     assert free.verdict.part is None and free.verdict.confidence > 0.99
     # the stuck robot's jump back to its own track at step 140 is explained by no action
     assert free.verdict.fit.left_out["in another robot's way"] == 40
+
+
+def test_a_wheel_that_only_drifts_is_weakened_not_damaged():
+    """A robot that veers to the right beyond a healthy robot's spread, where the verdict is
+    that no part is damaged: its right wheel is weakened, its moves unaffected."""
+    from mirl.learning.verdicts import weakened_wheel
+
+    spec = DriftSpec(per_gap=0.25)
+    right = LateralDrift(-0.06, 0.008, 120)
+    assert weakened_wheel(right, spec, ()) == "right_wheel"
+    assert weakened_wheel(LateralDrift(0.06, 0.008, 120), spec, ()) == "left_wheel"
+    assert weakened_wheel(LateralDrift(-0.02, 0.008, 120), spec, ()) is None  # within τ
+    assert weakened_wheel(right, spec, ("right_wheel",)) is None  # damaged, said so
+    assert weakened_wheel(None, spec, ()) is None
+    v = Verdict(None, 0.97, weakened="right_wheel")
+    assert v.sentence("I") == (
+        "no part of I is damaged (confidence 0.97); its right wheel is weakened, its moves "
+        "unaffected"
+    )
+    assert v.to_dict()["weakened"] == "right_wheel"

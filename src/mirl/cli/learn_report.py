@@ -30,6 +30,7 @@ def verdict_sentence(robot: str, record: dict) -> str:
         tuple(record["candidates"]),
         fit=fit,
         seen_moving=record.get("seen_moving", True),
+        weakened=record.get("weakened"),
     )
     return verdict.sentence(robot)
 

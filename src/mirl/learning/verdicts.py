@@ -91,6 +91,7 @@ __all__ = [
     "lateral_drift",
     "drift_log_likelihood",
     "estimate_outside_interval",
+    "weakened_wheel",
     "estimate_disagrees",
     "failure_dispersion",
     "action_distribution",
@@ -136,9 +137,12 @@ class Verdict:
     seen_moving : bool, default True
         False when L never saw the robot at two consecutive steps: then it has no verdict, and
         ``confidence`` is the prior's probability that no part is damaged.
+    weakened : str or None
+        A wheel the robot's drift shows to be weaker than the other where the verdict does not
+        call it damaged: weakened, its moves unaffected (:func:`weakened_wheel`).
 
     .. versionchanged:: 0.2.0
-       ``fit`` and ``seen_moving``.
+       ``fit``, ``seen_moving`` and ``weakened``.
     """
 
     part: str | None
@@ -147,6 +151,7 @@ class Verdict:
     damage_probabilities: Mapping[str, float] = field(default_factory=dict)
     fit: ModelFit | None = None
     seen_moving: bool = True
+    weakened: str | None = None
 
     @property
     def names_damage(self) -> bool:
@@ -175,6 +180,8 @@ class Verdict:
         }
         if not self.seen_moving:
             out["seen_moving"] = False
+        if self.weakened is not None:
+            out["weakened"] = self.weakened
         if self.fit is not None:
             out["fit"] = self.fit.to_dict()
         return out
@@ -196,6 +203,8 @@ class Verdict:
                 parts = ", ".join(map(_words, self.candidates))
                 what = f"one of {robot}'s parts ({parts}) is damaged"
             said = f"{what}; the observations cannot tell which {conf}"
+        if self.weakened is not None:
+            said += f"; its {_words(self.weakened)} is weakened, its moves unaffected"
         if self.fit is not None and not self.fit.ok:
             said += f"; but {robot}'s record does not fit L's motion models: {self.fit.reason}"
         return said
@@ -447,6 +456,20 @@ def drift_log_likelihood(
         np.log(2.0) - 0.5 * np.log(2 * np.pi * v) - x**2 / (2 * v)
         + log_ndtr(alpha * x / np.sqrt(v))
     )  # fmt: skip
+
+
+def weakened_wheel(
+    drift: LateralDrift | None, spec: DriftSpec, named: Sequence[str], z: float = 2.0
+) -> str | None:
+    """The wheel a robot's drift shows weaker than the other — it veers towards it, more than
+    ``z`` standard deviations of a healthy robot's (its standard error and the tolerance τ) —
+    where the verdict is that no part is damaged (``named`` empty): a motor weaker than the
+    other that still drives the robot's steps. None otherwise."""
+    if drift is None or named:
+        return None
+    if abs(drift.mean) <= z * np.hypot(drift.se, spec.tolerance):
+        return None
+    return WHEELS[0] if drift.mean > 0 else WHEELS[1]
 
 
 def estimate_outside_interval(
@@ -924,24 +947,26 @@ def robot_uncertainty(
     checks = [check_unexplained(unexplained, long_moves)]
     misfit = np.zeros(len(t), dtype=bool)
     in_the_way = np.zeros(len(t), dtype=bool)
+    kinds = _move_kinds(domain, s, s_next)
+    stayed = kinds == len(MOVE_KINDS) - 1
     kept = np.flatnonzero(keep)
-    if len(kept):
-        kinds = _move_kinds(domain, s[kept], s_next[kept])
-        q, fitted = _kind_probabilities(post, domain, s[kept], action[kept], random_state)
-        stayed = kinds == len(MOVE_KINDS) - 1
-        # a robot held by another stays put for the other's reason, if the record says so
-        way = held_back(stayed, held[kept], lab[kept], dispersion)
+    # a robot held by another stays put for the other's reason, if the record says so
+    way = held_back(stayed[kept], held[kept], lab[kept], dispersion)
+    if way.misfit.size:
         in_the_way[kept[way.misfit]] = True
-        free = ~in_the_way[kept]
+        post = posterior(keep & ~in_the_way)
+        kept = np.flatnonzero(keep & ~in_the_way)
+    if len(kept):
+        q, fitted = _kind_probabilities(post, domain, s[kept], action[kept], random_state)
         rho = (dispersion - 1) / (dispersion + 1)
-        stalls, _ = check_stalls(t[kept][free], stayed[free], q[:, free, -1], rho)
-        jams = check_jams(stayed[free], beside[kept][free], q[:, free, -1], dispersion)
-        checks += [check_moves(kinds, fitted, dispersion), stalls, jams]
+        stalls, _ = check_stalls(t[kept], stayed[kept], q[:, :, -1], rho)
+        jams = check_jams(stayed[kept], beside[kept], q[:, :, -1], dispersion)
+        checks += [check_moves(kinds[kept], fitted, dispersion), stalls, jams]
         for c in (stalls, jams):
-            misfit[kept[free][c.misfit]] = True
+            misfit[kept[c.misfit]] = True
     counts = count_subsets(plan_domain, s[keep], lab[keep], s_next[keep]).observations()
     checks.append(check_pinned(probabilities, counts))
-    if misfit.any() or in_the_way.any():  # neither is a failure of a part
+    if misfit.any():  # misfit steps are never failures of a part
         post = posterior(keep & ~misfit & ~in_the_way)
     left_out = {
         "in another robot's way": int(in_the_way.sum()),
@@ -964,7 +989,8 @@ def robot_uncertainty(
     return FeatureUncertainty(
         intervals,
         Verdict(
-            verdict.part, verdict.confidence, verdict.candidates, verdict.damage_probabilities, fit
+            verdict.part, verdict.confidence, verdict.candidates, verdict.damage_probabilities,
+            fit, weakened=weakened_wheel(drift, definition.drift, verdict.named),
         ),  # fmt: skip
         dispersion=dispersion,
         effective_draws=float(1.0 / (w**2).sum()),

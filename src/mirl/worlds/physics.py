@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 
 from mirl.physics import mujoco_version
+from mirl.physics.calibration import damaged_wheels
 from mirl.physics.config import (
     PHYSICAL_ERROR_MODEL,
-    WHEELS,
     PhysicsConfig,
     physical_feature_map,
     scenario_physics,
@@ -172,13 +172,12 @@ class PhysicsRunWorld:
 
     @staticmethod
     def damaged_parts(scenario: Scenario) -> dict[str, tuple[str, ...]]:
-        """Per robot, the wheels whose motor is weaker than a healthy one (strength < 1): what
-        the grid calls a damaged wheel is, here, any weakened motor."""
-        strengths = scenario_physics(scenario)
-        return {
-            name: tuple(w for w in WHEELS if strengths.strength(name, w) < 1.0)
-            for name in scenario.robot_names
-        }
+        """Per robot, the wheels damaged by their effect, as on the grid: whose motor is weak
+        enough that the wheel's success probability, measured in this world, lies below its
+        healthy level by more than the margin
+        (:func:`~mirl.physics.calibration.damaged_wheels`). A motor weaker than a full one that
+        still drives the robot's steps is weakened, not damaged."""
+        return damaged_wheels(scenario)
 
     @staticmethod
     def version() -> str:
