@@ -155,6 +155,13 @@ class PriorSpec:
 
 DEFAULT_PRIOR = PriorSpec()
 """The prior the verdicts use."""
+N_DRAWS = 500
+MOVES = 2
+"""The sampler's draws per model and Metropolis steps per temperature: measured on a physical
+robot's 417 steps over six seeds, the log evidence moves by 0.20–0.22 nat (sd) and the
+probability that the right of two wheels the steps cannot tell apart is the weak one by
+0.35–0.59 around its 0.5; with 1 000 draws and three steps, 0.14–0.19 nat and 0.44–0.73, at
+twice the cost."""
 
 
 # ---- the steps' coefficients ------------------------------------------------------------------
@@ -263,7 +270,7 @@ def step_likelihoods(
 ) -> np.ndarray:
     """(n_draws, n_rows) likelihoods of coefficient ``rows`` at logit-space draws ``x``
     (logit p_1 … logit p_F, logit ε)."""
-    return _basis(features, subsets, x) @ _mixed(rows, len(subsets))
+    return _basis(_incidence(features, subsets), x) @ _mixed(rows, len(subsets))
 
 
 def _incidence(features: Sequence[str], subsets: Sequence[Sequence[str]]) -> np.ndarray:
@@ -274,13 +281,15 @@ def _incidence(features: Sequence[str], subsets: Sequence[Sequence[str]]) -> np.
     return incidence
 
 
-def _basis(features, subsets, x: np.ndarray) -> np.ndarray:
+def _basis(incidence: np.ndarray, x: np.ndarray) -> np.ndarray:
     """(n, 2 + 2K) [1, P, ε, ε P] of draws ``x``: a step's likelihood is linear in it."""
-    F = len(features)
-    P = np.exp(-np.logaddexp(0, -x[:, :F]) @ _incidence(features, subsets).T)
-    eps = expit(x[:, F])[:, None]
-    one = np.ones_like(eps)
-    return np.hstack([one, P, eps, eps * P])
+    K, F = incidence.shape
+    out = np.empty((len(x), 2 + 2 * K))
+    out[:, 0] = 1.0
+    out[:, 1 : 1 + K] = np.exp(-np.logaddexp(0, -x[:, :F]) @ incidence.T)
+    out[:, 1 + K] = expit(x[:, F])
+    out[:, 2 + K :] = out[:, 1 + K, None] * out[:, 1 : 1 + K]
+    return out
 
 
 def _mixed(rows: np.ndarray, K: int) -> np.ndarray:
@@ -294,10 +303,11 @@ def feature_log_prior(x: np.ndarray, healthy: np.ndarray, prior: PriorSpec) -> n
     """Log density of logit-space draws ``x`` (n, F) of the features under the prior, Jacobian
     included."""
     a, b = prior.strength * healthy, prior.strength * (1 - healthy)
-    log_p, log_q = -np.logaddexp(0, -x), -np.logaddexp(0, x)  # log p, log (1 − p)
-    beta = (a - 1) * log_p + (b - 1) * log_q - betaln(a, b)
-    mix = np.logaddexp(np.log1p(-prior.damaged_share) + beta, np.log(prior.damaged_share))
-    return (mix + log_p + log_q).sum(axis=1)
+    log_p = -np.logaddexp(0, -x)  # log p; log (1 − p) = log p − x
+    beta = (a + b - 2) * log_p - (b - 1) * x - betaln(a, b)
+    odds = np.log1p(-prior.damaged_share) - np.log(prior.damaged_share)
+    mix = np.log(prior.damaged_share) + np.log1p(np.exp(odds + beta))  # healthy or uniform
+    return (mix + 2 * log_p - x).sum(axis=1)
 
 
 def sample_feature_prior(rng, n: int, healthy: np.ndarray, prior: PriorSpec) -> np.ndarray:
@@ -331,7 +341,7 @@ def model_posterior(
     prior: PriorSpec = PriorSpec(),
     extra_log_likelihood=None,
     dispersion: float = 1.0,
-    n_draws: int = 1000,
+    n_draws: int = N_DRAWS,
     random_state: int = 0,
 ) -> WeightedDraws:
     """Weighted draws of (logit p_1 … logit p_F, logit ε) given one model's steps, and the
@@ -358,9 +368,10 @@ def model_posterior(
     h = np.array([min(healthy.get(f, 0.95), 0.999) for f in features])
     weight = design.counts / dispersion
     coefficients = _mixed(design.coefficients, len(design.subsets))
+    incidence = _incidence(features, design.subsets)
 
     def log_lik(x):
-        lik = _basis(features, design.subsets, x) @ coefficients
+        lik = _basis(incidence, x) @ coefficients
         out = np.log(np.maximum(lik, 1e-300)) @ weight
         if extra_log_likelihood is not None:
             out = out + extra_log_likelihood(expit(x[:, :F]))
@@ -374,7 +385,9 @@ def model_posterior(
             [sample_feature_prior(rng, n, h, prior), _sample_error_prior(rng, n, prior)]
         )
 
-    return tempered_smc(sample, log_prior, log_lik, n_draws=n_draws, random_state=random_state)
+    return tempered_smc(
+        sample, log_prior, log_lik, n_draws=n_draws, moves=MOVES, random_state=random_state
+    )
 
 
 @dataclass(frozen=True)
@@ -450,21 +463,22 @@ class MotionPosterior:
         self,
         domain: PatrolDomain,
         s: np.ndarray,
-        s_next: np.ndarray,
+        targets: Sequence[np.ndarray],
         action_prior: np.ndarray,
-        n: int = 200,
-        random_state: int = 0,
-        best: float = 1.0,
+        draws: list[tuple[int, np.ndarray]],
     ) -> np.ndarray:
-        """(n, steps) p(s' | s) of each step under ``n`` draws of the pooled posterior (a
-        posterior-predictive replicate's probabilities: with ``s_next = s``, of staying put);
-        ``best`` as for :meth:`resample`."""
-        rng = np.random.default_rng(random_state)
+        """(draws, steps, targets) p(s' | s) of each step under ``draws`` (from
+        :meth:`resample`), for each next state of ``targets`` (each an (steps,) array): a
+        posterior-predictive replicate's probabilities (with ``s`` itself, of staying put)."""
         out = []
-        for m, x in self.resample(n, rng, best):
-            subsets, rows = step_coefficients(domain, self.models[m], s, s_next, action_prior)
-            out.append(step_likelihoods(self.features, subsets, rows, x))
-        return np.vstack(out) if out else np.zeros((0, len(s)))
+        for m, x in draws:
+            rows = [
+                step_coefficients(domain, self.models[m], s, tgt, action_prior) for tgt in targets
+            ]
+            out.append(
+                np.stack([step_likelihoods(self.features, sub, r, x) for sub, r in rows], axis=2)
+            )
+        return np.vstack(out) if out else np.zeros((0, len(s), len(targets)))
 
     def policy_error(self) -> float:
         """The posterior mean of ε, pooled over the models."""
@@ -488,7 +502,7 @@ def motion_posterior(
     prior: PriorSpec = PriorSpec(),
     extra_log_likelihood=None,
     dispersion: float = 1.0,
-    n_draws: int = 1000,
+    n_draws: int = N_DRAWS,
     random_state: int = 0,
 ) -> MotionPosterior:
     """The posterior over ``models`` (default: :func:`candidate_models` of the domain's ξ) and

@@ -120,7 +120,7 @@ def _next_temperature(base: np.ndarray, ll: np.ndarray, beta: float, target: flo
     if _ess(base + ll) >= target:
         return 1.0
     lo, hi = beta, 1.0
-    for _ in range(30):
+    for _ in range(14):  # β to within 1e-4
         mid = 0.5 * (lo + hi)
         if _ess(base + mid * ll) >= target:
             lo = mid

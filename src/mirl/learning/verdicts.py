@@ -62,6 +62,7 @@ from mirl.learning.model_check import (
 )
 from mirl.learning.motion_models import (
     DEFAULT_PRIOR,
+    N_DRAWS,
     MotionModel,
     MotionPosterior,
     PriorSpec,
@@ -760,6 +761,9 @@ each model's: the fit its parameters can make, the prior left aside (a record of
 physical robot whose forward steps succeed more often than the prior's healthy levels is no
 misfit of its moves)."""
 
+CHECK_DRAWS = 100
+"""Posterior draws the model check compares the record with."""
+
 NEAR_TIE = 0.5
 """An action L's soft policy finds at least this fraction as likely as its most likely one is
 one L cannot rule out (:func:`action_distribution`)."""
@@ -841,17 +845,11 @@ def _kind_probabilities(post: MotionPosterior, domain, s, action, random_state: 
     (:data:`~mirl.learning.model_check.MOVE_KINDS`) under posterior draws, and under the draws
     of the highest likelihood (:data:`FITTED_SHARE`)."""
     ahead = [domain.intended[s, a] for a in (FORWARD, TURN_LEFT, TURN_RIGHT)]
+    rng = np.random.default_rng(random_state)
     out = []
     for best in (1.0, FITTED_SHARE):
-        q = np.stack(
-            [
-                post.outcome_probabilities(
-                    domain, s, target, action, random_state=random_state, best=best
-                )
-                for target in (*ahead, s)
-            ],
-            axis=2,
-        )  # (draws, steps, forward / turn left / turn right / stay)
+        draws = post.resample(CHECK_DRAWS, rng, best)
+        q = post.outcome_probabilities(domain, s, (*ahead, s), action, draws)
         q = np.stack([q[:, :, 0], q[:, :, 1] + q[:, :, 2], q[:, :, 3]], axis=2)
         q[:, ahead[0] == s, 0] = 0.0  # a forward step into a wall stays put
         out.append(q)
@@ -881,7 +879,7 @@ def robot_uncertainty(
     own_policy: np.ndarray | None = None,
     models: Sequence[MotionModel] | None = None,
     prior: PriorSpec = DEFAULT_PRIOR,
-    n_draws: int = 1000,
+    n_draws: int = N_DRAWS,
     random_state: int = 0,
 ) -> FeatureUncertainty:
     """Intervals and verdict of one robot from what L saw of it (module docstring).
