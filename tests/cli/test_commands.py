@@ -304,14 +304,25 @@ def test_learn_and_run_give_intervals_and_verdicts(tmp_path, capsys):
 
 
 def test_the_readme_learn_example(tmp_path, capsys):
-    """The README's learn example (boyd2, 450 steps, seed 1, L's door): J's lines, as printed;
-    no estimate disagrees with the posterior, so the features line is Eq. 4's."""
+    """The README's learn example (boyd2, 450 steps, seed 1, L's door): J's lines exactly as the
+    README shows them; no estimate disagrees with the posterior, so the features line is Eq.
+    4's."""
+    import re
+
+    import mirl
+
+    readme = (Path(mirl.__file__).resolve().parents[2] / "README.md").read_text()
+    block = re.search(r"```\nrobot J\n(.*?)```", readme, re.S)
+    assert block is not None
     obs = tmp_path / "obs.csv"
     sim = ["simulate", "--scenario", "boyd2", "--steps", "450", "--seed", "1"]
     assert main([*sim, "--observations", str(obs)]) == 0
     capsys.readouterr()
     assert main(["learn", "--scenario", "boyd2", "--observations", str(obs)]) == 0
     lines = capsys.readouterr().out.splitlines()
+    shown = block.group(1).splitlines()
+    j = lines.index("robot J")
+    assert [x for x in lines[j + 1 :] if x.startswith("  ") and x in shown] == shown
     j = lines.index("robot J")
     features, interval, motion, verdict = (line.strip() for line in lines[j + 2 : j + 6])
     assert features.startswith("features      left_wheel=0.541  right_wheel=1.000")

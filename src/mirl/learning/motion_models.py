@@ -119,7 +119,7 @@ def describe_model(name: str) -> str:
     return f"{turns}, {ends}"
 
 
-def motion_sentence(weights: Mapping[str, float], planned: str, odds: float = 100.0) -> str:
+def motion_sentence(weights: Mapping[str, float], planned: str, odds: float = 1000.0) -> str:
     """The most probable motion model, its weight, and the one L plans with, in words;
     ``odds`` is how much more probable a model must be for L to leave the scenario's."""
     best = max(weights, key=weights.__getitem__)
