@@ -141,9 +141,10 @@ def main() -> None:
     ap.add_argument("--seeds", default="0-9", help="e.g. 0-9 or 0,3,5-7")
     ap.add_argument("--work", type=Path, default=Path("/tmp/mirl-verdict-cases"))
     args = ap.parse_args()
+    summary = []
     for name in args.cases:
         case = CASES[name]
-        n = wrong = 0
+        n = wrong = alone = among = damaged = misfit = 0
         print(f"== {name}: {case.scenario}, {case.world}, damage {case.damage or 'scenario'}, "
               f"data {case.data}, view {case.observability:g}")  # fmt: skip
         for seed in seeds_of(args.seeds):
@@ -154,6 +155,11 @@ def main() -> None:
                 confident = false and v["confidence"] >= CONFIDENT
                 n += 1
                 wrong += confident
+                misfit += not v.get("fit", {"ok": True})["ok"]
+                if case.truth[robot]:
+                    damaged += 1
+                    alone += v["part"] in case.truth[robot]
+                    among += any(c in case.truth[robot] for c in v["candidates"])
                 named = v["part"] or "|".join(v["candidates"]) or "none"
                 if v.get("seen_moving") is False:
                     named = "(never seen moving)"
@@ -170,6 +176,12 @@ def main() -> None:
                 print(f"  seed {seed} {robot}: {named:<28} {v['confidence']:.2f} {flag:<17} "
                       f"{probs}{extra}")  # fmt: skip
         print(f"  -> confidently false: {wrong} of {n}")
+        summary.append(f"| {name} | {n} | {wrong} | {alone} / {damaged} | {among} / {damaged} | "
+                       f"{misfit} |")  # fmt: skip
+    print("| case | verdicts | confidently false | damaged part alone | among candidates | "
+          "record does not fit |")  # fmt: skip
+    print("| --- | --- | --- | --- | --- | --- |")
+    print("\n".join(summary))
 
 
 if __name__ == "__main__":

@@ -159,6 +159,8 @@ def test_a_feature_pinned_by_few_trials_fails():
     assert not check.ok and "navigation at 0 by 3 trials" in check.reason
     assert check_pinned({"navigation": 0.0, "floor": 1.0}, [(("navigation",), 0, 30)]).ok
     assert check_pinned({"navigation": 0.6}, [(("navigation",), 2, 3)]).ok
+    # a healthy part at 1 on a short record claims nothing
+    assert check_pinned({"floor": 1.0}, [(("floor",), 3, 3)]).ok
 
 
 # ---- what a failed check does to the verdict -----------------------------------------------------

@@ -31,9 +31,11 @@ what the models, at their posterior, predict for it (a posterior-predictive chec
   estimate of what the robot meant to do; where it is wrong — a robot that stood in a queue
   for half its record can teach the IRL that it likes to stop — every failure lands on the
   wrong part.
-* **Few trials** — a feature whose Eq. 4 estimate is pinned at 0 or 1 by fewer than
-  :data:`PINNED_TRIALS` trials of the subsets that fix it: a fit the steps barely inform, where
-  a few misread steps decide.
+* **Few trials** — a feature whose Eq. 4 estimate is pinned at 0 by fewer than
+  :data:`PINNED_TRIALS` trials of the subsets that fix it: a part called dead on a handful of
+  failures, which a few misread steps make. (Pinned at 1 by few trials is a short record of a
+  healthy part, no claim: counted as a failure of the check, it failed 10 % of the grid's
+  records, which fit.)
 
 Steps a failed check points at (the unexplained steps, the stalled runs, the stays in a jam)
 are *misfit steps*: the verdict leaves them out, never counting them as failures of a part, and
@@ -368,11 +370,11 @@ def check_pinned(
     *,
     min_trials: int = PINNED_TRIALS,
 ) -> Check:
-    """Eq. 4's estimates pinned at 0 or 1 (within 0.005) by fewer than ``min_trials`` trials of
-    the subsets holding the feature (``counts``: (subset, successes, trials))."""
+    """Eq. 4's estimates pinned at 0 (within 0.005) by fewer than ``min_trials`` trials of the
+    subsets holding the feature (``counts``: (subset, successes, trials))."""
     pinned = []
     for f, p in probabilities.items():
-        if 0.005 < p < 0.995:
+        if p > 0.005:
             continue
         trials = sum(n for sub, _, n in counts if f in sub)
         if 0 < trials < min_trials:
