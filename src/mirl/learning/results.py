@@ -64,8 +64,8 @@ class RobotModel:
         (:class:`~mirl.learning.motion_models.MotionModel` names; ``""`` for a T not made of
         features): the one L plans with.
 
-    .. versionchanged:: 0.2.0
-       ``uncertainty`` and ``motion_model``.
+        .. versionchanged:: 0.2.0
+           ``uncertainty`` and ``motion_model`` are new.
     """
 
     name: str

@@ -142,8 +142,8 @@ class Verdict:
         A wheel the robot's drift shows to be weaker than the other where the verdict does not
         call it damaged: weakened, its moves unaffected (:func:`weakened_wheel`).
 
-    .. versionchanged:: 0.2.0
-       ``fit``, ``seen_moving`` and ``weakened``.
+        .. versionchanged:: 0.2.0
+           ``fit``, ``seen_moving`` and ``weakened`` are new.
     """
 
     part: str | None
@@ -246,8 +246,9 @@ class FeatureUncertainty:
         The log marginal likelihood of the robot's kept steps (and drift) under L's policy,
         averaged over the motion models with equal prior odds.
 
-    .. versionchanged:: 0.2.0
-       ``medians``, ``motion_models``, ``indistinguishable`` and ``sided_by_drift``.
+        .. versionchanged:: 0.2.0
+           ``medians``, ``motion_models``, ``indistinguishable``, ``sided_by_drift`` and
+           ``log_evidence`` are new.
     """
 
     intervals: Mapping[str, tuple[float, float]]
