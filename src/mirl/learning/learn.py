@@ -631,8 +631,9 @@ def switched_models(
     scenario's (``declared``) takes that one, any other the scenario's — on the whole record,
     so that a model a shorter record chose (a warm start's) is left when the grown one no
     longer rejects the scenario's; a record whose moves L's policy does not explain (the
-    check's ``moves``) takes the most probable model with the other error model, since the
-    error model is what teaches the IRL whether a robot that stood still meant to."""
+    check's ``moves``) takes its most probable model, or, when that is the one it was learned
+    with, the most probable with the other error model, since the error model is what teaches
+    the IRL whether a robot that stood still meant to."""
     out, changed = list(models), False
     by_name = {m.name: m for m in candidates}
     for i, (model, u) in enumerate(zip(models, sure, strict=True)):
@@ -646,7 +647,9 @@ def switched_models(
             target = by_name[best]
         if fit is not None and any(c.name == "moves" and not c.ok for c in fit.checks):
             others = [m for m in weights if by_name[m].errors != model.errors]
-            if others:
+            if best != model.name:
+                target = by_name[best]
+            elif others:
                 target = by_name[max(others, key=weights.__getitem__)]
         if target.name != model.name:
             out[i], changed = target, True

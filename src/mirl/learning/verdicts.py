@@ -841,6 +841,32 @@ def never_seen_moving(
     return FeatureUncertainty(intervals, verdict, medians=medians)
 
 
+def _every_model_covered(
+    verdict: Verdict, post: MotionPosterior, features, p: np.ndarray, w: np.ndarray, definition
+) -> Verdict:
+    """A verdict naming damage widened to every part a plausible model of the robot's motion
+    names: the union of the parts the pooled draws name and those each model holding at least
+    :data:`COVERAGE_SLACK` of the weight names on its own draws, with the pooled probability
+    that one of them is damaged. Averaging blends two models that blame different parts (turns
+    that test a wheel blame the wheel driving the rarer turn; turns that test none, navigation)
+    into a claim neither makes with its own part; the verdict covers all but 0.05 of the
+    probability of damage under every model that holds more than 0.05 of the weight."""
+    if not verdict.names_damage:
+        return verdict
+    named = set(verdict.named)
+    for model_draws, weight in zip(post.draws, post.weights, strict=True):
+        if weight >= COVERAGE_SLACK:
+            own = expit(model_draws.x[:, : len(features)])
+            named |= set(verdict_from_draws(features, own, model_draws.weights, definition).named)
+    if named == set(verdict.named):
+        return verdict
+    chosen = [i for i, f in enumerate(features) if f in named]
+    thresholds = np.array([definition.threshold(f) for f in features])
+    confidence = float(w @ (p[:, chosen] < thresholds[chosen]).any(axis=1))
+    names = tuple(features[i] for i in chosen)
+    return Verdict(None, confidence, names, verdict.damage_probabilities)
+
+
 def _kind_probabilities(post: MotionPosterior, domain, s, action, random_state: int):
     """(draws, steps, 3) probabilities of each kind of move
     (:data:`~mirl.learning.model_check.MOVE_KINDS`) under posterior draws, and under the draws
@@ -981,7 +1007,9 @@ def robot_uncertainty(
         p = np.vstack([p, q])
         w = np.concatenate([MODEL_TRUST * w, np.full(len(q), (1 - MODEL_TRUST) / len(q))])
     intervals, medians = _summaries(features, p, w)
-    verdict = verdict_from_draws(features, p, w, definition)
+    verdict = _every_model_covered(
+        verdict_from_draws(features, p, w, definition), post, features, p, w, definition
+    )
     used = keep & ~misfit & ~in_the_way
     groups = indistinguishable(plan_domain, s[used], lab[used])
     wheels_group = any(set(g) == set(WHEELS) for g in groups)
