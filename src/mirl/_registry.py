@@ -27,8 +27,20 @@ T = TypeVar("T")
 
 
 class UnknownNameError(KeyError, ValueError):
-    """A name a table does not hold. A :class:`ValueError` (a bad argument value) and a
-    :class:`KeyError` (so a :class:`Registry` behaves as a mapping); its text is one line."""
+    """A name a table does not hold.
+
+    A :class:`ValueError` (a bad argument value) and a :class:`KeyError` (so a :class:`Registry`
+    behaves as a mapping); its text is one line.
+
+    Parameters
+    ----------
+    message : str
+        The one-line message.
+    name : str
+        The name asked for.
+    known : tuple of str
+        The names that would have been accepted.
+    """
 
     def __init__(self, message: str, *, name: str, known: tuple[str, ...]) -> None:
         super().__init__(message)
@@ -39,8 +51,23 @@ class UnknownNameError(KeyError, ValueError):
 
 
 def did_you_mean(name: str, known: Iterable[str], n: int = 3) -> list[str]:
-    """The known names closest to ``name`` (at most ``n``, nearest first; difflib's ratio ≥ 0.6,
-    or the names that start with ``name``)."""
+    """The known names closest to ``name``, nearest first.
+
+    Parameters
+    ----------
+    name : str
+        The name asked for.
+    known : iterable of str
+        The names to choose from.
+    n : int, default 3
+        At most this many suggestions.
+
+    Returns
+    -------
+    list of str
+        The close matches (difflib's ratio at least 0.6), then the names that start with
+        ``name``.
+    """
     known = list(known)
     close = difflib.get_close_matches(name, known, n=n, cutoff=0.6)
     starts = [k for k in known if name and k.startswith(name) and k not in close]
@@ -49,8 +76,18 @@ def did_you_mean(name: str, known: Iterable[str], n: int = 3) -> list[str]:
 
 @dataclass(frozen=True)
 class Choice:
-    """A row that is a name and what it means: the row of a table whose choices the code of
-    its own module carries out (an estimator's objectives, an initialisation)."""
+    """A row that is a name and what it means.
+
+    The row of a table whose choices the code of its own module carries out (an estimator's
+    objectives, an initialisation).
+
+    Parameters
+    ----------
+    name : str
+        The choice's name, as a user writes it.
+    description : str
+        What it does, for help texts.
+    """
 
     name: str
     description: str
@@ -94,11 +131,40 @@ class Registry(Mapping[str, T], Generic[T]):
 
     @classmethod
     def of_choices(cls, kind: str, descriptions: Mapping[str, str]) -> Registry[Choice]:
-        """A table of :class:`Choice` rows from ``{name: description}``, in its order."""
+        """A table of :class:`Choice` rows from ``{name: description}``, in its order.
+
+        Parameters
+        ----------
+        kind : str
+            What a row is, for messages.
+        descriptions : mapping of str to str
+            Every choice's name and description.
+
+        Returns
+        -------
+        Registry of Choice
+            The table.
+        """
         return Registry(kind, (Choice(n, d) for n, d in descriptions.items()))
 
     def register(self, row: T) -> T:
-        """Add ``row`` (checked first); returns it."""
+        """Add ``row``, checked first.
+
+        Parameters
+        ----------
+        row : object
+            The row; its name must be new to the table.
+
+        Returns
+        -------
+        object
+            ``row`` itself (so a definition can register as it assigns).
+
+        Raises
+        ------
+        ValueError
+            A row of the same name is already registered, or ``check`` refuses the row.
+        """
         key = self._name(row)
         if key in self._rows:
             raise ValueError(f"{self.kind} '{key}' is registered twice")
@@ -113,7 +179,20 @@ class Registry(Mapping[str, T], Generic[T]):
         return tuple(self._rows)
 
     def unknown(self, name: str, *, known: Iterable[str] | None = None) -> UnknownNameError:
-        """The error for ``name`` among ``known`` (default: every row's name)."""
+        """The error for ``name`` among ``known``.
+
+        Parameters
+        ----------
+        name : str
+            The name asked for.
+        known : iterable of str, optional
+            The acceptable names; every row's name by default.
+
+        Returns
+        -------
+        UnknownNameError
+            Its message names ``name``, suggests the nearest known names and lists them all.
+        """
         known = tuple(self._rows if known is None else known)
         near = did_you_mean(str(name), known)
         hint = f"did you mean {' or '.join(repr(k) for k in near)}? " if near else ""
@@ -121,8 +200,25 @@ class Registry(Mapping[str, T], Generic[T]):
         return UnknownNameError(message, name=str(name), known=known)
 
     def lookup(self, name: str, *, among: Iterable[str] | None = None) -> T:
-        """The row of ``name``; :class:`UnknownNameError` otherwise. ``among`` narrows the
-        acceptable names (for instance the methods that learn)."""
+        """The row of ``name``.
+
+        Parameters
+        ----------
+        name : str
+            The row's name.
+        among : iterable of str, optional
+            Narrows the acceptable names (for instance the methods that learn).
+
+        Returns
+        -------
+        object
+            The row.
+
+        Raises
+        ------
+        UnknownNameError
+            ``name`` is not a row's name, or not among ``among``.
+        """
         if among is not None:
             among = tuple(among)
             if name not in among:

@@ -312,7 +312,7 @@ def test_the_readme_learn_example(tmp_path, capsys):
     import mirl
 
     readme = (Path(mirl.__file__).resolve().parents[2] / "README.md").read_text()
-    block = re.search(r"```\nrobot J\n(.*?)```", readme, re.S)
+    block = re.search(r"```(?:text)?\nrobot J\n(.*?)```", readme, re.S)
     assert block is not None
     obs = tmp_path / "obs.csv"
     sim = ["simulate", "--scenario", "boyd2", "--steps", "450", "--seed", "1"]

@@ -1,6 +1,7 @@
-"""Teams of N ≥ 2 patrollers: meetings between any pair in the simulator, the sparse
-meeting masks, the exact N-robot joint filter against the pair filter and the factored one,
-equilibrium weighing over pairs and three-robot learning (the RL environments: tests/envs)."""
+"""Teams of N ≥ 2 patrollers: meetings between any pair in the simulator, the exact N-robot
+joint filter against the pair filter and the factored one, equilibrium weighing over pairs and
+three-robot learning (the filters' parts: tests/planning/test_team_filter.py; the RL
+environments: tests/envs)."""
 
 from __future__ import annotations
 
@@ -11,27 +12,13 @@ from mirl.learning.equilibria import meeting_pairs, weigh_equilibria, weigh_team
 from mirl.learning.results import oracle_models
 from mirl.planning.belief import UNSEEN, BeliefFilter
 from mirl.planning.observer import observer_model
-from mirl.planning.team_filter import meeting_matrix
 from mirl.simulation.grid import PatrolSimulator, simulate
-from mirl.world.game import meeting
 from mirl.world.scenario import load_scenario
 
 
 @pytest.fixture(scope="module")
 def br3():
     return load_scenario("boydright-3")
-
-
-def test_meeting_matrix_is_the_meeting_rule(br3):
-    d = br3.domain
-    S = d.n_states
-    pol = [br3.true_policy(i) for i in range(3)]
-    si, sj = np.divmod(np.arange(S * S), S)
-    for i, j in ((0, 1), (0, 2), (2, 1)):
-        dense = meeting(d, si, sj, pol[i][si], pol[j][sj]).reshape(S, S)
-        sparse = meeting_matrix(d, pol[i], pol[j]).toarray() > 0
-        np.testing.assert_array_equal(sparse, dense)
-        assert dense.any()
 
 
 def test_three_robots_meet_pairwise_and_first_meeting_wins(br3):
@@ -124,28 +111,6 @@ def test_factored_filter_is_closer_to_exact_than_independent_marginals(tmp_path)
     err_fact = np.abs(a.detection - b.detection).mean()
     err_indep = np.abs(a.detection - c.detection).mean()
     assert err_fact < err_indep
-
-
-def test_factored_propagation_is_the_plain_sparse_products(br3):
-    """The factored step calls scipy's kernels directly: bit for bit the products through `@`
-    (the first implementation's loop, kept here)."""
-    from mirl.planning.team_filter import FactoredTeam, TeamParts
-
-    parts = TeamParts(br3.domain, oracle_models(br3))
-    rng = np.random.default_rng(3)
-    belief = rng.random((parts.n, parts.S)) ** 3
-    belief /= belief.sum(axis=1, keepdims=True)
-    expected = np.empty_like(belief)
-    for i in range(parts.n):
-        free, extra = np.ones(parts.S), []
-        for k, other, side in parts.robot_pairs(i):
-            m = parts.meet[k] if side == 0 else parts.meet[k].T
-            w = free * np.clip(m @ belief[other], 0.0, 1.0)
-            free = free - w
-            if w.any():
-                extra.append(parts.game_T[k][side] @ (belief[i] * w))
-        expected[i] = parts.step_T[i] @ (belief[i] * free) + sum(extra, np.zeros(parts.S))
-    assert np.array_equal(FactoredTeam(parts).propagate(belief), expected)
 
 
 def _ring3(tmp_path):

@@ -16,8 +16,9 @@ import mirl
 
 ROOT = Path(mirl.__file__).parent
 README = ROOT.parents[1] / "README.md"
-# A guideline, not a cap: a module longer than this, or a function whose code (its docstring
-# aside) is longer than that, needs a reason a reviewer accepts, written in LONG_ON_PURPOSE.
+# A guideline, not a cap: a module whose code (its docstrings aside) is longer than this, or a
+# function whose code (its docstring aside) is longer than that, needs a reason a reviewer
+# accepts, written in LONG_ON_PURPOSE.
 # A module holds one concept whatever its length; it is never split to meet a number.
 MODULE_GUIDELINE = 700
 FUNCTION_GUIDELINE = 100
@@ -71,13 +72,37 @@ def test_every_stage_is_a_documented_package():
         assert doc and len(doc.split()) >= 15, f"{path}: needs a docstring saying what it holds"
 
 
+def test_every_package_is_a_stage_and_a_layer():
+    """A new stage is listed here and in import-linter's layers, or neither test sees it."""
+    import tomllib
+
+    packages = {p.parent.name for p in ROOT.glob("*/__init__.py")}
+    assert sorted(set(STAGES) - {"mdp"}) == sorted(packages)
+    config = tomllib.loads((ROOT.parents[1] / "pyproject.toml").read_text())
+    (layers,) = [c["layers"] for c in config["tool"]["importlinter"]["contracts"] if "layers" in c]
+    layered = {m.strip().removeprefix("mirl.") for layer in layers for m in layer.split("|")}
+    assert set(STAGES) <= layered
+
+
+def _docstring_lines(tree: ast.Module) -> int:
+    """The lines of every docstring in a module (its own, its classes' and functions')."""
+    total = 0
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
+            if ast.get_docstring(node) is not None:
+                first = node.body[0]
+                total += first.end_lineno - first.lineno + 1
+    return total
+
+
 def test_long_modules_and_functions_have_a_reason():
     for path in _modules():
         text = path.read_text()
         rel = path.relative_to(ROOT).as_posix()
-        n = text.count("\n")
+        tree = ast.parse(text)
+        n = text.count("\n") - _docstring_lines(tree)  # documentation does not lengthen code
         assert n <= MODULE_GUIDELINE or rel in LONG_ON_PURPOSE, f"{rel}: {n} lines, no reason"
-        for node in ast.walk(ast.parse(text)):
+        for node in ast.walk(tree):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
                 first = node.body[0]  # a docstring documents; it does not lengthen the code
                 doc = first.end_lineno - first.lineno + 1 if ast.get_docstring(node) else 0
@@ -119,6 +144,9 @@ NOT_A_SWITCH_ON_A_TABLE = {
     "cli/commands.py:auto": "the --compare flag's value, not an IRL gradient",
     "physics/calibration.py:forward": "an action's name, not an IRL gradient",
     "world/motion.py:uniform": "Eq. 5's error model, not DBN-EM's initialisation",
+    "learning/motion_models.py:uniform": "Eq. 5's error model, not DBN-EM's initialisation",
+    "cli/flags.py:auto": "--step-seconds auto, the robots' pace, not an IRL gradient",
+    "observations/discretise.py:auto": "step_seconds='auto', the robots' pace, not an IRL gradient",
     "experiments/episode.py:adaptive": "the go rule's switch: strategies replace it (issue 38)",
     "experiments/episode.py:value": "the go rule's switch: strategies replace it (issue 38)",
     "learning/learn.py:true": "learn()'s model sources: strategies replace them (issue 38)",

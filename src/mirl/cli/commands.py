@@ -79,7 +79,7 @@ def _show_map(args: argparse.Namespace) -> int:
     if args.png:
         check_output(args.png, "--png", FIGURE_SUFFIXES)
     scenario = None
-    if Path(args.map).suffix.lower() == ".toml":
+    if Path(args.map).suffix.lower() == ".toml" or _names_a_scenario_only(args.map):
         from mirl.world.scenario import load_scenario
 
         if args.cell_size is not None:
@@ -119,6 +119,16 @@ def _show_map(args: argparse.Namespace) -> int:
         save_map_png(gridmap, args.png, observability=degree, routes=routes)
         print(f"wrote {args.png}")
     return 0
+
+
+def _names_a_scenario_only(name: str) -> bool:
+    """Whether ``name`` is a shipped scenario's and no shipped map's: ``show-map office`` shows
+    the floor `mirl run --scenario office` runs on (office-60x60-s2), not the generated map the
+    bare name ``office`` would also name (office-60x60-s0, another floor)."""
+    from mirl.world.catalog import shipped_maps
+    from mirl.world.scenario import shipped_scenarios
+
+    return name in shipped_scenarios() and name not in shipped_maps()
 
 
 def _map_summary(gridmap, mask, degree) -> list[str]:
@@ -417,9 +427,14 @@ def _experiment(args: argparse.Namespace) -> int:
 
 @command("report")
 def _report(args: argparse.Namespace) -> int:
-    from mirl.viz.report import write_report
+    from mirl.viz.report import write_report_and_figures
 
-    print(f"wrote {write_report(args.dir)}")
+    written = write_report_and_figures(args.dir)
+    print(f"wrote {written.report}")
+    for figure in written.figures:
+        print(f"wrote {figure}")
+    if not written.figures:
+        print("(no figures: no experiment here has one to draw)")
     return 0
 
 

@@ -27,7 +27,7 @@ from mirl.worlds import DEFAULT_WORLD, WORLDS
 __all__ = ["build_parser"]
 
 # Literal copies of tuples whose modules import numpy and scipy, so that building the parser
-# imports none of them; tests/test_startup.py checks that they match their sources.
+# imports none of them; tests/cli/test_startup.py checks that they match their sources.
 IRL_OBJECTIVES = ("counts", "likelihood", "both", "sequence")  # learning.irl.OBJECTIVES
 IRL_OPTIMIZERS = ("nelder-mead", "lbfgs")  # learning.irl.OPTIMIZERS
 RUN_MAX_WAIT = 450  # experiments.records.MAX_WAIT

@@ -62,8 +62,17 @@ class Episode:
         return self.world.true[-1].copy()
 
     def step(self, observer_action: int, patroller_actions: np.ndarray | None = None) -> None:
-        """L takes ``observer_action`` and the patrollers move (by their policies, or by
-        ``patroller_actions``); then whether a patroller saw L, or else L arrived."""
+        """L takes ``observer_action`` and the patrollers move.
+
+        Then it records whether a patroller saw L, or else L arrived.
+
+        Parameters
+        ----------
+        observer_action : int
+            L's action, an index into :data:`~mirl.world.actions.ACTIONS`.
+        patroller_actions : ndarray of int, shape (N,), optional
+            The patrollers' actions; by their policies if None.
+        """
         self.world.step(observer_action, patroller_actions=patroller_actions)
         cell = int(self.model.cell_of(self.world.observer_state()))
         self.out = self.out or cell != self._start_cell
@@ -76,9 +85,15 @@ class Episode:
         return "detected" if self.detected else ("success" if self.arrived else None)
 
     def observer_view(self) -> dict[str, Any]:
-        """L's observation: ``patrollers`` (N, 3) the (row, col, heading) of each patroller L
-        sees from its room (−1 rows for the rest, and for all once L is out), ``observer`` L's
-        own (row, col, heading) and ``out``."""
+        """L's observation.
+
+        Returns
+        -------
+        dict
+            ``patrollers`` (N, 3): the (row, col, heading) of each patroller L sees from its
+            room (−1 rows for the rest, and for all once L is out); ``observer``: L's own (row,
+            col, heading); ``out``: 1 once L has left its start cell.
+        """
         patrollers = np.full((len(self.scenario.robots), 3), -1, dtype=np.int64)
         seen = self.world.seen[-1]
         if not self.out:

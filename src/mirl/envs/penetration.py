@@ -34,7 +34,18 @@ OBSERVER_ACTIONS = ("forward", "turn_left", "turn_right", "wait")
 
 
 def observation_space(scenario: Scenario) -> spaces.Dict:
-    """L's observation space on ``scenario`` (the module doc's ``Dict``)."""
+    """L's observation space on ``scenario`` (the module doc's ``Dict``).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario: its map's shape and number of patrollers.
+
+    Returns
+    -------
+    gymnasium.spaces.Dict
+        ``patrollers``, ``observer`` and ``out``.
+    """
     rows, cols = scenario.map.shape
     high = np.array([rows - 1, cols - 1, 3], dtype=np.int64)
     n = len(scenario.robots)
@@ -48,8 +59,30 @@ def observation_space(scenario: Scenario) -> spaces.Dict:
 
 
 class PenetrationEnv(gym.Env):
-    """L's task on ``scenario`` (a :class:`~mirl.world.scenario.Scenario` or a shipped name) in
-    ``world`` (a name in :data:`mirl.worlds.WORLDS`)."""
+    """L's task on ``scenario`` in ``world`` (module doc).
+
+    Parameters
+    ----------
+    scenario : Scenario or str, default "boyd2"
+        A :class:`~mirl.world.scenario.Scenario`, or a shipped name or path.
+    world : str, default "grid"
+        A name in :data:`mirl.worlds.WORLDS`.
+    observability : float, optional
+        The fraction of the hallway L sees from its room; the scenario's by default.
+    max_steps : int, default 1000
+        Steps after which an episode is truncated, at least 1.
+    goal_reward : float, default 1.0
+        The reward for reaching the goal unseen.
+    detection_penalty : float, default 1.0
+        The penalty (a reward of minus it) for being seen.
+
+    Raises
+    ------
+    ValueError
+        ``max_steps`` below 1, or an unknown world.
+    ImportError
+        A world that cannot run on this installation.
+    """
 
     metadata = {"render_modes": []}
 
@@ -79,6 +112,22 @@ class PenetrationEnv(gym.Env):
         self.episode: Episode | None = None  # step() before the first reset() has none
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start an episode: patrollers at random states of their patrol cycles, L in its room.
+
+        Parameters
+        ----------
+        seed : int, optional
+            Seeds ``np_random`` and through it the world and L's failures.
+        options : dict, optional
+            Unused (Gymnasium's signature).
+
+        Returns
+        -------
+        observation : dict
+            L's view (:meth:`~mirl.envs.core.Episode.observer_view`).
+        info : dict
+            ``t`` (0) and the patrollers' true states.
+        """
         super().reset(seed=seed)
         self.episode = Episode(
             self.world_class, self.scenario, self.model, self.observability,
@@ -90,6 +139,33 @@ class PenetrationEnv(gym.Env):
         }
 
     def step(self, action):
+        """L takes ``action``; the world steps.
+
+        Parameters
+        ----------
+        action : int
+            An index into :data:`OBSERVER_ACTIONS`.
+
+        Returns
+        -------
+        observation : dict
+            L's view.
+        reward : float
+            ``goal_reward`` on reaching the goal, ``-detection_penalty`` when seen, else 0.
+        terminated : bool
+            Whether L was seen or arrived.
+        truncated : bool
+            Whether ``max_steps`` were reached first.
+        info : dict
+            ``t``, the ``outcome`` (None while running) and the patrollers' true states.
+
+        Raises
+        ------
+        gymnasium.error.ResetNeeded
+            :meth:`reset` was never called.
+        ValueError
+            An action outside the action space.
+        """
         episode = self.episode
         if episode is None:
             raise ResetNeeded("call reset() before step()")

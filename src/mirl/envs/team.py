@@ -37,8 +37,30 @@ OBSERVER = "L"
 
 
 class TeamEnv(ParallelEnv):
-    """Patrollers and L of ``scenario`` (a Scenario or a shipped name) as parallel agents, in
-    ``world`` (a name in :data:`mirl.worlds.WORLDS`)."""
+    """Patrollers and L of ``scenario`` as parallel agents, in ``world`` (module doc).
+
+    Parameters
+    ----------
+    scenario : Scenario or str, default "boyd2"
+        A Scenario, or a shipped name or path; no patroller may be named ``L``.
+    world : str, default "grid"
+        A name in :data:`mirl.worlds.WORLDS` whose patrollers take given actions.
+    observability : float, optional
+        The fraction of the hallway L sees from its room; the scenario's by default.
+    max_cycles : int, default 500
+        Steps after which an episode is truncated.
+    goal_reward : float, default 1.0
+        L's reward for reaching the goal unseen.
+    detection_penalty : float, default 1.0
+        L's penalty for being seen.
+    detection_reward : float, default 1.0
+        Every patroller's bonus when some patroller sees L.
+
+    Raises
+    ------
+    ValueError
+        A patroller named ``L``, an unknown world, or one whose patrollers cannot take actions.
+    """
 
     metadata = {"render_modes": [], "name": "mirl_team_v0"}
 
@@ -82,9 +104,33 @@ class TeamEnv(ParallelEnv):
         self._rewards = [sc.domain.rewards(list(r.weights)) for r in sc.robots]
 
     def observation_space(self, agent: str) -> spaces.Space:
+        """An agent's observation space.
+
+        Parameters
+        ----------
+        agent : str
+            A patroller's name or ``"L"``.
+
+        Returns
+        -------
+        gymnasium.spaces.Space
+            A patroller's own (row, col, heading) box, or L's ``Dict``.
+        """
         return self._obs_spaces[agent]
 
     def action_space(self, agent: str) -> spaces.Space:
+        """An agent's action space.
+
+        Parameters
+        ----------
+        agent : str
+            A patroller's name or ``"L"``.
+
+        Returns
+        -------
+        gymnasium.spaces.Discrete
+            The four patroller actions, or L's four moves.
+        """
         return self._act_spaces[agent]
 
     def _observations(self, episode: Episode) -> dict[str, Any]:
@@ -94,6 +140,22 @@ class TeamEnv(ParallelEnv):
         return obs
 
     def reset(self, seed: int | None = None, options: dict | None = None):
+        """Start an episode.
+
+        Parameters
+        ----------
+        seed : int, optional
+            Fixes the patrollers' starts and every outcome; a fresh one if None.
+        options : dict, optional
+            Unused (PettingZoo's signature).
+
+        Returns
+        -------
+        observations : dict of str to object
+            Per agent.
+        infos : dict of str to dict
+            Per agent, empty.
+        """
         if seed is None:
             seed = int(np.random.SeedSequence().generate_state(1)[0])
         self.episode = Episode(
@@ -124,6 +186,32 @@ class TeamEnv(ParallelEnv):
                 )
 
     def step(self, actions: dict[str, Any]):
+        """Every live agent acts at once.
+
+        Parameters
+        ----------
+        actions : dict of str to int
+            One action per live agent, each in its space.
+
+        Returns
+        -------
+        observations : dict
+            Per live agent.
+        rewards : dict
+            Per live agent: a patroller's true r(s, a) (plus ``detection_reward`` when L is seen);
+            L's as in :class:`~mirl.envs.penetration.PenetrationEnv`.
+        terminations : dict
+            Per live agent: whether L was seen or arrived.
+        truncations : dict
+            Per live agent: whether ``max_cycles`` were reached first.
+        infos : dict
+            Per live agent: ``t`` and the ``outcome``.
+
+        Raises
+        ------
+        ValueError
+            An agent missing or unknown, an action outside its space, or no live agents.
+        """
         self._check_actions(actions)
         episode = self.episode
         assert episode is not None  # live agents exist only after reset()

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from mirl._registry import Registry
+from mirl.experiments.atlas import atlas_design, atlas_run
 from mirl.learning.methods import METHODS
 from mirl.worlds import DEFAULT_WORLD, WORLDS
 
@@ -49,7 +50,7 @@ DEFAULT_OBS_STEPS = 300
 GO_RULE_PUBLISHED = "value"  # the paper's rule
 GO_RULE_DEFAULT = "adaptive"  # mirl's rule, run_episode's and the command line's default
 DEFAULT_RUNS = 200  # per point, as in the paper's simulations
-OUTCOMES = ("success", "detected", "timeout")
+OUTCOMES = ("success", "detected", "timeout", "learned")  # learned: a run with no L to go (atlas)
 
 
 @dataclass(frozen=True)
@@ -135,10 +136,10 @@ def in_world(experiment: Experiment, world: str) -> Experiment:
         return experiment
     if world not in WORLDS:
         raise StoreError(f"unknown world '{world}' (known: {', '.join(WORLDS)})")
-    if experiment.run_function is not episode_run:
-        raise StoreError(f"experiment '{experiment.name}' has no physical version")
     if any(c.world != DEFAULT_WORLD for c in experiment.conditions):
         raise StoreError(f"experiment '{experiment.name}' runs in every world already")
+    if experiment.run_function is not episode_run:
+        raise StoreError(f"experiment '{experiment.name}' has no physical version")
     conds = tuple(replace(c, world=world) for c in experiment.conditions)
     desc = experiment.description.replace("on the grid simulator", f"in the {world} world")
     return replace(experiment, conditions=conds, description=f"{desc} ({world} world)")
@@ -397,6 +398,13 @@ EXPERIMENTS: Registry[Experiment] = Registry(
             _verdicts(),
             episode_run,
             default_runs=10,
+        ),
+        Experiment(
+            "atlas",
+            "calibration atlas of the fault verdicts: worlds, data paths, faults, views, lengths",
+            tuple(Condition(**p) for p in atlas_design()),
+            atlas_run,
+            default_runs=1,
         ),
         Experiment(
             "selftest",

@@ -8,6 +8,7 @@ import numpy as np
 from mirl.experiments.records import RunResult
 from mirl.learning.methods import METHODS
 from mirl.learning.verdicts import estimate_disagrees
+from mirl.world.game import GAME_ACTIONS, Equilibrium
 from mirl.world.scenario import Scenario
 
 HEADING_NAMES = ("east", "north", "west", "south")  # heading 0-3 (the map's x east, y north)
@@ -46,18 +47,27 @@ def _wrapped(text: str, indent: int = 10) -> str:
     return textwrap.fill(text, 96, initial_indent=" " * indent, subsequent_indent=" " * indent)
 
 
-def _equilibrium_text(label: str, a: str, b: str) -> str:
-    """What the learned interaction equilibrium means for robots ``a`` (the row side) and ``b``
-    meeting head-on."""
-    parts = label.split("/")
-    if len(parts) != 2 or any(p.startswith("(") for p in parts):
-        return "a mixed strategy: each robot randomises between go, stop and turn"
-    i, j = parts
+def _equilibrium_text(eq: Equilibrium, a: str, b: str) -> str:
+    """What the learned interaction equilibrium ``eq`` means for robots ``a`` (the row side) and
+    ``b`` meeting head-on; a mixed one names only the actions each robot plays."""
+    if not eq.is_pure:
+        return "a mixed strategy when they meet: " + "; ".join(
+            f"{name} {_mix(p)}" for name, p in ((a, eq.row), (b, eq.col))
+        )
+    i, j = (GAME_ACTIONS[int(np.argmax(p))] for p in (eq.row, eq.col))
     if i == "stop" and j == "go":
         return f"when {a} and {b} meet, {a} yields (stops) and {b} goes on"
     if i == "go" and j == "stop":
         return f"when {a} and {b} meet, {b} yields (stops) and {a} goes on"
     return f"when {a} and {b} meet, {a} plays {i} and {b} plays {j}"
+
+
+def _mix(p) -> str:
+    """A robot's strategy in words: each action it plays with its probability."""
+    played = [(GAME_ACTIONS[k], x) for k, x in enumerate(p) if x > 1e-9]
+    if len(played) == 1:
+        return f"always plays {played[0][0]}"
+    return "plays " + " or ".join(f"{act} with probability {x:.2f}" for act, x in played)
 
 
 def _equilibrium_lines(learned, names: list[str]) -> list[str]:
@@ -67,12 +77,12 @@ def _equilibrium_lines(learned, names: list[str]) -> list[str]:
     pad = "          "
     if len(names) == 2:
         label = learned.equilibrium.label()
-        text = _equilibrium_text(label, *names)
+        text = _equilibrium_text(learned.equilibrium, *names)
         return [f"{pad}interaction equilibrium ({names[0]}/{names[1]}): {label} — {text}"]
     lines = []
     for (i, j), eq in sorted(learned.pair_equilibria.items()):
         label = eq.label()
-        text = _equilibrium_text(label, names[i], names[j])
+        text = _equilibrium_text(eq, names[i], names[j])
         lines.append(f"{pad}interaction equilibrium ({names[i]}/{names[j]}): {label} — {text}")
     weighed = ", ".join(f"{names[i]}/{names[j]}" for i, j in sorted(learned.pair_equilibria))
     lines.append(
@@ -166,7 +176,7 @@ def _feature_table(scenario: Scenario, result: RunResult, learned) -> list[str]:
     for r in learned.robots:
         motion = _motion_words(r)
         if motion:
-            lines.append(f"          motion of {r.name}: {motion}")
+            lines += _wrapped(f"motion of {r.name}: {motion}").splitlines()
     for r in learned.robots:
         if r.verdict is not None:
             lines.append(f"          verdict: {r.verdict.sentence(r.name)}")

@@ -115,10 +115,10 @@ def solve_feature_probabilities(
 class FeatureSolveResult:
     """Outcome of :func:`solve_feature_probabilities`.
 
-    Attributes
+    Parameters
     ----------
     probabilities : dict of str to float
-        p_τ for every feature, informed or not, each in [0, 1].
+        The probability p_τ of every feature, informed or not, each in [0, 1].
     success : bool
         ``maxent``: the procedure reached a verified optimum (the constraints may still be
         unmeetable — see ``message``/``residuals``). ``paper``: BFGS converged *and* every

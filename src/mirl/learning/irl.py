@@ -117,7 +117,7 @@ class OccludedMaxEntIRL:
     optimizer : {"lbfgs", "nelder-mead"}, default "lbfgs"
         L-BFGS-B with the exact gradient, or the paper's derivative-free Nelder–Mead.
     temperature : float, default 1.0
-        τ of the soft policy; θ's scale is learned, so τ only fixes the units.
+        The soft policy's τ; θ's scale is learned, so τ only fixes the units.
     l2 : float, default 1e-4
         Weight of the L2 penalty on θ.
     n_restarts : int, default 1
@@ -396,8 +396,8 @@ class OccludedMaxEntIRL:
 
         Returns
         -------
-        self : OccludedMaxEntIRL
-            Fitted (attributes in the class docstring).
+        OccludedMaxEntIRL
+            ``self``, fitted (attributes in the class docstring).
         """
         self._prepare(series, labels, exclude)
         S, A, K = self.features.shape
@@ -441,10 +441,12 @@ class OccludedMaxEntIRL:
     # propagation over the whole record cost as much as a tenth of the sequence objective's fit
     @property
     def expected_counts_(self) -> np.ndarray:
+        """(K,) expected feature counts on the observable states, computed when first read."""
         return self._counts_of_fit()[0]
 
     @property
     def expert_counts_(self) -> np.ndarray:
+        """(K,) observed feature counts on the observable states, computed when first read."""
         return self._counts_of_fit()[1]
 
     def _counts_of_fit(self) -> tuple[np.ndarray, np.ndarray]:

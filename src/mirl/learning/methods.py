@@ -237,6 +237,11 @@ def get_method(name: str, known: tuple[str, ...] | None = None) -> Method:
     known : tuple of str, optional
         The names acceptable where the method is asked for (default: every method).
 
+    Returns
+    -------
+    Method
+        The row.
+
     Raises
     ------
     UnknownNameError

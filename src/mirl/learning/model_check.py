@@ -91,8 +91,10 @@ class Check:
     Parameters
     ----------
     name : str
-        ``"unexplained"``, ``"stalls"``, ``"jams"`` or ``"few trials"``.
+        ``"unexplained"``, ``"stalls"``, ``"jams"``, ``"moves"``, ``"few trials"`` or ``"in the
+        way"``.
     ok : bool
+        Whether the record passes it.
     p_value : float or None
         How probable a statistic this extreme is under the models (None: not a tail test).
     reason : str
@@ -111,6 +113,13 @@ class Check:
     misfit: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     def to_dict(self) -> dict:
+        """The check's JSON record.
+
+        Returns
+        -------
+        dict
+            ``ok``, and ``p_value`` and ``reason`` where it has them.
+        """
         out: dict = {"ok": self.ok}
         if self.p_value is not None:
             out["p_value"] = float(f"{self.p_value:.3g}")
@@ -126,6 +135,7 @@ class ModelFit:
     Parameters
     ----------
     checks : tuple of Check
+        The checks the record was put to.
     left_out : mapping of str to int
         Steps left out of the verdict's evidence, by reason (misfit steps, and steps in
         another robot's way).
@@ -136,6 +146,7 @@ class ModelFit:
 
     @property
     def ok(self) -> bool:
+        """Whether the record passes every check."""
         return all(c.ok for c in self.checks)
 
     @property
@@ -149,6 +160,14 @@ class ModelFit:
         return "; ".join(dict.fromkeys(c.fix for c in self.checks if not c.ok and c.fix))
 
     def to_dict(self) -> dict:
+        """The fit's JSON record (``verdict.fit``).
+
+        Returns
+        -------
+        dict
+            ``ok``, ``reason``, ``fix`` (where there is one), ``checks`` (by name) and
+            ``left_out`` (by reason).
+        """
         out: dict = {"ok": self.ok, "reason": self.reason}
         if self.fix:
             out["fix"] = self.fix
@@ -161,8 +180,22 @@ class ModelFit:
 def check_unexplained(
     unexplained: np.ndarray, long_moves: np.ndarray, *, rate: float = MISREAD_RATE
 ) -> Check:
-    """Unexplained steps (bool, one per observed step) against a tolerated misread ``rate``;
-    ``long_moves`` marks those that moved more than one cell."""
+    """Unexplained steps against a tolerated misread rate.
+
+    Parameters
+    ----------
+    unexplained : ndarray of bool, shape (n,)
+        Per observed step, whether no action explains it.
+    long_moves : ndarray of bool, shape (n,)
+        Per observed step, whether it moved more than one cell.
+    rate : float, default :data:`MISREAD_RATE`
+        The share of steps a tracker may misread.
+
+    Returns
+    -------
+    Check
+        ``"unexplained"``; its misfit steps are the unexplained ones.
+    """
     unexplained = np.asarray(unexplained, dtype=bool)
     n, k = len(unexplained), int(unexplained.sum())
     misfit = np.flatnonzero(unexplained)
@@ -182,8 +215,20 @@ def check_unexplained(
 
 # ---- stalls -------------------------------------------------------------------------------------
 def stay_runs(t: np.ndarray, stayed: np.ndarray) -> list[np.ndarray]:
-    """The runs of consecutive steps (times ``t`` one apart) on which the robot stayed put, as
-    arrays of indices into ``t``."""
+    """The runs of consecutive steps on which the robot stayed put.
+
+    Parameters
+    ----------
+    t : ndarray of int, shape (n,)
+        The steps' times (consecutive when one apart).
+    stayed : ndarray of bool, shape (n,)
+        Whether the robot stayed put.
+
+    Returns
+    -------
+    list of ndarray of int
+        Each run's indices into ``t``.
+    """
     t, stayed = np.asarray(t, dtype=int), np.asarray(stayed, dtype=bool)
     runs: list[np.ndarray] = []
     start = None
@@ -200,10 +245,28 @@ def stay_runs(t: np.ndarray, stayed: np.ndarray) -> list[np.ndarray]:
 
 
 def longest_run_tail(q: np.ndarray, t: np.ndarray, length: int, rho: float = 0.0) -> np.ndarray:
-    """P(some run of at least ``length`` consecutive stays) under stay probabilities ``q``
-    (r, n) — r draws, n steps at times ``t`` — with lag-1 correlation ``rho`` between consecutive
-    steps (a two-state Markov chain: P(stay | stayed) = q + ρ (1 − q), P(stay | moved) =
-    q (1 − ρ)); the Poisson clumping approximation 1 − exp(−E[runs of that length begun])."""
+    """P(some run of at least ``length`` consecutive stays) under stay probabilities.
+
+    Consecutive steps follow a two-state Markov chain with lag-1 correlation ``rho``
+    (P(stay | stayed) = q + ρ (1 − q), P(stay | moved) = q (1 − ρ)), and the probability is the
+    Poisson clumping approximation 1 − exp(−E[runs of that length begun]).
+
+    Parameters
+    ----------
+    q : ndarray of shape (r, n)
+        Each step's probability of staying put under r posterior draws.
+    t : ndarray of int, shape (n,)
+        The steps' times (a gap breaks a run).
+    length : int
+        The run's length.
+    rho : float, default 0
+        The lag-1 correlation of consecutive steps.
+
+    Returns
+    -------
+    ndarray of shape (r,)
+        The probability under each draw.
+    """
     q = np.clip(np.atleast_2d(np.asarray(q, dtype=float)), 1e-12, 1 - 1e-12)
     t = np.asarray(t, dtype=int)
     r, n = q.shape
@@ -231,9 +294,26 @@ def longest_run_tail(q: np.ndarray, t: np.ndarray, length: int, rho: float = 0.0
 def check_stalls(
     t: np.ndarray, stayed: np.ndarray, q: np.ndarray, rho: float = 0.0
 ) -> tuple[Check, int]:
-    """The record's longest stall against the posterior predictive (``q``: (r, n) stay
-    probabilities of r posterior draws at the n steps, times ``t``); also the shortest stall
-    length the models make improbable (runs this long are the misfit steps)."""
+    """The record's longest stall against the posterior predictive.
+
+    Parameters
+    ----------
+    t : ndarray of int, shape (n,)
+        The steps' times.
+    stayed : ndarray of bool, shape (n,)
+        Whether the robot stayed put.
+    q : ndarray of shape (r, n)
+        Each step's probability of staying put under r posterior draws.
+    rho : float, default 0
+        The lag-1 correlation of consecutive steps the record's dispersion grants.
+
+    Returns
+    -------
+    check : Check
+        ``"stalls"``; its misfit steps are those of runs the models make improbable.
+    limit : int
+        The shortest stall the models make improbable (0 when the check passes).
+    """
     runs = stay_runs(t, stayed)
     longest = max((len(r) for r in runs), default=0)
     if longest == 0:
@@ -258,9 +338,27 @@ def check_stalls(
 def check_jams(
     stayed: np.ndarray, near: np.ndarray, q: np.ndarray, dispersion: float = 1.0
 ) -> Check:
-    """Stays on the steps with another robot within one cell (``near``) against the posterior
-    predictive (``q``: (r, n) stay probabilities), a normal tail with the variance inflated by
-    the record's ``dispersion``."""
+    """Stays beside another robot against the posterior predictive.
+
+    A normal tail of the stays on steps with another robot within one cell, its variance
+    inflated by the record's dispersion.
+
+    Parameters
+    ----------
+    stayed : ndarray of bool, shape (n,)
+        Whether the robot stayed put.
+    near : ndarray of bool, shape (n,)
+        Whether another robot was seen within one cell.
+    q : ndarray of shape (r, n)
+        Each step's probability of staying put under r posterior draws.
+    dispersion : float, default 1
+        The record's variance inflation.
+
+    Returns
+    -------
+    Check
+        ``"jams"``; its misfit steps are the stays beside another robot.
+    """
     stayed, near = np.asarray(stayed, dtype=bool), np.asarray(near, dtype=bool)
     k = int((stayed & near).sum())
     if k == 0:
@@ -280,12 +378,29 @@ def check_jams(
 def held_back(
     stayed: np.ndarray, held: np.ndarray, labels: np.ndarray, dispersion: float = 1.0
 ) -> Check:
-    """Whether a robot stays put more often with another robot in its cell or the cell ahead
-    (``held``) than without, among steps of the same label: a one-sided Mantel–Haenszel test
-    over the labels (Mantel & Haenszel 1959), its variance inflated by the record's
-    ``dispersion``. Physical robots there block or push each other; on a grid they do not, and
-    those steps are evidence like any other. The check's ``misfit`` are the held steps when
-    they stay more."""
+    """Whether a robot stays put more often with another robot in its way than without.
+
+    A one-sided Mantel–Haenszel test over the steps' labels (Mantel & Haenszel 1959), its
+    variance inflated by the record's dispersion: physical robots in each other's cell or cell
+    ahead block or push each other; on a grid they do not, and those steps are evidence like
+    any other.
+
+    Parameters
+    ----------
+    stayed : ndarray of bool, shape (n,)
+        Whether the robot stayed put.
+    held : ndarray of bool, shape (n,)
+        Whether another robot was seen in its cell or the cell ahead.
+    labels : ndarray of int, shape (n,)
+        The steps' labels (the strata).
+    dispersion : float, default 1
+        The record's variance inflation.
+
+    Returns
+    -------
+    Check
+        ``"in the way"``; when it fails, its misfit steps are the held steps.
+    """
     stayed, held = np.asarray(stayed, dtype=bool), np.asarray(held, dtype=bool)
     labels = np.asarray(labels, dtype=int)
     if not held.any() or held.all():
@@ -325,15 +440,29 @@ def check_moves(
 ) -> Check:
     """The record's counts of each kind of move against the posterior predictive.
 
-    ``observed`` (n,) is each step's kind (an index into :data:`MOVE_KINDS`); ``probabilities``
-    (r, n, k) the probability of each kind at each step under r posterior draws. For a draw,
-    the counts of a record drawn from it have mean E = Σ_t q_t and covariance
-    φ Σ_t (diag q_t − q_t q_tᵀ) (φ the record's ``dispersion``), and the record's Mahalanobis
-    distance from E is χ² with k − 1 degrees of freedom (the central limit theorem); p is its
-    tail, averaged over the draws (a posterior-predictive p-value). The check fails when that is
-    below :data:`ALPHA` and the counts are off by at least ``min_share`` of the steps (half the
-    sum of the kinds' differences): on a long record a few mislabelled steps are significant
-    and harmless."""
+    For a draw, the counts of a record drawn from it have mean E = Σ_t q_t and covariance
+    φ Σ_t (diag q_t − q_t q_tᵀ), and the record's Mahalanobis distance from E is χ² with k − 1
+    degrees of freedom (the central limit theorem); p is its tail averaged over the draws. The
+    check fails when p is below :data:`ALPHA` and the counts are off by at least ``min_share`` of
+    the steps (half the sum of the kinds' differences): on a long record a few mislabelled steps
+    are significant and harmless.
+
+    Parameters
+    ----------
+    observed : ndarray of int, shape (n,)
+        Each step's kind, an index into :data:`MOVE_KINDS`.
+    probabilities : ndarray of shape (r, n, k)
+        The probability of each kind at each step under r posterior draws.
+    dispersion : float, default 1
+        The record's variance inflation φ.
+    min_share : float, default :data:`MOVES_SHARE`
+        How far off the counts must be, as a share of the steps.
+
+    Returns
+    -------
+    Check
+        ``"moves"``.
+    """
     observed = np.asarray(observed, dtype=int)
     q = np.asarray(probabilities, dtype=float)
     r, n, k = q.shape
@@ -370,8 +499,22 @@ def check_pinned(
     *,
     min_trials: int = PINNED_TRIALS,
 ) -> Check:
-    """Eq. 4's estimates pinned at 0 (within 0.005) by fewer than ``min_trials`` trials of the
-    subsets holding the feature (``counts``: (subset, successes, trials))."""
+    """Eq. 4's estimates pinned at 0 by few trials.
+
+    Parameters
+    ----------
+    probabilities : mapping of str to float
+        Eq. 4's feature probabilities.
+    counts : sequence of (subset, successes, trials)
+        The labelled steps' pooled counts.
+    min_trials : int, default :data:`PINNED_TRIALS`
+        Fewer trials than this of the subsets holding a feature do not pin it.
+
+    Returns
+    -------
+    Check
+        ``"few trials"``.
+    """
     pinned = []
     for f, p in probabilities.items():
         if p > 0.005:
@@ -385,5 +528,18 @@ def check_pinned(
 
 
 def model_fit(checks: Sequence[Check], left_out: Mapping[str, int]) -> ModelFit:
-    """The record's fit from its checks, and the steps left out of the evidence."""
+    """The record's fit from its checks and the steps left out of the evidence.
+
+    Parameters
+    ----------
+    checks : sequence of Check
+        The checks.
+    left_out : mapping of str to int
+        Steps left out, by reason.
+
+    Returns
+    -------
+    ModelFit
+        The fit.
+    """
     return ModelFit(tuple(checks), dict(left_out))

@@ -103,12 +103,29 @@ class MotionModel:
         return f"{self.xi}/{self.errors}"
 
     def describe(self) -> str:
-        """The model in words."""
+        """The model in words.
+
+        Returns
+        -------
+        str
+            "turns need a wheel, a failed step stays put", ….
+        """
         return describe_model(self.name)
 
 
 def describe_model(name: str) -> str:
-    """A model's name (``"paper/uniform"``) in words."""
+    """A model's name in words.
+
+    Parameters
+    ----------
+    name : str
+        ``"paper/uniform"``, ``"free-turns/stop"``, ….
+
+    Returns
+    -------
+    str
+        What the model says of turns and of failed steps.
+    """
     xi, errors = name.split("/")
     turns = "turns need a wheel" if xi == "paper" else "turns need no wheel"
     ends = (
@@ -120,8 +137,22 @@ def describe_model(name: str) -> str:
 
 
 def motion_sentence(weights: Mapping[str, float], planned: str, odds: float = 1000.0) -> str:
-    """The most probable motion model, its weight, and the one L plans with, in words;
-    ``odds`` is how much more probable a model must be for L to leave the scenario's."""
+    """The most probable motion model, its weight, and the one L plans with, in words.
+
+    Parameters
+    ----------
+    weights : mapping of str to float
+        Each model's posterior probability.
+    planned : str
+        The model L learned and plans with (``""``: none).
+    odds : float, default 1000
+        How much more probable a model must be for L to leave the scenario's.
+
+    Returns
+    -------
+    str
+        The sentence the reports print.
+    """
     best = max(weights, key=weights.__getitem__)
     said = f"{describe_model(best)} ({best}, weight {weights[best]:.2f})"
     if not planned or planned == best:
@@ -132,8 +163,20 @@ def motion_sentence(weights: Mapping[str, float], planned: str, odds: float = 10
 
 
 def candidate_models(feature_map: FeatureMap) -> tuple[MotionModel, ...]:
-    """The 2 × 2 of ξ (the scenario's; without wheels in the turns) and error model; the ξ
-    without wheels is left out when it is the scenario's own (no wheel drives a turn)."""
+    """The 2 × 2 of ξ (the scenario's; without wheels in the turns) and error model.
+
+    The ξ without wheels is left out when it is the scenario's own (no wheel drives a turn).
+
+    Parameters
+    ----------
+    feature_map : FeatureMap
+        The scenario's ξ.
+
+    Returns
+    -------
+    tuple of MotionModel
+        The candidates, the scenario's ξ first.
+    """
     free = turns_without_wheels(feature_map)
     maps = [("paper", feature_map)]
     if dict(free.action_subsets) != dict(feature_map.action_subsets):
@@ -143,9 +186,19 @@ def candidate_models(feature_map: FeatureMap) -> tuple[MotionModel, ...]:
 
 @dataclass(frozen=True)
 class PriorSpec:
-    """The prior of each success probability: with probability ``damaged_share`` uniform on
-    [0, 1], else Beta(``strength`` h, ``strength`` (1 − h)) around the healthy level h; and of
-    ε, the share of steps on which a robot does not do what L's policy says, Beta(``policy_error``).
+    """The prior of each success probability and of L's policy error.
+
+    Each success probability is, with probability ``damaged_share``, uniform on [0, 1], else
+    Beta(``strength`` h, ``strength`` (1 − h)) around its healthy level h.
+
+    Parameters
+    ----------
+    damaged_share : float, default 0.2
+        The prior probability that a part is damaged (uniform).
+    strength : float, default 50
+        The concentration of a healthy part's Beta around its healthy level.
+    policy_error : tuple of float, default (1, 99)
+        The Beta prior of ε, the share of steps on which a robot does not do what L's policy says.
     """
 
     damaged_share: float = 0.2
@@ -188,6 +241,7 @@ class StepDesign:
 
     @property
     def n_steps(self) -> int:
+        """How many steps the rows stand for."""
         return int(self.counts.sum())
 
 
@@ -205,8 +259,22 @@ def model_domain(domain: PatrolDomain, model: MotionModel) -> PatrolDomain:
 
 
 def unexplained_steps(domain: PatrolDomain, s: np.ndarray, s_next: np.ndarray) -> np.ndarray:
-    """(n,) bool: steps whose next state is no action's intended state (staying put is stop's),
-    which no candidate model can produce."""
+    """Steps whose next state is no action's intended state.
+
+    Staying put is stop's intended state; no candidate model produces any other.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The scenario's domain.
+    s, s_next : ndarray of int, shape (n,)
+        The steps' states and next states.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+        Whether each step is unexplained.
+    """
     s, s_next = np.asarray(s, dtype=int), np.asarray(s_next, dtype=int)
     return ~(domain.intended[s] == s_next[:, None]).any(axis=1)
 
@@ -218,8 +286,26 @@ def step_coefficients(
     s_next: np.ndarray,
     action_prior: np.ndarray,
 ) -> tuple[tuple[tuple[str, ...], ...], np.ndarray]:
-    """The model's distinct feature subsets and, per step, the row [c0_policy, C_policy (K),
-    c0_any, C_any (K)] of :class:`StepDesign`."""
+    """Per step, the coefficients of its likelihood under a model.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The scenario's domain.
+    model : MotionModel
+        The candidate.
+    s, s_next : ndarray of int, shape (n,)
+        The steps' states and next states.
+    action_prior : ndarray of shape (n, A)
+        L's distribution over each step's action.
+
+    Returns
+    -------
+    subsets : tuple of tuple of str
+        The model's distinct feature subsets.
+    rows : ndarray of shape (n, 2 + 2K)
+        Per step [c0_policy, C_policy (K), c0_any, C_any (K)] (:class:`StepDesign`).
+    """
     s, s_next = np.asarray(s, dtype=int), np.asarray(s_next, dtype=int)
     dom = model_domain(domain, model)
     A = dom.n_actions
@@ -252,9 +338,27 @@ def step_design(
     s_next: np.ndarray,
     action_prior: np.ndarray,
 ) -> StepDesign:
-    """The steps (s, s') with L's action distribution ``action_prior`` (n, A) as the distinct
-    coefficient rows of ``model`` (:class:`StepDesign`). Steps no action explains must be left
-    out first (:func:`unexplained_steps`): their likelihood is 0 under every model."""
+    """The steps under a model as distinct rows of likelihood coefficients.
+
+    Steps no action explains must be left out first (:func:`unexplained_steps`): their
+    likelihood is 0 under every model.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The scenario's domain.
+    model : MotionModel
+        The candidate.
+    s, s_next : ndarray of int, shape (n,)
+        The steps' states and next states.
+    action_prior : ndarray of shape (n, A)
+        L's distribution over each step's action.
+
+    Returns
+    -------
+    StepDesign
+        The distinct rows and how many steps each stands for.
+    """
     subsets, rows = step_coefficients(domain, model, s, s_next, action_prior)
     if not len(rows):
         return StepDesign(subsets, rows, np.zeros(0))
@@ -268,8 +372,24 @@ def step_likelihoods(
     rows: np.ndarray,
     x: np.ndarray,
 ) -> np.ndarray:
-    """(n_draws, n_rows) likelihoods of coefficient ``rows`` at logit-space draws ``x``
-    (logit p_1 … logit p_F, logit ε)."""
+    """The likelihoods of coefficient rows at draws.
+
+    Parameters
+    ----------
+    features : sequence of str
+        The features, in the draws' order.
+    subsets : sequence of sequence of str
+        The model's feature subsets, the rows' columns.
+    rows : ndarray of shape (r, 2 + 2K)
+        Coefficient rows (:func:`step_coefficients`).
+    x : ndarray of shape (n, F + 1)
+        Logit-space draws (logit p_1 … logit p_F, logit ε).
+
+    Returns
+    -------
+    ndarray of shape (n, r)
+        Each row's likelihood at each draw.
+    """
     return _basis(_incidence(features, subsets), x) @ _mixed(rows, len(subsets))
 
 
@@ -300,8 +420,22 @@ def _mixed(rows: np.ndarray, K: int) -> np.ndarray:
 
 # ---- the prior ----------------------------------------------------------------------------------
 def feature_log_prior(x: np.ndarray, healthy: np.ndarray, prior: PriorSpec) -> np.ndarray:
-    """Log density of logit-space draws ``x`` (n, F) of the features under the prior, Jacobian
-    included."""
+    """Log density of logit-space draws of the features under the prior, Jacobian included.
+
+    Parameters
+    ----------
+    x : ndarray of shape (n, F)
+        Logit-space draws.
+    healthy : ndarray of shape (F,)
+        Each feature's healthy level.
+    prior : PriorSpec
+        The prior.
+
+    Returns
+    -------
+    ndarray of shape (n,)
+        The log density of each draw.
+    """
     a, b = prior.strength * healthy, prior.strength * (1 - healthy)
     log_p = -np.logaddexp(0, -x)  # log p; log (1 − p) = log p − x
     beta = (a + b - 2) * log_p - (b - 1) * x - betaln(a, b)
@@ -311,7 +445,24 @@ def feature_log_prior(x: np.ndarray, healthy: np.ndarray, prior: PriorSpec) -> n
 
 
 def sample_feature_prior(rng, n: int, healthy: np.ndarray, prior: PriorSpec) -> np.ndarray:
-    """``n`` logit-space draws of the features from the prior."""
+    """Logit-space draws of the features from the prior.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The random stream.
+    n : int
+        How many draws.
+    healthy : ndarray of shape (F,)
+        Each feature's healthy level.
+    prior : PriorSpec
+        The prior.
+
+    Returns
+    -------
+    ndarray of shape (n, F)
+        The draws.
+    """
     F = len(healthy)
     a, b = prior.strength * healthy, prior.strength * (1 - healthy)
     p = rng.beta(np.broadcast_to(a, (n, F)), np.broadcast_to(b, (n, F)))
@@ -344,24 +495,32 @@ def model_posterior(
     n_draws: int = N_DRAWS,
     random_state: int = 0,
 ) -> WeightedDraws:
-    """Weighted draws of (logit p_1 … logit p_F, logit ε) given one model's steps, and the
-    model's log marginal likelihood.
+    """Draws of (logit p_1 … logit p_F, logit ε) given one model's steps, and its evidence.
 
     Parameters
     ----------
     features : sequence of str
+        The features, in the draws' order.
     design : StepDesign
         The steps under the model (:func:`step_design`).
     healthy : mapping of str to float
         Each feature's healthy level (the prior's centre).
-    prior : PriorSpec
-    extra_log_likelihood : callable (p) -> ndarray of shape (n,), optional
-        Evidence beyond the steps as a function of the success probabilities p (n, F): the
-        lateral drift.
+    prior : PriorSpec, default DEFAULT_PRIOR
+        The prior.
+    extra_log_likelihood : callable, optional
+        Evidence beyond the steps as a function of the success probabilities p (n, F) returning
+        (n,) log-likelihoods: the lateral drift.
     dispersion : float, default 1
         The steps' log-likelihood is divided by it (correlated steps; a quasi-likelihood).
-    n_draws, random_state
-        Passed to :func:`~mirl.learning.smc.tempered_smc`.
+    n_draws : int, default N_DRAWS
+        The sampler's draws.
+    random_state : int, default 0
+        The sampler's seed.
+
+    Returns
+    -------
+    WeightedDraws
+        The draws, and the model's log marginal likelihood.
     """
     features = tuple(features)
     F = len(features)
@@ -397,7 +556,9 @@ class MotionPosterior:
     Parameters
     ----------
     features : tuple of str
+        The features, in the draws' order.
     models : tuple of MotionModel
+        The candidates weighed.
     weights : ndarray of shape (M,)
         Each model's posterior probability (equal prior odds).
     draws : tuple of WeightedDraws
@@ -411,6 +572,7 @@ class MotionPosterior:
 
     @property
     def log_evidence(self) -> np.ndarray:
+        """(M,) each model's log marginal likelihood."""
         return np.array([d.log_evidence for d in self.draws])
 
     @property
@@ -425,13 +587,30 @@ class MotionPosterior:
         return self.models[int(np.argmax(self.weights))]
 
     def model_weights(self) -> dict[str, float]:
-        """Model name -> posterior probability."""
+        """Model name -> posterior probability.
+
+        Returns
+        -------
+        dict of str to float
+            Each candidate's weight.
+        """
         return {m.name: float(w) for m, w in zip(self.models, self.weights, strict=True)}
 
     def pooled(self, min_weight: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
-        """The models' draws of the success probabilities pooled by their posterior
-        probabilities: p of shape (n, F) and normalised weights (models below ``min_weight``
-        left out)."""
+        """The models' draws of the success probabilities pooled by their posterior probabilities.
+
+        Parameters
+        ----------
+        min_weight : float, default 1e-6
+            Models below this weight are left out.
+
+        Returns
+        -------
+        p : ndarray of shape (n, F)
+            The draws' success probabilities.
+        weights : ndarray of shape (n,)
+            Their normalised weights.
+        """
         F = len(self.features)
         ps, ws = [], []
         for d, w in zip(self.draws, self.weights, strict=True):
@@ -444,9 +623,23 @@ class MotionPosterior:
     def resample(
         self, n: int, rng: np.random.Generator, best: float = 1.0
     ) -> list[tuple[int, np.ndarray]]:
-        """``n`` draws resampled from the pooled posterior, as (model index, draws (k, F + 1))
-        per model drawn; with ``best`` < 1, from each model's ``best`` share of draws of the
-        highest likelihood (the fit the data make, the prior left aside)."""
+        """Draws resampled from the pooled posterior.
+
+        Parameters
+        ----------
+        n : int
+            How many.
+        rng : numpy.random.Generator
+            The random stream.
+        best : float, default 1
+            With ``best`` < 1, each model's draws are its ``best`` share of the highest likelihood
+            (the fit the data make, the prior left aside).
+
+        Returns
+        -------
+        list of (int, ndarray)
+            Per model drawn, its index and its draws (k, F + 1).
+        """
         pick = rng.choice(len(self.models), size=n, p=self.weights)
         out = []
         for m in np.unique(pick):
@@ -467,9 +660,29 @@ class MotionPosterior:
         action_prior: np.ndarray,
         draws: list[tuple[int, np.ndarray]],
     ) -> np.ndarray:
-        """(draws, steps, targets) p(s' | s) of each step under ``draws`` (from
-        :meth:`resample`), for each next state of ``targets`` (each an (steps,) array): a
-        posterior-predictive replicate's probabilities (with ``s`` itself, of staying put)."""
+        """p(s' | s) of each step under draws, for given next states.
+
+        A posterior-predictive replicate's probabilities: with ``s`` itself as the target, of
+        staying put.
+
+        Parameters
+        ----------
+        domain : PatrolDomain
+            The scenario's domain.
+        s : ndarray of int, shape (n,)
+            The steps' states.
+        targets : sequence of ndarray of int
+            Next states, each of shape (n,).
+        action_prior : ndarray of shape (n, A)
+            L's distribution over each step's action.
+        draws : list of (int, ndarray)
+            Draws from :meth:`resample`.
+
+        Returns
+        -------
+        ndarray of shape (draws, n, len(targets))
+            The probabilities.
+        """
         out = []
         for m, x in draws:
             rows = [
@@ -481,7 +694,13 @@ class MotionPosterior:
         return np.vstack(out) if out else np.zeros((0, len(s), len(targets)))
 
     def policy_error(self) -> float:
-        """The posterior mean of ε, pooled over the models."""
+        """The posterior mean of ε, pooled over the models.
+
+        Returns
+        -------
+        float
+            The share of steps on which the robot did something other than L's policy says.
+        """
         F = len(self.features)
         return float(
             sum(
@@ -505,10 +724,36 @@ def motion_posterior(
     n_draws: int = N_DRAWS,
     random_state: int = 0,
 ) -> MotionPosterior:
-    """The posterior over ``models`` (default: :func:`candidate_models` of the domain's ξ) and
-    their feature probabilities, given steps (s, s') that some action explains, L's action
-    distribution at each (``action_prior``, (n, A)), and optional further evidence
-    (``extra_log_likelihood`` of p, the lateral drift)."""
+    """The posterior over motion models and, within each, the feature probabilities.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The scenario's domain (its ξ is the ``"paper"`` candidates').
+    s, s_next : ndarray of int, shape (n,)
+        Steps some action explains.
+    action_prior : ndarray of shape (n, A)
+        L's distribution over each step's action.
+    healthy : mapping of str to float
+        Each feature's healthy level.
+    models : sequence of MotionModel, optional
+        The candidates (default: :func:`candidate_models` of the domain's ξ).
+    prior : PriorSpec, default DEFAULT_PRIOR
+        The prior.
+    extra_log_likelihood : callable, optional
+        Further evidence as a function of p (the lateral drift).
+    dispersion : float, default 1
+        The steps' log-likelihood is divided by it.
+    n_draws : int, default N_DRAWS
+        The sampler's draws per model.
+    random_state : int, default 0
+        The sampler's seed.
+
+    Returns
+    -------
+    MotionPosterior
+        The models' weights and draws.
+    """
     models = tuple(models or candidate_models(domain.feature_map))
     features = domain.feature_map.features
     draws = tuple(

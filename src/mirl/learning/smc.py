@@ -59,31 +59,37 @@ def tempered_smc(
     moves: int = 3,
     random_state: int | np.random.Generator = 0,
 ) -> WeightedDraws:
-    """Draws of the posterior ∝ prior × likelihood by a sequential Monte Carlo sampler over
-    tempered posteriors ∝ prior × likelihood^β, β from 0 to 1, and the log marginal
-    likelihood as the product of the steps' mean incremental weights (Del Moral, Doucet &
-    Jasra 2006).
+    """Draws of the posterior ∝ prior × likelihood, and its log marginal likelihood.
 
-    Each step raises β as far as keeps half the draws' effective size (Jasra et al. 2011),
-    reweighs, resamples, and moves every draw by ``moves`` random-walk Metropolis steps whose
-    proposal is the draws' covariance scaled by 2.38² / d (Roberts, Gelman & Gilks 1997). The
-    moves are what follow a curved ridge (two wheels whose product alone the steps fix) and
-    keep both of two modes ("the left wheel or the right"), where importance weights of a
-    fitted proposal rest on a handful of draws.
+    A sequential Monte Carlo sampler over tempered posteriors ∝ prior × likelihood^β, β from 0
+    to 1; the evidence is the product of the steps' mean incremental weights (Del Moral, Doucet &
+    Jasra 2006). Each step raises β as far as keeps half the draws' effective size (Jasra et al.
+    2011), reweighs, resamples, and moves every draw by ``moves`` random-walk Metropolis steps
+    whose proposal is the draws' covariance scaled by 2.38² / d (Roberts, Gelman & Gilks 1997).
+    The moves are what follow a curved ridge (two wheels whose product alone the steps fix) and
+    keep both of two modes ("the left wheel or the right"), where importance weights of a fitted
+    proposal rest on a handful of draws.
 
     Parameters
     ----------
     sample_prior : callable (rng, n) -> ndarray of shape (n, d)
         Draws from the prior.
     log_prior : callable (x) -> ndarray of shape (n,)
-        The prior's log density at draws ``x`` of shape (n, d) (up to a constant: the
-        evidence does not use it).
+        The prior's log density at draws ``x`` of shape (n, d) (up to a constant: the evidence
+        does not use it).
     log_likelihood : callable (x) -> ndarray of shape (n,)
         The log-likelihood of the data at each draw.
     n_draws : int, default 1000
+        The draws.
     moves : int, default 3
         Metropolis steps per draw per step of β.
-    random_state : int or Generator, default 0
+    random_state : int or numpy.random.Generator, default 0
+        The seed.
+
+    Returns
+    -------
+    WeightedDraws
+        Equally weighted draws of the posterior and the log evidence.
     """
     rng = np.random.default_rng(random_state)
     x = sample_prior(rng, n_draws)

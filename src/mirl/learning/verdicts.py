@@ -841,6 +841,38 @@ def never_seen_moving(
     return FeatureUncertainty(intervals, verdict, medians=medians)
 
 
+def _check_record(
+    domain, t, s, s_next, lab, action, keep, unexplained, held, beside, post, posterior,
+    dispersion: float, random_state: int,
+):  # fmt: skip
+    """The model check of a robot's kept steps (:mod:`mirl.learning.model_check`): the checks,
+    the posterior refitted without the steps another robot held (where the record shows it),
+    and the misfit and held steps (bool, one per observed step)."""
+    cells = domain.states[:, :2]
+    long_moves = np.abs(cells[s_next] - cells[s]).sum(axis=1) >= 2
+    checks = [check_unexplained(unexplained, long_moves)]
+    misfit = np.zeros(len(t), dtype=bool)
+    in_the_way = np.zeros(len(t), dtype=bool)
+    kinds = _move_kinds(domain, s, s_next)
+    stayed = kinds == len(MOVE_KINDS) - 1
+    kept = np.flatnonzero(keep)
+    # a robot held by another stays put for the other's reason, if the record says so
+    way = held_back(stayed[kept], held[kept], lab[kept], dispersion)
+    if way.misfit.size:
+        in_the_way[kept[way.misfit]] = True
+        post = posterior(keep & ~in_the_way)
+        kept = np.flatnonzero(keep & ~in_the_way)
+    if len(kept):
+        q, fitted = _kind_probabilities(post, domain, s[kept], action[kept], random_state)
+        rho = (dispersion - 1) / (dispersion + 1)
+        stalls, _ = check_stalls(t[kept], stayed[kept], q[:, :, -1], rho)
+        jams = check_jams(stayed[kept], beside[kept], q[:, :, -1], dispersion)
+        checks += [check_moves(kinds[kept], fitted, dispersion), stalls, jams]
+        for c in (stalls, jams):
+            misfit[kept[c.misfit]] = True
+    return checks, post, misfit, in_the_way
+
+
 def _every_model_covered(
     verdict: Verdict, post: MotionPosterior, features, p: np.ndarray, w: np.ndarray, definition
 ) -> Verdict:
@@ -967,28 +999,10 @@ def robot_uncertainty(
         )  # fmt: skip
 
     post = posterior(keep)
-    cells = domain.states[:, :2]
-    long_moves = np.abs(cells[s_next] - cells[s]).sum(axis=1) >= 2
-    checks = [check_unexplained(unexplained, long_moves)]
-    misfit = np.zeros(len(t), dtype=bool)
-    in_the_way = np.zeros(len(t), dtype=bool)
-    kinds = _move_kinds(domain, s, s_next)
-    stayed = kinds == len(MOVE_KINDS) - 1
-    kept = np.flatnonzero(keep)
-    # a robot held by another stays put for the other's reason, if the record says so
-    way = held_back(stayed[kept], held[kept], lab[kept], dispersion)
-    if way.misfit.size:
-        in_the_way[kept[way.misfit]] = True
-        post = posterior(keep & ~in_the_way)
-        kept = np.flatnonzero(keep & ~in_the_way)
-    if len(kept):
-        q, fitted = _kind_probabilities(post, domain, s[kept], action[kept], random_state)
-        rho = (dispersion - 1) / (dispersion + 1)
-        stalls, _ = check_stalls(t[kept], stayed[kept], q[:, :, -1], rho)
-        jams = check_jams(stayed[kept], beside[kept], q[:, :, -1], dispersion)
-        checks += [check_moves(kinds[kept], fitted, dispersion), stalls, jams]
-        for c in (stalls, jams):
-            misfit[kept[c.misfit]] = True
+    checks, post, misfit, in_the_way = _check_record(
+        domain, t, s, s_next, lab, action, keep, unexplained, held, beside, post, posterior,
+        dispersion, random_state,
+    )  # fmt: skip
     counts = count_subsets(plan_domain, s[keep], lab[keep], s_next[keep]).observations()
     checks.append(check_pinned(probabilities, counts))
     if misfit.any():  # misfit steps are never failures of a part

@@ -1,5 +1,5 @@
-"""Pose tracks onto a scenario's grid: the :class:`~mirl.observations.Trajectories` every learner
-takes, plus a per-robot account of what happened to every pose.
+"""Pose tracks onto a scenario's grid: the :class:`~mirl.observations.trajectories.Trajectories`
+every learner takes, plus a per-robot account of what happened to every pose.
 
 - **Space.** The map frame (``MapFrame``: cell size, centre of cell (0, 0); x east with the
   column, y north with decreasing row) turns (x, y) into fractional (row, col); a pose belongs
@@ -226,6 +226,9 @@ def discretise(
                 f"{tracks.source}: `step_seconds` must be a number of seconds or 'auto', got "
                 f"{step_seconds!r}"
             )
+        # the poses and the watch are checked as at the paper's 2 s before any step is tried
+        tracks, _ = _checked(tracks, scenario, 2.0, tolerance)
+        _watch(tracks, start_time, n_steps, 2.0)
         auto = auto_step_seconds(tracks, scenario, start_time=start_time)
         step_seconds = auto.seconds
     tracks, tol = _checked(tracks, scenario, step_seconds, tolerance)
@@ -321,8 +324,12 @@ def auto_step_seconds(
     robots = [np.flatnonzero(tracks.robot == i) for i in range(len(tracks.robot_names))]
     robots = [idx[np.argsort(t[idx], kind="stable")] for idx in robots if len(idx)]
 
+    span = float(t.max()) - start
+
     def judged(step: float) -> tuple[int, int, int]:
         pairs = long = moved = 0
+        if span / step + 1 >= MAX_TIME:  # more steps than any record may hold
+            return 0, 0, 0
         for idx in robots:
             cells = _cells_at_steps(t[idx], row[idx], col[idx], start, step)
             both = (cells[:-1, 0] != _UNSEEN) & (cells[1:, 0] != _UNSEEN)

@@ -24,7 +24,9 @@ MOVING = ("forward", "turn_left", "turn_right")
 
 __all__ = [
     "Calibration",
+    "Meeting",
     "calibrate",
+    "head_on_meeting",
     "open_loop",
     "FORWARD_SUCCESS_RATIO",
     "wheel_success",
@@ -210,3 +212,35 @@ def open_loop(scenario, robot: str, *, config=None) -> dict[str, float]:
         turn = "turn_right" if what == "left" else "turn_left"
         out[f"{turn}_rate"] = float(np.degrees(abs(yaw[-1] - yaw[0])))
     return out
+
+
+@dataclass(frozen=True)
+class Meeting:
+    """How a head-on meeting of two patrollers went (:func:`head_on_meeting`)."""
+
+    got_past: bool  # the robots ended past each other
+    contacts: int  # robot-robot contact events
+    wall_contacts: int
+
+    @property
+    def passed(self) -> bool:
+        """Past each other without touching."""
+        return self.got_past and self.contacts == 0
+
+
+HEAD_ON_STARTS = [(4, 1, 3), (12, 1, 1)]
+"""boyd2's long hallway: the first patroller at (4, 1) facing south, the second at (12, 1) facing
+north, eight cells apart."""
+
+
+def head_on_meeting(scenario, seed: int, *, config=None, steps: int = 10) -> Meeting:
+    """Two patrollers of a boyd2-map ``scenario`` driving at each other along the long hallway
+    (:data:`HEAD_ON_STARTS`) for ``steps`` decision steps: whether they got past each other, and
+    the contacts on the way. A meeting that has not got past within the steps (the robots still
+    facing each other) counts as not passed, like one that touched."""
+    w = PhysicalWorld(scenario, config=config, seed=seed, starts=HEAD_ON_STARTS, observer=False,
+                      record_ticks=False)  # fmt: skip
+    for _ in range(steps):
+        w.step()
+    ys = w.poses()[:2, 1]
+    return Meeting(bool(ys[0] < ys[1]), w.contacts, w.wall_contacts)

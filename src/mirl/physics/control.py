@@ -7,9 +7,9 @@ Vectorised over robots. Per robot a *mode* and a target, set once per decision s
   right in company, so robots meeting head-on pass side by side; alone, the middle of the
   hallway, as a costmap inflated around both walls keeps a real robot there). The
   speed is the lesser of the cruise speed and what still lets the robot stop on the point
-  (v = √(2·a·d)), times cos of the bearing error (turn in place while it exceeds 60°); the turn
-  rate is proportional to the bearing error. Within ``arrive`` of the point the robot aligns its
-  heading with the target heading.
+  (v = √(2·a·d)), times 1 − (e / ``turn_first``)² of the bearing error e (it turns in place
+  while e exceeds ``turn_first``, 20°); the turn rate is proportional to the bearing error.
+  Within ``arrive`` of the point the robot aligns its heading with the target heading.
 - ``PIVOT`` (turn_left / turn_right): rotate towards the target heading by pivoting on the
   inner wheel (turning left the left wheel stands still and the right wheel drives), as the
   paper's ξ has it (turn_left uses the right wheel, turn_right the left).
@@ -38,6 +38,18 @@ except ImportError:  # numpy < 2
 
 
 def wrap(a):
+    """Angles wrapped into [-π, π).
+
+    Parameters
+    ----------
+    a : float or array_like
+        Radians.
+
+    Returns
+    -------
+    ndarray
+        The same angles in [-π, π).
+    """
     return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
 
 
@@ -55,9 +67,25 @@ def _others(p: np.ndarray, cell_size: float) -> tuple[np.ndarray, np.ndarray, np
 
 
 def crowded(p: np.ndarray, cell_size: float, pass_distance: float) -> np.ndarray:
-    """Robots that must go slowly: another robot coming the other way within
-    ``pass_distance`` cells ahead (±70°: pass slowly), or one going the same way less than 0.8
-    cell ahead (do not run into it). ``p``: true poses (x, y, yaw), one row a robot."""
+    """Robots that must go slowly.
+
+    Another robot coming the other way within ``pass_distance`` cells ahead (±70°: pass
+    slowly), or one going the same way less than 0.8 cell ahead (do not run into it).
+
+    Parameters
+    ----------
+    p : ndarray of shape (n, 3)
+        True poses (x, y, yaw), one row a robot.
+    cell_size : float
+        Metres a cell.
+    pass_distance : float
+        Cells.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+        True for the robots that must go slowly.
+    """
     if len(p) < 2 or not (_nearest(p) / cell_size < max(pass_distance, 0.8)):
         return np.zeros(len(p), dtype=bool)  # the usual tick: nobody near anybody
     dist, bearing, oncoming = _others(p, cell_size)
@@ -66,10 +94,26 @@ def crowded(p: np.ndarray, cell_size: float, pass_distance: float) -> np.ndarray
 
 
 def in_company(p: np.ndarray, cell_size: float, distance: float) -> np.ndarray:
-    """Robots that keep right: another robot coming the other way less than ``distance``
-    cells ahead or alongside (within :data:`~mirl.world.game.KEEP_RIGHT_BEARING`, so that it
-    keeps right until they have passed). A robot followed or led by another stays in the
-    middle. ``p``: true poses, one row a robot."""
+    """Robots that keep right.
+
+    Another robot coming the other way less than ``distance`` cells ahead or alongside (within
+    :data:`~mirl.world.game.KEEP_RIGHT_BEARING`, so that it keeps right until they have passed).
+    A robot followed or led by another stays in the middle.
+
+    Parameters
+    ----------
+    p : ndarray of shape (n, 3)
+        True poses (x, y, yaw), one row a robot.
+    cell_size : float
+        Metres a cell.
+    distance : float
+        Cells.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+        True for the robots that keep right.
+    """
     if len(p) < 2 or not (_nearest(p) / cell_size < distance):
         return np.zeros(len(p), dtype=bool)
     dist, bearing, oncoming = _others(p, cell_size)
@@ -84,6 +128,37 @@ def _nearest(p: np.ndarray) -> float:
 
 
 class Controller:
+    """Wheel speeds for ``n`` differential-drive robots from their estimated poses (module doc).
+
+    Parameters
+    ----------
+    n : int
+        The number of robots.
+    separation : float
+        Metres between a robot's wheels.
+    wheel_radius : float
+        Metres.
+    max_speed : float
+        Cruise speed, m/s.
+    max_accel : float
+        Acceleration limit, m/s².
+    turn_speed : float
+        Pivot rate limit, rad/s.
+    max_wheel_speed : float
+        A wheel's angular speed limit, rad/s; a command beyond it is scaled down, both wheels
+        alike.
+    dt : float
+        Seconds a control tick.
+    arrive : float, default 0.06
+        Metres from the target point within which a driving robot aligns its heading.
+    k_heading : float, default 2.5
+        The turn rate's gain on the heading error, 1/s.
+    pass_speed : float, default 0.2
+        The speed cap (m/s) on a robot :func:`crowded` by another.
+    turn_first : float, default radians(20)
+        Radians of bearing error beyond which a driving robot turns in place.
+    """
+
     def __init__(
         self,
         n: int,
@@ -115,15 +190,47 @@ class Controller:
         self.v = np.zeros(n)  # commanded forward speed (acceleration-limited)
 
     def set_targets(self, idx, mode, tx, ty, tyaw, lane=0.0) -> None:
-        """Targets of robots ``idx``: a mode, a point on the centre line, a heading, and the
-        offset to the right of it (m) that the robot keeps while in company."""
+        """Targets of robots ``idx`` for this decision step.
+
+        Parameters
+        ----------
+        idx : int, slice or array_like of int
+            The robots.
+        mode : int or array_like of int
+            ``DRIVE``, ``PIVOT`` or ``HOLD`` (this module's constants).
+        tx : float or array_like
+            The target point's x on the centre line (m).
+        ty : float or array_like
+            Its y (m).
+        tyaw : float or array_like
+            The target heading (rad).
+        lane : float or array_like, default 0.0
+            Metres to the right of the target point that the robot keeps while in company.
+        """
         self.mode[idx], self.tx[idx], self.ty[idx], self.tyaw[idx] = mode, tx, ty, tyaw
         self.lane[idx] = lane
 
     def wheel_speeds(self, x, y, yaw, slow=None, company=None) -> np.ndarray:
-        """(n, 2) wheel angular velocities (rad/s) for the estimated poses; ``slow`` (bool per
-        robot) caps the forward speed at ``pass_speed`` (another robot close ahead);
-        ``company`` (bool per robot) moves the target point into the keep-right lane."""
+        """Wheel angular velocities for the estimated poses, one control tick.
+
+        Parameters
+        ----------
+        x : ndarray of shape (n,)
+            Estimated x (m).
+        y : ndarray of shape (n,)
+            Estimated y (m).
+        yaw : ndarray of shape (n,)
+            Estimated yaw (rad).
+        slow : ndarray of bool, shape (n,), optional
+            Caps the forward speed at ``pass_speed`` (another robot close ahead).
+        company : ndarray of bool, shape (n,), optional
+            Moves the target point into the keep-right lane.
+
+        Returns
+        -------
+        ndarray of shape (n, 2)
+            (left, right) wheel angular velocities, rad/s.
+        """
         lane = 0.0 if company is None else np.where(company, self.lane, 0.0)  # None: nobody near
         tx = self.tx + lane * np.sin(self.tyaw)
         ty = self.ty - lane * np.cos(self.tyaw)

@@ -59,10 +59,20 @@ NOT_WATCHING = -2  # BeliefFilter.update: L did not watch (it has left its room)
 class Prediction:
     """The patrollers' predicted future from time ``t0`` (index k ↔ time t0 + k).
 
-    ``occupancy[k, i]`` is robot i's marginal state distribution; ``detection[k, c]`` the
-    probability that some patroller sees L's cell c (from the joint distribution when the filter
-    is joint); ``hazard[k, j]`` the probability that L is seen on cell ``pairs[j, 1]`` at k given
-    it was not seen on ``pairs[j, 0]`` at k − 1 (row 0 is the unconditional detection).
+    Parameters
+    ----------
+    t0 : int
+        The time of row 0.
+    occupancy : ndarray of shape (K+1, N, S)
+        ``occupancy[k, i]`` is robot i's marginal state distribution.
+    detection : ndarray of shape (K+1, C)
+        ``detection[k, c]`` the probability that some patroller sees L's cell c (from the joint
+        distribution when the filter is joint).
+    hazard : ndarray of shape (K+1, n_pairs)
+        ``hazard[k, j]`` the probability that L is seen on cell ``pairs[j, 1]`` at k given it was
+        not seen on ``pairs[j, 0]`` at k − 1 (row 0 is the unconditional detection).
+    pairs : ndarray of int, shape (n_pairs, 2)
+        L's moves: its cell before and after.
     """
 
     t0: int
@@ -73,23 +83,70 @@ class Prediction:
 
     @property
     def steps(self) -> int:
+        """K, the steps predicted beyond ``t0``."""
         return self.detection.shape[0] - 1
 
     def hazard_rows(self, lo: int, hi: int) -> np.ndarray:
+        """Rows ``lo`` … ``hi`` − 1 of :attr:`hazard`.
+
+        Parameters
+        ----------
+        lo : int
+            The first row.
+        hi : int
+            One past the last row.
+
+        Returns
+        -------
+        ndarray of shape (hi - lo, n_pairs)
+            The hazards.
+        """
         return self.hazard[lo:hi]
 
     def detection_rows(self, lo: int, hi: int) -> np.ndarray:
+        """Rows ``lo`` … ``hi`` − 1 of :attr:`detection`.
+
+        Parameters
+        ----------
+        lo : int
+            The first row.
+        hi : int
+            One past the last row.
+
+        Returns
+        -------
+        ndarray of shape (hi - lo, C)
+            The detection probabilities.
+        """
         return self.detection[lo:hi]
 
 
 class StreamedPrediction:
-    """A :class:`Prediction` of the factored filter that keeps only checkpoints: the marginals
-    at every ``every``-th step. Rows of occupancy, detection and hazard are recomputed from the
-    checkpoint before them when asked for (``*_rows``), with the same arithmetic as computing
-    them all at once, so they are bit for bit those of the full arrays. Memory: K / every + every
-    steps of (N, S) marginals instead of K, and a block of hazards instead of K × pairs — with
-    ``every`` ≈ √K both are O(√K · S). The full arrays (:attr:`occupancy`, :attr:`detection`,
-    :attr:`hazard`) are computed on access, for tests and small maps."""
+    """A :class:`Prediction` of the factored filter that keeps only checkpoints.
+
+    It keeps the marginals at every ``every``-th step. Rows of occupancy, detection and hazard
+    are recomputed from the checkpoint before them when asked for (``*_rows``), with the same
+    arithmetic as computing them all at once, so they are bit for bit those of the full arrays.
+    Memory: K / every + every steps of (N, S) marginals instead of K, and a block of hazards
+    instead of K × pairs — with ``every`` ≈ √K both are O(√K · S). The full arrays
+    (:attr:`occupancy`, :attr:`detection`, :attr:`hazard`) are computed on access, for tests and
+    small maps.
+
+    Parameters
+    ----------
+    t0 : int
+        The time of row 0.
+    steps : int
+        K, the steps predicted beyond ``t0``.
+    start : ndarray of shape (N, S)
+        The marginals at ``t0``.
+    propagate : callable
+        Marginals one step later (the factored filter's step).
+    detection : FactoredDetection
+        Computes detection and hazard rows from marginals.
+    pairs : ndarray of int, shape (n_pairs, 2)
+        L's moves: its cell before and after.
+    """
 
     def __init__(
         self,
@@ -112,7 +169,20 @@ class StreamedPrediction:
         self._cache: tuple[int, int, np.ndarray, np.ndarray] | None = None
 
     def occupancy_rows(self, lo: int, hi: int) -> np.ndarray:
-        """(hi − lo, N, S) marginals of steps lo … hi − 1."""
+        """The marginals of steps ``lo`` … ``hi`` − 1.
+
+        Parameters
+        ----------
+        lo : int
+            The first step.
+        hi : int
+            One past the last step.
+
+        Returns
+        -------
+        ndarray of shape (hi - lo, N, S)
+            The marginals, propagated from the checkpoint before ``lo``.
+        """
         first = lo // self.every
         b = self._checkpoints[first]
         out = np.empty((hi - lo, *b.shape))
@@ -133,21 +203,52 @@ class StreamedPrediction:
         return det, haz
 
     def detection_rows(self, lo: int, hi: int) -> np.ndarray:
+        """Rows ``lo`` … ``hi`` − 1 of :attr:`detection`, recomputed from a checkpoint.
+
+        Parameters
+        ----------
+        lo : int
+            The first row.
+        hi : int
+            One past the last row.
+
+        Returns
+        -------
+        ndarray of shape (hi - lo, C)
+            The detection probabilities.
+        """
         return self._rows(lo, hi)[0]
 
     def hazard_rows(self, lo: int, hi: int) -> np.ndarray:
+        """Rows ``lo`` … ``hi`` − 1 of :attr:`hazard`, recomputed from a checkpoint.
+
+        Parameters
+        ----------
+        lo : int
+            The first row.
+        hi : int
+            One past the last row.
+
+        Returns
+        -------
+        ndarray of shape (hi - lo, n_pairs)
+            The hazards.
+        """
         return self._rows(lo, hi)[1]
 
     @property
     def occupancy(self) -> np.ndarray:
+        """All (K+1, N, S) marginals, computed on access."""
         return self.occupancy_rows(0, self.steps + 1)
 
     @property
     def detection(self) -> np.ndarray:
+        """All (K+1, C) detection probabilities, computed on access."""
         return self.detection_rows(0, self.steps + 1)
 
     @property
     def hazard(self) -> np.ndarray:
+        """All (K+1, n_pairs) hazards, computed on access."""
         return self.hazard_rows(0, self.steps + 1)
 
 
@@ -213,29 +314,99 @@ class BeliefForm(ABC):
 
     @abstractmethod
     def propagate(self, belief: np.ndarray) -> np.ndarray:
-        """``belief`` one step later, without evidence."""
+        """``belief`` one step later, without evidence.
+
+        Parameters
+        ----------
+        belief : ndarray
+            A belief in this form.
+
+        Returns
+        -------
+        ndarray
+            The belief one step later, in this form.
+        """
 
     @abstractmethod
     def marginals(self, belief: np.ndarray) -> np.ndarray:
-        """(N, S) per-robot marginals of ``belief``."""
+        """The per-robot marginals of ``belief``.
+
+        Parameters
+        ----------
+        belief : ndarray
+            A belief in this form.
+
+        Returns
+        -------
+        ndarray of shape (N, S)
+            Each robot's state distribution.
+        """
 
     @abstractmethod
     def condition(
         self, prior: np.ndarray, ev: list[np.ndarray], observed: np.ndarray
     ) -> tuple[np.ndarray, int]:
-        """``prior`` conditioned on each robot's evidence ``ev`` (likelihoods over its states;
-        ``observed`` what L saw of it), and the number of fallbacks: robots (or one for the
-        joint) whose evidence had probability ~0 under the learned models."""
+        """``prior`` conditioned on each robot's evidence.
+
+        Parameters
+        ----------
+        prior : ndarray
+            A belief in this form.
+        ev : list of ndarray of shape (S,)
+            Each robot's evidence: the likelihood of each of its states.
+        observed : ndarray of int, shape (N,)
+            What L saw of each robot (a state, :data:`UNSEEN` or :data:`NOT_WATCHING`).
+
+        Returns
+        -------
+        posterior : ndarray
+            The conditioned belief.
+        fallbacks : int
+            Robots (or one for the joint) whose evidence had probability ~0 under the learned
+            models, so that each marginal was conditioned alone.
+        """
 
     @abstractmethod
     def condition_unseen(self, belief: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, float]:
-        """:meth:`BeliefFilter.condition_unseen`."""
+        """:meth:`BeliefFilter.condition_unseen` in this form.
+
+        Parameters
+        ----------
+        belief : ndarray
+            A belief in this form.
+        g : ndarray of shape (S,)
+            1 where a patroller in that state does not see L's cell.
+
+        Returns
+        -------
+        posterior : ndarray
+            The belief given that no patroller sees L.
+        probability : float
+            The probability that none does.
+        """
 
     @abstractmethod
     def predict(
         self, steps: int, model: ObserverModel, belief: np.ndarray, t0: int
     ) -> Prediction | StreamedPrediction:
-        """:meth:`BeliefFilter.predict` from ``belief`` at step ``t0``."""
+        """:meth:`BeliefFilter.predict` from ``belief`` at step ``t0``.
+
+        Parameters
+        ----------
+        steps : int
+            K, the steps to look ahead.
+        model : ObserverModel
+            L's model: its cells, moves and what the patrollers see.
+        belief : ndarray
+            A belief in this form.
+        t0 : int
+            The step of ``belief``.
+
+        Returns
+        -------
+        Prediction or StreamedPrediction
+            Occupancies, detection probabilities and hazards for t0 … t0 + K.
+        """
 
 
 class _JointBelief(BeliefForm):
@@ -293,8 +464,20 @@ class PairBelief(_JointBelief):
 
     A step is B' = P_Iᵀ (B∘(1 − m)) P_J + M_Iᵀ (B∘m) M_J, the matrix form of
     b' = (P_I ⊗ P_J)ᵀ((1 − m)∘b) + (M_I ⊗ M_J)ᵀ(m∘b): O(S²) memory, no S² × S² matrix; the
-    meeting part is summed over its non-zero terms only (:class:`~mirl.planning.pair_sums.
-    MeetingStep`)."""
+    meeting part is summed over its non-zero terms only
+    (:class:`~mirl.planning.pair_sums.MeetingStep`).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The patrollers' domain.
+    learned : LearnResult
+        The models the belief moves by.
+    steps : list of sparse arrays of shape (S, S)
+        Each robot's one-step matrix under its policy (meetings ignored).
+    visible : ndarray of shape (S,) of bool
+        The states L sees.
+    """
 
     name = "pair"
     description = "the exact S × S joint of two robots"
@@ -371,8 +554,21 @@ class PairBelief(_JointBelief):
 
 
 class TeamBelief(_JointBelief):
-    """The exact joint of N robots as an N-dimensional tensor (S,)*N, propagated by
-    :class:`~mirl.planning.team_filter.ExactTeam`."""
+    """The exact joint of N robots as an N-dimensional tensor (S,)*N.
+
+    Propagated by :class:`~mirl.planning.team_filter.ExactTeam`.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The patrollers' domain.
+    learned : LearnResult
+        The models the belief moves by.
+    steps : list of sparse arrays of shape (S, S)
+        Each robot's one-step matrix under its policy (meetings ignored).
+    visible : ndarray of shape (S,) of bool
+        The states L sees.
+    """
 
     name = "team"
     description = "the exact S^N joint tensor of a team"
@@ -433,9 +629,23 @@ class TeamBelief(_JointBelief):
 
 
 class FactoredBelief(BeliefForm):
-    """Per-robot marginals (N, S) with pairwise meeting corrections
-    (:class:`~mirl.planning.team_filter.FactoredTeam`); each robot is conditioned alone and
-    the robots' probabilities of not seeing L multiply (its independence approximation)."""
+    """Per-robot marginals (N, S) with pairwise meeting corrections.
+
+    Propagated by :class:`~mirl.planning.team_filter.FactoredTeam`; each robot is conditioned
+    alone and the robots' probabilities of not seeing L multiply (its independence
+    approximation).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The patrollers' domain.
+    learned : LearnResult
+        The models the belief moves by.
+    steps : list of sparse arrays of shape (S, S)
+        Each robot's one-step matrix under its policy (meetings ignored).
+    visible : ndarray of shape (S,) of bool
+        The states L sees.
+    """
 
     name = "factored"
     description = "per-robot marginals with pairwise meeting corrections"
@@ -567,13 +777,31 @@ class BeliefFilter:
         return e
 
     def marginals(self, belief: np.ndarray | None = None) -> np.ndarray:
-        """(N, S) per-robot marginals of ``belief`` (default: the current one)."""
+        """The per-robot marginals of ``belief``.
+
+        Parameters
+        ----------
+        belief : ndarray, optional
+            A belief in this filter's form; the current one by default.
+
+        Returns
+        -------
+        ndarray of shape (N, S)
+            Each robot's state distribution.
+        """
         b = self.belief if belief is None else belief
         assert b is not None, "no belief yet: call update() first"
         return self.form.marginals(b)
 
     def update(self, observed) -> None:
-        """Advance one step and condition on ``observed`` ((N,) state indices, -1 = unseen)."""
+        """Advance one step and condition on what L saw.
+
+        Parameters
+        ----------
+        observed : array_like of int, shape (N,)
+            Each robot's observed state, :data:`UNSEEN` (-1) if L watched and did not see it, or
+            :data:`NOT_WATCHING` (-2) if L did not watch.
+        """
         observed = np.asarray(observed, dtype=int)
         prior = self.form.uniform() if self.belief is None else self.form.propagate(self.belief)
         ev = [self._evidence(int(o)) for o in observed]
@@ -582,7 +810,18 @@ class BeliefFilter:
         self.t += 1
 
     def propagate(self, belief: np.ndarray) -> np.ndarray:
-        """``belief`` (in this filter's form) one step later, without evidence."""
+        """``belief`` (in this filter's form) one step later, without evidence.
+
+        Parameters
+        ----------
+        belief : ndarray
+            A belief in this filter's form.
+
+        Returns
+        -------
+        ndarray
+            The belief one step later.
+        """
         return self.form.propagate(belief)
 
     def condition_unseen(
@@ -590,9 +829,22 @@ class BeliefFilter:
     ) -> tuple[np.ndarray, float]:
         """``belief`` conditioned on no patroller seeing L, and the probability of that.
 
-        ``not_seeing`` is (S,): 1 where a patroller in that state does not see L's cell. Exact
-        for the joint forms; the factored filter conditions each marginal alone and multiplies
+        Exact for the joint forms; the factored filter conditions each marginal alone and multiplies
         the robots' probabilities (its independence approximation).
+
+        Parameters
+        ----------
+        belief : ndarray
+            A belief in this filter's form.
+        not_seeing : ndarray of shape (S,)
+            1 where a patroller in that state does not see L's cell.
+
+        Returns
+        -------
+        posterior : ndarray
+            The conditioned belief.
+        probability : float
+            The probability that no patroller sees L.
         """
         return self.form.condition_unseen(belief, np.asarray(not_seeing, dtype=float))
 
@@ -606,12 +858,32 @@ class BeliefFilter:
     ) -> Prediction | StreamedPrediction:
         """Occupancies, detection probabilities and hazards for t = now … now + ``steps``.
 
-        The only sequential part is the propagation (one sparse product per step); detection
-        and hazards are then computed for all steps at once — or, for the factored filter, a
-        block of steps at a time from checkpoints (:class:`StreamedPrediction`), so that its
-        memory grows with √steps × states rather than steps × (states + L's cell pairs).
-        ``belief`` (in this filter's form) and its step ``t`` predict from an earlier belief
-        instead of the current one (the go rule's chances of the record).
+        The only sequential part is the propagation (one sparse product per step); detection and
+        hazards are then computed for all steps at once — or, for the factored filter, a block
+        of steps at a time from checkpoints (:class:`StreamedPrediction`), so that its memory
+        grows with √steps × states rather than steps × (states + L's cell pairs).
+
+        Parameters
+        ----------
+        steps : int
+            K, the steps to look ahead.
+        model : ObserverModel
+            L's model: its cells, moves and what the patrollers see.
+        belief : ndarray, optional
+            Predict from this earlier belief (in this filter's form) instead of the current one (the
+            go rule's chances of the record).
+        t : int, optional
+            The step of ``belief``; the filter's current step by default.
+
+        Returns
+        -------
+        Prediction or StreamedPrediction
+            The prediction from the belief's step.
+
+        Raises
+        ------
+        ValueError
+            No belief yet (:meth:`update` was never called) and none given.
         """
         if belief is None:
             belief, t = self.belief, self.t

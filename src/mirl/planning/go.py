@@ -108,10 +108,19 @@ _ROWS_AT_ONCE = 64
 
 
 class TimedPolicy:
-    """L's greedy action at each (step k, state s) of a plan, kept as the changes between
-    consecutive steps: the last step's row in full, then per earlier step only the states whose
-    action differs from the step after. Most states keep their action from one step to the next,
-    so this holds O(S + changes) instead of the K × S table; ``policy[k, s]`` is the action."""
+    """L's greedy action at each (step k, state s) of a plan, kept as the changes between steps.
+
+    The last step's row in full, then per earlier step only the states whose action differs from
+    the step after. Most states keep their action from one step to the next, so this holds
+    O(S + changes) instead of the K × S table; ``policy[k, s]`` is the action.
+
+    Parameters
+    ----------
+    K : int
+        The plan's steps.
+    S : int
+        L's states.
+    """
 
     def __init__(self, K: int, S: int) -> None:
         self.shape = (K, S)
@@ -154,7 +163,13 @@ class TimedPolicy:
         return int(self.actions[np.searchsorted(self._keys, s * K + k)])
 
     def to_array(self) -> np.ndarray:
-        """The (K, S) table (for small plans and tests)."""
+        """The (K, S) table (for small plans and tests).
+
+        Returns
+        -------
+        ndarray of int8, shape (K, S)
+            ``policy[k, s]`` for every step and state.
+        """
         K, S = self.shape
         return np.array([[self[k, s] for s in range(S)] for k in range(K)], dtype=np.int8)
 
@@ -164,8 +179,18 @@ class TimedPolicy:
 class ObserverPlan:
     """Solution of L's time-indexed MDP from time ``t0`` (index k ↔ time t0 + k).
 
-    ``go_values[k]`` is the value of leaving the start cell at t0 + k (k ≤ window); ``go_time``
-    is the k with the highest positive go value (None if none is positive).
+    Parameters
+    ----------
+    t0 : int
+        The time of step 0.
+    values : ndarray of shape (K+1, S_L), or None
+        V_k(s) when asked for (``keep_values``), else None.
+    policy : TimedPolicy
+        The greedy action at each step: ``policy[k, s]``.
+    go_values : ndarray of shape (window+1,)
+        ``go_values[k]`` is the value of leaving the start cell at t0 + k.
+    go_time : int or None
+        The k with the highest go value above the threshold (None if there is none).
     """
 
     t0: int
@@ -176,10 +201,12 @@ class ObserverPlan:
 
     @property
     def horizon(self) -> int:
+        """K, the plan's steps."""
         return self.policy.shape[0]
 
     @property
     def value(self) -> float:
+        """The go value at :attr:`go_time`, or the best go value when there is no go time."""
         return (
             float(self.go_values[self.go_time])
             if self.go_time is not None
@@ -200,13 +227,41 @@ def solve_observer_mdp(
 ) -> ObserverPlan:
     """Backward induction over K = ``prediction.steps`` steps (see the module doc).
 
-    ``window`` bounds the go times considered (default: all k < K); a go time needs a go value
-    above ``min_value``. ``hazard`` names a row of :data:`HAZARDS`: ``"markov"`` (first-order
-    hazard, default) or ``"independent"`` (per-step detection probabilities taken as
-    independent).
-    ``keep_values`` keeps the (K+1, S_L) values in the plan; without it the pass holds one
-    step's values at a time, the hazards a block of rows at a time, and the policy as its
-    changes (:class:`TimedPolicy`), so its memory does not grow with K × S_L.
+    Without ``keep_values`` the pass holds one step's values at a time, the hazards a block of rows
+    at a time, and the policy as its changes (:class:`TimedPolicy`), so its memory does not grow
+    with K × S_L.
+
+    Parameters
+    ----------
+    model : ObserverModel
+        L's MDP.
+    prediction : Prediction or StreamedPrediction
+        The patrollers' predicted detection and hazards, at least one step.
+    window : int, optional
+        The go times considered are k ≤ ``window``; all k < K by default.
+    goal_reward : float, default 1.0
+        Earned on reaching the goal (once: the goal is absorbing).
+    detection_penalty : float, default 1.0
+        Paid on being seen, which ends the run.
+    min_value : float, default 0.0
+        A go time needs a go value above this.
+    hazard : {"markov", "independent"}, default "markov"
+        A row of :data:`HAZARDS`: the first-order hazard, or per-step detection probabilities
+        taken as independent.
+    keep_values : bool, default False
+        Keep the (K+1, S_L) values in the plan.
+
+    Returns
+    -------
+    ObserverPlan
+        The go values of every go time in the window, the best one, and the policy.
+
+    Raises
+    ------
+    ValueError
+        A prediction of no step.
+    UnknownNameError
+        An unknown hazard model.
     """
     K = prediction.steps
     if K < 1:
@@ -277,12 +332,26 @@ def _build_start_cell_mask(model: ObserverModel) -> np.ndarray:
 
 # ---- the adaptive rule's value of waiting ----------------------------------------------------
 def waiting_value(chances, opportunities: int) -> float:
-    """The chance of success L can expect by waiting for ``opportunities`` more chances to go,
-    each drawn from the empirical distribution ``chances`` (the success probabilities it has
-    stated so far), taking the first one better than what waiting on would bring, and going
-    at the last one whatever it is — the finite-horizon optimal-stopping recursion
-    v₀ = 0, vⱼ = E[max(X, vⱼ₋₁)]. Zero when no opportunity is left (L goes now) or nothing
-    was stated yet."""
+    """The chance of success L can expect by waiting for ``opportunities`` more chances to go.
+
+    Each chance is drawn from the empirical distribution ``chances`` (the success probabilities
+    it has stated so far); L takes the first one better than what waiting on would bring, and
+    goes at the last one whatever it is — the finite-horizon optimal-stopping recursion
+    v₀ = 0, vⱼ = E[max(X, vⱼ₋₁)].
+
+    Parameters
+    ----------
+    chances : array_like of float
+        The success probabilities stated so far.
+    opportunities : int
+        The chances to go still to come.
+
+    Returns
+    -------
+    float
+        v at ``opportunities``; zero when no opportunity is left (L goes now) or nothing was
+        stated yet.
+    """
     x = np.asarray(chances, dtype=float)
     v = 0.0
     if x.size == 0:

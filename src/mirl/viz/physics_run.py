@@ -35,9 +35,27 @@ def _cone(ax, frame, x, y, yaw, fov_deg, rng, color, label):
 
 
 def draw_physical_run(ax, scenario, result, *, context: int = 10):
-    """Draw a physics-world run (its ``result.extras`` is a
-    :class:`~mirl.worlds.physics.PhysicsExtras`) on ``ax``, from ``context`` steps before L
-    left; the physics row's drawing in :data:`mirl.worlds.WORLDS`."""
+    """Draw a physics-world run on ``ax``; the physics row's drawing in :data:`mirl.worlds.WORLDS`.
+
+    The robots' true tracks, L's camera cone and the patrollers' sightings, from ``context``
+    steps before L left.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The map panel.
+    scenario : Scenario
+        The run's scenario.
+    result : RunResult
+        The run; its ``extras`` is a :class:`~mirl.worlds.physics.PhysicsExtras`.
+    context : int, default 10
+        Steps drawn before L left.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
+    """
     colors, observer_color = ROBOT_COLORS, OBSERVER_COLOR
     world = result.extras.world
     gm = scenario.map

@@ -3,7 +3,8 @@ tables, and the sweep's throughput."""
 
 from __future__ import annotations
 
-from dataclasses import replace
+import re
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from mirl.experiments.conditions import (
@@ -19,7 +20,7 @@ from mirl.viz.aggregate import PAPER, Row, groups
 from mirl.viz.figures import SECTIONS, outcomes_markdown
 from mirl.worlds import DEFAULT_WORLD
 
-__all__ = ["write_report", "report_markdown"]
+__all__ = ["WrittenReport", "write_report", "write_report_and_figures", "report_markdown"]
 
 # ---------------------------------------------------------------------------------------------
 # Report
@@ -95,8 +96,57 @@ def _databases(path: Path) -> list[Path]:
     return sorted(found, key=lambda p: (rank.get(p.parent.name, len(rank)), p.parent.name))
 
 
+@dataclass(frozen=True)
+class WrittenReport:
+    """What :func:`write_report_and_figures` wrote.
+
+    Attributes
+    ----------
+    report : Path
+        The ``report.md``.
+    figures : tuple of Path
+        Every figure file drawn (each figure as PNG and SVG), in the report's order.
+    """
+
+    report: Path
+    figures: tuple[Path, ...]
+
+
 def write_report(directory: str | Path) -> Path:
-    """Draw the figures of every experiment under ``directory`` and write its report.md."""
+    """Draw the figures of every experiment under ``directory`` and write its report.md; the
+    report's path (:func:`write_report_and_figures` also says which figures it drew)."""
+    return write_report_and_figures(directory).report
+
+
+# a figure a section shows: ![caption](figures/NAME.png)
+IMAGE = re.compile(r"!\[[^\]]*\]\(figures/([^)/]+)\.png\)")
+
+
+def _drawn(markdown: str, figdir: Path) -> list[Path]:
+    """The figure files a section drew: each figure it shows, in every format it was saved in
+    (the files of ``figdir`` that share the figure's name)."""
+    return [p for stem in IMAGE.findall(markdown) for p in sorted(figdir.glob(f"{stem}.*"))]
+
+
+def write_report_and_figures(directory: str | Path) -> WrittenReport:
+    """Draw the figures of every experiment under ``directory`` and write its report.md.
+
+    Parameters
+    ----------
+    directory : str or Path
+        An experiment's results directory (its ``results.sqlite``, or the database itself), or a
+        directory whose sub-directories hold experiments.
+
+    Returns
+    -------
+    WrittenReport
+        The report's path and the figure files drawn.
+
+    Raises
+    ------
+    StoreError
+        No ``results.sqlite`` there, or a file that is no experiment's results directory.
+    """
     root = Path(directory)
     if root.is_file() and root.name == "results.sqlite":
         root = root.parent  # the database itself names its directory
@@ -121,12 +171,15 @@ def write_report(directory: str | Path) -> Path:
         ),
         "",
     ]
+    drawn: list[Path] = []
     for db in dbs:
         meta, rows, sessions = load_results(db)
-        md = report_markdown(meta, rows, sessions, db.parent / "figures")
+        figdir = db.parent / "figures"
+        md = report_markdown(meta, rows, sessions, figdir)
+        drawn += _drawn(md, figdir)
         if db.parent != root:  # each experiment's figures stay beside its database
             md = md.replace("](figures/", f"]({db.parent.relative_to(root).as_posix()}/figures/")
         sections.append(md)
     out = root / "report.md"
     out.write_text("\n".join(sections), encoding="utf-8")
-    return out
+    return WrittenReport(out, tuple(drawn))

@@ -33,7 +33,24 @@ def _span(result: RunResult, context: int) -> tuple[int, int]:
 
 
 def draw_run(ax, scenario: Scenario, result: RunResult, *, context: int = 0):
-    """Draw the run on ``ax`` (cell (r, c) at x = c, y = r) and return ``ax``."""
+    """Draw a grid run on ``ax`` (cell (r, c) at x = c, y = r).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The map panel.
+    scenario : Scenario
+        The run's scenario.
+    result : RunResult
+        The run.
+    context : int, default 0
+        Steps drawn before L left (at least 40 when L never left).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
+    """
     gridmap = scenario.map
     draw_map(ax, gridmap, gridmap.visible_mask(result.observability), legend=False)
     dom = scenario.domain
@@ -111,9 +128,27 @@ def draw_go_values(ax, result: RunResult):
 
 
 def run_figure(scenario: Scenario, result: RunResult, *, context: int | None = None):
-    """A new ``Figure`` with the map panel (the drawing of the run's world, with ``context``
-    steps before L left; None: that drawing's default) and the go-value panel; returns
-    ``(fig, axes)``."""
+    """A new ``Figure`` with the map panel and the go-value panel.
+
+    The map panel is the drawing of the run's world (its row's ``drawing`` in
+    :data:`mirl.worlds.WORLDS`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The run's scenario.
+    result : RunResult
+        The run.
+    context : int, optional
+        Steps drawn before L left; None: that drawing's default.
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+        The figure.
+    axes : (matplotlib.axes.Axes, matplotlib.axes.Axes)
+        The map and go-value panels.
+    """
     from matplotlib.figure import Figure
 
     rows, cols = scenario.map.shape
@@ -130,7 +165,22 @@ def run_figure(scenario: Scenario, result: RunResult, *, context: int | None = N
 
 
 def save_run_png(scenario: Scenario, result: RunResult, path: str | Path) -> Path:
-    """Write the run's figure; the format follows the suffix (``.png`` by default)."""
+    """Write the run's figure (:func:`run_figure`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The run's scenario.
+    result : RunResult
+        The run.
+    path : str or Path
+        The file; the format follows the suffix (``.png`` by default).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     fig, _ = run_figure(scenario, result)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -52,8 +52,19 @@ Cells = tuple[tuple[int, int], ...]
 
 @dataclass(frozen=True)
 class RewardFeature:
-    """One reward feature: its name, kind (module doc), cells (None: the kind's default) and,
-    for ``heading_in_region``, headings."""
+    """One reward feature.
+
+    Parameters
+    ----------
+    name : str
+        Its name, the key of its weight.
+    kind : str
+        One of :data:`KINDS` (module doc).
+    cells : tuple of (int, int), optional
+        Its region; None for the kind's default.
+    headings : tuple of int, default ()
+        For ``heading_in_region``, the headings it rewards (0 east, 1 north, 2 west, 3 south).
+    """
 
     name: str
     kind: str
@@ -164,7 +175,22 @@ KINDS: Registry[FeatureKind] = Registry("reward-feature kind", (
 def hallway_features(
     upper: Cells = (), lower: Cells = (), turn_around: Cells | None = None
 ) -> tuple[RewardFeature, ...]:
-    """The paper's four reward features (docs/design.md, "Reward features")."""
+    """The paper's four reward features (docs/design.md, "Reward features").
+
+    Parameters
+    ----------
+    upper : tuple of (int, int), default ()
+        The cells of ``upper_hallway``.
+    lower : tuple of (int, int), default ()
+        The cells of ``lower_hallway``.
+    turn_around : tuple of (int, int), optional
+        The cells of ``turn_around``; the map's dead ends if None.
+
+    Returns
+    -------
+    tuple of RewardFeature
+        ``moved``, ``upper_hallway``, ``lower_hallway`` and ``turn_around``.
+    """
     return (
         RewardFeature("moved", "moved"),
         RewardFeature("upper_hallway", "region", tuple(upper)),
@@ -175,7 +201,13 @@ def hallway_features(
 
 @dataclass(frozen=True)
 class RewardSpec:
-    """The reward features of a domain, in weight order."""
+    """The reward features of a domain, in weight order.
+
+    Parameters
+    ----------
+    features : tuple of RewardFeature, default the paper's four
+        The features (:func:`hallway_features` with no regions by default).
+    """
 
     features: tuple[RewardFeature, ...] = hallway_features()
 
@@ -188,14 +220,43 @@ class RewardSpec:
 
     @property
     def names(self) -> tuple[str, ...]:
+        """The features' names, in weight order."""
         return tuple(f.name for f in self.features)
 
     def feature(self, name: str) -> RewardFeature:
+        """The feature called ``name``.
+
+        Parameters
+        ----------
+        name : str
+            One of :attr:`names`.
+
+        Returns
+        -------
+        RewardFeature
+            The feature.
+
+        Raises
+        ------
+        ValueError
+            No feature has that name.
+        """
         return self.features[self.names.index(name)]
 
     def turn_around_cells(self, gridmap: GridMap) -> Cells:
-        """The cells of the first ``turn_around`` feature that names its own, else the map's
-        dead ends (where that kind rewards a turn by default)."""
+        """The cells where a turn is rewarded.
+
+        Parameters
+        ----------
+        gridmap : GridMap
+            The map, whose dead ends are the default.
+
+        Returns
+        -------
+        tuple of (int, int)
+            The cells of the first ``turn_around`` feature that names its own, else the map's dead
+            ends (where that kind rewards a turn by default).
+        """
         for f in self.features:
             if f.kind == "turn_around" and f.cells is not None:
                 return f.cells
@@ -205,9 +266,30 @@ class RewardSpec:
 def read_region(
     value: Any, path: str, shape: tuple[int, int], gridmap: GridMap | None = None
 ) -> Cells:
-    """A region (module doc) as a tuple of cells, rectangles expanded row by row. With the
-    ``gridmap``, positions may be in metres of its frame, and a rectangle's corners must be
-    hallway cells and it covers the hallway cells inside it."""
+    """A region (module doc) as a tuple of cells, rectangles expanded row by row.
+
+    Parameters
+    ----------
+    value : object
+        The region as read from TOML: a list of cells and rectangles, or one rectangle or point.
+    path : str
+        Its field path, for messages.
+    shape : (int, int)
+        The map's (rows, cols); every cell must lie on it.
+    gridmap : GridMap, optional
+        With the map, positions may be in metres of its frame, a rectangle's corners must be
+        hallway cells, and it covers the hallway cells inside it.
+
+    Returns
+    -------
+    tuple of (int, int)
+        The cells.
+
+    Raises
+    ------
+    FieldError
+        A malformed entry or a cell off the map, naming its field path.
+    """
     frame = None if gridmap is None else gridmap.frame
     if isinstance(value, dict) and set(value) - {"x", "y"}:
         return _rectangle(value, path, shape, gridmap)
@@ -276,9 +358,30 @@ def _feature(
 def read_reward_spec(
     reward: dict, shape: tuple[int, int], gridmap: GridMap | None = None
 ) -> tuple[RewardSpec, bool]:
-    """The ``[reward]`` table's features and whether they came in the older fixed form
-    (``upper_hallway`` / ``lower_hallway`` / ``turn_around`` keys); cells on ``gridmap`` if
-    given (:func:`read_region`)."""
+    """The ``[reward]`` table's features.
+
+    Parameters
+    ----------
+    reward : dict
+        The ``[reward]`` table as read from TOML.
+    shape : (int, int)
+        The map's (rows, cols).
+    gridmap : GridMap, optional
+        The map, for regions in metres and rectangles (:func:`read_region`).
+
+    Returns
+    -------
+    spec : RewardSpec
+        The features.
+    legacy : bool
+        Whether they came in the older fixed form (``upper_hallway`` / ``lower_hallway`` /
+        ``turn_around`` keys).
+
+    Raises
+    ------
+    FieldError
+        A problem, naming its field path.
+    """
     reward = schema.table(reward, "reward", ("features", "weights", *LEGACY_KEYS))
     legacy = [k for k in LEGACY_KEYS if k in reward]
     if "features" in reward:
@@ -312,7 +415,29 @@ MAX_WEIGHT = 1e6  # a reward weight's magnitude; values stay far from overflow a
 def read_weights(
     value: Any, path: str, names: tuple[str, ...], base: Mapping[str, float]
 ) -> dict[str, float]:
-    """``base`` updated by the table ``value`` of feature = weight (finite numbers)."""
+    """``base`` updated by the table ``value`` of feature = weight (finite numbers).
+
+    Parameters
+    ----------
+    value : object
+        The table as read from TOML.
+    path : str
+        Its field path, for messages.
+    names : tuple of str
+        The reward features' names; no other key is accepted.
+    base : mapping of str to float
+        The weights the table updates.
+
+    Returns
+    -------
+    dict of str to float
+        The updated weights.
+
+    Raises
+    ------
+    FieldError
+        An unknown feature, a value that is not a number, or one above the largest weight.
+    """
     value = schema.table(value, path, names)
     out = dict(base)
     for k, v in value.items():

@@ -56,6 +56,56 @@ class ScenarioError(ValueError):
 
 @dataclass(frozen=True, eq=False)
 class Scenario:
+    """A scenario: the map, the patrollers, their game, and L's task and view.
+
+    Load one with :func:`load_scenario`; the fields are the TOML file's (docs/design.md,
+    "Scenarios"), checked when it loads.
+
+    Parameters
+    ----------
+    name : str
+        The scenario's name; it heads reports and run headers.
+    map : GridMap
+        The map.
+    robots : tuple of RobotSpec
+        The patrollers: starts, true transition-feature probabilities, true reward weights.
+    feature_map : FeatureMap, default DEFAULT_FEATURE_MAP
+        The transition features ξ of every (state, action).
+    reward_spec : RewardSpec, default RewardSpec()
+        The reward features φ (the paper's four by default).
+    game : InteractionGame, default InteractionGame()
+        The game played when two patrollers meet (the paper's by default).
+    played : (str, str), default ("stop", "go")
+        The pure equilibrium met robots play, row player first.
+    pair_played : mapping of (int, int) to (str, str), default {}
+        Per pair (i < j, i the game's row player) the equilibrium it plays, if not ``played``.
+    observer_start : (int, int), optional
+        L's start cell; the map's mark by default.
+    goal : (int, int), optional
+        L's goal cell; the map's first goal by default.
+    detect_distance : int, default 6
+        Cells a patroller sees straight ahead.
+    observability : float, default 0.14
+        The fraction of the hallway L sees (the paper's L at its door).
+    discount : float, default 0.95
+        The patrollers' discount γ.
+    error_model : {"uniform", "stop"}, default "uniform"
+        Where a failed step goes (:func:`~mirl.world.motion.transition_matrix_from_success`).
+    source : str, default "<memory>"
+        The file it came from, for messages.
+    sections : mapping of str to mapping, default {}
+        The worlds' own tables (``[physics]``) as written, by name; each world reads its own.
+    faults : DamageDefinition, default DamageDefinition()
+        What "damaged" means for its robots' parts.
+
+    Raises
+    ------
+    ScenarioError
+        An unknown error model.
+    UnknownNameError
+        A world section the format does not know.
+    """
+
     name: str
     map: GridMap
     robots: tuple[RobotSpec, ...]
@@ -95,9 +145,27 @@ class Scenario:
 
     @property
     def robot_names(self) -> tuple[str, ...]:
+        """The patrollers' names, in order."""
         return tuple(r.name for r in self.robots)
 
     def robot_index(self, name: str) -> int:
+        """The index of the patroller called ``name``.
+
+        Parameters
+        ----------
+        name : str
+            One of :attr:`robot_names`.
+
+        Returns
+        -------
+        int
+            Its index in :attr:`robots`.
+
+        Raises
+        ------
+        ValueError
+            An unknown name (the message lists the scenario's).
+        """
         try:
             return self.robot_names.index(name)
         except ValueError:
@@ -106,31 +174,82 @@ class Scenario:
 
     @cached_property
     def domain(self) -> PatrolDomain:
+        """The patrol domain of the scenario's map, ξ and φ."""
         return PatrolDomain(self.map, self.feature_map, self.reward_spec)
 
     @cached_property
     def played_equilibrium(self) -> Equilibrium:
+        """The equilibrium ``played`` names, as probabilities."""
         return self.game.pure(*self.played)
 
     def pair_equilibrium(self, i: int, j: int) -> Equilibrium:
-        """The equilibrium robots i < j play when they meet (i is the game's row player)."""
+        """The equilibrium robots i < j play when they meet (i is the game's row player).
+
+        Parameters
+        ----------
+        i : int
+            The first robot's index.
+        j : int
+            The second's, above ``i``.
+
+        Returns
+        -------
+        Equilibrium
+            Their pair's own, or :attr:`played_equilibrium`.
+        """
         if (i, j) in self.pair_played:
             return self.game.pure(*self.pair_played[(i, j)])
         return self.played_equilibrium
 
     @property
     def pairs(self) -> tuple[tuple[int, int], ...]:
+        """Every pair (i, j) of patrollers with i < j, in order."""
         n = len(self.robots)
         return tuple((i, j) for i in range(n) for j in range(i + 1, n))
 
     def true_transitions(self, robot: int) -> sp.csr_array:
+        """A patroller's true transition function (Eq. 5 under its true feature probabilities).
+
+        Parameters
+        ----------
+        robot : int
+            The patroller's index.
+
+        Returns
+        -------
+        scipy.sparse.csr_array of shape (S*A, S)
+            Its true T.
+        """
         return self._true_models[robot][0]
 
     def true_policy(self, robot: int) -> np.ndarray:
-        """Greedy optimal policy of ``robot`` under its true T and true reward, (S,)."""
+        """Greedy optimal policy of ``robot`` under its true T and true reward.
+
+        Parameters
+        ----------
+        robot : int
+            The patroller's index.
+
+        Returns
+        -------
+        ndarray of int, shape (S,)
+            An action per state.
+        """
         return self._true_models[robot][1].policy
 
     def true_q(self, robot: int) -> np.ndarray:
+        """A patroller's optimal Q-values under its true T and true reward.
+
+        Parameters
+        ----------
+        robot : int
+            The patroller's index.
+
+        Returns
+        -------
+        ndarray of shape (S, A)
+            Q(s, a).
+        """
         return self._true_models[robot][1].q_values
 
     @cached_property
@@ -143,9 +262,21 @@ class Scenario:
         return out
 
     def patrol_route(self, robot: int, max_steps: int | None = None) -> np.ndarray:
-        """(k, 2) cells ``robot`` visits from its start following its true policy when every
-        action succeeds, until a state repeats (its patrol loop) or ``max_steps`` (default 4
-        per patroller cell) have passed."""
+        """The cells ``robot`` visits from its start by its true policy when every action succeeds.
+
+        Parameters
+        ----------
+        robot : int
+            The patroller's index.
+        max_steps : int, optional
+            At most this many steps; S (four per patroller cell) by default.
+
+        Returns
+        -------
+        ndarray of int, shape (k, 2)
+            (row, col) of the cells, until a state repeats (its patrol loop) or ``max_steps`` have
+            passed.
+        """
         dom = self.domain
         state = int(dom.state_index(*self.robots[robot].start))
         policy, intended = self.true_policy(robot), dom.intended
@@ -160,7 +291,27 @@ class Scenario:
         return dom.states[np.asarray(states), :2]
 
     def with_damage(self, robot: str, feature: str, probability: float) -> Scenario:
-        """A copy with one true feature probability overridden (``--damage I:right_wheel=0.7``)."""
+        """A copy with one true feature probability overridden (``--damage I:right_wheel=0.7``).
+
+        Parameters
+        ----------
+        robot : str
+            The patroller's name.
+        feature : str
+            A transition feature.
+        probability : float
+            Its new success probability, in [0, 1].
+
+        Returns
+        -------
+        Scenario
+            The copy.
+
+        Raises
+        ------
+        ValueError
+            An unknown robot or feature, or a probability outside [0, 1].
+        """
         i = self.robot_index(robot)
         if feature not in self.feature_map.features:
             known = ", ".join(self.feature_map.features)
@@ -179,10 +330,26 @@ class Scenario:
         faults: DamageDefinition | None = None,
         error_model: str | None = None,
     ) -> Scenario:
-        """The same robots with their motion modelled by another ξ (and, given ``faults``,
-        their damage read another way): the true transitions follow ``feature_map``, the true
-        policies (and Q-values) stay this scenario's, because the robots behave as they do
-        whatever model of their motion an observer takes."""
+        """The same robots with their motion modelled by another ξ.
+
+        The true transitions follow ``feature_map``; the true policies (and Q-values) stay this
+        scenario's, because the robots behave as they do whatever model of their motion an observer
+        takes.
+
+        Parameters
+        ----------
+        feature_map : FeatureMap
+            The ξ the true transitions follow.
+        faults : DamageDefinition, optional
+            Read their damage this way; this scenario's by default.
+        error_model : {"uniform", "stop"}, optional
+            Where a failed step goes; this scenario's by default.
+
+        Returns
+        -------
+        Scenario
+            The remodelled copy.
+        """
         model = replace(
             self,
             feature_map=feature_map,
@@ -199,28 +366,97 @@ class Scenario:
         return model
 
     def section(self, name: str) -> Mapping[str, Any]:
-        """The world section ``name`` (a table of :data:`~mirl.world.scenario_sections.
-        WORLD_SECTIONS`) as written in the scenario; empty when the file has none."""
+        """The world section ``name`` as written in the scenario.
+
+        Parameters
+        ----------
+        name : str
+            A table of :data:`~mirl.world.scenario_sections.WORLD_SECTIONS`.
+
+        Returns
+        -------
+        mapping
+            The table; empty when the file has none.
+
+        Raises
+        ------
+        UnknownNameError
+            A section the scenario format does not know.
+        """
         WORLD_SECTIONS.lookup(name)
         return self.sections.get(name, {})
 
     def with_section(self, name: str, table: Mapping[str, Any]) -> Scenario:
-        """A copy whose world section ``name`` is ``table``."""
+        """A copy whose world section ``name`` is ``table``.
+
+        Parameters
+        ----------
+        name : str
+            A table of :data:`~mirl.world.scenario_sections.WORLD_SECTIONS`.
+        table : mapping
+            Its new contents (the world checks them when it reads them).
+
+        Returns
+        -------
+        Scenario
+            The copy.
+
+        Raises
+        ------
+        UnknownNameError
+            A section the scenario format does not know.
+        """
         WORLD_SECTIONS.lookup(name)
         return replace(self, sections={**self.sections, name: table})
 
     def with_options(self, **changes: Any) -> Scenario:
+        """A copy with some fields replaced (``dataclasses.replace``).
+
+        Parameters
+        ----------
+        **changes
+            Field names and their new values.
+
+        Returns
+        -------
+        Scenario
+            The copy, checked as a new scenario is.
+        """
         return replace(self, **changes)
 
 
 # ---- loading ---------------------------------------------------------------------------------
 def shipped_scenarios() -> list[str]:
+    """The names of the scenarios shipped with mirl.
+
+    Returns
+    -------
+    list of str
+        Names :func:`load_scenario` accepts as they are.
+    """
     return shipped_names("scenarios", ".toml")
 
 
 def as_scenario(scenario: Scenario | str | Path) -> Scenario:
-    """``scenario`` itself, or the scenario a shipped name or a path names; anything else is a
-    TypeError."""
+    """``scenario`` itself, or the scenario a shipped name or a path names.
+
+    Parameters
+    ----------
+    scenario : Scenario, str or Path
+        A scenario, a shipped scenario's name, or a TOML file's path.
+
+    Returns
+    -------
+    Scenario
+        The scenario.
+
+    Raises
+    ------
+    TypeError
+        Anything else.
+    ScenarioError
+        A name or file that does not load.
+    """
     if isinstance(scenario, Scenario):
         return scenario
     if isinstance(scenario, str | Path):
@@ -229,6 +465,24 @@ def as_scenario(scenario: Scenario | str | Path) -> Scenario:
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
+    """Load a shipped scenario by name or a scenario TOML file.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A shipped scenario's name (:func:`shipped_scenarios`) or a file's path; a relative map
+        path in the file is read relative to the file.
+
+    Returns
+    -------
+    Scenario
+        The scenario, every field checked.
+
+    Raises
+    ------
+    ScenarioError
+        Any problem, in one line naming the file and the field.
+    """
     text, source, path = read_shipped_or_file(
         name_or_path, "scenarios", ".toml", ScenarioError, "scenario"
     )

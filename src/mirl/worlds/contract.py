@@ -44,7 +44,19 @@ __all__ = [
 
 @dataclass(frozen=True)
 class Detection:
-    """A patroller seeing L: time, robot, the robot's (row, col, heading) and L's cell."""
+    """A patroller seeing L.
+
+    Parameters
+    ----------
+    t : int
+        The step.
+    robot : str
+        The patroller's name.
+    robot_state : (int, int, int)
+        Its (row, col, heading).
+    observer_cell : (int, int)
+        L's cell.
+    """
 
     t: int
     robot: str
@@ -123,18 +135,28 @@ class RunWorld(Protocol):
     def step(
         self, observer_action: int | None = None, *, patroller_actions: np.ndarray | None = None
     ) -> np.ndarray:
-        """Advance one step and return the patrollers' (N,) true states at the new step.
+        """Advance one step.
 
         Parameters
         ----------
-        observer_action : int or None, default None
-            L's action, an index into :data:`mirl.world.domain.ACTIONS`; None: L stands still
-            (and draws no failure).
-        patroller_actions : numpy.ndarray of int, shape (N,), or None, default None
+        observer_action : int, optional
+            L's action, an index into :data:`mirl.world.domain.ACTIONS`; None: L stands still (and
+            draws no failure).
+        patroller_actions : ndarray of int, shape (N,), optional
             The patrollers' actions, each taken through the robot's true transition function
             (no policy, no game at meetings: the agents of :class:`mirl.envs.TeamEnv` choose);
-            None: they follow their true policies. A world whose class has
-            ``takes_patroller_actions = False`` raises NotImplementedError, moving nothing.
+            None: they follow their true policies.
+
+        Returns
+        -------
+        ndarray of int, shape (N,)
+            The patrollers' true states at the new step.
+
+        Raises
+        ------
+        NotImplementedError
+            ``patroller_actions`` given to a world whose class has
+            ``takes_patroller_actions = False``; nothing moves.
         """
         ...
 
@@ -214,7 +236,13 @@ class Simulation:
         return int(self.truth.horizon)
 
     def observed_share(self) -> np.ndarray:
-        """(N,) per patroller, the share of steps at which L saw it."""
+        """Per patroller, the share of steps at which L saw it.
+
+        Returns
+        -------
+        ndarray of shape (N,)
+            Shares in [0, 1].
+        """
         import numpy as np
 
         counts = np.bincount(self.observations.robot, minlength=len(self.truth.robot_names))
@@ -244,40 +272,127 @@ class World(Protocol):
         heading_noise: float = 0.0,
         random_starts: bool = False,
     ) -> Simulation:
-        """``steps`` steps (t = 0 … steps − 1) of the patrollers following their true policies,
-        L watching from its room at ``observability`` (None: the scenario's); ``mirl simulate``.
+        """``steps`` steps (t = 0 … steps − 1) of the patrollers following their true policies, L
+        watching from its room; ``mirl simulate``.
 
-        ``heading_noise`` is the probability that L misreads an observed heading, for a world
-        whose perception is a grid reading; a world with a sensor of its own refuses a nonzero
-        value (ValueError). ``random_starts`` starts each patroller at a random state of its
-        patrol cycle instead of its scenario start. The same arguments give the same
-        simulation.
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        steps : int
+            Steps to record, at least 1.
+        seed : int
+            Seeds the simulation; the same arguments give the same simulation.
+        observability : float, optional
+            The fraction of the hallway L sees; the scenario's by default.
+        heading_noise : float, default 0.0
+            The probability that L misreads an observed heading, for a world whose perception is a
+            grid reading; a world with a sensor of its own refuses a nonzero value.
+        random_starts : bool, default False
+            Start each patroller at a random state of its patrol cycle instead of its scenario
+            start.
+
+        Returns
+        -------
+        Simulation
+            What L saw and the truth.
+
+        Raises
+        ------
+        ValueError
+            A nonzero ``heading_noise`` in a world with a sensor of its own, or fewer than one step.
         """
         ...
 
     def read_section(self, scenario: Scenario) -> object:
-        """The world's own parameters from its scenario section
-        (:data:`~mirl.world.scenario_sections.WORLD_SECTIONS`), validated (ValueError, one line
-        naming the file and the field); None for a world without a section."""
+        """The world's own parameters from its scenario section, validated.
+
+        The section is a table of :data:`~mirl.world.scenario_sections.WORLD_SECTIONS`.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+
+        Returns
+        -------
+        object
+            The parameters; None for a world without a section.
+
+        Raises
+        ------
+        ValueError
+            A bad table, in one line naming the file and the field.
+        """
         ...
 
     def apply_damage(self, scenario: Scenario, robot: str, feature: str, value: float) -> Scenario:
-        """The scenario with ``robot``'s ``feature`` damaged to ``value``: what ``--damage
-        ROBOT:FEATURE=VALUE`` means in this world (ValueError for a robot, feature or value the
-        world does not have)."""
+        """The scenario with ``robot``'s ``feature`` damaged to ``value``.
+
+        What ``--damage ROBOT:FEATURE=VALUE`` means in this world.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        robot : str
+            A patroller's name.
+        feature : str
+            The part to damage.
+        value : float
+            Its damaged level.
+
+        Returns
+        -------
+        Scenario
+            The damaged scenario.
+
+        Raises
+        ------
+        ValueError
+            A robot, feature or value the world does not have.
+        """
         ...
 
     def modelled(self, scenario: Scenario) -> Scenario:
-        """The scenario as L models this world: the ξ, error model and damage definition its
-        learner, filter and planner use. The patrollers' true policies are the scenario's."""
+        """The scenario as L models this world.
+
+        The ξ, error model and damage definition its learner, filter and planner use. The
+        patrollers' true policies are the scenario's.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+
+        Returns
+        -------
+        Scenario
+            The scenario as modelled.
+        """
         ...
 
     def damaged_parts(self, scenario: Scenario) -> dict[str, tuple[str, ...]]:
-        """Per robot (every one of the scenario's), the parts that are really damaged in this
-        world."""
+        """Per robot (every one of the scenario's), the parts that are really damaged in this world.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+
+        Returns
+        -------
+        dict of str to tuple of str
+            Robot name -> damaged parts (empty: none).
+        """
         ...
 
     def version(self) -> str:
-        """What, besides mirl, this world's results depend on ("" for nothing), recorded beside
-        every sweep row."""
+        """What, besides mirl, this world's results depend on, recorded beside every sweep row.
+
+        Returns
+        -------
+        str
+            "" for nothing.
+        """
         ...

@@ -51,8 +51,36 @@ class GridRunWorld:
         heading_noise: float = 0.0,
         random_starts: bool = False,
     ) -> Simulation:
-        """The grid simulator's record (:func:`mirl.simulation.grid.simulate`) and how often
-        two patrollers met."""
+        """The grid simulator's record (:func:`mirl.simulation.grid.simulate`) and how often two
+        patrollers met.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        steps : int
+            Steps to record, at least 1.
+        seed : int
+            Seeds the simulation; the same arguments give the same simulation.
+        observability : float, optional
+            The fraction of the hallway L sees; the scenario's by default.
+        heading_noise : float, default 0.0
+            The probability that L misreads an observed heading, for a world whose perception is a
+            grid reading; a world with a sensor of its own refuses a nonzero value.
+        random_starts : bool, default False
+            Start each patroller at a random state of its patrol cycle instead of its scenario
+            start.
+
+        Returns
+        -------
+        Simulation
+            The observations and truth; its report counts the meetings.
+
+        Raises
+        ------
+        ValueError
+            Fewer than one step, or a heading noise outside [0, 1].
+        """
         result = simulate(
             scenario,
             steps,
@@ -67,35 +95,92 @@ class GridRunWorld:
 
     @staticmethod
     def read_section(scenario: Scenario) -> None:
-        """The grid world has no section of its own: the scenario's grid model is its world."""
+        """The grid world has no section of its own: the scenario's grid model is its world.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        """
         return None
 
     @staticmethod
     def apply_damage(scenario: Scenario, robot: str, feature: str, value: float) -> Scenario:
-        """The scenario with ``robot``'s ``feature`` succeeding with probability ``value``."""
+        """The scenario with ``robot``'s ``feature`` succeeding with probability ``value``.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        robot : str
+            A patroller's name.
+        feature : str
+            The part to damage.
+        value : float
+            Its damaged level.
+
+        Returns
+        -------
+        Scenario
+            :meth:`~mirl.world.scenario.Scenario.with_damage`'s copy.
+
+        Raises
+        ------
+        ValueError
+            An unknown robot or feature, or a probability outside [0, 1].
+        """
         return scenario.with_damage(robot, feature, value)
 
     @staticmethod
     def modelled(scenario: Scenario) -> Scenario:
-        """The scenario as L models this world: the scenario itself (the grid runs its Eq. 5)."""
+        """The scenario as L models this world: the scenario itself (the grid runs its Eq. 5).
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+
+        Returns
+        -------
+        Scenario
+            ``scenario``.
+        """
         return scenario
 
     @staticmethod
     def damaged_parts(scenario: Scenario) -> dict[str, tuple[str, ...]]:
         """Per robot, the features whose true success probability is damaged by the scenario's
-        definition (``scenario.faults``)."""
+        definition (``scenario.faults``).
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+
+        Returns
+        -------
+        dict of str to tuple of str
+            Robot name -> damaged features.
+        """
         return {
             r.name: scenario.faults.damaged_parts(r.feature_probabilities) for r in scenario.robots
         }
 
     @staticmethod
     def version() -> str:
-        """The grid world's results depend on mirl alone."""
+        """The grid world's results depend on mirl alone.
+
+        Returns
+        -------
+        str
+            "".
+        """
         return ""
 
     # ---- one run ----------------------------------------------------------------------------
     @property
     def t(self) -> int:
+        """The current step."""
         return self._t
 
     def _seen(self, obs: np.ndarray) -> np.ndarray:
@@ -108,6 +193,23 @@ class GridRunWorld:
     ) -> np.ndarray:
         # the patrollers first, so that actions the simulator refuses move nobody; L's failures
         # have a stream of their own, so the order changes no outcome
+        """Advance one step.
+
+        Parameters
+        ----------
+        observer_action : int, optional
+            L's action, an index into :data:`mirl.world.domain.ACTIONS`; None: L stands still (and
+            draws no failure).
+        patroller_actions : ndarray of int, shape (N,), optional
+            The patrollers' actions, each taken through the robot's true transition function
+            (no policy, no game at meetings: the agents of :class:`mirl.envs.TeamEnv` choose);
+            None: they follow their true policies.
+
+        Returns
+        -------
+        ndarray of int, shape (N,)
+            The patrollers' true states at the new step.
+        """
         if patroller_actions is None:
             obs, _, _, _, info = self.sim.step()
         else:
@@ -122,9 +224,23 @@ class GridRunWorld:
         return self.true[-1]
 
     def observer_state(self) -> int:
+        """L's state in its own model's domain, as L knows it (its plan acts on this).
+
+        Returns
+        -------
+        int
+            The state index.
+        """
         return self._observer_state
 
     def detections(self) -> list[Detection]:
+        """The patrollers that saw L during the last step.
+
+        Returns
+        -------
+        list of Detection
+            Empty: none did.
+        """
         truth, s = self.true[-1], self._observer_state
         seen = self.observer.seen_by(truth, s)
         row, col = map(int, self.observer.domain.states[s][:2])
@@ -135,9 +251,23 @@ class GridRunWorld:
         ]
 
     def at_goal(self) -> bool:
+        """Whether L has reached its goal.
+
+        Returns
+        -------
+        bool
+            True on the goal.
+        """
         return bool(self.observer.goal[self._observer_state])
 
     def extras(self) -> None:
+        """The grid world records nothing beyond the contract.
+
+        Returns
+        -------
+        None
+            Always.
+        """
         return None
 
 

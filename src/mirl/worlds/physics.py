@@ -40,13 +40,27 @@ __all__ = ["PhysicsRunWorld", "PhysicsExtras"]
 
 @dataclass(frozen=True)
 class PhysicsExtras:
-    """What a physics run records beyond the contract: the MuJoCo world itself (continuous
-    tracks, cameras, contacts) and the MuJoCo release that computed it."""
+    """What a physics run records beyond the contract.
+
+    Parameters
+    ----------
+    world : PhysicalWorld
+        The MuJoCo world itself (continuous tracks, cameras, contacts).
+    mujoco : str
+        The MuJoCo release that computed it.
+    """
 
     world: PhysicalWorld
     mujoco: str
 
     def to_dict(self) -> dict[str, Any]:
+        """The extras' entries in a run's JSON record.
+
+        Returns
+        -------
+        dict
+            ``world``, ``mujoco``, ``contacts`` and ``wall_contacts``.
+        """
         return {
             "world": "physics",
             "mujoco": self.mujoco,
@@ -55,13 +69,28 @@ class PhysicsExtras:
         }
 
     def truth(self) -> str:
-        """The motor strengths the robots drive with (the scenario's grid probabilities are
-        only what it would mean on the grid, not what L watches)."""
+        """The motor strengths the robots drive with.
+
+        The scenario's grid probabilities are only what it would mean on the grid, not what L
+        watches.
+
+        Returns
+        -------
+        str
+            ``physics, motor strength: …`` naming every weakened motor.
+        """
         strengths = self.world.cfg.motor_strength
         weak = [f"{r}:{w}={s:g}" for r, ws in strengths.items() for w, s in ws.items() if s < 1]
         return f"physics, motor strength: {', '.join(weak) or 'all motors healthy'}"
 
     def damaged(self) -> bool:
+        """Whether some motor is weaker than a healthy one.
+
+        Returns
+        -------
+        bool
+            True if some strength is below 1.
+        """
         strengths = self.world.cfg.motor_strength
         return any(s < 1 for ws in strengths.values() for s in ws.values())
 
@@ -117,10 +146,39 @@ class PhysicsRunWorld:
         heading_noise: float = 0.0,
         random_starts: bool = False,
     ) -> Simulation:
-        """The patrollers in MuJoCo with L's camera at its door (L stands still): its grid
-        record, contact events, and the poses the camera measured with the true ones at the
-        control rate. L's camera measures headings with its own noise, so ``heading_noise``
-        must be 0."""
+        """The patrollers in MuJoCo with L's camera at its door (L stands still).
+
+        Its grid record, contact events, and the poses the camera measured with the true ones at the
+        control rate.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        steps : int
+            Steps to record, at least 1.
+        seed : int
+            Seeds the simulation; the same arguments give the same simulation.
+        observability : float, optional
+            The fraction of the hallway L sees; the scenario's by default.
+        heading_noise : float, default 0.0
+            The probability that L misreads an observed heading, for a world whose perception is a
+            grid reading; a world with a sensor of its own refuses a nonzero value.
+        random_starts : bool, default False
+            Start each patroller at a random state of its patrol cycle instead of its scenario
+            start.
+
+        Returns
+        -------
+        Simulation
+            The observations, truth, contacts and measured poses.
+
+        Raises
+        ------
+        ValueError
+            A nonzero ``heading_noise`` (L's camera measures headings with its own noise), or fewer
+            than one step.
+        """
         if heading_noise:
             raise ValueError(
                 "`heading_noise` applies to the grid world's perception; the physics world's "
@@ -143,24 +201,74 @@ class PhysicsRunWorld:
 
     @staticmethod
     def read_section(scenario: Scenario) -> PhysicsConfig:
-        """The scenario's ``[physics]`` table, validated (:func:`~mirl.physics.config.
-        physics_config`)."""
+        """The scenario's ``[physics]`` table, validated.
+
+        By :func:`~mirl.physics.config.physics_config`.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+
+        Returns
+        -------
+        PhysicsConfig
+            The physical parameters.
+
+        Raises
+        ------
+        ValueError
+            A bad table, naming the file and the field.
+        """
         return scenario_physics(scenario)
 
     @staticmethod
     def apply_damage(scenario: Scenario, robot: str, feature: str, value: float) -> Scenario:
-        """The scenario with ``robot``'s ``feature`` wheel motor at strength ``value``."""
+        """The scenario with ``robot``'s ``feature`` wheel motor at strength ``value``.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        robot : str
+            A patroller's name.
+        feature : str
+            The part to damage.
+        value : float
+            Its damaged level.
+
+        Returns
+        -------
+        Scenario
+            :func:`~mirl.physics.config.with_motor_strength`'s copy.
+
+        Raises
+        ------
+        ValueError
+            An unknown robot, a part that is not a wheel, or a strength outside [0, 1].
+        """
         return with_motor_strength(scenario, robot, feature, value)
 
     @staticmethod
     def modelled(scenario: Scenario) -> Scenario:
-        """The scenario as L models this world: its ξ with the wheels taken out of the turns,
-        which a weak motor still drives in time
+        """The scenario as L models this world.
+
+        Its ξ with the wheels taken out of the turns, which a weak motor still drives in time
         (:func:`~mirl.physics.config.physical_feature_map`); failed steps that stay put
-        (:data:`~mirl.physics.config.PHYSICAL_ERROR_MODEL`); and a weak wheel drifting its robot
-        by the world's measured κ (``PhysicsConfig.drift_per_gap``) unless the scenario's
-        ``[faults]`` table states one. The patrollers' true policies are the scenario's, which
-        they follow here."""
+        (:data:`~mirl.physics.config.PHYSICAL_ERROR_MODEL`); and a weak wheel drifting its robot by
+        the world's measured κ (``PhysicsConfig.drift_per_gap``) unless the scenario's ``[faults]``
+        table states one. The patrollers' true policies are the scenario's, which they follow here.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+
+        Returns
+        -------
+        Scenario
+            The scenario as modelled.
+        """
         faults = scenario.faults
         if faults.drift.per_gap is None:
             cfg = scenario_physics(scenario)
@@ -172,27 +280,69 @@ class PhysicsRunWorld:
 
     @staticmethod
     def damaged_parts(scenario: Scenario) -> dict[str, tuple[str, ...]]:
-        """Per robot, the wheels damaged by their effect, as on the grid: whose motor is weak
-        enough that the wheel's success probability, measured in this world, lies below its
-        healthy level by more than the margin
-        (:func:`~mirl.physics.calibration.damaged_wheels`). A motor weaker than a full one that
-        still drives the robot's steps is weakened, not damaged."""
+        """Per robot, the wheels damaged by their effect, as on the grid.
+
+        A wheel is damaged when its motor is weak enough that the wheel's success probability,
+        measured in this world, lies below its healthy level by more than the margin
+        (:func:`~mirl.physics.calibration.damaged_wheels`); a motor weaker than a full one that
+        still drives the robot's steps is weakened, not damaged.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+
+        Returns
+        -------
+        dict of str to tuple of str
+            Robot name -> damaged wheels.
+        """
         return damaged_wheels(scenario)
 
     @staticmethod
     def version() -> str:
-        """Physics results depend on MuJoCo's release (the same seed gives other trajectories
-        under another one)."""
+        """Physics results depend on MuJoCo's release (the same seed gives other trajectories under
+        another one).
+
+        Returns
+        -------
+        str
+            ``mujoco.`` and the release.
+        """
         return f"mujoco.{mujoco_version()}"
 
     # ---- one run ----------------------------------------------------------------------------
     @property
     def t(self) -> int:
+        """The current step."""
         return self.physics.t
 
     def step(
         self, observer_action: int | None = None, *, patroller_actions: np.ndarray | None = None
     ) -> np.ndarray:
+        """Advance one step.
+
+        Parameters
+        ----------
+        observer_action : int, optional
+            L's action, an index into :data:`mirl.world.domain.ACTIONS`; None: L stands still (and
+            draws no failure).
+        patroller_actions : ndarray of int, shape (N,), optional
+            The patrollers' actions, each taken through the robot's true transition function
+            (no policy, no game at meetings: the agents of :class:`mirl.envs.TeamEnv` choose);
+            None: they follow their true policies.
+
+        Returns
+        -------
+        ndarray of int, shape (N,)
+            The patrollers' true states at the new step.
+
+        Raises
+        ------
+        NotImplementedError
+            ``patroller_actions`` given: the physics world's patrollers drive by their true policies
+            and the game.
+        """
         if patroller_actions is not None:
             raise NotImplementedError(
                 "the physics world's patrollers drive by their true policies and the game; it "
@@ -211,9 +361,23 @@ class PhysicsRunWorld:
         return truth
 
     def observer_state(self) -> int:
+        """L's state in its own model's domain, as L knows it (its plan acts on this).
+
+        Returns
+        -------
+        int
+            The state index.
+        """
         return self._observer_state
 
     def detections(self) -> list[Detection]:
+        """The patrollers that saw L during the last step.
+
+        Returns
+        -------
+        list of Detection
+            Empty: none did.
+        """
         if len(self.physics.sightings) <= self._sightings_before:
             return []
         sighting = self.physics.sightings[self._sightings_before]
@@ -222,10 +386,24 @@ class PhysicsRunWorld:
         return [Detection(self.t, self.names[sighting.robot], (rr, rc, rh), (int(lr), int(lc)))]
 
     def at_goal(self) -> bool:
+        """Whether L has reached its goal.
+
+        Returns
+        -------
+        bool
+            True on the goal.
+        """
         r, c, _ = self.physics.observer_cell_heading(estimated=False)
         return (int(r), int(c)) in self._goal_cells
 
     def extras(self) -> PhysicsExtras:
+        """The MuJoCo world and release, for the run's record.
+
+        Returns
+        -------
+        PhysicsExtras
+            The extras.
+        """
         return PhysicsExtras(self.physics, mujoco_version())
 
 

@@ -104,8 +104,20 @@ class WorldSpec:
             resolve(self.requirement)()
 
     def load(self) -> World:
-        """The world's class, after :meth:`check`; a TypeError naming the entry point when the
-        class lacks a member of the contract."""
+        """The world's class, after :meth:`check`.
+
+        Returns
+        -------
+        World
+            The class named by ``entry_point``.
+
+        Raises
+        ------
+        ImportError
+            The world cannot run on this installation (one line, naming the extra to install).
+        TypeError
+            The entry point names something that lacks a member of the contract.
+        """
         self.check()
         cls = resolve(self.entry_point)
         missing = [m for m in CONTRACT_MEMBERS if not hasattr(cls, m)]
@@ -118,7 +130,18 @@ class WorldSpec:
 
 
 def resolve(entry_point: str) -> Callable[..., Any]:
-    """The object an entry point ``"module:attr"`` names (importing its module)."""
+    """The object an entry point ``"module:attr"`` names (importing its module).
+
+    Parameters
+    ----------
+    entry_point : str
+        ``"package.module:name"``.
+
+    Returns
+    -------
+    object
+        The module's attribute.
+    """
     module, _, attr = entry_point.partition(":")
     return getattr(import_module(module), attr)  # type: ignore[no-any-return]
 
@@ -131,10 +154,22 @@ def _entry_point(value: str | None, what: str, row: str) -> None:
 
 
 def check_row(row: WorldSpec) -> None:
-    """Refuse a row that cannot work (ValueError, one line): a name that is not a usable
-    ``--world`` value, an entry point that is not ``"module:name"``, a damage value outside
-    [0, 1], a pip extra without the requirement it installs, or a scenario section the scenario
-    format does not declare. Run on every row as it is registered; imports nothing."""
+    """Refuse a row that cannot work.
+
+    Run on every row as it is registered; imports nothing.
+
+    Parameters
+    ----------
+    row : WorldSpec
+        The row.
+
+    Raises
+    ------
+    ValueError
+        One line: a name that is not a usable ``--world`` value, an entry point that is not
+        ``"module:name"``, a damage value outside [0, 1], a pip extra without the requirement it
+        installs, or a scenario section the scenario format does not declare.
+    """
     name = row.name
     if not name or not all(part.isalnum() for part in name.split("-")) or name != name.lower():
         raise ValueError(f"world '{name}': a name is lower-case letters, digits and '-'")
@@ -184,8 +219,23 @@ DEFAULT_WORLD = "grid"
 
 
 def get_world(name: str) -> WorldSpec:
-    """The row of world ``name``; an :class:`~mirl._registry.UnknownNameError` (a ValueError)
-    naming the nearest and the known worlds otherwise."""
+    """The row of world ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A world's name.
+
+    Returns
+    -------
+    WorldSpec
+        The row.
+
+    Raises
+    ------
+    UnknownNameError
+        A ValueError naming the nearest and the known worlds.
+    """
     return WORLDS.lookup(name)
 
 
@@ -198,6 +248,33 @@ def make_world(
     seed: int,
     noise: np.random.SeedSequence,
 ) -> RunWorld:
-    """A new world ``name`` for one run (the arguments are those of
-    :class:`~mirl.worlds.contract.RunSetup`)."""
+    """A new world ``name`` for one run.
+
+    Parameters
+    ----------
+    name : str
+        A world's name.
+    scenario : Scenario
+        The patrollers, their true models and L's map.
+    observer : ObserverModel
+        L's model.
+    observability : float
+        The degree of L's view from its room.
+    seed : int
+        Seeds the patrollers' world.
+    noise : numpy.random.SeedSequence
+        Seeds L's own action failures where the world draws them.
+
+    Returns
+    -------
+    RunWorld
+        The world, at step 0 (see :class:`~mirl.worlds.contract.RunSetup`).
+
+    Raises
+    ------
+    UnknownNameError
+        An unknown world.
+    ImportError
+        A world that cannot run on this installation.
+    """
     return get_world(name).load()(RunSetup(scenario, observer, observability, seed, noise))
