@@ -303,12 +303,14 @@ def auto_step_seconds(
     Two kinds of track say their pace differently:
 
     * **In jumps** — a tracker reporting at a robot's decisions, poses written from grid
-      states: the robot changes cells at multiples of one period (of the times between its
-      consecutive changes of cell, at least 80 % lie within a pose interval of a multiple of
-      their lower quartile; spells out of view make the longer ones). That period is its pace.
+      states: the robot changes cells at multiples of one period (:func:`_jump_period`), its
+      pace.
     * **Smoothly** — a robot tracked at 10–30 Hz: the longest of :data:`AUTO_STEPS` at which at
       most ``long_moves`` of the consecutive observed steps move a robot more than one cell
-      (by the cells its nearest poses lie in, as :func:`discretise` reads them).
+      (by the cells its nearest poses lie in, as :func:`discretise` reads them), of all the
+      robots' and of each robot's seen moving on enough steps: the fastest robot sets the
+      pace, so that a weak robot's failed moves are not read away by a step long enough for it
+      to complete them.
 
     Steps at which the robots were seen moving on fewer than :data:`AUTO_MIN_MOVES`
     consecutive steps are not judged. When no step fits (poses too noisy to keep a moving
@@ -326,62 +328,79 @@ def auto_step_seconds(
 
     span = float(t.max()) - start
 
-    def judged(step: float) -> tuple[int, int, int]:
+    def judged(step: float) -> tuple[bool, bool, float]:
+        """Whether the robots were seen moving enough at ``step``; whether their moves stay
+        within one cell there — every robot's seen moving on enough steps, so that the
+        fastest robot sets the pace, and a weak robot's failed moves are not read away; and
+        the share of all moves that span more."""
         pairs = long = moved = 0
+        each = True
         if span / step + 1 >= MAX_TIME:  # more steps than any record may hold
-            return 0, 0, 0
+            return False, False, 0.0
         for idx in robots:
             cells = _cells_at_steps(t[idx], row[idx], col[idx], start, step)
             both = (cells[:-1, 0] != _UNSEEN) & (cells[1:, 0] != _UNSEEN)
             dist = np.abs(cells[1:] - cells[:-1]).sum(axis=1)[both]
-            pairs += len(dist)
-            long += int((dist >= 2).sum())
-            moved += int((dist >= 1).sum())
-        return pairs, long, moved
+            own_long, own_moved = int((dist >= 2).sum()), int((dist >= 1).sum())
+            if own_moved >= AUTO_MIN_MOVES:
+                each &= own_long <= long_moves * len(dist)
+            pairs, long, moved = pairs + len(dist), long + own_long, moved + own_moved
+        enough = moved >= AUTO_MIN_MOVES
+        share = long / pairs if pairs else 0.0
+        return enough, enough and each and share <= long_moves, share
 
     period = _jump_period(t, row, col, robots)
     if period is not None:
-        pairs, long, moved = judged(period)
-        if moved >= AUTO_MIN_MOVES and long <= long_moves * pairs:
-            return AutoStep(period, long / pairs)
+        _, fits, share = judged(period)
+        if fits:
+            return AutoStep(period, share)
     best: AutoStep | None = None
     judged_any = False
     for step in AUTO_STEPS:
-        pairs, long, moved = judged(float(step))
-        judged_any |= moved >= AUTO_MIN_MOVES
-        if moved >= AUTO_MIN_MOVES and long <= long_moves * pairs:
-            best = AutoStep(float(step), long / pairs)
+        enough, fits, share = judged(float(step))
+        judged_any |= enough
+        if fits:
+            best = AutoStep(float(step), share)
     if best is not None:
         return best
     if not judged_any:
         return AutoStep(2.0, 0.0, "few moves")
-    pairs, long, _ = judged(2.0)
-    return AutoStep(2.0, long / pairs if pairs else 0.0, "no fit")
+    return AutoStep(2.0, judged(2.0)[2], "no fit")
 
 
 def _jump_period(t, row, col, robots: list[np.ndarray]) -> float | None:
     """The period of a track whose robots change cells in jumps (class docstring of
-    :func:`auto_step_seconds`), or None for one that moves smoothly."""
-    gaps, tick = [], []
+    :func:`auto_step_seconds`), or None for one that moves smoothly.
+
+    A track that changes cell between a quarter or more of its consecutive poses reports at the
+    robots' pace or slower: its pose interval. Otherwise the period is the longest of the lower
+    quartile of the times between changes of cell, and its halves, thirds, … down to two pose
+    intervals, of which at least 80 % of those times are multiples, within a pose interval or a
+    tenth of the period, whichever is less."""
+    gaps, tick, pairs, changed = [], [], 0, 0
     for idx in robots:
         ti = t[idx]
         if len(ti) < 2:
             continue
         tick.append(np.diff(ti))
         moved = (row[idx][1:] != row[idx][:-1]) | (col[idx][1:] != col[idx][:-1])
-        when = 0.5 * (ti[1:] + ti[:-1])[moved]
-        gaps.append(np.diff(when))
+        pairs, changed = pairs + len(moved), changed + int(moved.sum())
+        gaps.append(np.diff(0.5 * (ti[1:] + ti[:-1])[moved]))
     if not gaps or sum(len(g) for g in gaps) < AUTO_MIN_CHANGES:
         return None
-    between = np.concatenate(gaps)
     pose_interval = float(np.median(np.concatenate(tick)))
-    period = float(np.quantile(between, 0.25))  # out-of-view spells make the longer ones
-    if period <= 1.5 * pose_interval:  # a move at almost every pose: the poses' own pace
+    if changed >= 0.25 * pairs:
         return round(pose_interval, 3)
-    off = np.abs(between / period - np.rint(between / period)) * period
-    if np.mean(off <= pose_interval) < 0.8:
-        return None
-    return round(period, 3)
+    between = np.concatenate(gaps)
+    lower = float(np.quantile(between, 0.25))  # out-of-view spells make the longer ones
+    k = 1
+    while lower / k >= 2 * pose_interval:
+        period = lower / k
+        off = np.abs(between / period - np.rint(between / period)) * period
+        if np.mean(off <= min(pose_interval, 0.1 * period)) >= 0.8:
+            return round(period, 3)
+        k += 1
+    return None
 
 
 _UNSEEN = np.iinfo(np.int64).min
