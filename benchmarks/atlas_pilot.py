@@ -29,7 +29,7 @@ def main() -> None:
     if not 1 <= args.points <= len(atlas.conditions):
         ap.error(f"--points: between 1 and {len(atlas.conditions)}, got {args.points}")
     pilot = replace(atlas, conditions=atlas.conditions[: args.points])
-    run_experiment(pilot, args.out, workers=args.workers, resume=args.resume)
+    run_experiment(pilot, args.out, {"workers": args.workers, "resume": args.resume})
     print(f"wrote {write_report(args.out)}")
 
 

@@ -39,6 +39,10 @@ _EXPORTS = {
     "solve_observer_mdp": "mirl.planning.go",
     "run_episode": "mirl.experiments.episode",
     "RunResult": "mirl.experiments.records",
+    "LearnOptions": "mirl.learning.options",
+    "RunProtocol": "mirl.experiments.options",
+    "SweepOptions": "mirl.experiments.options",
+    "OptionError": "mirl._validation",
 }
 
 __all__ = [
@@ -66,6 +70,10 @@ __all__ = [
     "solve_observer_mdp",
     "run_episode",
     "RunResult",
+    "LearnOptions",
+    "RunProtocol",
+    "SweepOptions",
+    "OptionError",
 ]
 
 
@@ -89,11 +97,14 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
     __version__: str
+    from mirl._validation import OptionError
     from mirl.experiments.episode import run_episode
+    from mirl.experiments.options import RunProtocol, SweepOptions
     from mirl.experiments.records import RunResult
     from mirl.learning.feature_solver import solve_feature_probabilities
     from mirl.learning.irl import OccludedMaxEntIRL
     from mirl.learning.learn import learn
+    from mirl.learning.options import LearnOptions
     from mirl.learning.results import LearnResult
     from mirl.learning.transitions import TransitionFeatureLearner
     from mirl.mdp import TabularMDP, value_iteration

@@ -4,6 +4,7 @@ simulate's CSV files, --version, show-map, --damage, and one-line errors with ex
 from __future__ import annotations
 
 import csv
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -42,7 +43,7 @@ def one_error_line(err: str, *needles: str) -> None:
     lines = err.strip().splitlines()
     assert len(lines) == 1, err
     assert "Traceback" not in err
-    assert lines[0].startswith("mirl: error: ")
+    assert re.match(r"mirl [a-z-]+: error: ", lines[0]), lines[0]  # names the sub-command
     for n in needles:
         assert n in lines[0], (n, lines[0])
 

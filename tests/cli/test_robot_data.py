@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import pytest
 
@@ -20,7 +21,7 @@ def one_error_line(capsys, code, *needles):
     assert code == 2
     lines = err.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in err, err
-    assert lines[0].startswith("mirl: error: ")
+    assert re.match(r"mirl [a-z-]+: error: ", lines[0]), lines[0]  # names the sub-command
     for n in needles:
         assert str(n) in lines[0], (n, lines[0])
 

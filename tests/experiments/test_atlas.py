@@ -45,7 +45,8 @@ from mirl.experiments.store import load_results
 from mirl.experiments.sweep import run_experiment
 from mirl.world.scenario import load_scenario
 
-QUIET = {"progress": False, "log": lambda msg: None}
+QUIET = {"log": lambda msg: None}
+ONE = {"progress": False, "workers": 1}  # sweep options: quiet, one worker
 
 
 def _faults(point) -> tuple[AtlasFault, ...]:
@@ -312,9 +313,9 @@ def test_the_whole_design_resumes_from_a_partial_sweep_without_repeating_a_point
     (here a stand-in run, the sweep and the design the real ones) resumes exactly the rest."""
     atlas = replace(EXPERIMENTS["atlas"], run_function=_instant_run)
     head = replace(atlas, conditions=atlas.conditions[:100])
-    run_experiment(head, tmp_path, **QUIET)
+    run_experiment(head, tmp_path, ONE, **QUIET)
     first = {(r["condition_key"], r["run"]): r["finished_at"] for r in _stored(tmp_path)}
-    summary = run_experiment(atlas, tmp_path, resume=True, **QUIET)
+    summary = run_experiment(atlas, tmp_path, ONE | {"resume": True}, **QUIET)
     assert (summary.already_done, summary.finished) == (100, len(atlas.conditions) - 100)
     rows = _stored(tmp_path)
     keys = [(r["condition_key"], r["run"]) for r in rows]
@@ -325,12 +326,12 @@ def test_the_whole_design_resumes_from_a_partial_sweep_without_repeating_a_point
 
 @pytest.mark.slow
 def test_a_resumed_atlas_keeps_finished_runs_and_runs_each_missing_one_once(tmp_path):
-    run_experiment(_small_atlas(2), tmp_path, **QUIET)
+    run_experiment(_small_atlas(2), tmp_path, ONE, **QUIET)
     first = _stored(tmp_path)
     assert len(first) == 2
     with pytest.raises(ValueError, match="already holds 2 runs"):
-        run_experiment(_small_atlas(3), tmp_path, **QUIET)
-    summary = run_experiment(_small_atlas(3), tmp_path, resume=True, **QUIET)
+        run_experiment(_small_atlas(3), tmp_path, ONE, **QUIET)
+    summary = run_experiment(_small_atlas(3), tmp_path, ONE | {"resume": True}, **QUIET)
     assert (summary.already_done, summary.finished) == (2, 1)
     rows = _stored(tmp_path)
     keys = [(r["condition_key"], r["run"]) for r in rows]
@@ -351,7 +352,8 @@ def test_an_atlas_killed_mid_sweep_resumes_without_loss_or_duplication(tmp_path)
             "from mirl.experiments.sweep import run_experiment",
             "points = tuple(Condition(**p) for p in json.loads(sys.argv[1]))",
             "atlas = replace(EXPERIMENTS['atlas'], conditions=points)",
-            "run_experiment(atlas, sys.argv[2], progress=False, log=lambda m: None)",
+            "run_experiment(atlas, sys.argv[2], {'progress': False, 'workers': 1}, "
+            "log=lambda m: None)",
         ]
     )
     argv = [sys.executable, "-c", script, json.dumps(_small_points(4)), str(tmp_path)]
@@ -370,7 +372,7 @@ def test_an_atlas_killed_mid_sweep_resumes_without_loss_or_duplication(tmp_path)
     proc.wait()
     before = _stored(tmp_path)
     assert 1 <= len(before) < 4
-    run_experiment(_small_atlas(4), tmp_path, resume=True, **QUIET)
+    run_experiment(_small_atlas(4), tmp_path, ONE | {"resume": True}, **QUIET)
     rows = _stored(tmp_path)
     keys = [(r["condition_key"], r["run"]) for r in rows]
     assert len(keys) == len(set(keys)) == 4

@@ -36,7 +36,11 @@ def test_a_scenario_name_is_the_scenario(record):
         ({"random_state": 1.5}, ValueError, "random_state"),
         ({"visible": np.ones(5, bool)}, ValueError, "visible must have shape"),
         ({"visible": np.full(124, 2)}, ValueError, "visible must be booleans"),
-        ({"label_tol": 2.0}, ValueError, "label_tol"),
+        ({"options": {"label_tol": 2.0}}, ValueError, "`label_tol` must be a number in"),
+        ({"options": {"labeltol": 0.1}}, ValueError, "did you mean 'label_tol'"),
+        ({"options": 3}, TypeError, "`options` must be a LearnOptions"),
+        ({"method": "mirl-t", "options": {"p": 0.5}}, ValueError, "`p` applies to the methods"),
+        ({"random_state": 2**63}, ValueError, r"`random_state` must be an integer in \[0, 2\^63"),
     ],
 )
 def test_bad_arguments_are_named(record, change, error, needle):

@@ -1,4 +1,4 @@
-"""L's go decision (:mod:`mirl.planning.go`): the tables of go rules and hazard models, the
+"""L's go decision (:mod:`mirl.planning.go`): the table of hazard models, the
 backward induction against enumeration and a recursive DP, the go time, the timed policy."""
 
 from __future__ import annotations
@@ -8,18 +8,16 @@ import itertools
 import numpy as np
 import pytest
 
-from mirl._registry import Choice, UnknownNameError
+from mirl._registry import UnknownNameError
 from mirl.planning.belief import BeliefFilter, Prediction
-from mirl.planning.go import GO_RULES, HAZARDS, HazardModel, solve_observer_mdp
+from mirl.planning.go import HAZARDS, HazardModel, solve_observer_mdp
 from mirl.planning.observer import observer_model
 from mirl.world.domain import STOP
 from tests.planning.test_planner import CORRIDOR, TWO_ROUTES, _scenario, _static
 
 
 # ---- the tables ----------------------------------------------------------------------------------
-def test_go_rules_and_hazard_models_are_tables():
-    assert GO_RULES.names == ("adaptive", "value")
-    assert all(isinstance(r, Choice) and r.description for r in GO_RULES.values())
+def test_hazard_models_are_a_table():
     assert HAZARDS.names == ("markov", "independent")
     assert all(isinstance(h, HazardModel) and h.description for h in HAZARDS.values())
 

@@ -37,7 +37,7 @@ def files(tmp_path_factory):
 S = ["--scenario", "boyd2"]
 BAD = [
     # (argv, a substring the one line must contain)
-    (["frobnicate"], "invalid choice"),
+    (["frobnicate"], "unknown command 'frobnicate'"),
     (["--bogus"], "--bogus"),
     (["show-map"], "NAME_OR_PATH"),
     (["show-map", "no-such-map"], "no-such-map"),
@@ -91,13 +91,13 @@ BAD = [
     (["run", "--method", "nope"], "--method"),
     (["run", "--p", "2"], "--p"),
     (["run", "--observability", "inf"], "--observability"),
-    (["experiment", "fig9", "--out", "{d}/x"], "unknown experiment 'fig9'"),
+    (["experiment", "fig9", "--out", "{d}/x"], "unknown experiment 'fig9' (did you mean 'fig3'"),
     (["experiment", "fig3", "--runs", "0"], "--runs"),
     (["experiment", "fig3", "--workers", "0"], "--workers"),
     (["experiment", "fig3", "--progress-every", "0"], "--progress-every"),
     (["experiment", "fig3", "--em-init", "zeros"], "--em-init"),
     (["experiment", "fig3", "--em-init", "uniform"], "no dbn-em runs"),
-    (["run", "--em-init", "uniform"], "--em-init applies to --method dbn-em only"),
+    (["run", "--em-init", "uniform"], "--em-init applies to the method dbn-em only"),
     (["learn", *S, "--observations", "{d}/good.csv", "--em-init", "uniform"], "dbn-em only"),
     (["experiment", "selftest", "--out", "{d}/results-empty", "--resume"], "empty file"),
     (["experiment", "selftest", "--out", "{d}/results-garbage", "--resume"], "results.sqlite"),

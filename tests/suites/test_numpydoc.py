@@ -50,7 +50,6 @@ PENDING = {
     "mirl.experiments.atlas",
     "mirl.experiments.conditions",
     "mirl.experiments.cost",
-    "mirl.experiments.episode",
     "mirl.experiments.execution",
     "mirl.experiments.records",
     "mirl.experiments.run_report",

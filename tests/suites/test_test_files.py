@@ -51,7 +51,6 @@ PENDING = {
     "cli/checks.py",
     "cli/flags.py",
     "cli/learn_report.py",
-    "cli/parser.py",
     "experiments/execution.py",
     "experiments/records.py",
     "experiments/store.py",

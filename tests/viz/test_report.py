@@ -10,13 +10,14 @@ from mirl.experiments.conditions import EXPERIMENTS, selftest_run
 from mirl.experiments.sweep import run_experiment
 from mirl.viz.report import write_report_and_figures
 
-QUIET = {"progress": False, "log": lambda message: None}
+QUIET = {"log": lambda message: None}
+ONE = {"progress": False, "workers": 1}  # sweep options: quiet, one worker
 
 
 def _tiny(root: Path, name: str) -> None:
     """A few fake runs of experiment ``name`` under ``root/name``."""
-    run_experiment(replace(EXPERIMENTS[name], run_function=selftest_run), root / name, runs=2,
-                   **QUIET)  # fmt: skip
+    fake = replace(EXPERIMENTS[name], run_function=selftest_run)
+    run_experiment(fake, root / name, ONE | {"runs": 2}, **QUIET)
 
 
 def test_report_names_the_report_and_every_figure_it_drew(tmp_path, capsys):
@@ -48,7 +49,7 @@ def test_a_report_drawn_again_names_the_figures_it_drew_over(tmp_path):
 
 
 def test_a_report_without_figures_says_so(tmp_path, capsys):
-    run_experiment("selftest", tmp_path, runs=1, **QUIET)
+    run_experiment("selftest", tmp_path, ONE | {"runs": 1}, **QUIET)
     assert main(["report", str(tmp_path)]) == 0
     said = capsys.readouterr().out.splitlines()
     assert said[0] == f"wrote {tmp_path / 'report.md'}" and "no figures" in said[1]

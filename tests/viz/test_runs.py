@@ -27,7 +27,8 @@ def test_every_worlds_drawing_takes_a_run_and_its_context(name):
 
 def test_the_run_figure_draws_with_its_worlds_drawing(monkeypatch):
     boyd2 = load_scenario("boyd2")
-    result = run_episode(boyd2, "oracle", seed=0, obs_steps=60, max_wait=20)
+    protocol = {"obs_steps": 60, "watch_until_seen": None, "max_wait": 20}
+    result = run_episode(boyd2, "oracle", seed=0, protocol=protocol)
     assert result.world == "grid"
     calls = []
 

@@ -84,9 +84,9 @@ def test_adding_a_world_is_one_module_and_one_row(with_foggy, tmp_path):
 
     check_world(with_foggy["foggy"])
     boyd2 = load_scenario("boyd2")
-    fast = {"obs_steps": 60, "max_wait": 20, "window": 10}
-    foggy = run_episode(boyd2, "oracle", seed=1, world="foggy", observability=0.5, **fast)
-    clear = run_episode(boyd2, "oracle", seed=1, observability=0.5, **fast)
+    fast = {"obs_steps": 60, "watch_until_seen": None, "max_wait": 20, "window": 10}
+    foggy = run_episode(boyd2, "oracle", seed=1, world="foggy", observability=0.5, protocol=fast)
+    clear = run_episode(boyd2, "oracle", seed=1, observability=0.5, protocol=fast)
     assert foggy.world == "foggy" and foggy.outcome in ("success", "detected", "timeout")
     # the same patrollers, seen through fog: some of the same sightings, while both watched
     t = min(foggy.observations.horizon, clear.observations.horizon)

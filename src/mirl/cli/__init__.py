@@ -1,5 +1,6 @@
 """The ``mirl`` command line (top layer): parses arguments, runs a sub-command, and turns every
-user error into one line on stderr with exit code 2. It may import every other stage."""
+user error into one line on stderr naming the sub-command (``mirl run: error: …``) with exit
+code 2. It may import every other stage."""
 
 from __future__ import annotations
 
@@ -23,13 +24,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
+    prog = f"mirl {args.command}"
     try:
         return COMMANDS[args.command](args)
     except BrokenPipeError:
         return _reader_left()
     except MemoryError:  # the estimate checked before the work was too low for this machine
         print(
-            "mirl: error: out of memory; the estimate checked at the start was too low for "
+            f"{prog}: error: out of memory; the estimate checked at the start was too low for "
             "this map here: try a larger cell size or a smaller --max-memory share for others",
             file=sys.stderr,
         )
@@ -39,7 +41,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         # domain errors (MapError, ScenarioError, TrajectoryError, ...) already name the file
         msg = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
-        print(f"mirl: error: {in_flags(msg)}", file=sys.stderr)
+        print(f"{prog}: error: {in_flags(msg)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("mirl: interrupted", file=sys.stderr)

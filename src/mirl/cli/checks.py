@@ -5,15 +5,16 @@ user must see. Every refusal is a :class:`UsageError` (one line, exit 2)."""
 from __future__ import annotations
 
 import os
-import re
 import sys
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from mirl.learning.methods import METHODS
+from mirl.world.actions import STEP_SECONDS
 from mirl.worlds import get_world
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = [
     "UsageError",
@@ -24,7 +25,6 @@ __all__ = [
     "check_distinct",
     "check_pose_flags",
     "check_poses_output",
-    "check_fixed_p",
     "check_experiment_flags",
     "check_observations",
     "check_visible",
@@ -41,7 +41,7 @@ MIN_TRIALS = 10
 MAX_POSES_PER_STEP = 1000
 MAX_POSES = 20_000_000
 MAX_POSE_NOISE = (100.0, 360.0)  # metres, degrees: beyond, a pose says nothing of its cell
-DEFAULT_P = 0.9
+DEFAULT_POSE_RATE = 10.0  # Hz: `simulate --poses`, a pose tracker's usual rate
 
 
 class UsageError(Exception):
@@ -100,8 +100,8 @@ def check_pose_flags(args) -> None:
     if given and get_world(args.world).records_poses:
         raise UsageError(f"{given[0]}: the physics world writes its own tracks (L's camera, and "
                          "the true poses at the control rate); leave it out")  # fmt: skip
-    args.pose_rate = 10.0 if args.pose_rate is None else args.pose_rate
-    args.step_seconds = 2.0 if args.step_seconds is None else args.step_seconds
+    args.pose_rate = DEFAULT_POSE_RATE if args.pose_rate is None else args.pose_rate
+    args.step_seconds = STEP_SECONDS if args.step_seconds is None else args.step_seconds
     per_step = args.pose_rate * args.step_seconds
     if per_step > MAX_POSES_PER_STEP:
         raise UsageError(
@@ -145,35 +145,21 @@ def check_poses_output(path: str | None, world: str) -> None:
         raise UsageError(f"--poses {out}: cannot create a bag directory there")
 
 
-def check_fixed_p(args) -> float:
-    """``--p`` only for the methods that fix every action's success at p; returns the p to use."""
-    if args.p is not None and not METHODS[args.method].uses_p:
-        fixed_p = [m.name for m in METHODS.values() if m.uses_p]
-        raise UsageError(f"--p applies to --method {' and '.join(fixed_p)} only (they "
-                         f"fix every action's success at p), not {args.method}")  # fmt: skip
-    return DEFAULT_P if args.p is None else args.p
-
-
 def check_experiment_flags(args) -> None:
-    """``experiment --out`` must name a directory (or nothing yet); ``--dask-scheduler`` must
-    look like an address, before a sweep creates anything."""
+    """``experiment --out`` must name a directory (or nothing yet), before a sweep creates
+    anything (``--dask-scheduler``'s address is checked by its option's declaration)."""
     if args.out is not None:
         if not args.out.strip():
             raise UsageError("--out: an empty path (leave --out out for results/NAME)")
         if os.path.exists(args.out) and not os.path.isdir(args.out):
             raise UsageError(f"--out {args.out}: is a file, not a directory")
-    address = args.dask_scheduler
-    if address is not None:
-        m = re.fullmatch(r"(?:[a-z][a-z0-9+.-]*://)?(\[[0-9a-fA-F:]+\]|[^:/\s\[\]]+):(\d{1,5})",
-                         address)  # fmt: skip
-        if m is None or not 0 < int(m.group(2)) < 65536:
-            raise UsageError(f"--dask-scheduler {address}: expected HOST:PORT, e.g. "
-                             "tcp://127.0.0.1:8786")  # fmt: skip
 
 
 def check_observations(path, obs, domain) -> None:
     """Refuse observations with no rows (nothing to learn from) and warn loudly about observed
     steps that no action explains (a robot jumping between cells L saw it on)."""
+    import numpy as np
+
     from mirl.learning.transitions import observed_steps, perception_labels
 
     if len(obs) == 0:
@@ -195,6 +181,8 @@ def check_visible(path, obs, domain, visible: np.ndarray, degree: float) -> None
     """Observed rows where L sees nothing are refused (``--observability 0`` with rows: the
     learner's "unseen means out of view" would contradict every row); rows on cells outside
     L's view are warned about, once, with the first of them."""
+    import numpy as np  # here: building the command line loads no numpy
+
     outside = ~np.asarray(visible, dtype=bool)[obs.states(domain)]
     if not outside.any():
         return

@@ -8,14 +8,15 @@ import json
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import TypeVar
 
+from mirl._validation import Options
 from mirl.cli.checks import (
     FIGURE_SUFFIXES,
     MIN_TRIALS,
     UsageError,
     check_distinct,
     check_experiment_flags,
-    check_fixed_p,
     check_observations,
     check_output,
     check_pose_flags,
@@ -26,12 +27,14 @@ from mirl.cli.checks import (
     warn,
 )
 from mirl.cli.flags import parse_damage, parse_same_frame, parse_topic
-from mirl.learning.methods import METHODS
+from mirl.experiments.options import RunProtocol, SweepOptions
+from mirl.learning.options import LearnOptions
 from mirl.worlds import DEFAULT_WORLD, WorldSpec, get_world
 
 __all__ = ["COMMANDS", "UsageError", "print_json"]
 
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {}
+OptionsT = TypeVar("OptionsT", bound=Options)
 
 
 def command(name: str):
@@ -389,32 +392,19 @@ def _learn_transitions(args: argparse.Namespace) -> int:
 
 @command("experiment")
 def _experiment(args: argparse.Namespace) -> int:
-    from mirl.experiments.conditions import (
-        get_experiment,
-        in_world,
-        with_em_init,
-        with_protocol,
-    )
+    from mirl.experiments.conditions import get_experiment, in_world, with_em_init, with_protocol
     from mirl.experiments.sweep import run_experiment
 
     check_experiment_flags(args)
-    exp = with_em_init(get_experiment(args.name), args.em_init)  # unknown: one line, exit 2
-    exp = with_protocol(exp, args.go_rule, not args.learn_once)
-    _world(args.world)
-    exp = in_world(exp, args.world)
-    suffix = "" if args.world == DEFAULT_WORLD else f"-{args.world}"
+    options = _options(args, SweepOptions)
+    _world(options.world)
+    exp = get_experiment(args.name)
+    # the grid as the sweep will run it, refused here before anything is created
+    in_world(with_protocol(with_em_init(exp, options.em_init), options.go_rule, options.relearn),
+             options.world)  # fmt: skip
+    suffix = "" if options.world == DEFAULT_WORLD else f"-{options.world}"
     out = args.out or f"results/{exp.name}{suffix}"
-    summary = run_experiment(
-        exp,
-        out,
-        runs=args.runs,
-        workers=args.workers,
-        resume=args.resume,
-        dask_scheduler=args.dask_scheduler,
-        base_seed=args.seed,
-        progress=not args.quiet,
-        progress_every=args.progress_every,
-    )
+    summary = run_experiment(exp, out, options)
     from mirl.viz.report import write_report
 
     report = write_report(out)
@@ -440,9 +430,7 @@ def _report(args: argparse.Namespace) -> int:
 
 @command("run")
 def _run(args: argparse.Namespace) -> int:
-    from mirl.experiments.conditions import DEFAULT_OBS_STEPS
     from mirl.experiments.episode import run_episode
-    from mirl.experiments.records import WATCH_UNTIL_SEEN
     from mirl.experiments.run_report import format_report
 
     if args.plot:  # before the run: a bad path must not cost a run
@@ -450,25 +438,23 @@ def _run(args: argparse.Namespace) -> int:
     if args.animate:
         check_output(args.animate, "--animate", (".gif",))
     check_distinct(("--plot", args.plot), ("--animate", args.animate))
-    _check_em_init(args)
-    fixed = args.obs_steps is not None
-    if fixed and args.watch_until_seen is not None:
+    learning = _options(args, LearnOptions)
+    learning.check_method(args.method)
+    if args.obs_steps is not None and args.watch_until_seen is not None:
         raise UsageError("--obs-steps (a fixed time) and --watch-until-seen exclude each other")
+    protocol = _options(args, RunProtocol)
+    if args.obs_steps is not None:  # a fixed observation time, as the experiments have
+        protocol = protocol.replace(watch_until_seen=None)
     scenario = _load_scenario(args)
-    _check_cost(args, scenario, "run", args.obs_steps if fixed else DEFAULT_OBS_STEPS)
+    _check_cost(args, scenario, "run", protocol.obs_steps)
     result = run_episode(
         scenario,
         args.method,
-        observability=args.observability,
-        obs_steps=args.obs_steps if fixed else DEFAULT_OBS_STEPS,
-        watch_until_seen=None if fixed else args.watch_until_seen or WATCH_UNTIL_SEEN,
         seed=args.seed,
-        p=check_fixed_p(args),
-        max_wait=args.max_wait,
-        learn_options={"em_init": args.em_init} if args.em_init else None,
+        observability=args.observability,
+        protocol=protocol,
+        learn_options=learning,
         world=args.world,
-        go_rule=args.go_rule,
-        relearn=not args.learn_once,
     )
     if args.json:
         print_json(result.to_dict())
@@ -497,11 +483,12 @@ def _learn(args: argparse.Namespace) -> int:
     from mirl.cli.learn_report import learn_record, pace_record, print_learn
     from mirl.learning.learn import learn
 
+    options = _options(args, LearnOptions)
+    options.check_method(args.method)
     scenario = _load_scenario(args)
     degree = scenario.observability if args.observability is None else args.observability
     loaded = _read_observations(args, scenario, observability=degree)
     obs = loaded.trajectories
-    _check_em_init(args)
     check_observations(args.observations, obs, scenario.domain)
     _check_cost(args, scenario, "learn", obs.horizon)
     visible = loaded.visible_states(scenario)
@@ -513,16 +500,11 @@ def _learn(args: argparse.Namespace) -> int:
         obs,
         scenario,
         args.method,
-        score=truth,
-        p=check_fixed_p(args),
+        options=options,
         visible=visible,
         observability=degree,
-        max_iterations=args.max_iterations,
-        label_tol=args.label_tol,
-        objective=args.objective,
-        optimizer=args.optimizer,
         random_state=args.seed,
-        em_init=args.em_init or "intended",
+        score=truth,
     )
     agreement = None
     if not truth:  # robot data: the scenario is the user's description, not a truth
@@ -565,9 +547,15 @@ def _check_cost(args: argparse.Namespace, scenario, command: str, steps: int) ->
     check_budget(scenario, estimate_cost(scenario, command, steps=steps), budget)
 
 
-def _check_em_init(args: argparse.Namespace) -> None:
-    if args.em_init is not None and not METHODS[args.method].uses_em_init:
-        raise UsageError(f"--em-init applies to --method dbn-em only, not {args.method}")
+def _options(args: argparse.Namespace, options: type[OptionsT]) -> OptionsT:
+    """The ``options`` of a command: each option whose flag the command has and the user gave
+    (a flag left out leaves the declared default)."""
+    given = {
+        name: getattr(args, name)
+        for name in options.__options__
+        if getattr(args, name, None) is not None
+    }
+    return options(**given)
 
 
 def print_json(obj) -> None:

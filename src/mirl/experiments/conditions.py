@@ -24,10 +24,9 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from mirl._registry import Registry
 from mirl.experiments.atlas import atlas_design, atlas_run
+from mirl.experiments.options import PAPER_GO_RULE, RunProtocol
 from mirl.learning.methods import METHODS
 from mirl.worlds import DEFAULT_WORLD, WORLDS
 
@@ -46,9 +45,9 @@ __all__ = [
     "OUTCOMES",
 ]
 
-DEFAULT_OBS_STEPS = 300
-GO_RULE_PUBLISHED = "value"  # the paper's rule
-GO_RULE_DEFAULT = "adaptive"  # mirl's rule, run_episode's and the command line's default
+DEFAULT_OBS_STEPS: int = RunProtocol.default("obs_steps")
+GO_RULE_PUBLISHED = PAPER_GO_RULE
+GO_RULE_DEFAULT: str = RunProtocol.default("go_rule")  # mirl's, the API's and the command line's
 DEFAULT_RUNS = 200  # per point, as in the paper's simulations
 OUTCOMES = ("success", "detected", "timeout", "learned")  # learned: a run with no L to go (atlas)
 
@@ -180,6 +179,8 @@ def code_version() -> str:
 
 def run_seed(base_seed: int, run: int) -> int:
     """Seed of run ``run`` of every condition: a function of (base seed, run) only."""
+    import numpy as np  # here: the command line reads this module's table at start-up
+
     return int(np.random.SeedSequence([base_seed, run]).generate_state(1)[0])
 
 
@@ -200,22 +201,21 @@ def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
     result mapping."""
     from mirl.experiments.episode import run_episode
 
-    kwargs: dict[str, Any] = {}
-    if condition.p is not None:
-        kwargs["p"] = condition.p
-    if condition.em_init is not None:
-        kwargs["learn_options"] = {"em_init": condition.em_init}
-    kwargs["go_rule"] = condition.go_rule or GO_RULE_PUBLISHED
-    kwargs["relearn"] = condition.relearn
+    learning = {"p": condition.p, "em_init": condition.em_init}
     scenario = condition.scenario_object()
     result = run_episode(
         scenario,
         condition.method,
-        observability=condition.observability,
-        obs_steps=condition.obs_steps,
         seed=seed,
+        observability=condition.observability,
+        # the paper's protocol: a fixed observation time, and the condition's rule
+        protocol=RunProtocol.paper(
+            obs_steps=condition.obs_steps,
+            go_rule=condition.go_rule or GO_RULE_PUBLISHED,
+            relearn=condition.relearn,
+        ),
+        learn_options={k: v for k, v in learning.items() if v is not None},
         world=condition.world,
-        **kwargs,
     )
     out = _flatten_run_result(result)
     if METHODS[condition.method].has_feature_probabilities and result.learned is not None:
@@ -277,6 +277,8 @@ def selftest_run(condition: Condition, seed: int) -> dict[str, Any]:
     is a pure function of (condition, seed); ``MIRL_SELFTEST_SLEEP`` seconds of sleep make it
     slow enough to be interrupted in tests."""
     time.sleep(float(os.environ.get("MIRL_SELFTEST_SLEEP", "0")))
+    import numpy as np
+
     rng = np.random.default_rng([seed, zlib.crc32(condition.key.encode())])
     acc = float(np.clip(0.4 + 0.5 * condition.observability + 0.1 * rng.standard_normal(), 0, 1))
     u = rng.random()

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mirl.experiments.options import RunProtocol
 from mirl.world.domain import N_HEADINGS
 from mirl.world.maps import HEADING_DELTAS
 from mirl.world.scenario import Scenario
@@ -46,8 +47,6 @@ PLAN_BYTES_PER_STATE = 6_000
 LEARN_SECONDS_PER_STATE = 3.0e-4
 LEARN_SECONDS_PER_STATE_STEP = 1.0e-7
 PLAN_SECONDS_PER_STATE_STEP = 1.5e-7
-# the run's planning window and the shortest horizon after it (mirl.experiments.episode)
-WINDOW, MIN_TRAVEL = 60, 20
 
 
 class CostError(ValueError):
@@ -85,16 +84,18 @@ def default_max_memory() -> int:
     return int(total // 2)
 
 
-def planning_horizon(scenario: Scenario) -> int:
-    """About L's planning horizon of a run: the go window plus 3 × its shortest path (at least
-    20), the path in cells by a breadth-first search over the free cells (no states built; the
+def planning_horizon(scenario: Scenario, protocol: RunProtocol | None = None) -> int:
+    """About L's planning horizon of a run: the go window plus the travel after it (by default
+    3 × L's shortest path, at least 20: :meth:`~mirl.experiments.options.RunProtocol.travel`),
+    the path in cells by a breadth-first search over the free cells (no states built; the
     run's path also counts L's turns, a few per cent more)."""
+    protocol = RunProtocol() if protocol is None else protocol
     gm = scenario.map
     free = gm.patroller | gm.observer_only
     assert scenario.observer_start is not None and scenario.goal is not None  # set by Scenario
     dist = _cell_distances(free, scenario.observer_start)
     path = dist[scenario.goal]
-    return WINDOW + max(MIN_TRAVEL, 3 * int(path if path >= 0 else free.sum()))
+    return protocol.window + protocol.travel(int(path if path >= 0 else free.sum()))
 
 
 def estimate_cost(

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from mirl.experiments.options import RunProtocol
 from mirl.learning.results import LearnResult
 from mirl.observations.trajectories import Trajectories
 from mirl.planning.go import ObserverPlan
@@ -17,23 +18,11 @@ if TYPE_CHECKING:
     from mirl.worlds import WorldExtras
 
 __all__ = [
-    "MAX_WAIT",
-    "WATCH_UNTIL_SEEN",
-    "WATCH_LIMIT",
     "Detection",
     "PlanAttempt",
     "Relearn",
     "RunResult",
 ]
-
-# L may wait 450 steps (15 min) after observing: with the default 300 observation steps a run
-# lasts at most 25 min of robot time, the paper's limit for its physical runs
-MAX_WAIT = 450
-# `mirl run`'s default observation rule: after the 300 steps, L keeps watching until
-# it has seen every patroller on WATCH_UNTIL_SEEN steps, for at most WATCH_LIMIT steps in all
-# (60 min of robot time: on boyd2 at 0.14, seed 19's J first enters L's view at t=1555)
-WATCH_UNTIL_SEEN = 40
-WATCH_LIMIT = 1800
 
 
 @dataclass(frozen=True)
@@ -106,9 +95,14 @@ class RunResult:
     plan: ObserverPlan | None = None  # the executed (or last) plan
     seen_steps: dict[str, int] = field(default_factory=dict)  # observation-phase sightings
     extras: WorldExtras | None = None  # what the run's world records beyond the interface
-    watch_until_seen: int | None = None  # the observation rule of `mirl run` (None: fixed)
     predicted_success: float | None = None  # the adaptive rule's P(success) at the go time
     relearns: tuple[Relearn, ...] | None = None  # None: L learned once
+    protocol: RunProtocol | None = None  # how the run went (None: a record made by hand)
+
+    @property
+    def watch_until_seen(self) -> int | None:
+        """The protocol's watching rule (None: a fixed observation time)."""
+        return None if self.protocol is None else self.protocol.watch_until_seen
     world: str = DEFAULT_WORLD  # the run's world, a name in mirl.worlds.WORLDS
 
     def to_dict(self) -> dict[str, Any]:

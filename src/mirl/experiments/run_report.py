@@ -8,6 +8,7 @@ import numpy as np
 from mirl.experiments.records import RunResult
 from mirl.learning.methods import METHODS
 from mirl.learning.verdicts import estimate_disagrees
+from mirl.world.actions import STEP_SECONDS
 from mirl.world.game import GAME_ACTIONS, Equilibrium
 from mirl.world.scenario import Scenario
 
@@ -22,15 +23,16 @@ def state_text(state) -> str:
 
 def _observed_line(result: RunResult) -> str:
     seen = "; ".join(f"saw {n} on {k} steps" for n, k in result.seen_steps.items())
-    minutes = result.obs_steps * 2 / 60
+    minutes = result.obs_steps * STEP_SECONDS / 60
     line = f"observed  {result.obs_steps} steps ({minutes:.0f} min of robot time): {seen}"
     k = result.watch_until_seen
-    if k is None:
+    if k is None or result.protocol is None:
         return line
-    if min(result.seen_steps.values(), default=0) >= k and result.obs_steps > 300:
-        why = f"L watched past 300 steps until it had seen every patroller on {k} steps"
+    first = result.protocol.obs_steps
+    if min(result.seen_steps.values(), default=0) >= k and result.obs_steps > first:
+        why = f"L watched past {first} steps until it had seen every patroller on {k} steps"
     elif min(result.seen_steps.values(), default=0) >= k:
-        why = f"every patroller was seen on {k} steps within the first 300"
+        why = f"every patroller was seen on {k} steps within the first {first}"
     else:
         why = f"L stopped at its watching limit before seeing every patroller on {k} steps"
         never = [n for n, c in result.seen_steps.items() if c == 0]

@@ -23,12 +23,15 @@ from mirl.experiments.conditions import (
     Condition,
     Experiment,
     RunFunction,
-    StoreError,
     _maybe_float,
     code_version,
     get_experiment,
+    in_world,
     run_seed,
+    with_em_init,
+    with_protocol,
 )
+from mirl.experiments.options import SweepOptions
 from mirl.experiments.store import RunRecord, open_store
 from mirl.worlds import get_world
 
@@ -106,29 +109,47 @@ class Summary:
 def run_experiment(
     experiment: Experiment | str,
     out_dir: str | Path,
+    options: SweepOptions | Mapping[str, Any] | None = None,
     *,
-    runs: int | None = None,
-    workers: int = 1,
-    resume: bool = False,
-    dask_scheduler: str | None = None,
-    base_seed: int = 0,
-    progress: bool = True,
     log: Callable[[str], None] | None = None,
-    progress_every: int | None = None,
 ) -> Summary:
     """Run every pending (condition, run) of ``experiment``, storing each result as it arrives
     in ``out_dir/results.sqlite``; export ``out_dir/results.csv`` at the end.
 
-    Without ``resume`` an existing non-empty database is refused (StoreError) rather than
-    silently mixed; with it, finished runs are skipped, ``error`` runs retried, and a larger
-    ``runs`` extends the sweep. ``dask_scheduler`` runs the same tasks on a Dask cluster.
-    ``progress_every``: when stderr is not a terminal, a progress line every this many runs
-    (default: about every 5 % of the sweep).
+    .. versionchanged:: 0.2.0
+       The settings are one ``options`` argument, with the command line's defaults: one worker
+       per CPU and mirl's protocol on the runs of L (``go_rule="value", relearn=False`` keeps
+       the conditions' own, the paper's).
+
+    Parameters
+    ----------
+    experiment : Experiment or str
+        An experiment or its name in :data:`~mirl.experiments.conditions.EXPERIMENTS`.
+    out_dir : str or Path
+        The results directory (created if missing).
+    options : SweepOptions or mapping, optional
+        How to run it (:class:`~mirl.experiments.options.SweepOptions`: runs, workers,
+        resume, Dask, the base seed, progress, and the world, go rule, re-learning and DBN-EM
+        initialisation every condition takes), or a mapping of its option names to values; by
+        default ``mirl experiment``'s. Without ``resume`` an existing non-empty database is
+        refused (StoreError) rather than silently mixed; with it, finished runs are skipped,
+        ``error`` runs retried, and a larger ``runs`` extends the sweep.
+    log : callable, optional
+        Receives the sweep's lines (default: stderr).
+
+    Returns
+    -------
+    Summary
+        What ran, how fast, and the outcomes of this session.
     """
+    opts = SweepOptions.of(options)
     exp = get_experiment(experiment) if isinstance(experiment, str) else experiment
-    runs = exp.default_runs if runs is None else runs
-    if runs < 1:
-        raise StoreError(f"runs must be at least 1, got {runs}")
+    exp = with_em_init(exp, opts.em_init)
+    exp = with_protocol(exp, opts.go_rule, opts.relearn)
+    exp = in_world(exp, opts.world)
+    runs = exp.default_runs if opts.runs is None else opts.runs
+    workers, resume, dask_scheduler = opts.n_workers, opts.resume, opts.dask_scheduler
+    base_seed, progress, progress_every = opts.base_seed, opts.progress, opts.progress_every
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     store = open_store(out / "results.sqlite", exp.name, base_seed, resume=resume)

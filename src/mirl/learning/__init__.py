@@ -2,6 +2,8 @@
 
 * :mod:`~mirl.learning.methods` — the table of methods: what each is called, where its reward
   and transition models come from;
+* :mod:`~mirl.learning.options` — :class:`~mirl.learning.options.LearnOptions`, how ``learn``
+  learns, each option declared once, and the names its options choose among;
 * :mod:`~mirl.learning.learn` — :func:`~mirl.learning.learn.learn`, the one entry point, which
   builds a method's models and runs the relabelling rounds of mIRL*/T+Int;
 * :mod:`~mirl.learning.transitions` — labelling observed steps with actions, and the
@@ -29,6 +31,7 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 from mirl.learning.methods import LEARNING_METHODS, METHODS, Method, get_method
+from mirl.learning.options import LearnOptions
 
 # public name -> module that defines it (imported on first use: they need numpy and scipy)
 _EXPORTS = {
@@ -53,6 +56,7 @@ __all__ = [
     "LEARNING_METHODS",
     "Method",
     "get_method",
+    "LearnOptions",
     "LoopTrace",
     "LearnResult",
     "RobotModel",

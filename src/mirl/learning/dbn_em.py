@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from mirl._registry import Registry
+from mirl.learning.options import EM_INITS
 from mirl.world.domain import PatrolDomain
 
 __all__ = [
@@ -94,13 +94,6 @@ class EMResult:
         """
         S, A, _ = self.transitions.shape
         return sp.csr_array(self.transitions.reshape(S * A, S))
-
-
-EM_INITS = Registry.of_choices("EM initialisation", {
-    "intended": "uniform over the intended outcomes ψ(s, a') of every action (the default)",
-    "uniform": "uniform over all states",
-})  # fmt: skip
-"""DBN-EM's initial transition models (:func:`initial_transitions`)."""
 
 
 def initial_transitions(domain: PatrolDomain, init: str = "intended") -> np.ndarray:

@@ -59,6 +59,8 @@ import scipy.sparse as sp
 from scipy.optimize import OptimizeResult, minimize
 
 from mirl._registry import Registry
+from mirl.learning.options import IRL_OBJECTIVES as OBJECTIVES
+from mirl.learning.options import IRL_OPTIMIZERS as OPTIMIZERS
 from mirl.learning.sequence import BlockOperator, ObservedSequence
 from mirl.learning.soft_policy import _Dynamics, soft_policy_iteration
 from mirl.mdp import TabularMDP, value_iteration
@@ -66,20 +68,12 @@ from mirl.sparse import csr_matmul
 
 __all__ = ["OBJECTIVES", "ANCHORS", "OPTIMIZERS", "OccludedMaxEntIRL"]
 
-# the estimator's choices (module docstring), each carried out by this module's code
-OBJECTIVES = Registry.of_choices("objective", {
-    "counts": "the paper's: squared difference of feature counts on observed steps",
-    "likelihood": "log-likelihood of the observed labelled actions",
-    "both": "counts and likelihood added",
-    "sequence": "log-likelihood of everything L saw of the robot, occlusion included",
-})  # fmt: skip
+# the estimator's choices (module docstring), each carried out by this module's code;
+# its objectives and optimizers are LearnOptions' choices (mirl.learning.options), read
+# by the command line at start-up
 ANCHORS = Registry.of_choices("anchor", {
     "first": "the counts' expected visits propagate from the first observation",
     "reentry": "and restart at every re-entry into view",
-})  # fmt: skip
-OPTIMIZERS = Registry.of_choices("optimizer", {
-    "nelder-mead": "derivative-free Nelder-Mead from seeded restarts (the paper's)",
-    "lbfgs": "L-BFGS-B with the exact gradient",
 })  # fmt: skip
 GRADIENTS = Registry.of_choices("gradient", {
     "auto": "reverse mode on large models, forward on small ones",

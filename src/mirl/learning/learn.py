@@ -55,7 +55,7 @@ scenario's truth when ``score=True``.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
@@ -63,7 +63,9 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.dbn_em import EM_INITS, em_transitions
+from mirl._registry import Registry
+from mirl._validation import SEED, check_argument
+from mirl.learning.dbn_em import em_transitions
 from mirl.learning.equilibria import (
     EquilibriumWeights,
     TeamEquilibria,
@@ -72,13 +74,20 @@ from mirl.learning.equilibria import (
     weigh_team_equilibria,
 )
 from mirl.learning.irl import OccludedMaxEntIRL
-from mirl.learning.methods import LEARNING_METHODS, Method, get_method
+from mirl.learning.methods import (
+    LEARNING_METHODS,
+    REWARD_SOURCES,
+    TRANSITION_SOURCES,
+    Method,
+    get_method,
+)
 from mirl.learning.motion_models import (
     MotionModel,
     candidate_models,
     model_domain,
     unexplained_steps,
 )
+from mirl.learning.options import LearnOptions
 from mirl.learning.results import LearnResult, RobotModel, behavior_accuracy, oracle_models
 from mirl.learning.transitions import (
     TransitionFeatureLearner,
@@ -93,7 +102,15 @@ from mirl.world.game import Equilibrium
 from mirl.world.motion import transition_matrix_from_success
 from mirl.world.scenario import Scenario, as_scenario
 
-__all__ = ["learn", "LoopTrace", "relabel_loop"]
+__all__ = [
+    "learn",
+    "LoopTrace",
+    "relabel_loop",
+    "RewardBuilder",
+    "TransitionBuilder",
+    "REWARD_BUILDERS",
+    "TRANSITION_BUILDERS",
+]
 
 
 def learn(
@@ -101,22 +118,19 @@ def learn(
     scenario: Scenario | str,
     method: str = "mirl-t",
     *,
-    p: float = 0.9,
+    options: LearnOptions | Mapping[str, Any] | None = None,
     visible: np.ndarray | None = None,
     observability: float | None = None,
-    max_iterations: int = 5,
-    label_tol: float = 0.01,
-    objective: str = "sequence",
-    optimizer: str = "lbfgs",
-    n_restarts: int | None = None,
-    irl_options: Mapping[str, Any] | None = None,
     random_state: int | None = 0,
     score: bool = True,
     trace: LoopTrace | None = None,
-    em_init: str = "intended",
     warm_start: LearnResult | None = None,
 ) -> LearnResult:
     """Learn models of the scenario's patrollers from L's ``observations`` with ``method``.
+
+    .. versionchanged:: 0.2.0
+       The options (``p``, ``max_iterations``, ``label_tol``, ``objective``, ``optimizer``,
+       ``n_restarts``, ``irl_options``, ``em_init``) are one ``options`` argument.
 
     Parameters
     ----------
@@ -128,28 +142,15 @@ def learn(
     method : str, default "mirl-t"
         One of :data:`~mirl.learning.methods.LEARNING_METHODS` (the rows of
         :data:`~mirl.learning.methods.METHODS` with models to build).
-    p : float, default 0.9
-        Success probability of every action, for the methods with a fixed T.
+    options : LearnOptions or mapping, optional
+        How to learn (:class:`~mirl.learning.options.LearnOptions`: the fixed ``p``, the
+        relabelling rounds, the IRL's objective and optimiser, DBN-EM's initialisation), or a
+        mapping of its option names to values; by default its defaults. An option that changes
+        nothing for ``method`` (``p`` for a method that learns T) is refused.
     visible : ndarray of shape (S,) of bool, optional
         The states L can see; by default those of ``observability``.
     observability : float, optional
         Share of the map L sees, when ``visible`` is not given (default: the scenario's).
-    max_iterations : int, default 5
-        Rounds of relabelling at most.
-    label_tol : float, default 0.01
-        The relabelling has converged when a round changes at most this share of the labelled
-        steps (those T is learned from); on long records a few labels can flip back and forth
-        for rounds, each a full refit (docs/design.md, "A looser stopping rule").
-    objective, optimizer : str
-        Passed to :class:`~mirl.learning.irl.OccludedMaxEntIRL`. The defaults were picked by
-        measured behaviour accuracy and speed (the :mod:`mirl.learning.irl` docstring); the
-        paper's are ``objective="counts", optimizer="nelder-mead"``.
-    n_restarts : int, optional
-        The IRL's starts: by default 1 for L-BFGS (its restarts were measured to land on the
-        same optimum) and 3 for Nelder–Mead.
-    irl_options : mapping, optional
-        Further keyword arguments of the estimator (e.g. ``anchor``, ``l2``,
-        ``max_evaluations``).
     random_state : int or None, default 0
         Seeds every random choice (the IRL's restarts); None counts as 0, so learning is
         deterministic.
@@ -158,8 +159,6 @@ def learn(
         scenario's truth.
     trace : LoopTrace, optional
         An empty trace to receive the labels, estimators and weighings of every round.
-    em_init : {"intended", "uniform"}, default "intended"
-        DBN-EM's initial T (:mod:`mirl.learning.dbn_em`).
     warm_start : LearnResult, optional
         An earlier solution for the same robots, typically learned on a shorter record (a
         re-learn while L waits). The first IRL starts from its reward weights, once, instead of
@@ -182,40 +181,41 @@ def learn(
 
     Raises
     ------
+    mirl._validation.OptionError
+        An unknown method, an option out of its range or one that does not apply to the method,
+        an unknown option, a bad ``random_state`` (the message names it). A ValueError.
     ValueError
-        An unknown method or EM initialisation, or an option out of its range (the message
-        names it); observations of other robots than the scenario's; a ``warm_start`` of other
-        robots or another map.
+        Observations of other robots than the scenario's; a ``warm_start`` of other robots or
+        another map; a ``visible`` of the wrong shape.
     TypeError
         ``observations`` that are not :class:`~mirl.observations.trajectories.Trajectories`;
         a ``warm_start`` that is not a :class:`~mirl.learning.results.LearnResult`.
     """
-    scenario, row = _check_arguments(
-        observations, scenario, method, p, em_init, max_iterations, label_tol, random_state
-    )
+    scenario, row, opts = _check_arguments(observations, scenario, method, options, random_state)
     if warm_start is not None:
         _check_warm_start(warm_start, scenario)
     if visible is not None:
         visible = _checked_visible(visible, scenario.domain.n_states)
     start = time.perf_counter()
-    if row.transitions == "true":  # the scenario's truth: nothing to learn
+    if not row.learns:  # the scenario's truth: nothing to learn
         res = oracle_models(scenario, method=row.name)
         res.timings["total"] = time.perf_counter() - start
         return res
     irl_options = {
-        "objective": objective,
-        "optimizer": optimizer,
-        "n_restarts": n_restarts or (1 if optimizer == "lbfgs" else 3),
-        **(irl_options or {}),
+        "objective": opts.objective,
+        "optimizer": opts.optimizer,
+        "n_restarts": opts.restarts,
+        **(opts.irl_options or {}),
     }
     setup = _round_setup(
-        observations, scenario, visible, observability, irl_options, random_state, em_init
-    )
+        observations, scenario, visible, observability, irl_options, random_state,
+        opts.initial_transitions,
+    )  # fmt: skip
     setup.warm_start = warm_start
     clock = setup.clock
     trace = LoopTrace() if trace is None else trace
     setup.models = initial_models(scenario, warm_start)
-    fitted = _fit(setup, row, p, max_iterations, trace, label_tol)
+    fitted = _fit(setup, row, opts, trace)
     # L learns with the scenario's motion model unless a robot's record rejects it; then once
     # more with the models the records favour, and keeps that learning unless its labels
     # explain the records decisively worse (docs/design.md, "Fault verdicts")
@@ -226,7 +226,7 @@ def learn(
     if switched is not None:
         first, setup.models = setup.models, switched
         again = LoopTrace()
-        refit = _fit(setup, row, p, max_iterations, again, label_tol)
+        refit = _fit(setup, row, opts, again)
         if log_evidence(refit[-1]) >= log_evidence(fitted[-1]) - np.log(SWITCH_ODDS):
             fitted = refit
             vars(trace).update(vars(again))
@@ -265,13 +265,11 @@ def learn(
     )
 
 
-def _fit(setup: RoundSetup, row: Method, p, max_iterations, trace, label_tol):
+def _fit(setup: RoundSetup, row: Method, opts: LearnOptions, trace: LoopTrace):
     """One learning under ``setup.models``: weights, T, feature probabilities, equilibrium,
     policies, message and each robot's verdict."""
     clock = setup.clock
-    weights, transitions, probs, eq, message = _method_models(
-        setup, row, p, max_iterations, trace, label_tol
-    )
+    weights, transitions, probs, eq, message = _method_models(setup, row, opts, trace)
     if row.relabels:  # the last round's policies
         policies = trace.policies
     else:
@@ -318,32 +316,23 @@ def _round_setup(
     )
 
 
-def _method_models(
-    setup: RoundSetup,
-    row: Method,
-    p: float,
-    max_iterations: int,
-    trace: LoopTrace,
-    label_tol: float,
-):
+def _method_models(setup: RoundSetup, row: Method, options: LearnOptions, trace: LoopTrace):
     """Weights, transition matrices, feature probabilities, equilibrium (None: to be weighed)
-    and a message, from the sources ``row`` names."""
+    and a message, built from the sources ``row`` names (:data:`REWARD_BUILDERS`,
+    :data:`TRANSITION_BUILDERS`)."""
     if row.relabels:
-        return (*relabel_loop(setup, max_iterations, trace, label_tol), trace.message)
-    scenario = setup.scenario
+        return (
+            *relabel_loop(setup, options.max_iterations, trace, options.label_tol),
+            trace.message,
+        )
+    reward, motion = REWARD_BUILDERS[row.reward], TRANSITION_BUILDERS[row.transitions]
     labels = None
-    eq: Equilibrium | None
-    if row.reward == "learned" or row.transitions == "features":
+    if reward.labelled or motion.labelled:
         with setup.clock("labels"):
-            labels = _first_labels(setup, row)
+            labels = reward.first_labels(setup)
         trace.labels.append(labels)
-    transitions, probs, message = _transitions(setup, row.transitions, labels, p)
-    if row.reward == "learned":  # once, against the T just found
-        weights = irl_round(setup, transitions, labels, setup.initial_weights(), 1, trace)
-        eq = None
-    else:
-        weights = [np.asarray(r.weights, dtype=float) for r in scenario.robots]
-        eq = scenario.played_equilibrium
+    transitions, probs, message = motion.build(setup, labels, options)
+    weights, eq = reward.build(setup, transitions, labels, trace)
     trace.converged = True
     return weights, transitions, probs, eq, message
 
@@ -379,69 +368,27 @@ def _uncertainties(
     return out
 
 
-def _first_labels(setup: RoundSetup, row: Method) -> list[np.ndarray]:
-    """Per robot (horizon,) labels before anything is learned: by perception, or where the
-    reward is the truth, by the true policies and the played equilibrium."""
-    if row.reward != "true":
-        return perception(setup)
-    scenario = setup.scenario
-    policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
-    return policy_labels(setup.domain, setup.series, policies, scenario.played_equilibrium)
-
-
-def _transitions(setup: RoundSetup, source: str, labels, p: float):
-    """Each robot's T and feature probabilities from ``source`` (a method's ``transitions``),
-    and what the result's message says of them."""
-    if source == "features":
-        return (*learn_transitions(setup, labels), "")
-    n = len(setup.series)
-    with setup.clock("transitions"):
-        if source == "fixed-p":
-            T = transition_matrix_from_success(setup.domain, p, setup.scenario.error_model)
-            message = f"fixed success probability p={p:g} for every action"
-            return [T] * n, [{} for _ in range(n)], message
-        if source == "em":
-            fits = [em_transitions(setup.domain, [x], init=setup.em_init) for x in setup.series]
-            em = [sp.csr_array(T) for T, _ in fits]
-            dropped = sum(d for _, d in fits)
-            message = "tabular T from DBN-EM" + (
-                f" ({dropped} observations no sequence of moves reaches left out as unseen)"
-                if dropped
-                else ""
-            )
-            return em, [{} for _ in range(n)], message
-    raise ValueError(f"no models of transitions from '{source}'")
-
-
 def _check_arguments(
-    observations, scenario, method, p, em_init, max_iterations, label_tol, random_state
-) -> tuple[Scenario, Method]:
+    observations, scenario, method, options, random_state
+) -> tuple[Scenario, Method, LearnOptions]:
     """The arguments :func:`learn` cannot work with, refused before any work with a message
-    naming the argument; the scenario (one given by name, ``"boyd2"``, is loaded) and the
-    method's row."""
+    naming the argument; the scenario (one given by name, ``"boyd2"``, is loaded), the
+    method's row and the options."""
     scenario = as_scenario(scenario)
     if not isinstance(observations, Trajectories):
         raise TypeError(
             f"observations must be mirl.observations.Trajectories, got {type(observations)}"
         )
     row = get_method(method, LEARNING_METHODS)
-    if not 0.0 <= p <= 1.0:
-        raise ValueError(f"p must be in [0, 1], got {p}")
-    if em_init not in EM_INITS:
-        raise ValueError(f"unknown EM initialisation '{em_init}' (known: {', '.join(EM_INITS)})")
-    if max_iterations < 1:
-        raise ValueError(f"max_iterations must be at least 1, got {max_iterations}")
-    if not 0.0 <= label_tol <= 1.0:
-        raise ValueError(f"label_tol must be in [0, 1], got {label_tol}")
-    integer = isinstance(random_state, int | np.integer) and not isinstance(random_state, bool)
-    if random_state is not None and not (integer and random_state >= 0):
-        raise ValueError(f"random_state must be a non-negative int or None, got {random_state!r}")
+    opts = LearnOptions.of(options)
+    opts.check_method(row)
+    check_argument("random_state", random_state, SEED, None)
     if tuple(observations.robot_names) != tuple(scenario.robot_names):
         raise ValueError(
             f"observations are of robots {list(observations.robot_names)}, "
             f"the scenario has {list(scenario.robot_names)}"
         )
-    return scenario, row
+    return scenario, row, opts
 
 
 def _check_warm_start(warm: LearnResult, scenario: Scenario) -> None:
@@ -785,3 +732,129 @@ def weigh(setup: RoundSetup, policies, transitions, trace: LoopTrace) -> Equilib
     )
     trace.team_equilibria = team
     return team.shared
+
+
+# ---- the sources of models ------------------------------------------------------------------
+# A method's row names where its reward and its T come from, rows of the tables of sources
+# (mirl.learning.methods); how learn() builds each is a row below, by the same name, so a new
+# source is its row there and a builder here (docs/design.md, "The table of methods").
+@dataclass(frozen=True)
+class RewardBuilder:
+    """How :func:`learn` builds a method's rewards and interaction equilibrium from the source
+    its ``reward`` names (a row of :data:`~mirl.learning.methods.REWARD_SOURCES`).
+
+    Parameters
+    ----------
+    name : str
+        The source's name.
+    labelled : bool
+        Whether the rewards are learned from labelled steps.
+    first_labels : callable
+        ``first_labels(setup)``: per robot the labels of the observed steps before anything is
+        learned.
+    build : callable
+        ``build(setup, transitions, labels, trace)``: per robot the reward weights, and the
+        equilibrium (None: to be weighed against the observations).
+    """
+
+    name: str
+    labelled: bool
+    first_labels: Callable[[RoundSetup], list[np.ndarray]]
+    build: Callable[..., tuple[list[np.ndarray], Equilibrium | None]]
+
+
+@dataclass(frozen=True)
+class TransitionBuilder:
+    """How :func:`learn` builds a method's transition models from the source its
+    ``transitions`` names (a row of :data:`~mirl.learning.methods.TRANSITION_SOURCES`).
+
+    Parameters
+    ----------
+    name : str
+        The source's name.
+    labelled : bool
+        Whether T is learned from labelled steps.
+    build : callable
+        ``build(setup, labels, options)``: per robot T and the feature probabilities, and what
+        the result's message says of them.
+    """
+
+    name: str
+    labelled: bool
+    build: Callable[..., tuple[list[sp.csr_array], list[dict[str, float]], str]]
+
+
+def _learned_rewards(setup: RoundSetup, transitions, labels, trace: LoopTrace):
+    """Occluded max-ent IRL once, against the T just found; the equilibrium is weighed."""
+    return irl_round(setup, transitions, labels, setup.initial_weights(), 1, trace), None
+
+
+def _true_rewards(setup: RoundSetup, transitions, labels, trace: LoopTrace):
+    """The scenario's reward weights and played equilibrium."""
+    weights = [np.asarray(r.weights, dtype=float) for r in setup.scenario.robots]
+    return weights, setup.scenario.played_equilibrium
+
+
+def _true_policy_labels(setup: RoundSetup) -> list[np.ndarray]:
+    """Per robot (horizon,) labels by the true policies and the played equilibrium."""
+    scenario = setup.scenario
+    policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
+    return policy_labels(setup.domain, setup.series, policies, scenario.played_equilibrium)
+
+
+def _feature_transitions(setup: RoundSetup, labels, options: LearnOptions):
+    """mIRL*/T: each robot's transition-feature probabilities from its labelled steps."""
+    return (*learn_transitions(setup, labels), "")
+
+
+def _fixed_p_transitions(setup: RoundSetup, labels, options: LearnOptions):
+    """One success probability ``p`` for every action and robot."""
+    n, p = len(setup.series), options.fixed_p
+    with setup.clock("transitions"):
+        T = transition_matrix_from_success(setup.domain, p, setup.scenario.error_model)
+    return [T] * n, [{} for _ in range(n)], f"fixed success probability p={p:g} for every action"
+
+
+def _em_transitions(setup: RoundSetup, labels, options: LearnOptions):
+    """A tabular T per robot by EM over a two-slice DBN."""
+    n = len(setup.series)
+    with setup.clock("transitions"):
+        fits = [em_transitions(setup.domain, [x], init=setup.em_init) for x in setup.series]
+    dropped = sum(d for _, d in fits)
+    message = "tabular T from DBN-EM" + (
+        f" ({dropped} observations no sequence of moves reaches left out as unseen)"
+        if dropped
+        else ""
+    )
+    return [sp.csr_array(T) for T, _ in fits], [{} for _ in range(n)], message
+
+
+def _builds_a_reward_source(row: RewardBuilder) -> None:
+    REWARD_SOURCES.lookup(row.name)  # a builder of no source: refused here, at import
+
+
+def _builds_a_transition_source(row: TransitionBuilder) -> None:
+    TRANSITION_SOURCES.lookup(row.name)
+
+
+REWARD_BUILDERS: Registry[RewardBuilder] = Registry(
+    "reward source",
+    (
+        RewardBuilder("learned", True, perception, _learned_rewards),
+        RewardBuilder("true", False, _true_policy_labels, _true_rewards),
+    ),
+    check=_builds_a_reward_source,
+)
+"""How :func:`learn` builds the rewards of each source a learning method may name."""
+
+TRANSITION_BUILDERS: Registry[TransitionBuilder] = Registry(
+    "transition source",
+    (
+        TransitionBuilder("features", True, _feature_transitions),
+        TransitionBuilder("fixed-p", False, _fixed_p_transitions),
+        TransitionBuilder("em", False, _em_transitions),
+    ),
+    check=_builds_a_transition_source,
+)
+"""How :func:`learn` builds the transition models of each source it builds (a source it does
+not build, the truth, gives the scenario's models whole: :func:`learn` returns them)."""

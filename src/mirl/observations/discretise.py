@@ -44,6 +44,7 @@ __all__ = [
     "AUTO_LONG_MOVES",
     "AUTO_MIN_MOVES",
     "AUTO_MIN_CHANGES",
+    "AUTO_SPARSE",
 ]
 
 # fraction of a cell a wall/off-map pose may be from a patroller cell and still snap to it
@@ -63,6 +64,8 @@ AUTO_STEPS = np.round(np.arange(0.1, 10.0 + 1e-9, 0.05), 2)
 """The steps (s) :func:`auto_step_seconds` tries."""
 AUTO_MIN_MOVES = 20
 """A step at which fewer consecutive observed steps of a moving robot fall is not judged."""
+AUTO_SPARSE = 0.5
+"""A tracker that reports a robot this many seconds apart or more is read one pose a step."""
 AUTO_MIN_CHANGES = 10
 """Fewer changes of cell than this do not tell a track's period."""
 
@@ -126,9 +129,10 @@ class AutoStep:
     long_moves : float
         The share of consecutive observed steps, at that step, whose move spans more than one
         cell.
-    why : {"pace", "few moves", "no fit"}
-        The robots' pace; or the paper's 2 s because the robots were not seen moving on enough
-        consecutive steps to tell it, or because no step kept their moves within one cell.
+    why : {"pace", "poses", "few moves", "no fit"}
+        The robots' pace; the tracker's own interval, at most twice a second (one pose a step);
+        or the paper's 2 s because the robots were not seen moving on enough consecutive steps
+        to tell it, or because no step kept their moves within one cell.
     """
 
     seconds: float
@@ -137,10 +141,15 @@ class AutoStep:
 
     @property
     def found(self) -> bool:
-        """Whether the step is the robots' pace."""
-        return self.why == "pace"
+        """Whether the step is the robots' pace or the tracker's interval."""
+        return self.why in ("pace", "poses")
 
     def sentence(self) -> str:
+        if self.why == "poses":
+            return (
+                f"chosen: the tracker's interval, one pose a step; {self.long_moves:.1%} of the "
+                "moves span more than one cell"
+            )
         if self.why == "few moves":
             return "the paper's 2 s: the robots were not seen moving enough to tell their pace"
         if self.why == "no fit":
@@ -300,7 +309,9 @@ def auto_step_seconds(
 
     A step longer than a robot's pace lets it cross two cells, which no action explains; a
     shorter one cuts its moves into pieces that stay in one cell and read as failed steps.
-    Two kinds of track say their pace differently:
+    A tracker that reports a robot :data:`AUTO_SPARSE` s apart or more (a camera once a
+    decision, an AMCL pose once a second) is read one pose a step: no shorter step has a pose at
+    both ends. Other tracks say their pace in two ways:
 
     * **In jumps** — a tracker reporting at a robot's decisions, poses written from grid
       states: the robot changes cells at multiples of one period (:func:`_jump_period`), its
@@ -349,6 +360,12 @@ def auto_step_seconds(
         share = long / pairs if pairs else 0.0
         return enough, enough and each and share <= long_moves, share
 
+    ticks = [np.diff(t[idx]) for idx in robots if len(idx) > 1]
+    pose_interval = float(np.median(np.concatenate(ticks))) if ticks else 0.0
+    if pose_interval >= AUTO_SPARSE:  # no step between two of its poses has one
+        enough, _, share = judged(round(pose_interval, 3))
+        if enough:
+            return AutoStep(round(pose_interval, 3), share, "poses")
     period = _jump_period(t, row, col, robots)
     if period is not None:
         _, fits, share = judged(period)

@@ -32,7 +32,7 @@ __all__ = [
 
 SECTION = "physics"
 """The scenario table these parameters are read from (one of
-:data:`mirl.world.scenario_sections.WORLD_SECTIONS`)."""
+:data:`mirl.world.world_sections.WORLD_SECTIONS`)."""
 
 
 def physical_feature_map(feature_map: FeatureMap) -> FeatureMap:

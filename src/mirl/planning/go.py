@@ -39,7 +39,6 @@ from mirl.planning.observer import ObserverModel
 from mirl.world.domain import STOP
 
 __all__ = [
-    "GO_RULES",
     "HAZARDS",
     "HazardModel",
     "ObserverPlan",
@@ -48,13 +47,8 @@ __all__ = [
     "waiting_value",
 ]
 
-GO_RULES = Registry.of_choices("go rule", {
-    "adaptive": "goes when its stated chance of success beats the value of waiting",
-    "value": "the published rule: the best go value in the window, if positive",
-})  # fmt: skip
-"""How L decides to go (docs/design.md, "The go rule"): ``adaptive`` stops on its stated
-probability of success against the value of waiting; ``value`` is the published rule (the best
-go value in the window, if positive)."""
+# The go rules that call this planner are strategies of the run (mirl.experiments.go_rules),
+# in the table the command line reads, mirl.experiments.options.GO_RULES.
 
 Rows = Callable[[Prediction | StreamedPrediction, int, int], np.ndarray]
 

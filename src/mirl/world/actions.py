@@ -4,8 +4,10 @@ simulators, L's planner) reads them from here."""
 
 from __future__ import annotations
 
-__all__ = ["ACTIONS", "FORWARD", "TURN_LEFT", "TURN_RIGHT", "STOP", "N_HEADINGS"]
+__all__ = ["ACTIONS", "FORWARD", "TURN_LEFT", "TURN_RIGHT", "STOP", "N_HEADINGS", "STEP_SECONDS"]
 
 ACTIONS: tuple[str, ...] = ("forward", "turn_left", "turn_right", "stop")
 FORWARD, TURN_LEFT, TURN_RIGHT, STOP = range(4)
 N_HEADINGS = 4  # east, north, west, south
+STEP_SECONDS = 2.0
+"""Robot time an action takes, one step of the record: the paper's 2 s."""

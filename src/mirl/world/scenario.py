@@ -29,7 +29,6 @@ from mirl.world.rewards import RewardSpec, read_reward_spec, read_weights
 from mirl.world.scenario_sections import (
     PLAYED,
     TRUE_WEIGHTS,
-    WORLD_SECTIONS,
     RobotSpec,
     read_feature_map,
     read_game,
@@ -37,6 +36,7 @@ from mirl.world.scenario_sections import (
     read_pairs,
     read_robots,
 )
+from mirl.world.world_sections import WORLD_SECTIONS
 
 __all__ = [
     "RobotSpec",
@@ -371,7 +371,7 @@ class Scenario:
         Parameters
         ----------
         name : str
-            A table of :data:`~mirl.world.scenario_sections.WORLD_SECTIONS`.
+            A table of :data:`~mirl.world.world_sections.WORLD_SECTIONS`.
 
         Returns
         -------
@@ -392,7 +392,7 @@ class Scenario:
         Parameters
         ----------
         name : str
-            A table of :data:`~mirl.world.scenario_sections.WORLD_SECTIONS`.
+            A table of :data:`~mirl.world.world_sections.WORLD_SECTIONS`.
         table : mapping
             Its new contents (the world checks them when it reads them).
 

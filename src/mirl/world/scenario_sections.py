@@ -12,7 +12,6 @@ from typing import Any
 
 import numpy as np
 
-from mirl._registry import Registry
 from mirl.world import schema
 from mirl.world.catalog import is_ros_map, load_map
 from mirl.world.domain import FeatureMap, PatrolDomain
@@ -25,8 +24,6 @@ __all__ = [
     "PLAYED",
     "TRUE_WEIGHTS",
     "RobotSpec",
-    "WorldSection",
-    "WORLD_SECTIONS",
     "read_map",
     "read_feature_map",
     "read_robots",
@@ -40,39 +37,6 @@ MAX_ROBOTS = 26  # a team, not a crowd: every pair is checked for meetings each 
 FieldError = schema.FieldError
 
 
-@dataclass(frozen=True)
-class WorldSection:
-    """A top-level table of a scenario that belongs to one world (``[physics]``): the scenario
-    keeps it as written (:meth:`Scenario.section <mirl.world.scenario.Scenario.section>`) and
-    that world reads it (:meth:`mirl.worlds.contract.World.read_section`).
-
-    Parameters
-    ----------
-    name : str
-        The table's name in the TOML file, the world's ``section`` in :data:`mirl.worlds.WORLDS`.
-    holds : str
-        What the table sets, for messages and documentation.
-    """
-
-    name: str
-    holds: str
-
-
-def _check_section(row: WorldSection) -> None:
-    if not row.name.isidentifier():
-        raise ValueError(f"world section '{row.name}': not a TOML bare key of letters and '_'")
-
-
-# The scenario format names every world's section so that a file is checked when it is loaded:
-# a misspelt table is refused then, not run as if absent. The worlds sit above this stage and
-# cannot be asked; a world's row names its section here and is refused if it is not declared
-# (docs/design.md, "The world interface").
-WORLD_SECTIONS: Registry[WorldSection] = Registry(
-    "world section",
-    [WorldSection("physics", "the physical world's parameters (mirl.physics.config)")],
-    check=_check_section,
-)
-"""Every world's own scenario section, by name."""
 
 
 @dataclass(frozen=True)

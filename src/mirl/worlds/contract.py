@@ -307,7 +307,7 @@ class World(Protocol):
     def read_section(self, scenario: Scenario) -> object:
         """The world's own parameters from its scenario section, validated.
 
-        The section is a table of :data:`~mirl.world.scenario_sections.WORLD_SECTIONS`.
+        The section is a table of :data:`~mirl.world.world_sections.WORLD_SECTIONS`.
 
         Parameters
         ----------

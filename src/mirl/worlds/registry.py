@@ -18,7 +18,7 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any, cast
 
 from mirl._registry import Registry
-from mirl.world.scenario_sections import WORLD_SECTIONS
+from mirl.world.world_sections import WORLD_SECTIONS
 from mirl.worlds.contract import RunSetup, RunWorld, World
 
 if TYPE_CHECKING:
@@ -83,7 +83,7 @@ class WorldSpec:
         steps drawn before L left); the grid drawing draws the run's grid trace.
     section : str or None, default None
         The world's own scenario section, one of
-        :data:`~mirl.world.scenario_sections.WORLD_SECTIONS` (``"physics"``: ``[physics]``),
+        :data:`~mirl.world.world_sections.WORLD_SECTIONS` (``"physics"``: ``[physics]``),
         read by the class's ``read_section``; None for a world without one.
     """
 
@@ -186,7 +186,7 @@ def check_row(row: WorldSpec) -> None:
     if row.section is not None and row.section not in WORLD_SECTIONS:
         raise ValueError(
             f"world '{name}': {WORLD_SECTIONS.unknown(row.section)} (a world's section is "
-            "declared in mirl.world.scenario_sections.WORLD_SECTIONS)"
+            "declared in mirl.world.world_sections.WORLD_SECTIONS)"
         )
 
 
