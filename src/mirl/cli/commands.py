@@ -359,6 +359,8 @@ def _learn_transitions(args: argparse.Namespace) -> int:
     for i, name in enumerate(scenario.robot_names):
         t, s, s_next = observed_steps(series[i])
         a = labels[i][t] if args.labels == "true-policy" else perception_labels(domain, s, s_next)
+        a = a.copy()
+        a[perception_labels(domain, s, s_next) < 0] = -1  # no trial of any part
         learned[name] = TransitionFeatureLearner(domain, scenario.error_model).fit(s, a, s_next)
     if args.json:
         print_json({n: m.feature_probabilities_ for n, m in learned.items()})
@@ -478,7 +480,7 @@ def _run(args: argparse.Namespace) -> int:
 
 @command("learn")
 def _learn(args: argparse.Namespace) -> int:
-    from mirl.cli.learn_report import learn_record, print_learn
+    from mirl.cli.learn_report import learn_record, pace_record, print_learn
     from mirl.learning.learn import learn
 
     options = _options(args, LearnOptions)
@@ -515,12 +517,13 @@ def _learn(args: argparse.Namespace) -> int:
             for i, r in enumerate(result.robots)
         }
     out = learn_record(result, scenario, str(args.observations), obs.horizon, degree, agreement)
+    out.update(pace_record(loaded.discretised))
     if args.json:
         print_json(out)
     else:
         if loaded.discretised is not None:
             print(f"{args.observations}: " + loaded.discretised.summary())
-        print_learn(out, result, scenario.name)
+        print_learn(out, result, scenario)
     return 0
 
 

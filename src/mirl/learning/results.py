@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.verdicts import LateralDrift, Verdict, point_verdict
+from mirl.learning.verdicts import FeatureUncertainty, LateralDrift, Verdict, point_verdict
 from mirl.mdp import optimal_action_mask
 from mirl.world.game import Equilibrium
 from mirl.world.scenario import Scenario
@@ -56,6 +56,16 @@ class RobotModel:
     lateral_drift : LateralDrift or None
         The robot's mean lateral offset on its forward steps, from poses (None: grid states,
         or too few steps), which the verdict weighs.
+    uncertainty : FeatureUncertainty or None
+        Everything the verdict was drawn from: the posterior medians, the motion models'
+        weights, the parts the steps cannot tell apart (None where ``verdict`` is).
+    motion_model : str
+        The motion model ``transitions`` were learned under
+        (:class:`~mirl.learning.motion_models.MotionModel` names; ``""`` for a T not made of
+        features): the one L plans with.
+
+        .. versionchanged:: 0.2.0
+           ``uncertainty`` and ``motion_model`` are new.
     """
 
     name: str
@@ -67,6 +77,8 @@ class RobotModel:
     feature_intervals: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     verdict: Verdict | None = None
     lateral_drift: LateralDrift | None = None
+    uncertainty: FeatureUncertainty | None = None
+    motion_model: str = ""
 
 
 @dataclass(frozen=True, eq=False)

@@ -207,7 +207,7 @@ def load_observations(
     scenario: Scenario,
     *,
     topics: Mapping[str, str] | Sequence[tuple[str, str]] | None = None,
-    step_seconds: float | None = None,
+    step_seconds: float | str | None = None,
     start_time: float | None = None,
     tolerance: float | None = None,
     drop_off_map: bool = False,
@@ -229,8 +229,12 @@ def load_observations(
     topics : mapping of str to str, or sequence of (str, str), optional
         For a bag, topic → robot (required); for a pose CSV, an optional renaming of the file's
         robot names.
-    step_seconds : float, optional
-        Pose data: seconds a decision step; 2 if None.
+    step_seconds : float or "auto", optional
+        Pose data: seconds a decision step, or ``"auto"`` (the default, None): the robots' own
+        pace (:func:`~mirl.observations.discretise.auto_step_seconds`).
+
+        .. versionchanged:: 0.2.0
+           Defaults to ``"auto"`` (it was 2 s).
     start_time : float, optional
         Pose data: the time of step 0; the first pose's if None.
     tolerance : float, optional
@@ -290,7 +294,7 @@ def load_observations(
     d = discretise(
         tracks,
         scenario,
-        step_seconds=2.0 if step_seconds is None else step_seconds,
+        step_seconds="auto" if step_seconds is None else step_seconds,
         start_time=start_time,
         tolerance=tolerance,
         drop_off_map=drop_off_map,
