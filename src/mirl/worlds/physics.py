@@ -250,6 +250,24 @@ class PhysicsRunWorld:
         return with_motor_strength(scenario, robot, feature, value)
 
     @staticmethod
+    def healthy_value(scenario: Scenario, feature: str) -> float:
+        """Full strength: the motor of a robot the scenario leaves alone.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        feature : str
+            The part (a wheel).
+
+        Returns
+        -------
+        float
+            1.
+        """
+        return 1.0
+
+    @staticmethod
     def modelled(scenario: Scenario) -> Scenario:
         """The scenario as L models this world.
 
