@@ -29,6 +29,7 @@ from mirl.cli.flags import (
     seed,
     spec_type,
     step_seconds,
+    step_seconds_or_auto,
 )
 from mirl.cli.parser import build_parser
 from mirl.learning.options import LearnOptions
@@ -90,6 +91,8 @@ def test_floats_between_bounds_state_them_and_their_unit():
     assert refusal(parse, "nan") == "must be a number, got nan"
     assert parse.__name__ == "a number in [1, 2]"
     assert step_seconds("2") == 2.0
+    assert step_seconds_or_auto(" Auto ") == "auto" and step_seconds_or_auto("0.5") == 0.5
+    assert refusal(step_seconds_or_auto, "0").endswith("; or auto, the robots' own pace")
     assert refusal(step_seconds, "0.0001").startswith("must be a number in [0.001, 3600] s")
 
 

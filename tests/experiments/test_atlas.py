@@ -143,7 +143,8 @@ def test_a_scenarios_own_damage_is_healed_so_the_point_states_all_of_it():
     assert truth == {"I": (), "J": ()}
     flags, truth = _truth("physics", "boydright", ())
     assert flags == [] and truth == {"I": (), "J": ()}
-    # boyd2's J motor is weak in physics: healed unless the point names it
+    # boyd2's J motor is weak in physics: healed unless the point names it, to what a robot the
+    # scenario leaves alone has there (full strength; the grid's 0.95 would leave it weakened)
     faults = (AtlasFault("I", "left_wheel", 0.6),)
     flags, truth = _truth("physics", "boyd2", faults)
     assert flags == ["J:left_wheel=1", "I:left_wheel=0.6"]

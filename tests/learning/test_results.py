@@ -80,19 +80,3 @@ def test_a_pair_without_its_own_equilibrium_plays_the_teams(boyd2):
     alone = LearnResult("oracle", truth.robots, truth.equilibrium)
     assert alone.pair_equilibrium(0, 1) is truth.equilibrium
 
-
-def test_a_models_uncertainty_is_its_intervals_and_verdict_as_json(boyd2):
-    import json
-
-    from mirl.cli.learn_report import _uncertainty
-
-    j = oracle_models(boyd2).robot("J")
-    record = j.uncertainty()
-    assert list(record) == ["feature_intervals", "verdict"]  # no poses: no drift
-    assert record["feature_intervals"]["left_wheel"] == [0.7, 0.7]
-    assert record["verdict"] == j.verdict.to_dict()
-    assert json.loads(json.dumps(record)) == record
-    assert record == _uncertainty(j)  # learn --json says the same of a robot
-    from dataclasses import replace
-
-    assert replace(j, verdict=None).uncertainty() == {}

@@ -142,8 +142,12 @@ def test_no_string_comparison_with_a_method_or_world_name_outside_its_table():
 # fails, so the list shrinks as they go.
 NOT_A_SWITCH_ON_A_TABLE = {
     "cli/commands.py:auto": "the --compare flag's value, not an IRL gradient",
+    "learning/motion_models.py:paper": "a motion model's ξ (the paper's), not the Eq. 4 solver",
     "physics/calibration.py:forward": "an action's name, not an IRL gradient",
     "world/motion.py:uniform": "Eq. 5's error model, not DBN-EM's initialisation",
+    "learning/motion_models.py:uniform": "Eq. 5's error model, not DBN-EM's initialisation",
+    "cli/flags.py:auto": "--step-seconds auto, the robots' pace, not an IRL gradient",
+    "observations/discretise.py:auto": "step_seconds='auto', the robots' pace, not an IRL gradient",
 }
 # Tables declared where the command line reads them at start-up (a light module) whose rows are
 # carried out by another module's code, the estimator's: that module may compare their names too.

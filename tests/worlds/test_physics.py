@@ -70,6 +70,29 @@ def test_damage_is_a_wheel_motors_strength(healthy):
         PhysicsRunWorld.apply_damage(healthy, "K", "left_wheel", 0.5)
 
 
+def test_damage_is_a_motor_weak_enough_to_change_the_robots_moves(healthy):
+    """A motor is damaged when its wheel's success probability, measured in this world at its
+    strength, lies below the healthy level by more than the margin: at 0.7 it is, at 0.8 its
+    forward steps still succeed and it is weakened, not damaged."""
+    from mirl.physics.calibration import damaged_wheels, weakened_wheels, wheel_success
+
+    h, threshold = 0.95, healthy.faults.threshold("left_wheel")
+    assert wheel_success(1.0, h) == h and wheel_success(0.0, h) == 0.0
+    assert wheel_success(0.7, h) < threshold < wheel_success(0.8, h)
+    strengths = [0.3, 0.5, 0.6, 0.7, 0.75, 0.8, 0.9, 1.0]
+    assert np.all(np.diff([wheel_success(x, h) for x in strengths]) >= 0)
+    for strength, damaged in ((0.6, True), (0.7, True), (0.8, False), (0.95, False)):
+        weak = PhysicsRunWorld.apply_damage(healthy, "J", "left_wheel", strength)
+        parts = PhysicsRunWorld.damaged_parts(weak)
+        assert parts == damaged_wheels(weak)
+        assert parts["J"] == (("left_wheel",) if damaged else ())
+        assert weakened_wheels(weak)["J"] == (() if damaged else ("left_wheel",))
+    # a scenario's own, stricter definition reads the same motor as damaged
+    strict = replace(healthy, faults=replace(healthy.faults, margin=0.02))
+    weak = PhysicsRunWorld.apply_damage(strict, "J", "left_wheel", 0.8)
+    assert PhysicsRunWorld.damaged_parts(weak)["J"] == ("left_wheel",)
+
+
 def test_its_section_is_read_and_checked(tmp_path):
     cfg = PhysicsRunWorld.read_section(load_scenario("boyd2"))
     assert cfg.strength("J", "left_wheel") == 0.6  # boyd2's [physics] table

@@ -265,7 +265,8 @@ def check_observations(path, obs, domain) -> None:
             a, b = (tuple(int(x) for x in domain.states[v]) for v in (s[k], s_next[k]))
             warn(
                 f"{path}: {bad.size} of robot {name}'s {len(t)} observed steps are explained by "
-                f"no action (first: t={int(t[k])} {a} -> {b}); they count as failed actions"
+                f"no action (first: t={int(t[k])} {a} -> {b}); they are left out as no trial of "
+                "any part, and the verdicts check whether the record fits"
             )
 
 

@@ -340,7 +340,11 @@ def _nothing_placed(report) -> str:
 @command("learn-transitions")
 def _learn_transitions(args: argparse.Namespace) -> int:
     from mirl.learning.options import LABELLINGS
-    from mirl.learning.transitions import TransitionFeatureLearner, observed_steps
+    from mirl.learning.transitions import (
+        TransitionFeatureLearner,
+        observed_steps,
+        perception_labels,
+    )
 
     scenario = _load_scenario(args)
     domain = scenario.domain
@@ -351,8 +355,9 @@ def _learn_transitions(args: argparse.Namespace) -> int:
     learned = {}
     for i, name in enumerate(scenario.robot_names):
         t, s, s_next = observed_steps(series[i])
-        fit = TransitionFeatureLearner(domain, scenario.error_model).fit
-        learned[name] = fit(s, labels[i][t], s_next)
+        a = labels[i][t].copy()
+        a[perception_labels(domain, s, s_next) < 0] = -1  # no trial of any part
+        learned[name] = TransitionFeatureLearner(domain, scenario.error_model).fit(s, a, s_next)
     if args.json:
         print_json({n: m.feature_probabilities_ for n, m in learned.items()})
         return 0
@@ -474,7 +479,7 @@ def _run(args: argparse.Namespace) -> int:
 
 @command("learn")
 def _learn(args: argparse.Namespace) -> int:
-    from mirl.cli.learn_report import learn_record, print_learn
+    from mirl.cli.learn_report import learn_record, pace_record, print_learn
     from mirl.learning.learn import learn
 
     options = _options(args, LearnOptions)
@@ -511,12 +516,13 @@ def _learn(args: argparse.Namespace) -> int:
             for i, r in enumerate(result.robots)
         }
     out = learn_record(result, scenario, str(args.observations), obs.horizon, degree, agreement)
+    out.update(pace_record(loaded.discretised))
     if args.json:
         print_json(out)
     else:
         if loaded.discretised is not None:
             print(f"{args.observations}: " + loaded.discretised.summary())
-        print_learn(out, result, scenario.name)
+        print_learn(out, result, scenario)
     return 0
 
 

@@ -29,6 +29,7 @@ __all__ = [
     "non_negative_float",
     "float_between",
     "step_seconds",
+    "step_seconds_or_auto",
     "seed",
     "memory_size",
     "MAX_STEPS",
@@ -352,6 +353,32 @@ def float_between(low: float, high: float, unit: str = ""):
 # seconds per time step: from a millisecond to an hour (a step of 1e-300 s or 1e308 s spans
 # more steps, or fewer poses, than any record holds)
 step_seconds = float_between(0.001, 3600.0, " s")
+
+
+def step_seconds_or_auto(text: str):
+    """An argparse type: seconds per time step, or ``auto`` (the robots' own pace).
+
+    Parameters
+    ----------
+    text : str
+        The flag's value as typed.
+
+    Returns
+    -------
+    float or str
+        The seconds, or ``"auto"``.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If the text is neither ``auto`` nor a number of seconds within the limits.
+    """
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        return step_seconds(text)
+    except argparse.ArgumentTypeError as exc:
+        raise argparse.ArgumentTypeError(f"{exc}; or auto, the robots' own pace") from None
 
 
 _SIZE_UNITS = {"": 1, "B": 1, "K": 2**10, "KB": 2**10, "M": 2**20, "MB": 2**20, "G": 2**30,

@@ -27,6 +27,7 @@ from mirl.cli.flags import (
     seed,
     spec_type,
     step_seconds,
+    step_seconds_or_auto,
 )
 from mirl.experiments.options import RunProtocol, SweepOptions
 from mirl.learning.methods import LEARNING_METHODS, METHODS
@@ -320,10 +321,11 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
     )
     g.add_argument(
         "--step-seconds",
-        type=step_seconds,
+        type=step_seconds_or_auto,
         default=None,
-        metavar="S",
-        help=f"seconds per time step (None: {STEP_SECONDS:g}, the paper's)",
+        metavar="S|auto",
+        help="seconds per time step, or auto: the robots' own pace, at which a typical move "
+        "is one cell (None: auto; the report states the step chosen)",
     )
     g.add_argument(
         "--start-time",

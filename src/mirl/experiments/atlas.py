@@ -383,18 +383,16 @@ def damage_flags(world: str, scenario: Scenario, faults: Sequence[AtlasFault]) -
 
 
 def _healthy_value(world: str, scenario: Scenario, robot: str, part: str) -> float:
-    """The value that makes ``robot``'s ``part`` healthy in ``world``: its healthy level
-    (``[faults] healthy``), or where the world counts that as damaged too (a motor weaker
-    than full strength), 1."""
-    from mirl.world.faults import DEFAULT_HEALTHY
+    """The value that makes ``robot``'s ``part`` what an undamaged robot's is in ``world``
+    (:meth:`~mirl.worlds.contract.World.healthy_value`: the healthy level on the grid, full
+    strength in physics, where a motor at the grid's 0.95 would be weakened)."""
     from mirl.worlds import get_world
 
     spec = get_world(world).load()
-    for value in (scenario.faults.healthy.get(part, DEFAULT_HEALTHY), 1.0):
-        healed = spec.apply_damage(scenario, robot, part, value)
-        if part not in spec.damaged_parts(healed)[robot]:
-            return value
-    raise ValueError(f"atlas: no value makes {robot}'s {part} healthy in the {world} world")
+    value = spec.healthy_value(scenario, part)
+    if part in spec.damaged_parts(spec.apply_damage(scenario, robot, part, value))[robot]:
+        raise ValueError(f"atlas: {world}'s healthy value leaves {robot}'s {part} damaged")
+    return value
 
 
 def damaged_truth(world: str, scenario: Scenario) -> dict[str, tuple[str, ...]]:

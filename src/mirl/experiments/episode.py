@@ -164,7 +164,7 @@ def run_episode(
 
     clock = time.perf_counter()
     model = observer_model(scenario)
-    # L's models of the patrollers (learned, the oracle's, the filter's) take the world's ξ
+    # the oracle's models of the patrollers take the world's ξ (the learner weighs its own)
     modelled = get_world(world).load().modelled(scenario)
     run_world = make_world(
         world, scenario, model, observability=degree,
@@ -187,7 +187,11 @@ def run_episode(
             "random_state": int(learn_seed.generate_state(1)[0]),
         }
         growth = run.relearn_growth if run.relearn else None
-        learner = _Learner(modelled, run_world, spec, kwargs, growth)
+        # L learns with the scenario's motion model and lets the record decide whether another
+        # fits it better; of the world's model it takes only how its robots drift
+        # (docs/design.md, "Fault verdicts")
+        learner_scenario = replace(scenario, faults=modelled.faults)
+        learner = _Learner(learner_scenario, run_world, spec, kwargs, growth)
         learned = learner.learn_now()
     timings["learn"] += time.perf_counter() - clock
 

@@ -257,15 +257,22 @@ class RunResult:
 def _uncertainty(learned: LearnResult | None) -> dict[str, Any]:
     """``feature_intervals`` and ``verdicts`` per robot, for models that have them, and
     ``lateral_drifts`` for the robots whose poses gave one."""
-    robots = [] if learned is None else [r for r in learned.robots if r.verdict is not None]
+    robots = [r for r in learned.robots if r.verdict is not None] if learned is not None else []
     if not robots:
         return {}
-    parts = {r.name: r.uncertainty() for r in robots}
     return {
-        "feature_intervals": {name: p["feature_intervals"] for name, p in parts.items()},
-        "verdicts": {name: p["verdict"] for name, p in parts.items()},
+        "feature_intervals": {
+            r.name: {
+                f: [round(float(lo), 4), round(float(hi), 4)]
+                for f, (lo, hi) in r.feature_intervals.items()
+            }
+            for r in robots
+        },
+        "verdicts": {r.name: r.verdict.to_dict() for r in robots if r.verdict is not None},
         **_if_set(
-            lateral_drifts={n: p["lateral_drift"] for n, p in parts.items() if "lateral_drift" in p}
+            lateral_drifts={
+                r.name: r.lateral_drift.to_dict() for r in robots if r.lateral_drift is not None
+            }
             or None
         ),
     }

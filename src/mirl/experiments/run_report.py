@@ -7,7 +7,7 @@ import numpy as np
 
 from mirl.experiments.records import RunResult
 from mirl.learning.methods import METHODS
-from mirl.learning.verdicts import estimate_outside_interval, outside_interval_note
+from mirl.learning.verdicts import estimate_disagrees
 from mirl.world.actions import HEADING_NAMES, STEP_SECONDS
 from mirl.world.game import GAME_ACTIONS, Equilibrium
 from mirl.world.scenario import Scenario
@@ -52,10 +52,10 @@ def _observed_line(result: RunResult) -> str:
     return f"{line}\n          ({why})"
 
 
-def _wrapped(text: str) -> str:
+def _wrapped(text: str, indent: int = 10) -> str:
     import textwrap
 
-    return textwrap.fill(text, 96, initial_indent=" " * 10, subsequent_indent=" " * 10)
+    return textwrap.fill(text, 96, initial_indent=" " * indent, subsequent_indent=" " * indent)
 
 
 def _equilibrium_text(eq: Equilibrium, a: str, b: str) -> str:
@@ -162,6 +162,73 @@ def _truth(scenario: Scenario, result: RunResult) -> str:
     return f"truth: {', '.join(damaged) or 'no damage'}"
 
 
+def _feature_table(scenario: Scenario, result: RunResult, learned) -> list[str]:
+    """Each robot's learned feature probabilities, their 95 % intervals, the motion model and
+    the verdict — one answer per question: where Eq. 4's estimate lies outside its interval,
+    the posterior's median is the answer and Eq. 4's is shown as the paper's estimate, which L
+    plans with (docs/design.md, "Fault verdicts")."""
+    feats = list(scenario.feature_map.features)
+    lines = [f"learned   transition-feature probabilities ({learned.method}):"]
+    lines.append("            robot" + " " * 11 + "".join(f"{f:>13}" for f in feats))
+    models = {r.name: r for r in learned.robots}
+    outside = False
+    for name, fp in result.feature_probabilities.items():
+        r = models[name]
+        spans = r.feature_intervals
+        u = r.uncertainty
+        unseen = " (never seen: maximum entropy)" if result.seen_steps.get(name) == 0 else ""
+        if spans and u is not None and estimate_disagrees(fp, spans, u.medians, scenario.faults):
+            outside = True
+            lines.append(f"            {name:<5}{'posterior':<11}" + _cells(u.medians, feats, 2))
+            lines.append(f"            {'':<5}{'95 %':<11}" + _spans(spans, feats))
+            lines.append(f"            {'':<5}{'Eq. 4':<11}" + _cells(fp, feats, 3) + unseen)
+            continue
+        lines.append(f"            {name:<5}{'':<11}" + _cells(fp, feats, 3) + unseen)
+        if spans:
+            lines.append(f"            {'':<5}{'95 %':<11}" + _spans(spans, feats))
+    note = (
+        "            (each is how often an action that relies on the part does what was "
+        "intended; below it, its 95 % interval"
+    )
+    if outside:
+        note += (
+            "; where Eq. 4's estimate, from the step outcomes alone, and the posterior disagree "
+            "(outside the interval, or on the other side of the damage threshold), the "
+            "posterior's median is the answer and Eq. 4's the paper's estimate, which L plans "
+            "with"
+        )
+    lines += _wrapped(note.strip() + ")", indent=12).splitlines()
+    for r in learned.robots:
+        if r.lateral_drift is not None:
+            lines.append(f"          drift of {r.name}: {r.lateral_drift.sentence()}")
+    for r in learned.robots:
+        motion = _motion_words(r)
+        if motion:
+            lines += _wrapped(f"motion of {r.name}: {motion}").splitlines()
+    for r in learned.robots:
+        if r.verdict is not None:
+            lines.append(f"          verdict: {r.verdict.sentence(r.name)}")
+    return lines
+
+
+def _cells(values, feats, digits: int) -> str:
+    return "".join(f"{values[f]:>13.{digits}f}" for f in feats if f in values)
+
+
+def _spans(spans, feats) -> str:
+    return "".join(f"{f'{spans[f][0]:.2f}–{spans[f][1]:.2f}':>13}" for f in feats)
+
+
+def _motion_words(robot) -> str:
+    """The motion model L plans with and the records' weights, in words."""
+    from mirl.learning.motion_models import motion_sentence
+
+    u = robot.uncertainty
+    if u is None or not u.motion_models or not robot.motion_model:
+        return ""
+    return motion_sentence(u.motion_models, robot.motion_model)
+
+
 def _relearn_lines(result: RunResult) -> list[str]:
     """What re-learning while L waited changed (nothing when L learned once)."""
     if result.relearns is None:
@@ -220,35 +287,7 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
     if learned is not None and not has_features:
         lines.append(f"learned   no feature probabilities: {learned.message or learned.method}")
     if learned is not None and has_features:
-        feats = list(scenario.feature_map.features)
-        lines.append(f"learned   transition-feature probabilities ({learned.method}):")
-        lines.append("            robot" + "".join(f"{f:>13}" for f in feats))
-        probs = result.feature_probabilities
-        models = {r.name: r for r in learned.robots}
-        for name, fp in probs.items():
-            cells = "".join(f"{fp[f]:>13.3f}" for f in feats if f in fp)
-            unseen = " (never seen: maximum entropy)" if result.seen_steps.get(name) == 0 else ""
-            lines.append(f"            {name:<5}{cells}{unseen}")
-            spans = models[name].feature_intervals
-            if spans:
-                cells = "".join(f"{f'{spans[f][0]:.2f}–{spans[f][1]:.2f}':>13}" for f in feats)
-                lines.append(f"            {'95 %':<5}{cells}")
-        lines.append(
-            "            (each is how often an action that relies on the part does what was "
-            "intended; below it, its 95 % interval)"
-        )
-        if any(
-            estimate_outside_interval(fp, models[name].feature_intervals)
-            for name, fp in probs.items()
-        ):
-            poses = any(r.lateral_drift is not None for r in learned.robots)
-            lines.append("            " + outside_interval_note(poses))
-        for r in learned.robots:
-            if r.lateral_drift is not None:
-                lines.append(f"          drift of {r.name}: {r.lateral_drift.sentence()}")
-        for r in learned.robots:
-            if r.verdict is not None:
-                lines.append(f"          verdict: {r.verdict.sentence(r.name)}")
+        lines += _feature_table(scenario, result, learned)
     if learned is not None:
         acc = ", ".join(f"{n} {a:.2f}" for n, a in result.behavior_accuracy_per_robot.items())
         lines.append(f"          behaviour accuracy: {acc} (mean {result.behavior_accuracy:.2f})")

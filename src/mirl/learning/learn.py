@@ -41,6 +41,12 @@ A method that does not relabel learns its T from the first labels (its labels co
 T) and its reward once (from a warm start's weights, when given). The equilibria are weighed by
 the joint filter once, for the final models.
 
+A method with feature probabilities learns each robot's T under a motion model (ξ and where
+failed steps end): the scenario's, unless the robot's record rejects it — its verdict's motion
+models (:mod:`mirl.learning.motion_models`) make another :data:`SWITCH_ODDS` times more probable,
+or L's policy does not predict its moves — and then once more under the model its record favours
+(docs/design.md, "Fault verdicts", "What L learns and plans with").
+
 Every learned policy is the greedy policy of hard value iteration with the learned weights and that
 robot's T. ``behavior_accuracy`` (docs/design.md, "Behaviour accuracy") is filled in from the
 scenario's truth when ``score=True``.
@@ -75,6 +81,12 @@ from mirl.learning.methods import (
     Method,
     get_method,
 )
+from mirl.learning.motion_models import (
+    MotionModel,
+    candidate_models,
+    model_domain,
+    unexplained_steps,
+)
 from mirl.learning.options import LearnOptions
 from mirl.learning.results import LearnResult, RobotModel, behavior_accuracy, oracle_models
 from mirl.learning.transitions import (
@@ -83,12 +95,7 @@ from mirl.learning.transitions import (
     perceived_labels,
     policy_labels,
 )
-from mirl.learning.verdicts import (
-    FeatureUncertainty,
-    held_by_others,
-    in_company,
-    robot_uncertainty,
-)
+from mirl.learning.verdicts import FeatureUncertainty, robot_record, robot_uncertainty
 from mirl.mdp import TabularMDP, value_iteration
 from mirl.observations.trajectories import Trajectories
 from mirl.world.game import Equilibrium
@@ -207,19 +214,25 @@ def learn(
     setup.warm_start = warm_start
     clock = setup.clock
     trace = LoopTrace() if trace is None else trace
-    weights, transitions, probs, eq, message = _method_models(setup, row, opts, trace)
-    if row.relabels:  # the last round's policies
-        policies = trace.policies
-    else:
-        with clock("policies"):
-            policies = policies_of(setup, transitions, weights, trace)
-    if eq is None:
-        with clock("equilibria"):
-            trace.equilibria = weigh(setup, policies, transitions, trace)
-        eq = trace.equilibria.equilibrium
-    message = "; ".join(m for m in (message, *sorted(trace.notes)) if m)
-    with clock("verdicts"):
-        sure = _uncertainties(setup, row, trace, transitions, probs, policies)
+    setup.models = initial_models(scenario, warm_start)
+    fitted = _fit(setup, row, opts, trace)
+    # L learns with the scenario's motion model unless a robot's record rejects it; then once
+    # more with the models the records favour, and keeps that learning unless its labels
+    # explain the records decisively worse (docs/design.md, "Fault verdicts")
+    switched = None
+    if row.has_feature_probabilities:
+        candidates = candidate_models(scenario.feature_map)
+        switched = switched_models(setup.models, fitted[-1], candidates, declared_model(scenario))
+    if switched is not None:
+        first, setup.models = setup.models, switched
+        again = LoopTrace()
+        refit = _fit(setup, row, opts, again)
+        if log_evidence(refit[-1]) >= log_evidence(fitted[-1]) - np.log(SWITCH_ODDS):
+            fitted = refit
+            vars(trace).update(vars(again))
+        else:
+            setup.models = first
+    weights, transitions, probs, eq, policies, message, sure = fitted
     robots = []
     for i, r in enumerate(scenario.robots):
         acc = behavior_accuracy(scenario, i, policies[i]) if score else None
@@ -230,6 +243,8 @@ def learn(
                 feature_intervals=u.intervals if u is not None else {},
                 verdict=u.verdict if u is not None else None,
                 lateral_drift=u.drift if u is not None else None,
+                uncertainty=u,
+                motion_model=setup.models[i].name if row.has_feature_probabilities else "",
             )
         )  # fmt: skip
     clock.timings["total"] = time.perf_counter() - start
@@ -248,6 +263,26 @@ def learn(
         pair_equilibria=team.best_per_pair() if team is not None else {},
         horizon=observations.horizon,
     )
+
+
+def _fit(setup: RoundSetup, row: Method, opts: LearnOptions, trace: LoopTrace):
+    """One learning under ``setup.models``: weights, T, feature probabilities, equilibrium,
+    policies, message and each robot's verdict."""
+    clock = setup.clock
+    weights, transitions, probs, eq, message = _method_models(setup, row, opts, trace)
+    if row.relabels:  # the last round's policies
+        policies = trace.policies
+    else:
+        with clock("policies"):
+            policies = policies_of(setup, transitions, weights, trace)
+    if eq is None:
+        with clock("equilibria"):
+            trace.equilibria = weigh(setup, policies, transitions, trace)
+        eq = trace.equilibria.equilibrium
+    message = "; ".join(m for m in (message, *sorted(trace.notes)) if m)
+    with clock("verdicts"):
+        sure = _uncertainties(setup, row, trace, probs, policies)
+    return weights, transitions, probs, eq, policies, message, sure
 
 
 def _round_setup(
@@ -303,29 +338,31 @@ def _method_models(setup: RoundSetup, row: Method, options: LearnOptions, trace:
 
 
 def _uncertainties(
-    setup: RoundSetup, row: Method, trace: LoopTrace, transitions, probs, policies
+    setup: RoundSetup, row: Method, trace: LoopTrace, probs, policies
 ) -> list[FeatureUncertainty | None]:
     """Per robot the intervals and verdict of its feature probabilities (None for a method
-    without them), from the labels they were learned from; a relabelling method's labels are
-    softened by its learned soft policies (:mod:`mirl.learning.verdicts`)."""
+    without them), from the labels they were learned from (:mod:`mirl.learning.verdicts`)."""
     if not row.has_feature_probabilities or not trace.labels:
         return [None] * len(setup.series)
     labels = trace.labels[-1]
     irl = trace.irl + [None] * (len(setup.series) - len(trace.irl))
     out: list[FeatureUncertainty | None] = []
     lateral = setup.lateral or [None] * len(setup.series)
-    # a robot reacts to another as far as it sees it: the patrollers' detection distance
-    reach = setup.scenario.detect_distance
-    for i, x in enumerate(setup.series):
-        company = None if lateral[i] is None else in_company(setup.domain, setup.series, i, reach)
-        held = None if lateral[i] is None else held_by_others(setup.domain, setup.series, i)
-        estimator = irl[i]
-        soft = estimator.soft_policy_ if row.relabels and estimator is not None else None
+    domain = setup.domain
+    soft = [e.soft_policy_ if row.relabels and e is not None else None for e in irl]
+    for i in range(len(setup.series)):
+        # a robot reacts to another as far as it sees it: the patrollers' detection distance
+        record = robot_record(
+            domain, setup.series, labels, i, lateral=lateral[i],
+            reach=setup.scenario.detect_distance,
+        )  # fmt: skip
         out.append(
             robot_uncertainty(
-                setup.domain, x, labels[i], transitions[i], probs[i], setup.scenario.faults,
-                soft_policy=soft, own_policy=policies[i] if soft is not None else None,
-                lateral=lateral[i], company=company, held=held, random_state=setup.robot_seed(i, 0),
+                domain, record, probs[i], setup.scenario.faults,
+                learned_with=setup.models[i] if setup.models else None,
+                soft_policy=soft[i], own_policy=policies[i] if soft[i] is not None else None,
+                models=candidate_models(setup.scenario.feature_map),
+                random_state=setup.robot_seed(i, 0),
             )
         )  # fmt: skip
     return out
@@ -531,6 +568,7 @@ class RoundSetup:
     em_init: str = "intended"
     lateral: list[np.ndarray | None] | None = None  # per robot (horizon,) offsets, or None
     warm_start: LearnResult | None = None  # an earlier solution to start from
+    models: list[MotionModel] | None = None  # per robot, the motion model T is learned under
 
     @property
     def domain(self):
@@ -546,6 +584,73 @@ class RoundSetup:
         """The IRL's seed for ``robot`` in round ``round_``, drawn from ``random_state``."""
         ss = np.random.SeedSequence([self.random_state or 0, robot, round_])
         return int(ss.generate_state(1)[0])
+
+
+# ---- which motion model L learns with ------------------------------------------------------
+SWITCH_ODDS = 1000.0  # motion_models.motion_sentence says so in words
+"""L leaves the scenario's motion model for another when a robot's record makes that one this
+many times more probable: a bound on how often it leaves a true model (the data would make a
+wrong model this much more probable than the true one with probability at most 1/1000, by
+Markov's inequality on the Bayes factor; at 1/100, one of 40 grid runs of `mirl run` left it
+on one relearn of a healthy robot seen on 53 steps, and kept the wrong model after)."""
+
+
+def initial_models(scenario: Scenario, warm_start: LearnResult | None = None) -> list[MotionModel]:
+    """Per robot the motion model learning starts with: the warm start's, else the scenario's
+    ξ and error model."""
+    candidates = {m.name: m for m in candidate_models(scenario.feature_map)}
+    declared = declared_model(scenario)
+    if warm_start is None:
+        return [declared] * len(scenario.robots)
+    return [candidates.get(r.motion_model, declared) for r in warm_start.robots]
+
+
+def declared_model(scenario: Scenario) -> MotionModel:
+    """The scenario's own ξ and error model, as a candidate."""
+    candidates = {m.name: m for m in candidate_models(scenario.feature_map)}
+    return candidates[f"paper/{scenario.error_model}"]
+
+
+def switched_models(
+    models: list[MotionModel],
+    sure: list[FeatureUncertainty | None],
+    candidates: tuple[MotionModel, ...],
+    declared: MotionModel,
+) -> list[MotionModel] | None:
+    """Per robot the model to learn with again, or None when every robot keeps its own. A
+    record whose most probable model is :data:`SWITCH_ODDS` times as probable as the
+    scenario's (``declared``) takes that one, any other the scenario's — on the whole record,
+    so that a model a shorter record chose (a warm start's) is left when the grown one no
+    longer rejects the scenario's; a record whose moves L's policy does not explain (the
+    check's ``moves``) takes its most probable model, or, when that is the one it was learned
+    with, the most probable with the other error model, since the error model is what teaches
+    the IRL whether a robot that stood still meant to."""
+    out, changed = list(models), False
+    by_name = {m.name: m for m in candidates}
+    for i, (model, u) in enumerate(zip(models, sure, strict=True)):
+        if u is None or not u.motion_models:
+            continue
+        weights = u.motion_models
+        best = max(weights, key=weights.__getitem__)
+        fit = u.verdict.fit
+        target = declared
+        if weights[best] >= SWITCH_ODDS * weights.get(declared.name, 0.0):
+            target = by_name[best]
+        if fit is not None and any(c.name == "moves" and not c.ok for c in fit.checks):
+            others = [m for m in weights if by_name[m].errors != model.errors]
+            if best != model.name:
+                target = by_name[best]
+            elif others:
+                target = by_name[max(others, key=weights.__getitem__)]
+        if target.name != model.name:
+            out[i], changed = target, True
+    return out if changed else None
+
+
+def log_evidence(sure: list[FeatureUncertainty | None]) -> float:
+    """The records' log marginal likelihood under a learning's policies, averaged over the
+    motion models (the robots' records are independent given their policies)."""
+    return float(sum(u.log_evidence for u in sure if u is not None and u.motion_models))
 
 
 def perception(setup: RoundSetup) -> list[np.ndarray]:
@@ -586,13 +691,17 @@ def count_changes(series, old: list[np.ndarray], new: list[np.ndarray]) -> int:
 
 
 def learn_transitions(setup: RoundSetup, labels: list[np.ndarray]):
-    """Per robot T and feature probabilities learned from the labelled steps (mIRL*/T)."""
+    """Per robot T and feature probabilities learned from the labelled steps (mIRL*/T), under
+    the robot's motion model (``setup.models``). A step no action explains is no trial of any
+    feature (:mod:`mirl.learning.model_check`)."""
     out_T, out_p = [], []
     with setup.clock("transitions"):
-        for x, lab in zip(setup.series, labels, strict=True):
+        for i, (x, lab) in enumerate(zip(setup.series, labels, strict=True)):
             t, s, s_next = observed_steps(x)
-            m = TransitionFeatureLearner(setup.domain, setup.scenario.error_model).fit(
-                s, lab[t], s_next
+            lab = np.where(unexplained_steps(setup.domain, s, s_next), -1, lab[t])
+            model = setup.models[i] if setup.models else initial_models(setup.scenario)[i]
+            m = TransitionFeatureLearner(model_domain(setup.domain, model), model.errors).fit(
+                s, lab, s_next
             )
             out_T.append(m.transition_model_)
             out_p.append({k: float(v) for k, v in m.feature_probabilities_.items()})

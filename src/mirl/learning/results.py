@@ -8,12 +8,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.verdicts import LateralDrift, Verdict, point_verdict
+from mirl.learning.verdicts import FeatureUncertainty, LateralDrift, Verdict, point_verdict
 from mirl.mdp import optimal_action_mask
 from mirl.world.game import Equilibrium
 from mirl.world.scenario import Scenario
@@ -57,6 +56,16 @@ class RobotModel:
     lateral_drift : LateralDrift or None
         The robot's mean lateral offset on its forward steps, from poses (None: grid states,
         or too few steps), which the verdict weighs.
+    uncertainty : FeatureUncertainty or None
+        Everything the verdict was drawn from: the posterior medians, the motion models'
+        weights, the parts the steps cannot tell apart (None where ``verdict`` is).
+    motion_model : str
+        The motion model ``transitions`` were learned under
+        (:class:`~mirl.learning.motion_models.MotionModel` names; ``""`` for a T not made of
+        features): the one L plans with.
+
+        .. versionchanged:: 0.2.0
+           ``uncertainty`` and ``motion_model`` are new.
     """
 
     name: str
@@ -68,29 +77,8 @@ class RobotModel:
     feature_intervals: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     verdict: Verdict | None = None
     lateral_drift: LateralDrift | None = None
-
-    def uncertainty(self) -> dict[str, Any]:
-        """What the model says of its own certainty, in its JSON form (``mirl learn --json``'s
-        per robot, ``mirl run --json``'s per key); empty for a model without a verdict.
-
-        Returns
-        -------
-        dict
-            ``feature_intervals`` (per feature [lo, hi], rounded to 4 places), ``verdict`` and,
-            where poses gave one, ``lateral_drift``.
-        """
-        if self.verdict is None:
-            return {}
-        out: dict[str, Any] = {
-            "feature_intervals": {
-                f: [round(float(lo), 4), round(float(hi), 4)]
-                for f, (lo, hi) in self.feature_intervals.items()
-            },
-            "verdict": self.verdict.to_dict(),
-        }
-        if self.lateral_drift is not None:
-            out["lateral_drift"] = self.lateral_drift.to_dict()
-        return out
+    uncertainty: FeatureUncertainty | None = None
+    motion_model: str = ""
 
 
 @dataclass(frozen=True, eq=False)

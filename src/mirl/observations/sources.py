@@ -22,7 +22,6 @@ from mirl.observations.discretise import Discretised, discretise
 from mirl.observations.poses import PoseError, PoseTracks, read_pose_csv
 from mirl.observations.tf import TF_TYPE
 from mirl.observations.trajectories import Trajectories, TrajectoryError, read_csv
-from mirl.world.actions import STEP_SECONDS
 from mirl.world.scenario import Scenario
 
 __all__ = [
@@ -210,7 +209,7 @@ def load_observations(
     scenario: Scenario,
     *,
     topics: Mapping[str, str] | Sequence[tuple[str, str]] | None = None,
-    step_seconds: float | None = None,
+    step_seconds: float | str | None = None,
     start_time: float | None = None,
     tolerance: float | None = None,
     drop_off_map: bool = False,
@@ -232,9 +231,12 @@ def load_observations(
     topics : mapping of str to str, or sequence of (str, str), optional
         For a bag, topic → robot (required); for a pose CSV, an optional renaming of the file's
         robot names.
-    step_seconds : float, optional
-        Pose data: seconds a decision step; :data:`~mirl.world.actions.STEP_SECONDS` (2) if
-        None.
+    step_seconds : float or "auto", optional
+        Pose data: seconds a decision step, or ``"auto"`` (the default, None): the robots' own
+        pace (:func:`~mirl.observations.discretise.auto_step_seconds`).
+
+        .. versionchanged:: 0.2.0
+           Defaults to ``"auto"`` (it was 2 s).
     start_time : float, optional
         Pose data: the time of step 0; the first pose's if None.
     tolerance : float, optional
@@ -294,7 +296,7 @@ def load_observations(
     d = discretise(
         tracks,
         scenario,
-        step_seconds=STEP_SECONDS if step_seconds is None else step_seconds,
+        step_seconds="auto" if step_seconds is None else step_seconds,
         start_time=start_time,
         tolerance=tolerance,
         drop_off_map=drop_off_map,

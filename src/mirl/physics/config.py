@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from mirl.world.actions import STEP_SECONDS
 from mirl.world.faults import WHEELS
+from mirl.world.motion import PIVOTS, turns_without_wheels
 
 if TYPE_CHECKING:
     from mirl.world.domain import FeatureMap
@@ -33,7 +34,6 @@ __all__ = [
 SECTION = "physics"
 """The scenario table these parameters are read from (one of
 :data:`mirl.world.world_sections.WORLD_SECTIONS`)."""
-PIVOTS = ("turn_left", "turn_right")
 
 
 def physical_feature_map(feature_map: FeatureMap) -> FeatureMap:
@@ -60,8 +60,7 @@ def physical_feature_map(feature_map: FeatureMap) -> FeatureMap:
     FeatureMap
         ξ without the wheels in the subsets of turn_left and turn_right.
     """
-    wheels = [w for w in WHEELS if w in feature_map.features]
-    return feature_map.without(wheels, PIVOTS)
+    return turns_without_wheels(feature_map)
 
 
 PHYSICAL_ERROR_MODEL = "stop"

@@ -1,7 +1,12 @@
-"""Eq. 5: a robot's transition function T(s, a, ·) from its transition-feature probabilities.
+"""Eq. 5: a robot's transition function T(s, a, ·) from its transition-feature probabilities,
+and the variants of motion an observer may take a robot to have.
 
 This is the world's model of motion (the grid simulator runs it, the scenario solves the true
-policies with it, and the learner fits its parameters), so it lives with the world.
+policies with it, and the learner fits its parameters), so it lives with the world. Two
+questions stay open for a robot L watches, and the learner weighs both against its record
+(:mod:`mirl.learning.motion_models`): where a failed step ends (:data:`ERROR_MODELS`: Eq. 5's
+``uniform``, or ``stop``, where it started) and whether a turn needs a wheel
+(:func:`turns_without_wheels`).
 """
 
 from __future__ import annotations
@@ -11,11 +16,48 @@ from collections.abc import Mapping
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.world.domain import PatrolDomain
+from mirl.world.domain import FeatureMap, PatrolDomain
+from mirl.world.faults import WHEELS
 
-__all__ = ["ERROR_MODELS", "transition_matrix", "transition_matrix_from_success"]
+__all__ = [
+    "ERROR_MODELS",
+    "PIVOTS",
+    "transition_matrix",
+    "transition_matrix_from_success",
+    "turns_without_wheels",
+]
 
 ERROR_MODELS = ("uniform", "stop")
+"""Where the failure mass 1 − Π p_τ of a step goes: ``uniform`` (Eq. 5) to the intended states
+of the other actions, ``stop`` to the state the robot started in."""
+
+PIVOTS = ("turn_left", "turn_right")
+"""The actions that turn a robot in place."""
+
+
+def turns_without_wheels(feature_map: FeatureMap) -> FeatureMap:
+    """ξ with the wheels taken out of the turns (overrides kept).
+
+    A robot whose weak motor still pivots it in time: a turn tests no wheel, and a weak wheel
+    shows only in forward steps, which need both. The paper's ξ has a damaged wheel fail the turns
+    it drives; a physical robot's turn needs far less of a motor than a forward step (measured in
+    the physical world: :func:`mirl.physics.config.physical_feature_map`), so charging the turns
+    to a wheel would pin the wheel that drives the patrol's many left turns near 1 and blame the
+    other one for every forward failure. The learner weighs both ξ against a robot's record
+    (docs/design.md, "Fault verdicts").
+
+    Parameters
+    ----------
+    feature_map : FeatureMap
+        The scenario's ξ.
+
+    Returns
+    -------
+    FeatureMap
+        The same features, no wheel in ``turn_left`` or ``turn_right``.
+    """
+    wheels = [w for w in WHEELS if w in feature_map.features]
+    return feature_map.without(wheels, PIVOTS)
 
 
 def transition_matrix(

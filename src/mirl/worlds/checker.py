@@ -228,8 +228,13 @@ def _check_scenario_methods(cls: World, sc: Scenario, need, row: WorldSpec | Non
             continue  # not a part of this world (physics: only the wheels)
         applied += 1
         need(part in cls.damaged_parts(damaged)[robot], f"apply_damage({part}={value}) damages it")
-        healed = cls.apply_damage(damaged, robot, part, 1.0)
-        need(part not in cls.damaged_parts(healed)[robot], f"apply_damage({part}=1) heals it")
+        healthy = cls.healthy_value(sc, part)
+        need(isinstance(healthy, float) and 0.0 < healthy <= 1.0, "healthy_value() is in (0, 1]")
+        healed = cls.apply_damage(damaged, robot, part, healthy)
+        need(
+            part not in cls.damaged_parts(healed)[robot],
+            f"apply_damage({part}=healthy_value()) heals it",
+        )
     need(applied > 0, "apply_damage() takes some transition feature")
     need(cls.damaged_parts(sc) == before, "apply_damage() leaves the scenario it was given as is")
     first = sc.feature_map.features[0]

@@ -354,6 +354,26 @@ class World(Protocol):
         """
         ...
 
+    def healthy_value(self, scenario: Scenario, feature: str) -> float:
+        """The value ``--damage ROBOT:FEATURE=VALUE`` takes for an undamaged ``feature``.
+
+        What a part of a robot the scenario leaves alone has in this world: a sweep that states
+        all of a point's damage heals a scenario's damaged part to it.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        feature : str
+            The part.
+
+        Returns
+        -------
+        float
+            The healthy value (:meth:`apply_damage`'s scale).
+        """
+        ...
+
     def modelled(self, scenario: Scenario) -> Scenario:
         """The scenario as L models this world.
 

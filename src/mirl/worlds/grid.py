@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from mirl.simulation.grid import PatrolSimulator, simulate
+from mirl.world.faults import DEFAULT_HEALTHY
 from mirl.world.scenario import Scenario
 from mirl.worlds.contract import Detection, RunSetup, Simulation, World
 
@@ -130,6 +131,24 @@ class GridRunWorld:
             An unknown robot or feature, or a probability outside [0, 1].
         """
         return scenario.with_damage(robot, feature, value)
+
+    @staticmethod
+    def healthy_value(scenario: Scenario, feature: str) -> float:
+        """The feature's healthy success probability (the scenario's ``[faults] healthy``).
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        feature : str
+            The part.
+
+        Returns
+        -------
+        float
+            Its healthy level.
+        """
+        return float(scenario.faults.healthy.get(feature, DEFAULT_HEALTHY))
 
     @staticmethod
     def modelled(scenario: Scenario) -> Scenario:

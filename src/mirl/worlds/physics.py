@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 
 from mirl.physics import mujoco_version
+from mirl.physics.calibration import damaged_wheels
 from mirl.physics.config import (
     PHYSICAL_ERROR_MODEL,
-    WHEELS,
     PhysicsConfig,
     physical_feature_map,
     scenario_physics,
@@ -250,6 +250,24 @@ class PhysicsRunWorld:
         return with_motor_strength(scenario, robot, feature, value)
 
     @staticmethod
+    def healthy_value(scenario: Scenario, feature: str) -> float:
+        """Full strength: the motor of a robot the scenario leaves alone.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        feature : str
+            The part (a wheel).
+
+        Returns
+        -------
+        float
+            1.
+        """
+        return 1.0
+
+    @staticmethod
     def modelled(scenario: Scenario) -> Scenario:
         """The scenario as L models this world.
 
@@ -280,9 +298,12 @@ class PhysicsRunWorld:
 
     @staticmethod
     def damaged_parts(scenario: Scenario) -> dict[str, tuple[str, ...]]:
-        """Per robot, the wheels whose motor is weaker than a healthy one (strength < 1).
+        """Per robot, the wheels damaged by their effect, as on the grid.
 
-        What the grid calls a damaged wheel is, here, any weakened motor.
+        A wheel is damaged when its motor is weak enough that the wheel's success probability,
+        measured in this world, lies below its healthy level by more than the margin
+        (:func:`~mirl.physics.calibration.damaged_wheels`); a motor weaker than a full one that
+        still drives the robot's steps is weakened, not damaged.
 
         Parameters
         ----------
@@ -292,13 +313,9 @@ class PhysicsRunWorld:
         Returns
         -------
         dict of str to tuple of str
-            Robot name -> weakened wheels.
+            Robot name -> damaged wheels.
         """
-        strengths = scenario_physics(scenario)
-        return {
-            name: tuple(w for w in WHEELS if strengths.strength(name, w) < 1.0)
-            for name in scenario.robot_names
-        }
+        return damaged_wheels(scenario)
 
     @staticmethod
     def version() -> str:

@@ -41,6 +41,7 @@ CONTRACT_MEMBERS = (
     "simulate",
     "read_section",
     "apply_damage",
+    "healthy_value",
     "modelled",
     "damaged_parts",
     "version",
