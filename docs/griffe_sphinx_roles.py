@@ -60,7 +60,10 @@ def _lazy_export(package: griffe.Module, path: str) -> griffe.Object | griffe.Al
     module = _lookup(package, module_path) if module_path.count(".") else None
     if module_path == package.name:
         module = package
-    exports = getattr(module, "members", {}).get("_EXPORTS") if module is not None else None
+    try:
+        exports = getattr(module, "members", {}).get("_EXPORTS") if module is not None else None
+    except (griffe.AliasResolutionError, griffe.CyclicAliasError):
+        return None  # a module's import of another package (``argparse`` in mirl.cli.flags)
     value = getattr(exports, "value", None)
     if value is None:
         return None

@@ -3,10 +3,15 @@ occluded observations (Bogert & Doshi, mIRL*/T+Int), and act on it.
 
 The entry points a user needs are importable from here (``from mirl import load_scenario,
 simulate, learn, run_episode``); they are loaded on first use, so ``import mirl`` stays cheap.
-The package is layered by pipeline stage — :mod:`mirl.mdp` → :mod:`mirl.world` →
-:mod:`mirl.observations` → :mod:`mirl.simulation` → :mod:`mirl.learning` →
-:mod:`mirl.planning` → :mod:`mirl.worlds` → :mod:`mirl.experiments` → :mod:`mirl.viz` →
-:mod:`mirl.cli` — and a stage imports only the stages before it (checked by import-linter).
+The package is layered by pipeline stage, and a stage imports only the stages before it
+(checked by import-linter; docs/design.md, "Layers"): :mod:`mirl.mdp` → :mod:`mirl.world` →
+:mod:`mirl.observations` → :mod:`mirl.simulation` | :mod:`mirl.physics` (the grid simulator |
+the MuJoCo world) → :mod:`mirl.learning` → :mod:`mirl.planning` → :mod:`mirl.worlds` (the
+world contract and its table) → :mod:`mirl.experiments` | :mod:`mirl.envs` (runs and sweeps |
+gymnasium and PettingZoo environments) → :mod:`mirl.viz` → :mod:`mirl.cli`; ``a | b`` are
+siblings that do not import each other. Below every stage: ``mirl.sparse`` (the shared sparse
+kernels), ``mirl._validation`` (options declared once) and ``mirl._registry`` (the one table
+type).
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ _EXPORTS = {
     "simulate": "mirl.simulation.grid",
     "solve_feature_probabilities": "mirl.learning.feature_solver",
     "TransitionFeatureLearner": "mirl.learning.transitions",
+    "IRLProblem": "mirl.learning.irl",
     "OccludedMaxEntIRL": "mirl.learning.irl",
     "learn": "mirl.learning.learn",
     "LearnResult": "mirl.learning.results",
@@ -62,6 +68,7 @@ __all__ = [
     "simulate",
     "solve_feature_probabilities",
     "TransitionFeatureLearner",
+    "IRLProblem",
     "OccludedMaxEntIRL",
     "learn",
     "LearnResult",
@@ -102,7 +109,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from mirl.experiments.options import RunProtocol, SweepOptions
     from mirl.experiments.records import RunResult
     from mirl.learning.feature_solver import solve_feature_probabilities
-    from mirl.learning.irl import OccludedMaxEntIRL
+    from mirl.learning.irl import IRLProblem, OccludedMaxEntIRL
     from mirl.learning.learn import learn
     from mirl.learning.options import LearnOptions
     from mirl.learning.results import LearnResult

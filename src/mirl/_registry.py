@@ -19,9 +19,18 @@ from __future__ import annotations
 import difflib
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import Generic, TypeVar
+from importlib import import_module
+from typing import Any, Generic, TypeVar
 
-__all__ = ["Choice", "Registry", "UnknownNameError", "did_you_mean"]
+__all__ = [
+    "Choice",
+    "Registry",
+    "Strategy",
+    "UnknownNameError",
+    "check_entry_point",
+    "did_you_mean",
+    "resolve",
+]
 
 T = TypeVar("T")
 
@@ -241,3 +250,75 @@ class Registry(Mapping[str, T], Generic[T]):
 
     def __repr__(self) -> str:
         return f"Registry({self.kind!r}: {', '.join(self._rows)})"
+
+
+# A row whose strategy lives in a heavy module (a world's class, a go rule's) names it by an
+# entry point, "package.module:name", as gymnasium's registry names environments: reading the
+# table imports nothing, and the strategy is imported when a row is used.
+def check_entry_point(value: str | None, what: str) -> None:
+    """Refuse a malformed entry point, importing nothing.
+
+    Parameters
+    ----------
+    value : str or None
+        The entry point, ``"package.module:name"``.
+    what : str
+        What it is, for the message (``"world 'fog': entry point"``).
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not ``"package.module:name"`` with identifiers for names.
+    """
+    module, sep, attr = (value or "").partition(":")
+    parts = module.split(".") if module else []
+    if not sep or not attr.isidentifier() or not parts or not all(p.isidentifier() for p in parts):
+        raise ValueError(f"{what} {value!r} is not 'package.module:name'")
+
+
+def resolve(entry_point: str) -> Any:
+    """The object an entry point ``"module:attr"`` names (importing its module).
+
+    Parameters
+    ----------
+    entry_point : str
+        ``"package.module:name"``.
+
+    Returns
+    -------
+    object
+        The module's attribute.
+    """
+    module, _, attr = entry_point.partition(":")
+    return getattr(import_module(module), attr)
+
+
+@dataclass(frozen=True)
+class Strategy:
+    """A row that is a name, what it means and the entry point of the code that carries it
+    out, imported when the row is used (its table checks the entry point with
+    :func:`check_entry_point`).
+
+    Parameters
+    ----------
+    name : str
+        The row's name, as a user writes it.
+    description : str
+        What it does, for help texts.
+    entry_point : str
+        ``"package.module:name"`` of what carries it out.
+    """
+
+    name: str
+    description: str
+    entry_point: str
+
+    def load(self) -> Any:
+        """What carries the row out.
+
+        Returns
+        -------
+        object
+            The object its entry point names.
+        """
+        return resolve(self.entry_point)

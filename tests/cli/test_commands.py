@@ -143,7 +143,7 @@ def test_show_map_with_observability(capsys):
     assert out[-1] == (
         "  L's view at observability 0.14: 4 of 31 patroller cells, 4 of them in L's line of sight"
     )
-    assert "; visible: 4 of 31 patroller cells (0.13)" in out
+    assert "; visible: 4 of 31 patroller cells (13 %)" in out
 
 
 def test_show_map_plain(capsys):

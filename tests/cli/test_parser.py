@@ -140,6 +140,9 @@ def test_the_flags_each_command_takes_from_the_options():
     assert {"--obs-steps", "--watch-until-seen", "--max-wait", "--go-rule", "--learn-once", "--p",
             "--em-init"} <= set(_flags("run"))  # fmt: skip
     assert {spec.flag for spec in SweepOptions.__options__.values()} <= set(_flags("experiment"))
+    # every option of learning with a flag is one of learn's, a new one included
+    flagged = {spec.flag for spec in LearnOptions.__options__.values() if spec.flag is not None}
+    assert flagged <= set(_flags("learn"))
 
 
 def test_experiment_help_lists_every_experiment(capsys):

@@ -48,11 +48,8 @@ def test_only_robots_meeting_head_on_keep_right_and_until_they_have_passed():
 
 
 def controller(n=1, **kw):
-    args = dict(
-        separation=KOBUKI.wheel_separation, wheel_radius=KOBUKI.wheel_radius, max_speed=0.7,
-        max_accel=1.0, turn_speed=1.2, max_wheel_speed=KOBUKI.max_wheel_speed, dt=0.1,
-    )  # fmt: skip
-    return Controller(n, **{**args, **kw})
+    args = dict(max_speed=0.7, max_accel=1.0, turn_speed=1.2, dt=0.1)
+    return Controller(n, KOBUKI, **{**args, **kw})
 
 
 def test_holding_commands_both_wheels_to_zero():
@@ -80,6 +77,25 @@ def test_driving_straight_accelerates_gently_and_within_the_wheels_limit():
     assert np.abs(w).max() <= KOBUKI.max_wheel_speed + 1e-9
     slow = c.wheel_speeds(np.zeros(1), np.zeros(1), np.zeros(1), slow=np.array([True]))[0]
     assert slow[0] == pytest.approx(0.2 / KOBUKI.wheel_radius)  # pass_speed
+
+
+def test_the_wheel_speeds_follow_the_robots_build():
+    """The same forward speed is fewer rad/s on a bigger wheel, and a slower wheel limit scales
+    a command down, both wheels alike."""
+    from dataclasses import replace
+
+    big = replace(KOBUKI, wheel_radius=2 * KOBUKI.wheel_radius)
+    speeds = []
+    for robot in (KOBUKI, big):
+        c = Controller(1, robot, max_speed=0.7, max_accel=1.0, turn_speed=1.2, dt=0.1)
+        c.set_targets(0, DRIVE, 5.0, 0.0, 0.0)
+        speeds.append(c.wheel_speeds(np.zeros(1), np.zeros(1), np.zeros(1))[0])
+    np.testing.assert_allclose(speeds[1], speeds[0] / 2)
+    capped = replace(KOBUKI, max_wheel_speed=5.0)  # 0.175 m/s at the rim
+    c = Controller(1, capped, max_speed=0.7, max_accel=10.0, turn_speed=1.2, dt=0.1)
+    c.set_targets(0, DRIVE, 5.0, 0.0, 0.0)
+    w = c.wheel_speeds(np.zeros(1), np.zeros(1), np.zeros(1))[0]
+    assert w.tolist() == pytest.approx([5.0, 5.0])
 
 
 def test_a_large_bearing_error_turns_in_place_before_driving():

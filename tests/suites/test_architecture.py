@@ -142,6 +142,7 @@ def test_no_string_comparison_with_a_method_or_world_name_outside_its_table():
 # fails, so the list shrinks as they go.
 NOT_A_SWITCH_ON_A_TABLE = {
     "cli/commands.py:auto": "the --compare flag's value, not an IRL gradient",
+    "learning/motion_models.py:paper": "a motion model's ξ (the paper's), not the Eq. 4 solver",
     "physics/calibration.py:forward": "an action's name, not an IRL gradient",
     "world/motion.py:uniform": "Eq. 5's error model, not DBN-EM's initialisation",
     "learning/motion_models.py:uniform": "Eq. 5's error model, not DBN-EM's initialisation",
@@ -220,7 +221,8 @@ def test_tables_are_registries_found_by_the_string_switch_test():
     found = {key.split(":")[1] for key in _tables()}
     for table in ("METHODS", "FORMATS", "KINDS", "EXPERIMENTS", "SECTIONS", "GO_RULES",
                   "HAZARDS", "BELIEF_MODES", "IRL_OBJECTIVES", "IRL_OPTIMIZERS", "EM_INITS",
-                  "REWARD_BUILDERS", "TRANSITION_BUILDERS"):  # fmt: skip
+                  "REWARD_BUILDERS", "TRANSITION_BUILDERS", "FEATURE_SOLVERS", "LABELLINGS",
+                  "WORLDS", "GRADIENTS", "ANCHORS"):  # fmt: skip
         assert table in found, table
     assert set(CARRIED_OUT_BY) <= set(_tables()), "stale entries"
 

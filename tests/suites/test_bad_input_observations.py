@@ -166,6 +166,7 @@ def test_a_file_that_is_not_text_is_answered_with_the_formats_mirl_reads(tmp_pat
     assert str(path) in lines[0] and "not a file of observations mirl reads" in lines[0]
     assert "grid CSV" in lines[0] and "pose CSV" in lines[0] and ".mcap" in lines[0]
     assert "codec" not in lines[0]
+    assert "line 1" not in lines[0]  # an image has no lines
 
 
 def test_the_csv_readers_say_a_file_is_not_text(tmp_path):

@@ -17,11 +17,7 @@ import mirl
 MAX_PARAMETERS = 12
 # Wider signatures not yet narrowed, each with the reason it is still here. The list may only
 # shrink: an entry that is no longer wider than the limit fails the test until it is removed.
-NOT_YET = {
-    "mirl.learning.irl.OccludedMaxEntIRL.__init__": "14: the estimator's problem (features, "
-    "transitions, discount, visible) beside its hyper-parameters; fit() is where scikit-learn "
-    "puts the problem's data",
-}
+NOT_YET: dict[str, str] = {}
 
 
 def _public_callables():

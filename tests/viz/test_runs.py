@@ -10,11 +10,11 @@ import pytest
 
 pytest.importorskip("matplotlib")
 
+from mirl._registry import resolve  # noqa: E402
 from mirl.experiments.episode import run_episode  # noqa: E402
 from mirl.viz import runs  # noqa: E402
 from mirl.world.scenario import load_scenario  # noqa: E402
 from mirl.worlds import WORLDS  # noqa: E402
-from mirl.worlds.registry import resolve  # noqa: E402
 
 
 @pytest.mark.parametrize("name", list(WORLDS))

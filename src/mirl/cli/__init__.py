@@ -18,6 +18,21 @@ __all__ = ["main"]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``mirl`` command: parse ``argv``, run its sub-command and answer a user's error
+    with one line on stderr.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The arguments after ``mirl`` (``sys.argv[1:]`` if None).
+
+    Returns
+    -------
+    int
+        The exit code: 0 on success, 2 on a user's error (one line naming the sub-command and
+        the problem, no traceback), 130 when interrupted, 141 when the reader of its output
+        left (``mirl run | head``).
+    """
     one_blas_thread()  # before any sub-command loads numpy (docs/design.md, "BLAS threads")
     parser = build_parser()
     args = parser.parse_args(argv)

@@ -49,11 +49,39 @@ class UsageError(Exception):
 
 
 def warn(message: str) -> None:
+    """Print a warning a user must see on stderr, as ``mirl: warning: MESSAGE``.
+
+    Parameters
+    ----------
+    message : str
+        One line, naming the file or flag it is about.
+    """
     print(f"mirl: warning: {message}", file=sys.stderr)
 
 
 def check_output(path: str | Path, flag: str, suffixes: tuple[str, ...] | None = None) -> Path:
-    """Refuse an output file that cannot be written, before the work that would fill it."""
+    """Refuse an output file that cannot be written, before the work that would fill it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    flag : str
+        The flag that named it (``--plot``), for the message.
+    suffixes : tuple of str, optional
+        The lower-case suffixes it may end in (``FIGURE_SUFFIXES``); any if None.
+
+    Returns
+    -------
+    Path
+        ``path``, as a :class:`~pathlib.Path`.
+
+    Raises
+    ------
+    UsageError
+        If its suffix is not one of ``suffixes``, it is a directory, its directory does not
+        exist, or it (or its directory) is not writable.
+    """
     p = Path(path)
     if suffixes and p.suffix.lower() not in suffixes:
         raise UsageError(f"{flag} {p}: expected a file ending in {', '.join(suffixes)}")
@@ -70,7 +98,18 @@ def check_output(path: str | Path, flag: str, suffixes: tuple[str, ...] | None =
 def check_distinct(*flags: tuple[str, str | None]) -> None:
     """Refuse two of a command's files that are one file (an output would overwrite an input, or
     one output another), e.g. ``convert run.csv run.csv`` or ``--observations o.csv --truth
-    o.csv``."""
+    o.csv``.
+
+    Parameters
+    ----------
+    *flags : tuple of (str, str or None)
+        (flag, path) of each file; a None or empty path is not given and skipped.
+
+    Raises
+    ------
+    UsageError
+        If two paths resolve to the same file, naming both flags.
+    """
     seen: dict[str, str] = {}
     for flag, path in flags:
         if not path:
@@ -85,7 +124,20 @@ def check_distinct(*flags: tuple[str, str | None]) -> None:
 def check_pose_flags(args) -> None:
     """``simulate``'s pose flags: only with ``--poses`` in the grid world (the physics world
     writes its own tracks: L's camera measurements and the true poses at the control rate), and
-    within limits; fills in their defaults (10 Hz, 2 s steps)."""
+    within limits; fills in their defaults (``DEFAULT_POSE_RATE``, the grid's step).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``simulate``'s arguments: ``poses``, ``pose_rate``, ``pose_noise``, ``step_seconds``,
+        ``steps`` and ``world``; ``pose_rate`` and ``step_seconds`` are filled in where None.
+
+    Raises
+    ------
+    UsageError
+        If a pose flag is given without ``--poses`` or for a world that records its own poses,
+        or the poses per step, the poses in all or the noise exceed their limits.
+    """
     given = [
         flag
         for flag, value in (
@@ -126,7 +178,22 @@ def check_pose_flags(args) -> None:
 
 def check_poses_output(path: str | None, world: str) -> None:
     """``--poses OUT`` before the simulation: a pose CSV, an MCAP file or (grid world) a ROS 2
-    bag directory to create, in a directory that exists and can be written."""
+    bag directory to create, in a directory that exists and can be written.
+
+    Parameters
+    ----------
+    path : str or None
+        ``--poses``'s value; nothing is checked if None or empty.
+    world : str
+        The world's name (a row of :data:`~mirl.worlds.WORLDS`): a world that records its own
+        poses writes no bag directory.
+
+    Raises
+    ------
+    UsageError
+        If the suffix is not one the world writes, the file cannot be written, an MCAP file
+        exists already, or the bag directory cannot be created.
+    """
     if not path:
         return
     out = Path(path)
@@ -147,7 +214,18 @@ def check_poses_output(path: str | None, world: str) -> None:
 
 def check_experiment_flags(args) -> None:
     """``experiment --out`` must name a directory (or nothing yet), before a sweep creates
-    anything (``--dask-scheduler``'s address is checked by its option's declaration)."""
+    anything (``--dask-scheduler``'s address is checked by its option's declaration).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``experiment``'s arguments (its ``out``).
+
+    Raises
+    ------
+    UsageError
+        If ``--out`` is empty or names a file.
+    """
     if args.out is not None:
         if not args.out.strip():
             raise UsageError("--out: an empty path (leave --out out for results/NAME)")
@@ -157,7 +235,22 @@ def check_experiment_flags(args) -> None:
 
 def check_observations(path, obs, domain) -> None:
     """Refuse observations with no rows (nothing to learn from) and warn loudly about observed
-    steps that no action explains (a robot jumping between cells L saw it on)."""
+    steps that no action explains (a robot jumping between cells L saw it on).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file the observations were read from, for the messages.
+    obs : Trajectories
+        The observations.
+    domain : PatrolDomain
+        The scenario's domain.
+
+    Raises
+    ------
+    UsageError
+        If ``obs`` has no rows.
+    """
     import numpy as np
 
     from mirl.learning.transitions import observed_steps, perception_labels
@@ -180,7 +273,26 @@ def check_observations(path, obs, domain) -> None:
 def check_visible(path, obs, domain, visible: np.ndarray, degree: float) -> None:
     """Observed rows where L sees nothing are refused (``--observability 0`` with rows: the
     learner's "unseen means out of view" would contradict every row); rows on cells outside
-    L's view are warned about, once, with the first of them."""
+    L's view are warned about, once, with the first of them.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file the observations were read from, for the messages.
+    obs : Trajectories
+        The observations.
+    domain : PatrolDomain
+        The scenario's domain.
+    visible : ndarray of shape (S,) of bool
+        The states L can see.
+    degree : float
+        The observability ``visible`` was made at, for the messages.
+
+    Raises
+    ------
+    UsageError
+        If L sees no state at all yet ``obs`` has rows.
+    """
     import numpy as np  # here: building the command line loads no numpy
 
     outside = ~np.asarray(visible, dtype=bool)[obs.states(domain)]
@@ -200,7 +312,20 @@ def check_visible(path, obs, domain, visible: np.ndarray, degree: float) -> None
 
 
 def feature_trials(counts) -> dict[str, int]:
-    """Observed trials behind each feature: the trials of every subset that contains it."""
+    """Observed trials behind each feature: the trials of every subset that contains it.
+
+    Parameters
+    ----------
+    counts : SubsetCounts
+        A transition-feature learner's pooled counts
+        (:class:`~mirl.learning.transitions.SubsetCounts`: its ``subsets`` and their
+        ``trials``).
+
+    Returns
+    -------
+    dict of str to int
+        Per feature, its trials.
+    """
     out: dict[str, int] = {}
     for subset, n in zip(counts.subsets, counts.trials, strict=True):
         for f in subset:
@@ -209,7 +334,20 @@ def feature_trials(counts) -> dict[str, int]:
 
 
 def unique_lowest(probs: Mapping[str, float], tol: float = 1e-6) -> str | None:
-    """The feature with the single lowest probability; None on a tie (no damaged-part guess)."""
+    """The feature with the single lowest probability; None on a tie (no damaged-part guess).
+
+    Parameters
+    ----------
+    probs : mapping of str to float
+        Per feature, its learned success probability.
+    tol : float, default 1e-6
+        Probabilities closer than this to the lowest tie with it.
+
+    Returns
+    -------
+    str or None
+        The feature's name, or None if ``probs`` is empty or the lowest ties.
+    """
     ranked = sorted(probs.items(), key=lambda kv: kv[1])
     if not ranked or (len(ranked) > 1 and ranked[1][1] - ranked[0][1] <= tol):
         return None

@@ -29,6 +29,7 @@ from mirl.cli.checks import (
 from mirl.cli.flags import parse_damage, parse_same_frame, parse_topic
 from mirl.experiments.options import RunProtocol, SweepOptions
 from mirl.learning.options import LearnOptions
+from mirl.world.actions import HEADING_NAMES
 from mirl.worlds import DEFAULT_WORLD, WorldSpec, get_world
 
 __all__ = ["COMMANDS", "UsageError", "print_json"]
@@ -171,11 +172,10 @@ def _scenario_summary(scenario, routes) -> list[str]:
     for what, cell in (("start", scenario.observer_start), ("goal", scenario.goal)):
         x, y = f.cell_centre(*cell)
         lines.append(f"  L's {what}: cell {tuple(cell)}, x = {float(x):g}, y = {float(y):g} m")
-    headings = ("east", "north", "west", "south")
     for robot, (name, route) in zip(scenario.robots, routes.items(), strict=True):
         r, c, h = robot.start
         lines.append(
-            f"  {name}: starts on cell ({r}, {c}) facing {headings[h]}; its true policy "
+            f"  {name}: starts on cell ({r}, {c}) facing {HEADING_NAMES[h]}; its true policy "
             f"covers {len({tuple(x) for x in route.tolist()})} cells"
         )
     return lines
@@ -339,11 +339,11 @@ def _nothing_placed(report) -> str:
 
 @command("learn-transitions")
 def _learn_transitions(args: argparse.Namespace) -> int:
+    from mirl.learning.options import LABELLINGS
     from mirl.learning.transitions import (
         TransitionFeatureLearner,
         observed_steps,
         perception_labels,
-        policy_labels,
     )
 
     scenario = _load_scenario(args)
@@ -351,15 +351,11 @@ def _learn_transitions(args: argparse.Namespace) -> int:
     obs = _read_observations(args, scenario).trajectories
     check_observations(args.observations, obs, domain)
     series = [obs.state_series(domain, i) for i in range(len(scenario.robots))]
-    if args.labels == "true-policy":
-        # Known R/T setting: the scenario's true policies and played equilibrium label the steps
-        policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
-        labels = policy_labels(domain, series, policies, scenario.played_equilibrium)
+    labels = LABELLINGS[args.labels].load()(scenario, series)
     learned = {}
     for i, name in enumerate(scenario.robot_names):
         t, s, s_next = observed_steps(series[i])
-        a = labels[i][t] if args.labels == "true-policy" else perception_labels(domain, s, s_next)
-        a = a.copy()
+        a = labels[i][t].copy()
         a[perception_labels(domain, s, s_next) < 0] = -1  # no trial of any part
         learned[name] = TransitionFeatureLearner(domain, scenario.error_model).fit(s, a, s_next)
     if args.json:
@@ -405,13 +401,16 @@ def _experiment(args: argparse.Namespace) -> int:
     suffix = "" if options.world == DEFAULT_WORLD else f"-{options.world}"
     out = args.out or f"results/{exp.name}{suffix}"
     summary = run_experiment(exp, out, options)
-    from mirl.viz.report import write_report
+    from mirl.viz.report import write_report_and_figures
 
-    report = write_report(out)
-    print(
-        f"wrote {out}/results.sqlite, {out}/results.csv, {report} and the figures in "
-        f"{out}/figures/ (`mirl report {out}` redraws them)"
+    written = write_report_and_figures(out)
+    figures = (
+        f" and {len(written.figures)} figure files in {out}/figures/ (`mirl report {out}` "
+        "redraws them)"
+        if written.figures
+        else " (no figures: the experiment has none to draw)"
     )
+    print(f"wrote {out}/results.sqlite, {out}/results.csv, {written.report}{figures}")
     return 1 if summary.outcomes.get("error") else 0
 
 
@@ -559,4 +558,11 @@ def _options(args: argparse.Namespace, options: type[OptionsT]) -> OptionsT:
 
 
 def print_json(obj) -> None:
+    """Print ``obj`` as indented JSON, its keys in the order given.
+
+    Parameters
+    ----------
+    obj : object
+        Anything :func:`json.dumps` writes (the records' ``to_dict()``).
+    """
     print(json.dumps(obj, indent=2, sort_keys=False))

@@ -41,36 +41,88 @@ MAX_STEPS = 1_000_000  # `simulate --steps`: the record is 2 x 3 int64 per step 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
     """Defaults in help; a switch's is "off" (its option's value is the flag's opposite when
-    the flag turns a default of True over, as ``--learn-once`` does ``relearn``)."""
+    the flag turns a default of True over, as ``--learn-once`` does ``relearn``); a flag left
+    out by default shows none (its help says what leaving it out means: "None: 0.9")."""
 
     def _get_help_string(self, action: argparse.Action) -> str | None:
         if isinstance(action, argparse._StoreTrueAction | argparse._StoreFalseAction):
             return f"{action.help} (default: off)"
+        if action.default is None:
+            return action.help
         return super()._get_help_string(action)
 
 
 class OneLineParser(argparse.ArgumentParser):
     """An ArgumentParser that shows defaults in help and reports a bad flag in one line naming
-    its sub-command: an unknown flag or an unknown choice with the nearest known ones."""
+    its sub-command: an unknown flag or an unknown choice with the nearest known ones.
+
+    Parameters
+    ----------
+    *args : tuple
+        :class:`argparse.ArgumentParser`'s positional arguments.
+    **kwargs : dict
+        Its keyword arguments; ``formatter_class`` defaults to one that shows each flag's
+        default in its help (a switch's as "off").
+    """
 
     def __init__(self, *args, **kwargs) -> None:
         kwargs.setdefault("formatter_class", _HelpFormatter)
         super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
+        """Refuse the command line in one line naming this parser's command, exit code 2.
+
+        Parameters
+        ----------
+        message : str
+            The message argparse gives (its whitespace folded into one line); one that
+            suggests no name gets a pointer to ``--help``.
+
+        Raises
+        ------
+        SystemExit
+            Always, with status 2.
+        """
         msg = " ".join(message.split())
         if "did you mean" not in msg and "known: " not in msg:
             msg += f" (see {self.prog} --help)"
         self.exit(2, f"{self.prog}: error: {msg}\n")
 
     def exit(self, status: int = 0, message: str | None = None) -> NoReturn:
+        """Write ``message`` to stderr and exit with ``status``.
+
+        Parameters
+        ----------
+        status : int, default 0
+            The exit code.
+        message : str, optional
+            What to write first (nothing if None).
+
+        Raises
+        ------
+        SystemExit
+            Always, with ``status``.
+        """
         if message:
             sys.stderr.write(message)
         raise SystemExit(status)
 
     def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> Any:  # type: ignore[override]
         """As argparse's, but an unrecognised argument is refused by the sub-command it was
-        given to, with the nearest of its flags."""
+        given to, with the nearest of its flags.
+
+        Parameters
+        ----------
+        args : sequence of str, optional
+            The arguments (``sys.argv[1:]`` if None).
+        namespace : argparse.Namespace, optional
+            Where to put the values (a new one if None).
+
+        Returns
+        -------
+        argparse.Namespace
+            The parsed flags and arguments.
+        """
         parsed, extra = self.parse_known_args(args, namespace)
         if extra:
             parser = self._chosen(parsed)
@@ -87,7 +139,19 @@ class OneLineParser(argparse.ArgumentParser):
         return self
 
     def unrecognized(self, extra: list[str]) -> str:
-        """The refusal of the first unrecognised argument, with this parser's nearest flags."""
+        """The refusal of the first unrecognised argument, with this parser's nearest flags.
+
+        Parameters
+        ----------
+        extra : list of str
+            The arguments no flag took; the first that looks like a flag is refused (else the
+            first).
+
+        Returns
+        -------
+        str
+            ``unrecognized argument --sead (did you mean --seed?)``.
+        """
         first = next((a for a in extra if a.startswith("-")), extra[0])
         flag = first.split("=", 1)[0]
         known = [s for a in self._actions for s in a.option_strings if s.startswith("--")]
@@ -104,15 +168,56 @@ class OneLineParser(argparse.ArgumentParser):
 
 def constrained(*constraints: Constraint) -> Any:
     """An argparse type: text converted and checked against ``constraints`` (one line naming
-    the requirement, as the option types' errors do)."""
+    the requirement, as the option types' errors do).
+
+    Parameters
+    ----------
+    *constraints : Constraint
+        What the value must satisfy (one of them), as an option's declaration states it
+        (:class:`~mirl._validation.Interval`, …).
+
+    Returns
+    -------
+    callable
+        ``parse(text)``, the flag's value or :class:`argparse.ArgumentTypeError`.
+    """
     return spec_type(Spec(None, constraints, doc=""))
 
 
 def spec_type(spec: Spec) -> Any:
     """The argparse type of an option's flag: its text parsed and checked by the option's
-    declaration (:meth:`mirl._validation.Spec.parse`)."""
+    declaration (:meth:`mirl._validation.Spec.parse`).
+
+    Parameters
+    ----------
+    spec : Spec
+        The option's declaration.
+
+    Returns
+    -------
+    callable
+        ``parse(text)``, the flag's value or :class:`argparse.ArgumentTypeError`; its
+        ``__name__`` is the requirement, which argparse shows in its message.
+    """
 
     def parse(text: str) -> Any:
+        """Parse a flag's text and check it against its declaration.
+
+        Parameters
+        ----------
+        text : str
+            The flag's value as typed.
+
+        Returns
+        -------
+        object
+            The value, converted.
+
+        Raises
+        ------
+        argparse.ArgumentTypeError
+            If the text is not a value the declaration allows (its sentence).
+        """
         try:
             return spec.parse(text)
         except OptionError as exc:
@@ -123,7 +228,18 @@ def spec_type(spec: Spec) -> Any:
 
 
 def bounded_int(low: int, high: int) -> Any:
-    """An argparse type: an integer in [low, high]."""
+    """An argparse type: an integer in [low, high].
+
+    Parameters
+    ----------
+    low, high : int
+        The bounds, both allowed.
+
+    Returns
+    -------
+    callable
+        ``parse(text)``, the integer or :class:`argparse.ArgumentTypeError`.
+    """
     return constrained(Interval(int, low, high))
 
 
@@ -142,9 +258,39 @@ def _float(text: str) -> float:
 
 
 def float_at_least(low: float, *, strict: bool):
-    """An argparse type: a finite number > ``low`` (``strict``) or >= ``low``."""
+    """An argparse type: a finite number > ``low`` (``strict``) or >= ``low``.
+
+    Parameters
+    ----------
+    low : float
+        The bound (``-inf``: any finite number).
+    strict : bool
+        Whether ``low`` itself is refused.
+
+    Returns
+    -------
+    callable
+        ``parse(text)``, the number or :class:`argparse.ArgumentTypeError`.
+    """
 
     def parse(text: str) -> float:
+        """Parse a flag's text as a finite number beyond its bound.
+
+        Parameters
+        ----------
+        text : str
+            The flag's value as typed.
+
+        Returns
+        -------
+        float
+            The number.
+
+        Raises
+        ------
+        argparse.ArgumentTypeError
+            If the text is not a number, is NaN or infinite, or is not beyond the bound.
+        """
         v = _float(text)
         if not (v < float("inf") and (v > low if strict else v >= low)):
             what = "non-negative" if not strict else "positive" if low == 0.0 else "finite"
@@ -160,9 +306,39 @@ non_negative_float = float_at_least(0.0, strict=False)
 
 
 def float_between(low: float, high: float, unit: str = ""):
-    """An argparse type: a number in [low, high] (the limits stated in the refusal)."""
+    """An argparse type: a number in [low, high] (the limits stated in the refusal).
+
+    Parameters
+    ----------
+    low, high : float
+        The bounds, both allowed.
+    unit : str, default ""
+        The unit written after the bounds in the refusal (``" s"``).
+
+    Returns
+    -------
+    callable
+        ``parse(text)``, the number or :class:`argparse.ArgumentTypeError`.
+    """
 
     def parse(text: str) -> float:
+        """Parse a flag's text as a number within its bounds.
+
+        Parameters
+        ----------
+        text : str
+            The flag's value as typed.
+
+        Returns
+        -------
+        float
+            The number.
+
+        Raises
+        ------
+        argparse.ArgumentTypeError
+            If the text is not a number or lies outside the bounds.
+        """
         v = _float(text)
         if not low <= v <= high:
             raise argparse.ArgumentTypeError(
@@ -180,7 +356,23 @@ step_seconds = float_between(0.001, 3600.0, " s")
 
 
 def step_seconds_or_auto(text: str):
-    """An argparse type: seconds per time step, or ``auto`` (the robots' own pace)."""
+    """An argparse type: seconds per time step, or ``auto`` (the robots' own pace).
+
+    Parameters
+    ----------
+    text : str
+        The flag's value as typed.
+
+    Returns
+    -------
+    float or str
+        The seconds, or ``"auto"``.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If the text is neither ``auto`` nor a number of seconds within the limits.
+    """
     if text.strip().lower() == "auto":
         return "auto"
     try:
@@ -195,7 +387,23 @@ _SIZE_UNITS = {"": 1, "B": 1, "K": 2**10, "KB": 2**10, "M": 2**20, "MB": 2**20, 
 
 def memory_size(text: str) -> int:
     """An argparse type: a memory size, ``4G``, ``500MB``, ``1.5 GB`` (binary units; no unit:
-    bytes), at least 64 MB (less than the interpreter with numpy alone)."""
+    bytes), at least 64 MB (less than the interpreter with numpy alone).
+
+    Parameters
+    ----------
+    text : str
+        The flag's value as typed.
+
+    Returns
+    -------
+    int
+        Bytes.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If the text is not a size or is under 64 MB.
+    """
     m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+)\s*([A-Za-z]*)\s*", text)
     unit = m.group(2).upper() if m else ""
     if m is None or unit not in _SIZE_UNITS:

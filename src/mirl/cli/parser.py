@@ -9,6 +9,7 @@ default and its help. The tables (methods, worlds, experiments, go rules) give t
 from __future__ import annotations
 
 import argparse
+from functools import partial
 from typing import Any
 
 from mirl._validation import Boolean, Options
@@ -30,7 +31,7 @@ from mirl.cli.flags import (
 )
 from mirl.experiments.options import RunProtocol, SweepOptions
 from mirl.learning.methods import LEARNING_METHODS, METHODS
-from mirl.learning.options import DEFAULT_P, EM_INITS, LearnOptions
+from mirl.learning.options import DEFAULT_P, EM_INITS, LABELLINGS, LearnOptions
 from mirl.world.actions import STEP_SECONDS
 from mirl.worlds import WORLDS
 
@@ -97,11 +98,11 @@ def _learn_parser(sub) -> None:
         default="mirl-t",
         help="learning method (mirl-t is the paper's mIRL*/T+Int; see README 'Methods')",
     )
-    _p_arg(le)
     _observability_arg(le, "degree the observations were taken at (default: the scenario's)")
-    for name in ("max_iterations", "label_tol", "objective", "optimizer"):
-        _option(le, LearnOptions, name)
-    _em_init_arg(le)
+    # every option of learning that has a flag is a flag of learn: a new one needs no line here
+    for name, spec in LearnOptions.__options__.items():
+        if spec.flag is not None:
+            {"p": _p_arg, "em_init": _em_init_arg}.get(name, partial(_learn_option, name=name))(le)
     _max_memory_arg(le)
     le.add_argument(
         "--compare",
@@ -163,6 +164,15 @@ def _run_parser(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``mirl`` command's parser, every sub-command's flags built from the tables and the
+    option types (it imports neither numpy nor scipy).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        A :class:`~mirl.cli.flags.OneLineParser`; ``parse_args`` puts the sub-command's name
+        in ``command``.
+    """
     p = OneLineParser(
         prog="mirl",
         description="Learn other robots' rewards, policies and faulty motion under occlusion.",
@@ -249,6 +259,10 @@ def _protocol_args(sp: argparse.ArgumentParser) -> None:
         help=f"learn once after observing, as published (default: re-learn while waiting, "
         f"whenever the record has grown {growth:g}x)",
     )  # fmt: skip
+
+
+def _learn_option(sp: argparse.ArgumentParser, *, name: str) -> None:
+    _option(sp, LearnOptions, name)
 
 
 def _p_arg(sp: argparse.ArgumentParser) -> None:
@@ -442,9 +456,10 @@ def _data_parsers(sub) -> None:
     _observation_args(lt)
     lt.add_argument(
         "--labels",
-        choices=("true-policy", "perception"),
+        choices=tuple(LABELLINGS),
         default="true-policy",
-        help="label observed steps with the true policy (Known R/T) or by perception",
+        help="how observed steps are labelled with actions: "
+        + "; ".join(f"{r.name}: {r.description}" for r in LABELLINGS.values()),
     )
     lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
     cv = sub.add_parser(

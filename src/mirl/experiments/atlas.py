@@ -105,17 +105,34 @@ class DesignPoint(Protocol):
     """What a run reads of its :class:`~mirl.experiments.conditions.Condition`."""
 
     @property
-    def world(self) -> str: ...
+    def world(self) -> str:
+        """The world's name."""
+        ...
+
     @property
-    def scenario(self) -> str: ...
+    def scenario(self) -> str:
+        """The shipped scenario's name."""
+        ...
+
     @property
-    def observability(self) -> float: ...
+    def observability(self) -> float:
+        """L's view: the share of the hallway it sees."""
+        ...
+
     @property
-    def obs_steps(self) -> int: ...
+    def obs_steps(self) -> int:
+        """The record's length in steps."""
+        ...
+
     @property
-    def damage(self) -> str | None: ...
+    def damage(self) -> str | None:
+        """The point's faults (:func:`format_damage`)."""
+        ...
+
     @property
-    def key(self) -> str: ...
+    def key(self) -> str:
+        """The point's identity (it seeds the run's simulations)."""
+        ...
 
 
 # ---------------------------------------------------------------------------------------------
@@ -124,8 +141,17 @@ class DesignPoint(Protocol):
 
 @dataclass(frozen=True)
 class AtlasFault:
-    """One damaged part of a design point: ``robot``'s ``feature`` at ``value`` (a success
-    probability on the grid, a motor strength in the physical world)."""
+    """One damaged part of a design point: ``robot``'s ``feature`` at ``value``.
+
+    Parameters
+    ----------
+    robot : str
+        The robot's name.
+    feature : str
+        The damaged part (a wheel).
+    value : float
+        Its value: a success probability on the grid, a motor strength in the physical world.
+    """
 
     robot: str
     feature: str
@@ -139,12 +165,39 @@ class AtlasFault:
 
 def format_damage(faults: Sequence[AtlasFault]) -> str:
     """A condition's ``damage`` field: the faults' ``--damage`` values joined by commas, or
-    ``"none"`` (every part healthy, the scenario's own damage included)."""
+    ``"none"`` (every part healthy, the scenario's own damage included).
+
+    Parameters
+    ----------
+    faults : sequence of AtlasFault
+        The point's faults.
+
+    Returns
+    -------
+    str
+        ``"J:left_wheel=0.6,K:right_wheel=0.6"``, or ``"none"``.
+    """
     return ",".join(f.flag for f in faults) or NO_DAMAGE
 
 
 def parse_damage(damage: str | None) -> tuple[AtlasFault, ...]:
-    """The faults of a condition's ``damage`` field (:func:`format_damage`'s inverse)."""
+    """The faults of a condition's ``damage`` field (:func:`format_damage`'s inverse).
+
+    Parameters
+    ----------
+    damage : str or None
+        The field; None and ``"none"`` are no fault.
+
+    Returns
+    -------
+    tuple of AtlasFault
+        The faults, in the field's order.
+
+    Raises
+    ------
+    ValueError
+        If an item is not ``ROBOT:FEATURE=VALUE``.
+    """
     if damage is None or damage == NO_DAMAGE:
         return ()
     out = []
@@ -158,7 +211,18 @@ def parse_damage(damage: str | None) -> tuple[AtlasFault, ...]:
 
 
 def fault_kind(faults: Sequence[AtlasFault]) -> str:
-    """Which of :data:`FAULT_KINDS` ``faults`` are."""
+    """Which of :data:`FAULT_KINDS` ``faults`` are.
+
+    Parameters
+    ----------
+    faults : sequence of AtlasFault
+        A point's faults.
+
+    Returns
+    -------
+    str
+        ``"none"``, ``"one wheel"``, ``"two robots"`` or ``"two wheels"``.
+    """
     robots = {f.robot for f in faults}
     if not faults:
         return "none"
@@ -292,7 +356,22 @@ def damage_flags(world: str, scenario: Scenario, faults: Sequence[AtlasFault]) -
     """The ``--damage`` values that make ``scenario`` the design point's: the scenario's own
     damaged parts healed (:func:`_healthy_value`), then ``faults``. The atlas states all of a
     point's damage, so a scenario that ships with a damaged wheel (boydright's J on the grid)
-    counts as healthy with no fault."""
+    counts as healthy with no fault.
+
+    Parameters
+    ----------
+    world : str
+        The world's name.
+    scenario : Scenario
+        The shipped scenario.
+    faults : sequence of AtlasFault
+        The point's faults.
+
+    Returns
+    -------
+    list of str
+        ``--damage`` values (``ROBOT:FEATURE=VALUE``), the heals first.
+    """
     named = {(f.robot, f.feature) for f in faults}
     heal = [
         AtlasFault(robot, part, _healthy_value(world, scenario, robot, part))
@@ -319,7 +398,20 @@ def _healthy_value(world: str, scenario: Scenario, robot: str, part: str) -> flo
 def damaged_truth(world: str, scenario: Scenario) -> dict[str, tuple[str, ...]]:
     """Per robot, the parts really damaged in ``world``: the one definition the atlas scores
     against, the world's own (:meth:`~mirl.worlds.contract.World.damaged_parts`;
-    docs/design.md, "Fault verdicts")."""
+    docs/design.md, "Fault verdicts").
+
+    Parameters
+    ----------
+    world : str
+        The world's name.
+    scenario : Scenario
+        The scenario, damaged as the run's.
+
+    Returns
+    -------
+    dict of str to tuple of str
+        Per robot, its damaged parts (empty: healthy).
+    """
     from mirl.worlds import get_world
 
     return get_world(world).load().damaged_parts(scenario)
@@ -345,7 +437,24 @@ def run_commands(
 ) -> dict[str, list[str]]:
     """The ``mirl`` argument lists of one run, by step: ``simulate`` (the grid CSV and the pose
     CSV), ``simulate-mcap`` (the same simulation into an MCAP file) and ``learn.PATH`` per
-    :data:`DATA_PATHS` key. Files are named relative to the run's directory."""
+    :data:`DATA_PATHS` key. Files are named relative to the run's directory.
+
+    Parameters
+    ----------
+    condition : DesignPoint
+        The design point.
+    sim_seed : int
+        The simulations' ``--seed`` (:func:`simulation_seed`).
+    flags : sequence of str
+        The ``--damage`` values (:func:`damage_flags`).
+    robots : sequence of str
+        The scenario's robots (each an MCAP topic ``/R/pose``).
+
+    Returns
+    -------
+    dict of str to list of str
+        The argument lists after ``mirl``, by step.
+    """
     from mirl.worlds import get_world
 
     c = condition
@@ -417,7 +526,20 @@ def _checked(step: str, argv: Sequence[str], done: _Finished) -> None:
 
 def simulation_seed(seed: int, condition: DesignPoint) -> int:
     """The ``--seed`` of a run's simulations: a function of the run's seed and its design
-    point, so that points differing only in their length or fault do not replay one patrol."""
+    point, so that points differing only in their length or fault do not replay one patrol.
+
+    Parameters
+    ----------
+    seed : int
+        The run's seed.
+    condition : DesignPoint
+        The design point (its key).
+
+    Returns
+    -------
+    int
+        A non-negative 63-bit seed.
+    """
     ss = np.random.SeedSequence([seed, zlib.crc32(condition.key.encode())])
     return int(ss.generate_state(1, np.uint64)[0] >> np.uint64(1))
 
@@ -430,6 +552,23 @@ def atlas_run(condition: DesignPoint, seed: int) -> dict[str, Any]:
 
     A ``mirl learn`` that refuses its file (exit 2: a user's one-line error, such as a robot
     never seen) is recorded as ``refused.PATH`` with its message; any other failure raises.
+
+    Parameters
+    ----------
+    condition : DesignPoint
+        The design point.
+    seed : int
+        The run's seed.
+
+    Returns
+    -------
+    dict
+        The result mapping (``outcome`` is ``"learned"``: there is no L to go).
+
+    Raises
+    ------
+    RuntimeError
+        If a simulation fails, or a ``mirl learn`` fails other than by refusing its file.
     """
     import tempfile
 
@@ -490,7 +629,22 @@ def verdict_metrics(
     against ``truth`` (:meth:`~mirl.learning.verdicts.Verdict.is_right`: it names a damaged
     part, or no part of a healthy robot), its model check (``fit.PATH.R``: ``"ok"`` or the
     reason it failed) where the verdict has one, and the observed moves no action explains
-    (``unexplained.PATH.R``) where the record counts them."""
+    (``unexplained.PATH.R``) where the record counts them.
+
+    Parameters
+    ----------
+    path : str
+        The data path's key (:data:`DATA_PATHS`).
+    record : mapping
+        ``mirl learn --json``'s output, parsed.
+    truth : mapping of str to sequence of str
+        Per robot, its damaged parts (:func:`damaged_truth`).
+
+    Returns
+    -------
+    dict
+        The metrics, by ``KIND.PATH.ROBOT``.
+    """
     from mirl.learning.verdicts import Verdict
 
     out: dict[str, Any] = {}

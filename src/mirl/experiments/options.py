@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from importlib import import_module
 from typing import Any
 
-from mirl._registry import Registry
+from mirl._registry import Registry, Strategy, check_entry_point
 from mirl._validation import (
     SEED,
     Boolean,
@@ -31,6 +31,7 @@ from mirl._validation import (
     same_option,
 )
 from mirl.learning.options import LearnOptions
+from mirl.world.actions import STEP_SECONDS
 from mirl.worlds import DEFAULT_WORLD, WORLDS
 
 __all__ = [
@@ -59,8 +60,9 @@ MIN_TRAVEL = 20
 
 
 @dataclass(frozen=True)
-class GoRule:
-    """One row of the table of go rules.
+class GoRule(Strategy):
+    """One row of the table of go rules; ``load()`` gives its strategy class, a
+    :class:`~mirl.experiments.go_rules.GoRuleStrategy`.
 
     Parameters
     ----------
@@ -72,21 +74,6 @@ class GoRule:
         Its strategy's class, ``"module:Class"`` (in :mod:`mirl.experiments.go_rules`),
         imported when a run uses it.
     """
-
-    name: str
-    description: str
-    entry_point: str
-
-    def load(self) -> Any:
-        """The rule's strategy class.
-
-        Returns
-        -------
-        type
-            A :class:`~mirl.experiments.go_rules.GoRuleStrategy` class.
-        """
-        module, _, attr = self.entry_point.partition(":")
-        return getattr(import_module(module), attr)
 
 
 GO_RULES: Registry[GoRule] = Registry(
@@ -104,6 +91,7 @@ GO_RULES: Registry[GoRule] = Registry(
             "mirl.experiments.go_rules:ValueRule",
         ),
     ),
+    check=lambda rule: check_entry_point(rule.entry_point, f"go rule '{rule.name}': entry point"),
 )
 """How L decides to go, by name (docs/design.md, "The go rule")."""
 
@@ -189,7 +177,7 @@ class RunProtocol(Options):
 
     obs_steps: int = option(
         Interval(int, 1, MAX_OBS_STEPS), default=300,
-        doc="steps L observes before it first learns, 2 s each",
+        doc=f"steps L observes before it first learns, {STEP_SECONDS:g} s each",
         flag="--obs-steps", metavar="N",
     )  # fmt: skip
     watch_until_seen: int | None = option(

@@ -8,15 +8,24 @@ import numpy as np
 from mirl.experiments.records import RunResult
 from mirl.learning.methods import METHODS
 from mirl.learning.verdicts import estimate_disagrees
-from mirl.world.actions import STEP_SECONDS
+from mirl.world.actions import HEADING_NAMES, STEP_SECONDS
 from mirl.world.game import GAME_ACTIONS, Equilibrium
 from mirl.world.scenario import Scenario
 
-HEADING_NAMES = ("east", "north", "west", "south")  # heading 0-3 (the map's x east, y north)
-
 
 def state_text(state) -> str:
-    """A patroller state (row, col, heading) in words: ``(16, 8) facing west``."""
+    """A patroller state (row, col, heading) in words: ``(16, 8) facing west``.
+
+    Parameters
+    ----------
+    state : sequence of int
+        (row, col, heading), a heading an index into the domain's headings.
+
+    Returns
+    -------
+    str
+        The state in words.
+    """
     r, c, h = (int(x) for x in state)
     return f"({r}, {c}) facing {HEADING_NAMES[h]}"
 
@@ -96,7 +105,22 @@ def _equilibrium_lines(learned, names: list[str]) -> list[str]:
 
 # ---- the readable report of `mirl run` -------------------------------------------------------
 def policy_cycle(domain, policy: np.ndarray, start: int) -> np.ndarray:
-    """States of the loop that ``policy`` settles into from ``start`` under intended outcomes."""
+    """States of the loop that ``policy`` settles into from ``start`` under intended outcomes.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain (its intended next states).
+    policy : ndarray of shape (S,) of int
+        A deterministic policy.
+    start : int
+        The state to start from.
+
+    Returns
+    -------
+    ndarray of int
+        The loop's states in order, from where the walk first met it.
+    """
     s = int(start)
     for _ in range(domain.n_states):  # walk long enough to be on the loop
         s = int(domain.intended[s, policy[s]])
@@ -121,9 +145,11 @@ def _turn_cells(domain, cycle: np.ndarray) -> list[tuple[int, int]]:
 
 
 def _truth(scenario: Scenario, result: RunResult) -> str:
-    """What is really damaged: in the grid world the scenario's success probabilities below 0.9;
-    in the physics world the motor strengths the robots drive with (the grid probabilities are
-    then only what the scenario would mean on the grid, not what L watches)."""
+    """What is really damaged: in the grid world the success probabilities the scenario's
+    definition of damage (``[faults]``, the one the verdicts are held against) counts as
+    damaged; in the physics world the motor strengths the robots drive with (the grid
+    probabilities are then only what the scenario would mean on the grid, not what L
+    watches)."""
     world_truth = result.extras.truth() if result.extras is not None else None
     if world_truth is not None:
         return world_truth
@@ -131,7 +157,7 @@ def _truth(scenario: Scenario, result: RunResult) -> str:
         f"{r.name}:{f}={p:g}"
         for r in scenario.robots
         for f, p in r.feature_probabilities.items()
-        if p < 0.9
+        if scenario.faults.damaged(f, p)
     ]
     return f"truth: {', '.join(damaged) or 'no damage'}"
 
@@ -226,7 +252,20 @@ def _relearn_lines(result: RunResult) -> list[str]:
 
 
 def format_report(scenario: Scenario, result: RunResult) -> str:
-    """The short readable report printed by ``mirl run``."""
+    """The short readable report printed by ``mirl run``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The run's scenario, as run (its damage applied).
+    result : RunResult
+        The run.
+
+    Returns
+    -------
+    str
+        The report's lines, joined (the timings' line last).
+    """
     dom = scenario.domain
     paper, meaning = METHODS[result.method].paper_name, METHODS[result.method].description
     n_vis = int(scenario.map.visible_mask(result.observability).sum())
@@ -237,7 +276,8 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         _wrapped(
             f"{result.method} ({paper} in the paper's figures): {meaning}. L hides in its room at "
             f"{scenario.observer_start} and wants to reach {scenario.goal} unseen; cells "
-            "are (row, col), a patroller's state is its cell and the way it faces; a step is 2 s."
+            "are (row, col), a patroller's state is its cell and the way it faces; a step is "
+            f"{STEP_SECONDS:g} s."
         ),
         "",
         _observed_line(result),

@@ -83,6 +83,28 @@ def run_version(cond: Condition) -> str:
 
 @dataclass
 class Summary:
+    """What one invocation of a sweep did; :meth:`line` says it in one line.
+
+    Parameters
+    ----------
+    experiment : str
+        The experiment's name.
+    out_dir : Path
+        Its results directory.
+    planned : int
+        The (condition, run) pairs of the grid: conditions × runs.
+    already_done : int
+        Those finished before this invocation.
+    finished : int
+        Those finished in this invocation.
+    wall_seconds : float
+        This invocation's wall time.
+    workers : int
+        Its worker processes.
+    outcomes : dict of str to int, default {}
+        This invocation's runs per outcome.
+    """
+
     experiment: str
     out_dir: Path
     planned: int  # conditions × runs
@@ -94,9 +116,17 @@ class Summary:
 
     @property
     def runs_per_minute(self) -> float:
+        """This invocation's throughput (0 if it took no time)."""
         return 60.0 * self.finished / self.wall_seconds if self.wall_seconds > 0 else 0.0
 
     def line(self) -> str:
+        """The summary as ``mirl experiment`` prints it.
+
+        Returns
+        -------
+        str
+            Runs, wall time, workers, throughput, progress and outcomes, in one line.
+        """
         counts = ", ".join(f"{k} {v}" for k, v in sorted(self.outcomes.items()))
         return (
             f"{self.experiment}: {self.finished} runs in {self.wall_seconds / 60:.1f} min on "
@@ -278,7 +308,19 @@ def _hms(seconds: float) -> str:
 
 
 def conditions_of(rows: Iterable[Mapping[str, Any]]) -> list[Condition]:
-    """Distinct conditions of stored rows, in first-seen order."""
+    """Distinct conditions of stored rows, in first-seen order.
+
+    Parameters
+    ----------
+    rows : iterable of mapping
+        Stored runs (:meth:`~mirl.experiments.store.ResultStore.rows`), each with its
+        ``condition_key``.
+
+    Returns
+    -------
+    list of Condition
+        One per distinct key.
+    """
     seen: dict[str, Condition] = {}
     for r in rows:
         seen.setdefault(r["condition_key"], Condition.from_key(r["condition_key"]))

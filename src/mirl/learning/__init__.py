@@ -40,6 +40,7 @@ _EXPORTS = {
     "RobotModel": "mirl.learning.results",
     "behavior_accuracy": "mirl.learning.results",
     "oracle_models": "mirl.learning.results",
+    "IRLProblem": "mirl.learning.irl",
     "OccludedMaxEntIRL": "mirl.learning.irl",
     "TransitionFeatureLearner": "mirl.learning.transitions",
     "solve_feature_probabilities": "mirl.learning.feature_solver",
@@ -62,6 +63,7 @@ __all__ = [
     "RobotModel",
     "behavior_accuracy",
     "oracle_models",
+    "IRLProblem",
     "OccludedMaxEntIRL",
     "TransitionFeatureLearner",
     "solve_feature_probabilities",
@@ -96,7 +98,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
         weigh_team_equilibria,
     )
     from mirl.learning.feature_solver import FeatureSolveResult, solve_feature_probabilities
-    from mirl.learning.irl import OccludedMaxEntIRL
+    from mirl.learning.irl import IRLProblem, OccludedMaxEntIRL
     from mirl.learning.learn import LoopTrace
     from mirl.learning.results import LearnResult, RobotModel, behavior_accuracy, oracle_models
     from mirl.learning.transitions import TransitionFeatureLearner

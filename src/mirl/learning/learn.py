@@ -73,7 +73,7 @@ from mirl.learning.equilibria import (
     potential_meetings,
     weigh_team_equilibria,
 )
-from mirl.learning.irl import OccludedMaxEntIRL
+from mirl.learning.irl import IRLProblem, OccludedMaxEntIRL
 from mirl.learning.methods import (
     LEARNING_METHODS,
     REWARD_SOURCES,
@@ -92,7 +92,7 @@ from mirl.learning.results import LearnResult, RobotModel, behavior_accuracy, or
 from mirl.learning.transitions import (
     TransitionFeatureLearner,
     observed_steps,
-    perception_labels,
+    perceived_labels,
     policy_labels,
 )
 from mirl.learning.verdicts import FeatureUncertainty, robot_record, robot_uncertainty
@@ -424,12 +424,35 @@ def _checked_visible(visible, n_states: int) -> np.ndarray:
 def relabel_loop(
     setup: RoundSetup, max_iterations: int, trace: LoopTrace, label_tol: float
 ) -> tuple[list[np.ndarray], list[sp.csr_array], list[dict[str, float]], Equilibrium]:
-    """The relabelling rounds (module docstring, steps 1–4); returns weights, T, feature
-    probabilities and the best equilibrium of the last round.
+    """The relabelling rounds (module docstring, steps 1–4).
 
     The loop ends when a relabelling changes at most ``label_tol`` of the labelled steps
     (converged), when it reproduces the labels of an earlier round (a cycle: the labels will
-    never fixate), or after ``max_iterations``."""
+    never fixate), or after ``max_iterations``.
+
+    Parameters
+    ----------
+    setup : RoundSetup
+        What every round reads: the scenario, the robots' series, L's view, the IRL's options.
+    max_iterations : int
+        Rounds at most.
+    trace : LoopTrace
+        Filled in with each round's labels and changes, the last round's estimators and
+        policies, and why the loop ended.
+    label_tol : float
+        The share of the labelled steps a relabelling may change and still count as settled.
+
+    Returns
+    -------
+    weights : list of ndarray
+        Per robot the reward weights θ, (K,).
+    transitions : list of sparse array
+        Per robot T, (S·A, S) CSR.
+    feature_probabilities : list of dict of str to float
+        Per robot, per feature, the learned success probability.
+    equilibrium : Equilibrium
+        The best equilibrium of the last round.
+    """
     clock = setup.clock
     with clock("labels"):
         labels = perception(setup) if setup.warm_start is None else warm_labels(setup)
@@ -493,9 +516,30 @@ class Clock:
 
 @dataclass
 class LoopTrace:
-    """What happened in the learning rounds: labels used per round and per robot ((horizon,)
-    arrays, -1 where unobserved or unlabelled), labels changed by each relabelling, and the
-    IRL estimators and equilibrium weights of the last round."""
+    """What happened in the learning rounds, filled in by :func:`learn` when given one.
+
+    Parameters
+    ----------
+    labels : list of list of ndarray, default []
+        Per round, per robot the action labels used, (horizon,) arrays of int, -1 where
+        unobserved or unlabelled.
+    label_changes : list of int, default []
+        Labels changed by each relabelling.
+    irl : list of OccludedMaxEntIRL or None, default []
+        The last round's IRL estimator per robot (None: a robot L never saw).
+    equilibria : EquilibriumWeights, optional
+        The last round's equilibrium weights.
+    team_equilibria : TeamEquilibria, optional
+        The last round's weights per pair L saw meet (N ≥ 2).
+    policies : list of ndarray, default []
+        The last round's policy per robot, (S,) arrays of int.
+    converged : bool, default False
+        Whether the labels settled.
+    message : str, default ""
+        Why the rounds ended.
+    notes : set of str, default set()
+        Remarks for the report (a robot never observed, …).
+    """
 
     labels: list[list[np.ndarray]] = field(default_factory=list)
     label_changes: list[int] = field(default_factory=list)
@@ -611,13 +655,7 @@ def log_evidence(sure: list[FeatureUncertainty | None]) -> float:
 
 def perception(setup: RoundSetup) -> list[np.ndarray]:
     """Per robot (horizon,) perception labels of the steps with both ends observed, else -1."""
-    out = []
-    for x in setup.series:
-        lab = np.full(len(x), -1, dtype=int)
-        t, s, s_next = observed_steps(x)
-        lab[t] = perception_labels(setup.domain, s, s_next)
-        out.append(lab)
-    return out
+    return perceived_labels(setup.scenario, setup.series)
 
 
 def warm_labels(setup: RoundSetup) -> list[np.ndarray]:
@@ -685,14 +723,12 @@ def irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.nd
             options = dict(setup.irl_options)
             if init is not None:
                 options["n_restarts"] = 1
-            irl = OccludedMaxEntIRL(
-                d.reward_features,
-                T,
-                discount=setup.scenario.discount,
-                visible=setup.visible,
-                random_state=setup.robot_seed(i, round_),
-                **options,
-            ).fit(x, labels[i], exclude=setup.exclude, initial_weights=init)
+            problem = IRLProblem(
+                d.reward_features, T, discount=setup.scenario.discount, visible=setup.visible
+            )
+            irl = OccludedMaxEntIRL(random_state=setup.robot_seed(i, round_), **options).fit(
+                problem, x, labels[i], exclude=setup.exclude, initial_weights=init
+            )
             weights.append(irl.weights_)
             estimators.append(irl)
     # A robot L never saw gets the mean reward of those it saw — the patrollers are robots of one
@@ -713,7 +749,7 @@ def policies_of(setup: RoundSetup, transitions, weights, trace: LoopTrace) -> li
     irl = trace.irl + [None] * (len(weights) - len(trace.irl))  # none before the first IRL
     return [
         e.policy_
-        if e is not None and e.weights_ is w and e.transitions_source is T
+        if e is not None and e.weights_ is w and e.problem_.transitions is T
         else value_iteration(TabularMDP(T, setup.domain.rewards(w), setup.scenario.discount)).policy
         for e, T, w in zip(irl, transitions, weights, strict=True)
     ]

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any
 
-from mirl._registry import Registry
+from mirl._registry import Registry, Strategy, check_entry_point
 from mirl._validation import Instance, Interval, OneOf, Options, option
 from mirl.learning.methods import (
     METHODS,
@@ -27,18 +27,57 @@ from mirl.learning.methods import (
 __all__ = [
     "LearnOptions",
     "IRL_OBJECTIVES",
+    "Objective",
     "IRL_OPTIMIZERS",
     "Optimizer",
     "EM_INITS",
+    "LABELLINGS",
     "DEFAULT_P",
 ]
 
-IRL_OBJECTIVES = Registry.of_choices("objective", {
-    "counts": "the paper's: squared difference of feature counts on observed steps",
-    "likelihood": "log-likelihood of the observed labelled actions",
-    "both": "counts and likelihood added",
-    "sequence": "log-likelihood of everything L saw of the robot, occlusion included",
-})  # fmt: skip
+@dataclass(frozen=True)
+class Objective:
+    """What the IRL fits: the terms its loss adds up.
+
+    Parameters
+    ----------
+    name : str
+        What ``objective`` takes.
+    description : str
+        What it is.
+    counts : bool, default False
+        Whether the loss has the squared difference of feature counts on the observed steps.
+    likelihood : bool, default False
+        Whether it has the negative log-likelihood of the observed labelled actions.
+    sequence : bool, default False
+        Whether it has the negative log-likelihood of everything L saw, occlusion included.
+    """
+
+    name: str
+    description: str
+    counts: bool = False
+    likelihood: bool = False
+    sequence: bool = False
+
+
+def _adds_a_term(row: Objective) -> None:
+    if not (row.counts or row.likelihood or row.sequence):
+        raise ValueError(f"objective '{row.name}' adds no term to the loss")
+
+
+IRL_OBJECTIVES: Registry[Objective] = Registry(
+    "objective",
+    (
+        Objective("counts", "the paper's: squared difference of feature counts on observed "
+                  "steps", counts=True),
+        Objective("likelihood", "log-likelihood of the observed labelled actions",
+                  likelihood=True),
+        Objective("both", "counts and likelihood added", counts=True, likelihood=True),
+        Objective("sequence", "log-likelihood of everything L saw of the robot, occlusion "
+                  "included", sequence=True),
+    ),
+    check=_adds_a_term,
+)  # fmt: skip
 """What :class:`~mirl.learning.irl.OccludedMaxEntIRL` fits (its module docstring)."""
 
 
@@ -73,6 +112,25 @@ EM_INITS = Registry.of_choices("EM initialisation", {
     "uniform": "uniform over all states",
 })  # fmt: skip
 """DBN-EM's initial transition models (:func:`~mirl.learning.dbn_em.initial_transitions`)."""
+
+LABELLINGS: Registry[Strategy] = Registry(
+    "labelling",
+    (
+        Strategy(
+            "true-policy",
+            "the scenario's true policies and played equilibrium label the steps (Known R/T)",
+            "mirl.learning.transitions:true_policy_labels",
+        ),
+        Strategy(
+            "perception",
+            "each step is labelled with the action whose intended outcome L saw",
+            "mirl.learning.transitions:perceived_labels",
+        ),
+    ),
+    check=lambda row: check_entry_point(row.entry_point, f"labelling '{row.name}': entry point"),
+)
+"""How ``mirl learn-transitions`` labels the observed steps with actions; a row's entry point is
+``labels(scenario, series_list)``, per robot its (horizon,) labels, -1 where unlabelled."""
 
 DEFAULT_P = 0.9
 """The success probability of every action for the methods with a fixed T, when ``p`` is None."""

@@ -14,11 +14,14 @@ import numpy as np
 from mirl.world.domain import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, PatrolDomain
 from mirl.world.game import Equilibrium, game_action_to_action, meeting
 from mirl.world.motion import ERROR_MODELS, transition_matrix
+from mirl.world.scenario import Scenario
 
 __all__ = [
     "observed_steps",
     "perception_labels",
     "policy_labels",
+    "perceived_labels",
+    "true_policy_labels",
     "count_subsets",
     "SubsetCounts",
     "TransitionFeatureLearner",
@@ -160,6 +163,52 @@ class SubsetCounts:
             for sub, k, n in zip(self.subsets, self.successes, self.trials, strict=True)
             if n > 0
         ]
+
+
+def perceived_labels(scenario: Scenario, series_list: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Per robot, every step with both ends observed labelled by perception
+    (:func:`perception_labels`); a row of :data:`~mirl.learning.options.LABELLINGS`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (its domain).
+    series_list : sequence of ndarray of int, shape (horizon,)
+        Each robot's observed states, -1 where occluded.
+
+    Returns
+    -------
+    list of ndarray of int, shape (horizon,)
+        Per robot the labels, -1 where a step's two ends were not both observed.
+    """
+    out = []
+    for x in series_list:
+        lab = np.full(len(x), -1, dtype=int)
+        t, s, s_next = observed_steps(x)
+        lab[t] = perception_labels(scenario.domain, s, s_next)
+        out.append(lab)
+    return out
+
+
+def true_policy_labels(scenario: Scenario, series_list: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Per robot, every observed step labelled by the scenario's true policies and played
+    equilibrium (:func:`policy_labels`; the Known R/T setting); a row of
+    :data:`~mirl.learning.options.LABELLINGS`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario whose truth labels the steps.
+    series_list : sequence of ndarray of int, shape (horizon,)
+        Each robot's observed states, -1 where occluded.
+
+    Returns
+    -------
+    list of ndarray of int, shape (horizon,)
+        Per robot the labels, -1 at unobserved steps.
+    """
+    policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
+    return policy_labels(scenario.domain, series_list, policies, scenario.played_equilibrium)
 
 
 def count_subsets(

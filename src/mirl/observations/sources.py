@@ -166,6 +166,7 @@ ROBOT_DATA_KINDS = tuple(f.name for f in FORMATS.values() if f.robot_data)
 def input_format(path: str | Path) -> InputFormat:
     """The format of ``path`` (told by the file), or a one-line error."""
     path = Path(path)
+    where = f"{path}"  # a text file's refusal names its first line, the header it read
     if is_bag(path):
         header: tuple[str, ...] = ()
     elif path.is_dir():
@@ -174,11 +175,12 @@ def input_format(path: str | Path) -> InputFormat:
         header = ()
     else:
         header = tuple(csv_header(path, TrajectoryError))
+        where = f"{path}: line 1"
     for fmt in FORMATS.values():
         if fmt.recognises(path, header):
             return fmt
     known = "; ".join(f.description for f in FORMATS.values())
-    raise TrajectoryError(f"{path}: line 1: not a file of observations mirl reads ({known})")
+    raise TrajectoryError(f"{where}: not a file of observations mirl reads ({known})")
 
 
 def observation_kind(path: str | Path) -> str:

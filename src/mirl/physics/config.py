@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import TYPE_CHECKING, Any
 
+from mirl.world.actions import STEP_SECONDS
 from mirl.world.faults import WHEELS
 from mirl.world.motion import PIVOTS, turns_without_wheels
 
@@ -85,8 +86,8 @@ class PhysicsConfig:
         Seconds, MuJoCo's integration step; at most a control tick.
     control_hz : float, default 10.0
         Controller, localisation and detection updates per second.
-    step_seconds : float, default 2.0
-        Seconds a decision step.
+    step_seconds : float, default STEP_SECONDS (2.0)
+        Seconds a decision step (:data:`~mirl.world.actions.STEP_SECONDS`, the grid's).
     localisation_sigma : float, default 0.05
         Cells (metres on a 1 m grid), the standard deviation of the AMCL-like pose error the
         patrollers decide from (temporally correlated).
@@ -138,7 +139,7 @@ class PhysicsConfig:
 
     timestep: float = 0.01  # s, MuJoCo integration step
     control_hz: float = 10.0  # controller, localisation and detection checks per second
-    step_seconds: float = 2.0  # one decision step
+    step_seconds: float = STEP_SECONDS  # one decision step, the grid's
     localisation_sigma: float = 0.05  # m, AMCL-like pose error (temporally correlated)
     localisation_sigma_deg: float = 3.0  # degrees
     localisation_tau: float = 1.0  # s, correlation time of the localisation error

@@ -24,11 +24,25 @@ from __future__ import annotations
 
 import numpy as np
 
+from mirl.physics.robot import KOBUKI, Kobuki
 from mirl.world.game import KEEP_RIGHT_BEARING
 
 __all__ = ["DRIVE", "PIVOT", "HOLD", "Controller", "crowded", "in_company", "wrap"]
 
 DRIVE, PIVOT, HOLD = 0, 1, 2
+
+AHEAD_BEARING = 70.0
+"""Degrees either side of a robot's heading within which another robot is ahead of it."""
+FOLLOW_DISTANCE = 0.8
+"""Cells: a robot going the same way closer ahead than this slows the one behind."""
+STOP_SHORT = 0.02
+"""Metres short of its target point a driving robot plans to stop (it coasts the rest)."""
+MAX_DRIVE_TURN = 2.0
+"""Rad/s: the turn rate a driving robot steers with at most."""
+ALIGNED = 0.05
+"""Radians: a robot that has arrived stops turning within this of its target heading."""
+PIVOTED = 0.03
+"""Radians: a pivot ends within this of its target heading."""
 
 
 try:  # the clip ufunc without numpy's Python wrappers around it (same loop, same results)
@@ -69,8 +83,9 @@ def _others(p: np.ndarray, cell_size: float) -> tuple[np.ndarray, np.ndarray, np
 def crowded(p: np.ndarray, cell_size: float, pass_distance: float) -> np.ndarray:
     """Robots that must go slowly.
 
-    Another robot coming the other way within ``pass_distance`` cells ahead (±70°: pass
-    slowly), or one going the same way less than 0.8 cell ahead (do not run into it).
+    Another robot coming the other way within ``pass_distance`` cells ahead (within
+    :data:`AHEAD_BEARING`, ±70°: pass slowly), or one going the same way less than
+    :data:`FOLLOW_DISTANCE` (0.8 cell) ahead (do not run into it).
 
     Parameters
     ----------
@@ -86,11 +101,11 @@ def crowded(p: np.ndarray, cell_size: float, pass_distance: float) -> np.ndarray
     ndarray of bool, shape (n,)
         True for the robots that must go slowly.
     """
-    if len(p) < 2 or not (_nearest(p) / cell_size < max(pass_distance, 0.8)):
+    if len(p) < 2 or not (_nearest(p) / cell_size < max(pass_distance, FOLLOW_DISTANCE)):
         return np.zeros(len(p), dtype=bool)  # the usual tick: nobody near anybody
     dist, bearing, oncoming = _others(p, cell_size)
-    ahead = bearing < np.radians(70)
-    return (ahead & np.where(oncoming, dist < pass_distance, dist < 0.8)).any(axis=1)
+    ahead = bearing < np.radians(AHEAD_BEARING)
+    return (ahead & np.where(oncoming, dist < pass_distance, dist < FOLLOW_DISTANCE)).any(axis=1)
 
 
 def in_company(p: np.ndarray, cell_size: float, distance: float) -> np.ndarray:
@@ -134,19 +149,15 @@ class Controller:
     ----------
     n : int
         The number of robots.
-    separation : float
-        Metres between a robot's wheels.
-    wheel_radius : float
-        Metres.
+    robot : Kobuki, default KOBUKI
+        The robots' build: their wheels' separation and radius and a wheel's speed limit
+        (a command beyond it is scaled down, both wheels alike).
     max_speed : float
         Cruise speed, m/s.
     max_accel : float
         Acceleration limit, m/s².
     turn_speed : float
         Pivot rate limit, rad/s.
-    max_wheel_speed : float
-        A wheel's angular speed limit, rad/s; a command beyond it is scaled down, both wheels
-        alike.
     dt : float
         Seconds a control tick.
     arrive : float, default 0.06
@@ -162,13 +173,11 @@ class Controller:
     def __init__(
         self,
         n: int,
+        robot: Kobuki = KOBUKI,
         *,
-        separation: float,
-        wheel_radius: float,
         max_speed: float,
         max_accel: float,
         turn_speed: float,
-        max_wheel_speed: float,
         dt: float,
         arrive: float = 0.06,
         k_heading: float = 2.5,
@@ -178,9 +187,9 @@ class Controller:
         self.turn_first = turn_first
         self.pass_speed = pass_speed
         self.n = n
-        self.sep, self.r = separation, wheel_radius
+        self.sep, self.r = robot.wheel_separation, robot.wheel_radius
         self.vmax, self.amax, self.wturn = max_speed, max_accel, turn_speed
-        self.wheel_max = max_wheel_speed * wheel_radius  # m/s at the rim
+        self.wheel_max = robot.max_wheel_speed * robot.wheel_radius  # m/s at the rim
         self.dt, self.arrive, self.kh = dt, arrive, k_heading
         self.mode = np.full(n, HOLD)
         self.tx = np.zeros(n)
@@ -240,7 +249,7 @@ class Controller:
         arrived = d < self.arrive
         e = np.where(arrived, wrap(self.tyaw - yaw), bearing)
         drive = self.mode == DRIVE
-        v_des = np.minimum(self.vmax, np.sqrt(2 * self.amax * np.maximum(d - 0.02, 0.0)))
+        v_des = np.minimum(self.vmax, np.sqrt(2 * self.amax * np.maximum(d - STOP_SHORT, 0.0)))
         # heading first: slow down in proportion to the bearing error, turn in place beyond
         # ``turn_first`` (20 degrees) (a robot whose wheel cannot follow is slowed, not sent astray)
         v_des = np.where(
@@ -250,12 +259,12 @@ class Controller:
             v_des = np.where(slow, np.minimum(v_des, self.pass_speed), v_des)
         # accelerate gently, brake as hard as needed
         self.v = np.where(v_des > self.v, np.minimum(v_des, self.v + self.amax * self.dt), v_des)
-        w_drive = _clip(self.kh * e, -2.0, 2.0)
-        w_drive = np.where(arrived & (np.abs(e) < 0.05), 0.0, w_drive)
+        w_drive = _clip(self.kh * e, -MAX_DRIVE_TURN, MAX_DRIVE_TURN)
+        w_drive = np.where(arrived & (np.abs(e) < ALIGNED), 0.0, w_drive)
         pivot = self.mode == PIVOT
         e_turn = wrap(self.tyaw - yaw)
         w_turn = _clip(self.kh * e_turn, -self.wturn, self.wturn)
-        w_turn = np.where(np.abs(e_turn) < 0.03, 0.0, w_turn)
+        w_turn = np.where(np.abs(e_turn) < PIVOTED, 0.0, w_turn)
         half = self.sep / 2
         vl = np.where(drive, self.v - w_drive * half, 0.0)
         vr = np.where(drive, self.v + w_drive * half, 0.0)

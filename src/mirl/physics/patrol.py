@@ -188,13 +188,11 @@ class PhysicalWorld:
         cfg, cs = self.cfg, self.frame.cell_size
         self.ctrl = Controller(
             self.m,
-            separation=KOBUKI.wheel_separation,
-            wheel_radius=KOBUKI.wheel_radius,
+            KOBUKI,
             max_speed=cfg.max_speed * cs,
             max_accel=cfg.max_accel,
             turn_speed=cfg.turn_speed,
             pass_speed=cfg.pass_speed * cs,
-            max_wheel_speed=KOBUKI.max_wheel_speed,
             dt=1.0 / cfg.control_hz,
         )
         sd_xy = cfg.localisation_sigma * cs

@@ -349,5 +349,6 @@ def map_to_text(gridmap: GridMap, visible_mask: np.ndarray | None = None) -> str
     legend = TEXT_LEGEND
     if visible_mask is not None:
         n, total = int(visible.sum()), gridmap.n_patroller_cells
-        legend += f"\n; visible: {n} of {total} patroller cells ({n / max(total, 1):.2f})"
+        # a percentage: a share written as 0.13 read as a second, different observability
+        legend += f"\n; visible: {n} of {total} patroller cells ({100 * n / max(total, 1):.0f} %)"
     return "\n".join([*lines, legend])

@@ -42,7 +42,24 @@ def _throughput(sessions: list[dict]) -> str:
 def report_markdown(
     meta: dict[str, str], rows: list[Row], sessions: list[dict], figdir: Path
 ) -> str:
-    """One experiment's section: header facts, its figure/table beside the paper, outcomes."""
+    """One experiment's section: header facts, its figure/table beside the paper, outcomes.
+
+    Parameters
+    ----------
+    meta : dict of str to str
+        The store's ``meta`` (its ``experiment`` and ``base_seed``).
+    rows : list of dict
+        The stored runs, flat (:func:`~mirl.experiments.store.load_results`).
+    sessions : list of dict
+        The sweep's invocations, for its throughput.
+    figdir : Path
+        Where the section's figures are drawn.
+
+    Returns
+    -------
+    str
+        The section, Markdown.
+    """
     name = meta.get("experiment", "?")
     gs = groups(rows)
     if name in EXPERIMENTS:  # the experiment's own order: methods as the paper lists them
@@ -100,7 +117,7 @@ def _databases(path: Path) -> list[Path]:
 class WrittenReport:
     """What :func:`write_report_and_figures` wrote.
 
-    Attributes
+    Parameters
     ----------
     report : Path
         The ``report.md``.
@@ -114,7 +131,19 @@ class WrittenReport:
 
 def write_report(directory: str | Path) -> Path:
     """Draw the figures of every experiment under ``directory`` and write its report.md; the
-    report's path (:func:`write_report_and_figures` also says which figures it drew)."""
+    report's path (:func:`write_report_and_figures` also says which figures it drew).
+
+    Parameters
+    ----------
+    directory : str or Path
+        An experiment's results directory, or a directory whose sub-directories hold
+        experiments.
+
+    Returns
+    -------
+    Path
+        The ``report.md`` written.
+    """
     return write_report_and_figures(directory).report
 
 

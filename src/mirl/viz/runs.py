@@ -13,10 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
+from mirl._registry import resolve
 from mirl.experiments.records import RunResult
 from mirl.viz.maps import MAP_COLORS, draw_map
 from mirl.world.scenario import Scenario
-from mirl.worlds.registry import get_world, resolve
+from mirl.worlds.registry import get_world
 
 __all__ = ["ROBOT_COLORS", "draw_run", "run_figure", "save_run_png"]
 

@@ -29,13 +29,12 @@ import numpy as np
 
 from mirl._registry import Registry
 from mirl.world import schema
-from mirl.world.actions import FORWARD, TURN_LEFT, TURN_RIGHT
+from mirl.world.actions import FORWARD, HEADING_NAMES, TURN_LEFT, TURN_RIGHT
 from mirl.world.maps import GridMap, dead_ends
 
 __all__ = [
     "KINDS",
     "FeatureKind",
-    "HEADING_NAMES",
     "RewardFeature",
     "RewardSpec",
     "hallway_features",
@@ -44,7 +43,6 @@ __all__ = [
     "read_weights",
 ]
 
-HEADING_NAMES = ("east", "north", "west", "south")
 FIELDS = ("cells", "headings")  # what a feature may have besides its name and kind
 LEGACY_KEYS = ("upper_hallway", "lower_hallway", "turn_around")
 Cells = tuple[tuple[int, int], ...]

@@ -12,12 +12,10 @@ can show is checked by :func:`mirl.worlds.check_world`.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
-from importlib import import_module
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, cast
 
-from mirl._registry import Registry
+from mirl._registry import Registry, check_entry_point, resolve
 from mirl.world.world_sections import WORLD_SECTIONS
 from mirl.worlds.contract import RunSetup, RunWorld, World
 
@@ -35,7 +33,6 @@ __all__ = [
     "check_row",
     "get_world",
     "make_world",
-    "resolve",
 ]
 
 # what load() finds on a world's class before it returns it (the contract's class-level half)
@@ -130,28 +127,8 @@ class WorldSpec:
         return cast(World, cls)  # each world module assigns its class to a `World` for mypy
 
 
-def resolve(entry_point: str) -> Callable[..., Any]:
-    """The object an entry point ``"module:attr"`` names (importing its module).
-
-    Parameters
-    ----------
-    entry_point : str
-        ``"package.module:name"``.
-
-    Returns
-    -------
-    object
-        The module's attribute.
-    """
-    module, _, attr = entry_point.partition(":")
-    return getattr(import_module(module), attr)  # type: ignore[no-any-return]
-
-
 def _entry_point(value: str | None, what: str, row: str) -> None:
-    module, sep, attr = (value or "").partition(":")
-    parts = module.split(".") if module else []
-    if not sep or not attr.isidentifier() or not parts or not all(p.isidentifier() for p in parts):
-        raise ValueError(f"world '{row}': {what} {value!r} is not 'package.module:name'")
+    check_entry_point(value, f"world '{row}': {what}")
 
 
 def check_row(row: WorldSpec) -> None:
