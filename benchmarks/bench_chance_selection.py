@@ -11,8 +11,8 @@ and 300 observed steps. A chance that is right on average where L waits and too 
 goes is a selection effect: L goes when its models' error favours going (the winner's curse).
 Decisions forced by the deadline are not counted (nothing is weighed there). The chances are
 ``mirl.planning.success`` without the shortest path after the plan's last step, the same for
-both models. The decisions are read through the episode module's internals (its watcher, its
-planner and its value of waiting), which is why this is a benchmark and not a library function.
+both models. The decisions are read through the run's internals (the episode's watcher, the go
+rules' planner and value of waiting), which is why this is a benchmark and not a library function.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 import mirl.experiments.episode as episode  # noqa: E402
+import mirl.experiments.go_rules as go_rules  # noqa: E402
 from mirl.experiments.conditions import run_seed  # noqa: E402
 from mirl.learning.results import oracle_models  # noqa: E402
 from mirl.planning.belief import BeliefFilter  # noqa: E402
@@ -44,8 +45,8 @@ def main() -> None:
     rows: list[tuple[bool, float, float]] = []  # (went, learned chance, true chance)
 
     watcher_init = episode._Watcher.__init__
-    solve = episode.solve_observer_mdp
-    waiting_value = episode.waiting_value
+    solve = go_rules.solve_observer_mdp
+    waiting_value = go_rules.waiting_value
 
     def keep_watcher(self, *a, **k):
         state["watcher"] = self
@@ -65,18 +66,19 @@ def main() -> None:
         )
         for now in watcher.world.seen:
             true_filter.update(now)
-        learned = episode.success_probability(watcher.belief, model, plan).success
-        true = episode.success_probability(true_filter, model, plan).success
+        learned = go_rules.success_probability(watcher.belief, model, plan).success
+        true = go_rules.success_probability(true_filter, model, plan).success
         rows.append((bool(plan.go_values[0] >= value), learned, true))
         return value
 
     episode._Watcher.__init__ = keep_watcher
-    episode.solve_observer_mdp = keep_plan
-    episode.waiting_value = weigh
+    go_rules.solve_observer_mdp = keep_plan
+    go_rules.waiting_value = weigh
     for i in range(args.seeds):
         episode.run_episode(
-            scenario, "mirl-t", observability=args.observability, seed=run_seed(0, i)
-        )
+            scenario, "mirl-t", observability=args.observability, seed=run_seed(0, i),
+            protocol={"watch_until_seen": None},  # 300 observed steps, as measured
+        )  # fmt: skip
     print(f"{args.scenario}, d = {args.observability}, {args.seeds} runs\n")
     print("| decision | n | learned chance | true chance | learned − true |")
     print("| --- | --- | --- | --- | --- |")

@@ -72,7 +72,7 @@ def _planner_meeting_step() -> MeetingStep:
 
     belief.MeetingStep.__init__ = keep
     try:
-        run_episode(load_scenario("boyd2"), seed=0)
+        run_episode(load_scenario("boyd2"), seed=0, protocol={"watch_until_seen": None})
     finally:
         belief.MeetingStep.__init__ = original
     return made[0]

@@ -40,7 +40,8 @@ def main() -> None:
         for name, rule, relearn in (("paper", "value", False), ("default", "adaptive", True)):
             r = run_episode(
                 scenario, args.method, observability=args.observability, seed=run_seed(0, i),
-                go_rule=rule, relearn=relearn,
+                # 300 observed steps, as measured; the rule and re-learning as compared
+                protocol={"watch_until_seen": None, "go_rule": rule, "relearn": relearn},
             )  # fmt: skip
             cpu[name] = r.timings["cpu"]
             totals[name] += cpu[name]

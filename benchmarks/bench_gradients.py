@@ -34,16 +34,16 @@ def _estimators(name: str, seed: int):
     d = sc.domain
     run = simulate(sc, 450, seed=seed, observability=sc.observability, random_starts=True)
     x = run.observations.state_series(d, 0)
+    problem = irl_module.IRLProblem(
+        d.reward_features,
+        sc.true_transitions(0),
+        discount=sc.discount,
+        visible=d.visible_states(sc.observability),
+    )
     out = []
     for mode in ("forward", "reverse"):
-        est = irl_module.OccludedMaxEntIRL(
-            d.reward_features,
-            sc.true_transitions(0),
-            discount=sc.discount,
-            visible=d.visible_states(sc.observability),
-            gradient=mode,
-        )
-        est._prepare(x, None, None)
+        est = irl_module.OccludedMaxEntIRL(gradient=mode)
+        est._prepare(problem, x, None, None)
         out.append(est)
     return out, np.asarray(sc.robots[0].weights, dtype=float)
 
@@ -58,12 +58,12 @@ def compare(name: str, repeats: int, seed: int) -> None:
             _, grads[mode] = est._loss(theta, grad=True)
             times[mode].append(time.perf_counter() - t0)
     f, r = (float(np.median(times[m])) * 1e3 for m in ("forward", "reverse"))
-    K = fwd.features.shape[2]
+    K = fwd._features.shape[2]
     size = (2 * K + 1) * len(fwd._dyn._pt_indices)
     diff = np.abs(grads["reverse"] - grads["forward"]).max() / np.abs(grads["forward"]).max()
     auto = "reverse" if size >= irl_module._REVERSE_FROM else "forward"
     print(
-        f"{name:12s} seed {seed}  S {fwd.features.shape[0]:5d}  K {K}  (2K+1)·nnz {size:7d}  "
+        f"{name:12s} seed {seed}  S {fwd._features.shape[0]:5d}  K {K}  (2K+1)·nnz {size:7d}  "
         f"forward {f:7.2f} ms  reverse {r:7.2f} ms  forward/reverse {f / r:5.2f}  "
         f"auto: {auto}  gradient rel. diff {diff:.1e}"
     )

@@ -42,8 +42,9 @@ def one_run(scenario_name: str, method: str, degree: float, steps: int, seed: in
     run = simulate(scenario, steps, seed=seed, observability=degree, random_starts=True)
     cpu = time.process_time()
     res = learn(
-        run.observations, scenario, method, observability=degree, random_state=seed, **options
-    )
+        run.observations, scenario, method, observability=degree, random_state=seed,
+        options=options,
+    )  # fmt: skip
     return {
         "method": method,
         "degree": degree,

@@ -51,8 +51,16 @@ def _one(scenario_name: str, damage: list[str], method: str, seed: int, kwargs: 
     scenario = load_scenario(scenario_name)
     for d in damage:
         scenario = scenario.with_damage(*parse_damage(d))
+    from mirl.learning.methods import METHODS
+
+    # p is the fixed-T methods' option: given to them only (the others refuse it)
+    p = kwargs["p"]
+    learning = {"p": p} if METHODS[method].uses_p else None
     try:
-        r = run_episode(scenario, method, seed=seed, **kwargs)
+        r = run_episode(
+            scenario, method, seed=seed, observability=kwargs["observability"],
+            protocol=kwargs["protocol"], learn_options=learning,
+        )  # fmt: skip
     except Exception as exc:  # keep the sweep going; report the failure in the table
         return {"method": method, "seed": seed, "outcome": "error", "error": repr(exc)}
     return {
@@ -122,14 +130,16 @@ def main(argv: list[str] | None = None) -> int:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="extra run_episode keyword (Python literal value), e.g. --set window=40",
+        help="an option of the run protocol (Python literal value), e.g. --set window=40",
     )
     ap.add_argument("--json", metavar="FILE", help="also write every run as JSON")
     args = ap.parse_args(argv)
-    kwargs: dict = {"observability": args.observability, "obs_steps": args.obs_steps, "p": args.p}
+    # a fixed observation time, as measured; --set KEY=VALUE sets any other option of the protocol
+    protocol: dict = {"obs_steps": args.obs_steps, "watch_until_seen": None}
     for item in args.set:
         key, _, value = item.partition("=")
-        kwargs[key] = ast.literal_eval(value)
+        protocol[key] = ast.literal_eval(value)
+    kwargs: dict = {"observability": args.observability, "protocol": protocol, "p": args.p}
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     tasks = [(m, s) for s in seeds for m in args.methods]
     start = time.perf_counter()

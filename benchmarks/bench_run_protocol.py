@@ -30,19 +30,17 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from mirl.cli.flags import parse_damage  # noqa: E402
-from mirl.experiments.conditions import DEFAULT_OBS_STEPS  # noqa: E402
 from mirl.experiments.episode import run_episode  # noqa: E402
-from mirl.experiments.records import WATCH_UNTIL_SEEN  # noqa: E402
-from mirl.experiments.worlds import WORLDS  # noqa: E402
 from mirl.viz.verdicts import VerdictItem, expected_calibration_error  # noqa: E402
 from mirl.world.scenario import load_scenario  # noqa: E402
+from mirl.worlds import WORLDS  # noqa: E402
 
 
 def _run(scenario, args, seed: int, truth) -> dict:
+    # the protocol: `mirl run`'s, run_episode's default
     result = run_episode(
-        scenario, args.method, observability=args.observability, obs_steps=DEFAULT_OBS_STEPS,
-        watch_until_seen=WATCH_UNTIL_SEEN, seed=seed, world=args.world,
-    )  # fmt: skip
+        scenario, args.method, observability=args.observability, seed=seed, world=args.world
+    )
     d = result.to_dict()
     verdicts = {}
     if result.learned is not None:

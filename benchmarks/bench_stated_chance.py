@@ -34,6 +34,7 @@ from dataclasses import replace
 import numpy as np
 
 import mirl.experiments.episode as episode
+import mirl.experiments.go_rules as go_rules
 from mirl.experiments.conditions import Condition, run_seed
 from mirl.learning.results import LearnResult, oracle_models
 from mirl.mdp import TabularMDP, value_iteration
@@ -73,7 +74,7 @@ def main() -> None:
     truth = oracle_models(scenario)
 
     watcher_init = episode._Watcher.__init__
-    evaluate = episode.success_probability
+    evaluate = go_rules.success_probability
     state: dict = {}
 
     def keep_watcher(self, *a, **k):
@@ -93,14 +94,14 @@ def main() -> None:
         return stated
 
     episode._Watcher.__init__ = keep_watcher
-    episode.success_probability = at_go
+    go_rules.success_probability = at_go
     rows = []
     with open(args.jsonl, "w") if args.jsonl else contextlib.nullcontext() as out:
         for i in range(args.seeds):
             state.pop("chances", None)
             r = episode.run_episode(
-                scenario, "mirl-t", observability=args.observability, obs_steps=300,
-                seed=run_seed(0, i),
+                scenario, "mirl-t", observability=args.observability, seed=run_seed(0, i),
+                protocol={"obs_steps": 300, "watch_until_seen": None},
             )  # fmt: skip
             if "chances" not in state:
                 continue

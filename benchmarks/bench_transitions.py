@@ -16,9 +16,8 @@ from scipy import stats
 from mirl.learning.feature_solver import solve_feature_probabilities
 from mirl.learning.transitions import TransitionFeatureLearner, observed_steps, policy_labels
 from mirl.simulation.grid import simulate
+from mirl.world.faults import WHEELS
 from mirl.world.scenario import load_scenario
-
-WHEELS = ("left_wheel", "right_wheel")
 
 
 def learn(scenario, steps: int, observability: float, seed: int) -> list[dict[str, float]]:

@@ -7,7 +7,14 @@ from dataclasses import dataclass
 
 import pytest
 
-from mirl._registry import Registry, UnknownNameError, did_you_mean
+from mirl._registry import (
+    Choice,
+    Registry,
+    UnknownNameError,
+    check_entry_point,
+    did_you_mean,
+    resolve,
+)
 
 
 @dataclass(frozen=True)
@@ -60,3 +67,30 @@ def test_did_you_mean_prefers_the_closest_and_prefixes():
     near = did_you_mean("obs", ["obs-steps", "observations", "seed"])
     assert near == ["obs-steps", "observations"]
     assert did_you_mean("xyz", ["seed"]) == []
+
+
+def test_a_table_of_choices_is_names_and_what_they_mean():
+    table = Registry.of_choices("hazard", {"markov": "first order", "independent": "naive"})
+    assert table.names == ("markov", "independent")
+    assert table["markov"] == Choice("markov", "first order")
+    with pytest.raises(UnknownNameError, match="did you mean 'markov'"):
+        table.lookup("markow")
+
+
+def test_an_entry_point_names_a_module_and_an_attribute():
+    import json
+
+    assert resolve("json:dumps") is json.dumps
+    check_entry_point("mirl.worlds.grid:GridRunWorld", "world 'grid': entry point")
+    for bad in ("mirl.worlds.grid", "mirl.worlds.grid:", ":GridRunWorld", "mirl..grid:X",
+                "mirl.worlds.grid:Grid World", None):  # fmt: skip
+        with pytest.raises(ValueError, match=r"^go rule 'x': entry point .* is not 'package"):
+            check_entry_point(bad, "go rule 'x': entry point")
+
+
+def test_a_go_rule_whose_strategy_cannot_be_named_is_refused_with_its_table():
+    from mirl.experiments.options import GO_RULES, GoRule
+
+    with pytest.raises(ValueError, match="go rule 'late': entry point 'go_rules.Late'"):
+        GO_RULES.register(GoRule("late", "goes late", "go_rules.Late"))
+    assert "late" not in GO_RULES

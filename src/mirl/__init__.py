@@ -3,10 +3,15 @@ occluded observations (Bogert & Doshi, mIRL*/T+Int), and act on it.
 
 The entry points a user needs are importable from here (``from mirl import load_scenario,
 simulate, learn, run_episode``); they are loaded on first use, so ``import mirl`` stays cheap.
-The package is layered by pipeline stage — :mod:`mirl.mdp` → :mod:`mirl.world` →
-:mod:`mirl.observations` → :mod:`mirl.simulation` → :mod:`mirl.learning` →
-:mod:`mirl.planning` → :mod:`mirl.experiments` → :mod:`mirl.viz` → :mod:`mirl.cli` — and a
-stage imports only the stages before it (checked by import-linter).
+The package is layered by pipeline stage, and a stage imports only the stages before it
+(checked by import-linter; docs/design.md, "Layers"): :mod:`mirl.mdp` → :mod:`mirl.world` →
+:mod:`mirl.observations` → :mod:`mirl.simulation` | :mod:`mirl.physics` (the grid simulator |
+the MuJoCo world) → :mod:`mirl.learning` → :mod:`mirl.planning` → :mod:`mirl.worlds` (the
+world contract and its table) → :mod:`mirl.experiments` | :mod:`mirl.envs` (runs and sweeps |
+gymnasium and PettingZoo environments) → :mod:`mirl.viz` → :mod:`mirl.cli`; ``a | b`` are
+siblings that do not import each other. Below every stage: ``mirl.sparse`` (the shared sparse
+kernels), ``mirl._validation`` (options declared once) and ``mirl._registry`` (the one table
+type).
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ _EXPORTS = {
     "simulate": "mirl.simulation.grid",
     "solve_feature_probabilities": "mirl.learning.feature_solver",
     "TransitionFeatureLearner": "mirl.learning.transitions",
+    "IRLProblem": "mirl.learning.irl",
     "OccludedMaxEntIRL": "mirl.learning.irl",
     "learn": "mirl.learning.learn",
     "LearnResult": "mirl.learning.results",
@@ -39,6 +45,10 @@ _EXPORTS = {
     "solve_observer_mdp": "mirl.planning.go",
     "run_episode": "mirl.experiments.episode",
     "RunResult": "mirl.experiments.records",
+    "LearnOptions": "mirl.learning.options",
+    "RunProtocol": "mirl.experiments.options",
+    "SweepOptions": "mirl.experiments.options",
+    "OptionError": "mirl._validation",
 }
 
 __all__ = [
@@ -58,6 +68,7 @@ __all__ = [
     "simulate",
     "solve_feature_probabilities",
     "TransitionFeatureLearner",
+    "IRLProblem",
     "OccludedMaxEntIRL",
     "learn",
     "LearnResult",
@@ -66,6 +77,10 @@ __all__ = [
     "solve_observer_mdp",
     "run_episode",
     "RunResult",
+    "LearnOptions",
+    "RunProtocol",
+    "SweepOptions",
+    "OptionError",
 ]
 
 
@@ -89,11 +104,14 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerly
     __version__: str
+    from mirl._validation import OptionError
     from mirl.experiments.episode import run_episode
+    from mirl.experiments.options import RunProtocol, SweepOptions
     from mirl.experiments.records import RunResult
     from mirl.learning.feature_solver import solve_feature_probabilities
-    from mirl.learning.irl import OccludedMaxEntIRL
+    from mirl.learning.irl import IRLProblem, OccludedMaxEntIRL
     from mirl.learning.learn import learn
+    from mirl.learning.options import LearnOptions
     from mirl.learning.results import LearnResult
     from mirl.learning.transitions import TransitionFeatureLearner
     from mirl.mdp import TabularMDP, value_iteration

@@ -18,16 +18,38 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Callable, Iterable, Iterator, Mapping
-from typing import Generic, TypeVar
+from dataclasses import dataclass
+from importlib import import_module
+from typing import Any, Generic, TypeVar
 
-__all__ = ["Registry", "UnknownNameError", "did_you_mean"]
+__all__ = [
+    "Choice",
+    "Registry",
+    "Strategy",
+    "UnknownNameError",
+    "check_entry_point",
+    "did_you_mean",
+    "resolve",
+]
 
 T = TypeVar("T")
 
 
 class UnknownNameError(KeyError, ValueError):
-    """A name a table does not hold. A :class:`ValueError` (a bad argument value) and a
-    :class:`KeyError` (so a :class:`Registry` behaves as a mapping); its text is one line."""
+    """A name a table does not hold.
+
+    A :class:`ValueError` (a bad argument value) and a :class:`KeyError` (so a :class:`Registry`
+    behaves as a mapping); its text is one line.
+
+    Parameters
+    ----------
+    message : str
+        The one-line message.
+    name : str
+        The name asked for.
+    known : tuple of str
+        The names that would have been accepted.
+    """
 
     def __init__(self, message: str, *, name: str, known: tuple[str, ...]) -> None:
         super().__init__(message)
@@ -38,12 +60,46 @@ class UnknownNameError(KeyError, ValueError):
 
 
 def did_you_mean(name: str, known: Iterable[str], n: int = 3) -> list[str]:
-    """The known names closest to ``name`` (at most ``n``, nearest first; difflib's ratio ≥ 0.6,
-    or the names that start with ``name``)."""
+    """The known names closest to ``name``, nearest first.
+
+    Parameters
+    ----------
+    name : str
+        The name asked for.
+    known : iterable of str
+        The names to choose from.
+    n : int, default 3
+        At most this many suggestions.
+
+    Returns
+    -------
+    list of str
+        The close matches (difflib's ratio at least 0.6), then the names that start with
+        ``name``.
+    """
     known = list(known)
     close = difflib.get_close_matches(name, known, n=n, cutoff=0.6)
     starts = [k for k in known if name and k.startswith(name) and k not in close]
     return (close + starts)[:n]
+
+
+@dataclass(frozen=True)
+class Choice:
+    """A row that is a name and what it means.
+
+    The row of a table whose choices the code of its own module carries out (an estimator's
+    objectives, an initialisation).
+
+    Parameters
+    ----------
+    name : str
+        The choice's name, as a user writes it.
+    description : str
+        What it does, for help texts.
+    """
+
+    name: str
+    description: str
 
 
 class Registry(Mapping[str, T], Generic[T]):
@@ -82,8 +138,42 @@ class Registry(Mapping[str, T], Generic[T]):
         for row in rows:
             self.register(row)
 
+    @classmethod
+    def of_choices(cls, kind: str, descriptions: Mapping[str, str]) -> Registry[Choice]:
+        """A table of :class:`Choice` rows from ``{name: description}``, in its order.
+
+        Parameters
+        ----------
+        kind : str
+            What a row is, for messages.
+        descriptions : mapping of str to str
+            Every choice's name and description.
+
+        Returns
+        -------
+        Registry of Choice
+            The table.
+        """
+        return Registry(kind, (Choice(n, d) for n, d in descriptions.items()))
+
     def register(self, row: T) -> T:
-        """Add ``row`` (checked first); returns it."""
+        """Add ``row``, checked first.
+
+        Parameters
+        ----------
+        row : object
+            The row; its name must be new to the table.
+
+        Returns
+        -------
+        object
+            ``row`` itself (so a definition can register as it assigns).
+
+        Raises
+        ------
+        ValueError
+            A row of the same name is already registered, or ``check`` refuses the row.
+        """
         key = self._name(row)
         if key in self._rows:
             raise ValueError(f"{self.kind} '{key}' is registered twice")
@@ -98,7 +188,20 @@ class Registry(Mapping[str, T], Generic[T]):
         return tuple(self._rows)
 
     def unknown(self, name: str, *, known: Iterable[str] | None = None) -> UnknownNameError:
-        """The error for ``name`` among ``known`` (default: every row's name)."""
+        """The error for ``name`` among ``known``.
+
+        Parameters
+        ----------
+        name : str
+            The name asked for.
+        known : iterable of str, optional
+            The acceptable names; every row's name by default.
+
+        Returns
+        -------
+        UnknownNameError
+            Its message names ``name``, suggests the nearest known names and lists them all.
+        """
         known = tuple(self._rows if known is None else known)
         near = did_you_mean(str(name), known)
         hint = f"did you mean {' or '.join(repr(k) for k in near)}? " if near else ""
@@ -106,8 +209,25 @@ class Registry(Mapping[str, T], Generic[T]):
         return UnknownNameError(message, name=str(name), known=known)
 
     def lookup(self, name: str, *, among: Iterable[str] | None = None) -> T:
-        """The row of ``name``; :class:`UnknownNameError` otherwise. ``among`` narrows the
-        acceptable names (for instance the methods that learn)."""
+        """The row of ``name``.
+
+        Parameters
+        ----------
+        name : str
+            The row's name.
+        among : iterable of str, optional
+            Narrows the acceptable names (for instance the methods that learn).
+
+        Returns
+        -------
+        object
+            The row.
+
+        Raises
+        ------
+        UnknownNameError
+            ``name`` is not a row's name, or not among ``among``.
+        """
         if among is not None:
             among = tuple(among)
             if name not in among:
@@ -130,3 +250,75 @@ class Registry(Mapping[str, T], Generic[T]):
 
     def __repr__(self) -> str:
         return f"Registry({self.kind!r}: {', '.join(self._rows)})"
+
+
+# A row whose strategy lives in a heavy module (a world's class, a go rule's) names it by an
+# entry point, "package.module:name", as gymnasium's registry names environments: reading the
+# table imports nothing, and the strategy is imported when a row is used.
+def check_entry_point(value: str | None, what: str) -> None:
+    """Refuse a malformed entry point, importing nothing.
+
+    Parameters
+    ----------
+    value : str or None
+        The entry point, ``"package.module:name"``.
+    what : str
+        What it is, for the message (``"world 'fog': entry point"``).
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not ``"package.module:name"`` with identifiers for names.
+    """
+    module, sep, attr = (value or "").partition(":")
+    parts = module.split(".") if module else []
+    if not sep or not attr.isidentifier() or not parts or not all(p.isidentifier() for p in parts):
+        raise ValueError(f"{what} {value!r} is not 'package.module:name'")
+
+
+def resolve(entry_point: str) -> Any:
+    """The object an entry point ``"module:attr"`` names (importing its module).
+
+    Parameters
+    ----------
+    entry_point : str
+        ``"package.module:name"``.
+
+    Returns
+    -------
+    object
+        The module's attribute.
+    """
+    module, _, attr = entry_point.partition(":")
+    return getattr(import_module(module), attr)
+
+
+@dataclass(frozen=True)
+class Strategy:
+    """A row that is a name, what it means and the entry point of the code that carries it
+    out, imported when the row is used (its table checks the entry point with
+    :func:`check_entry_point`).
+
+    Parameters
+    ----------
+    name : str
+        The row's name, as a user writes it.
+    description : str
+        What it does, for help texts.
+    entry_point : str
+        ``"package.module:name"`` of what carries it out.
+    """
+
+    name: str
+    description: str
+    entry_point: str
+
+    def load(self) -> Any:
+        """What carries the row out.
+
+        Returns
+        -------
+        object
+            The object its entry point names.
+        """
+        return resolve(self.entry_point)

@@ -33,7 +33,26 @@ __all__ = [
 
 
 def validate_transitions(transitions: sp.spmatrix | sp.sparray, n_actions: int) -> sp.csr_array:
-    """Return ``transitions`` as CSR after checking shape, non-negativity and row sums."""
+    """Return ``transitions`` as CSR after checking shape, non-negativity and row sums.
+
+    Parameters
+    ----------
+    transitions : sparse matrix or array of shape (S*A, S)
+        T(s, a, s') in row ``s*A + a``.
+    n_actions : int
+        A, the number of actions.
+
+    Returns
+    -------
+    scipy.sparse.csr_array of shape (S*A, S)
+        The same probabilities as floats in CSR.
+
+    Raises
+    ------
+    ValueError
+        The shape is not (S*A, S), an entry is negative or not finite, or a row does not sum
+        to 1 (the message names the first such (s, a)).
+    """
     P = sp.csr_array(transitions, dtype=float)
     if P.ndim != 2:
         raise ValueError(f"transitions must be a 2-D (S*A, S) matrix, got shape {P.shape}")
@@ -57,7 +76,23 @@ def validate_transitions(transitions: sp.spmatrix | sp.sparray, n_actions: int) 
 
 @dataclass(frozen=True)
 class TabularMDP:
-    """A discounted tabular MDP with sparse transitions of shape (S*A, S) and rewards R(s, a)."""
+    """A discounted tabular MDP with sparse transitions of shape (S*A, S) and rewards R(s, a).
+
+    Parameters
+    ----------
+    transitions : sparse matrix or array of shape (S*A, S)
+        T(s, a, s') in row ``s*A + a``; checked by :func:`validate_transitions` and kept as CSR.
+    rewards : ndarray of shape (S, A)
+        R(s, a).
+    discount : float, default 0.95
+        The discount γ, in [0, 1).
+
+    Raises
+    ------
+    ValueError
+        Rewards that are not 2-D, transitions that disagree with them or are not stochastic, or a
+        discount outside [0, 1).
+    """
 
     transitions: sp.csr_array
     rewards: np.ndarray
@@ -80,20 +115,49 @@ class TabularMDP:
 
     @property
     def n_states(self) -> int:
+        """S, the number of states."""
         return self.rewards.shape[0]
 
     @property
     def n_actions(self) -> int:
+        """A, the number of actions."""
         return self.rewards.shape[1]
 
     def expected_next(self, values: np.ndarray) -> np.ndarray:
-        """E[V(s') | s, a] as an (S, A) array."""
+        """E[V(s') | s, a] as an (S, A) array.
+
+        Parameters
+        ----------
+        values : ndarray of shape (S,)
+            V(s').
+
+        Returns
+        -------
+        ndarray of shape (S, A)
+            The expected value of the next state for every state and action.
+        """
         return (self.transitions @ values).reshape(self.n_states, self.n_actions)
 
 
 @dataclass(frozen=True)
 class SolveResult:
-    """Outcome of an infinite-horizon solve (mirrors ``scipy.optimize.OptimizeResult`` fields)."""
+    """Outcome of an infinite-horizon solve (mirrors ``scipy.optimize.OptimizeResult`` fields).
+
+    Parameters
+    ----------
+    values : ndarray of shape (S,)
+        V(s).
+    q_values : ndarray of shape (S, A)
+        Q(s, a).
+    policy : ndarray of shape (S,) or (S, A)
+        The greedy actions, or for a soft solve the action probabilities π(a|s).
+    iterations : int
+        Sweeps made.
+    success : bool
+        Whether the sweeps converged within the tolerance.
+    message : str
+        How the solve ended ("converged, delta=…" or "max_iter reached").
+    """
 
     values: np.ndarray
     q_values: np.ndarray
@@ -114,7 +178,24 @@ def value_iteration(
 
     The sweeps run on an actions-first copy of T (row a·S + s) so that Q is (A, S) and the max
     over actions runs along the long axis (3× faster than over the short axis of (S, A), same
-    values bit for bit), in preallocated buffers; ``q_values`` is handed back as (S, A)."""
+    values bit for bit), in preallocated buffers; ``q_values`` is handed back as (S, A).
+
+    Parameters
+    ----------
+    mdp : TabularMDP
+        The MDP to solve.
+    tol : float, default 1e-8
+        Stop when no value changes by this much in one sweep.
+    max_iter : int, default 10000
+        At most this many sweeps.
+    initial_values : ndarray of shape (S,), optional
+        Values to start from (a warm start); zeros by default.
+
+    Returns
+    -------
+    SolveResult
+        V, Q, the greedy policy (the lowest-index optimal action) and whether it converged.
+    """
     S, A = mdp.n_states, mdp.n_actions
     T_as = actions_first(mdp.transitions, A)
     R_as = np.ascontiguousarray(mdp.rewards.T)
@@ -150,7 +231,20 @@ def _bellman(
 
 
 def actions_first(transitions: sp.csr_array, n_actions: int) -> sp.csr_array:
-    """T (S·A, S) with rows s·A + a reordered to a·S + s (so E[V] reshapes to (A, S))."""
+    """T (S·A, S) with rows s·A + a reordered to a·S + s (so E[V] reshapes to (A, S)).
+
+    Parameters
+    ----------
+    transitions : scipy.sparse.csr_array of shape (S*A, S)
+        T, states first.
+    n_actions : int
+        A.
+
+    Returns
+    -------
+    scipy.sparse.csr_array of shape (A*S, S)
+        The same rows, actions first.
+    """
     S = transitions.shape[1]
     order = np.arange(S * n_actions).reshape(S, n_actions).T.ravel()
     return sp.csr_array(transitions[order])
@@ -166,7 +260,29 @@ def soft_value_iteration(
 ) -> SolveResult:
     """Maximum-entropy (soft) value iteration: V(s) = τ log Σ_a exp(Q(s,a)/τ).
 
-    ``policy`` is the stochastic policy π(a|s) = exp((Q(s,a) - V(s))/τ) of shape (S, A).
+    Parameters
+    ----------
+    mdp : TabularMDP
+        The MDP to solve.
+    temperature : float, default 1.0
+        The temperature τ, positive; the policy approaches the greedy one as τ → 0.
+    tol : float, default 1e-8
+        Stop when no value changes by this much in one sweep.
+    max_iter : int, default 10000
+        At most this many sweeps.
+    initial_values : ndarray of shape (S,), optional
+        Values to start from; zeros by default.
+
+    Returns
+    -------
+    SolveResult
+        Soft V and Q, and as ``policy`` the stochastic policy
+        π(a|s) = exp((Q(s,a) - V(s))/τ) of shape (S, A).
+
+    Raises
+    ------
+    ValueError
+        A temperature that is not positive.
     """
     if temperature <= 0:
         raise ValueError("temperature must be positive")
@@ -191,10 +307,22 @@ def soft_value_iteration(
 
 @dataclass(frozen=True)
 class FiniteHorizonResult:
-    """``values`` (H+1, S), values[H] the terminal ones, read-only; ``policy`` (H, S) greedy
+    """The outcome of :func:`backward_induction`.
+
+    ``values`` (H+1, S), values[H] the terminal ones, read-only; ``policy`` (H, S) greedy
     actions, the lowest-index maximiser, as the smallest unsigned integer type that holds A.
     The (H, S, A) ``q_values`` are recomputed from ``values`` on first access (bit for bit those
-    of the sweeps), so that the sweeps need not write H·S·A floats most callers never read."""
+    of the sweeps), so that the sweeps need not write H·S·A floats most callers never read.
+
+    Parameters
+    ----------
+    values : ndarray of shape (H+1, S)
+        V_t(s) for t = 0..H.
+    policy : ndarray of shape (H, S)
+        The greedy action at every time and state.
+    _q_all : callable
+        Recomputes the (H, A, S) Q-values; :func:`backward_induction` passes it.
+    """
 
     values: np.ndarray
     policy: np.ndarray
@@ -202,6 +330,7 @@ class FiniteHorizonResult:
 
     @cached_property
     def q_values(self) -> np.ndarray:  # (H, S, A)
+        """Q_t(s, a), shape (H, S, A), computed on first access."""
         return self._q_all().transpose(0, 2, 1)
 
 
@@ -215,9 +344,31 @@ def backward_induction(
 ) -> FiniteHorizonResult:
     """Finite-horizon dynamic programming.
 
-    ``rewards`` is (S, A) for stationary rewards or (H, S, A) for time-indexed ones; ``transitions``
-    is (S*A, S) for stationary dynamics. One sparse mat-vec per time step, into one (A, S) buffer
-    (actions first, as in value_iteration, so the max and argmax run along the long axis).
+    One sparse mat-vec per time step, into one (A, S) buffer (actions first, as in
+    :func:`value_iteration`, so the max and argmax run along the long axis).
+
+    Parameters
+    ----------
+    transitions : scipy.sparse.csr_array of shape (S*A, S)
+        Stationary dynamics T(s, a, s').
+    rewards : ndarray of shape (S, A) or (H, S, A)
+        Stationary rewards, or one (S, A) slice per time step.
+    horizon : int
+        H, the number of decisions (at least 0).
+    terminal_values : ndarray of shape (S,), optional
+        V_H; zeros by default.
+    discount : float, default 1.0
+        The discount γ applied to the next step's values.
+
+    Returns
+    -------
+    FiniteHorizonResult
+        V_t for t = 0..H and the greedy policy for t = 0..H-1.
+
+    Raises
+    ------
+    ValueError
+        A negative horizon, or time-indexed rewards with other than ``horizon`` slices.
     """
     rewards = np.asarray(rewards, dtype=float)
     S, A = rewards.shape[-2:]
@@ -274,18 +425,58 @@ def _first_max(
 
 
 def optimal_action_mask(q_values: np.ndarray, *, rtol: float = 1e-9, atol: float = 1e-9):
-    """Boolean (..., A) mask of actions whose Q is within tolerance of the best (ties kept)."""
+    """Boolean (..., A) mask of actions whose Q is within tolerance of the best (ties kept).
+
+    Parameters
+    ----------
+    q_values : ndarray of shape (..., A)
+        Q-values, actions last.
+    rtol : float, default 1e-9
+        Relative tolerance, of the best value's magnitude.
+    atol : float, default 1e-9
+        Absolute tolerance.
+
+    Returns
+    -------
+    ndarray of bool, shape (..., A)
+        True for every action within ``atol + rtol·|best|`` of the best.
+    """
     best = q_values.max(axis=-1, keepdims=True)
     return q_values >= best - (atol + rtol * np.abs(best))
 
 
 def greedy_policy(q_values: np.ndarray) -> np.ndarray:
-    """Deterministic policy: the first action (lowest index) among the optimal ones."""
+    """Deterministic policy: the first action (lowest index) among the optimal ones.
+
+    Parameters
+    ----------
+    q_values : ndarray of shape (..., A)
+        Q-values, actions last.
+
+    Returns
+    -------
+    ndarray of int, shape (...)
+        The chosen action; ties (within :func:`optimal_action_mask`'s tolerance) go to the lowest
+        index.
+    """
     return optimal_action_mask(q_values).argmax(axis=-1)
 
 
 def policy_matrix(transitions: sp.csr_array, policy: np.ndarray) -> sp.csr_array:
-    """State-to-state matrix P_π (S, S) for a deterministic (S,) or stochastic (S, A) policy."""
+    """State-to-state matrix P_π (S, S) for a deterministic (S,) or stochastic (S, A) policy.
+
+    Parameters
+    ----------
+    transitions : scipy.sparse.csr_array of shape (S*A, S)
+        T(s, a, s').
+    policy : ndarray of shape (S,) or (S, A)
+        An action per state, or action probabilities per state.
+
+    Returns
+    -------
+    scipy.sparse.csr_array of shape (S, S)
+        P_π(s, s') = Σ_a π(a|s) T(s, a, s').
+    """
     n_states = transitions.shape[1]
     n_actions = transitions.shape[0] // n_states
     policy = np.asarray(policy)
@@ -305,7 +496,24 @@ def state_visitation(
     initial: np.ndarray,
     steps: int,
 ) -> np.ndarray:
-    """Distributions over states at t = 0..steps, shape (steps+1, S), by forward propagation."""
+    """Distributions over states at t = 0..steps, shape (steps+1, S), by forward propagation.
+
+    Parameters
+    ----------
+    transitions : scipy.sparse.csr_array of shape (S*A, S)
+        T(s, a, s').
+    policy : ndarray of shape (S,) or (S, A)
+        A deterministic or stochastic policy (see :func:`policy_matrix`).
+    initial : ndarray of shape (S,)
+        The distribution at t = 0.
+    steps : int
+        How many steps to propagate.
+
+    Returns
+    -------
+    ndarray of shape (steps+1, S)
+        Row t is the distribution over states at time t.
+    """
     P_pi = policy_matrix(transitions, policy)
     P_T = sp.csr_array(P_pi.T)
     out = np.empty((steps + 1, P_pi.shape[0]))

@@ -4,6 +4,7 @@ simulate's CSV files, --version, show-map, --damage, and one-line errors with ex
 from __future__ import annotations
 
 import csv
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -42,7 +43,7 @@ def one_error_line(err: str, *needles: str) -> None:
     lines = err.strip().splitlines()
     assert len(lines) == 1, err
     assert "Traceback" not in err
-    assert lines[0].startswith("mirl: error: ")
+    assert re.match(r"mirl [a-z-]+: error: ", lines[0]), lines[0]  # names the sub-command
     for n in needles:
         assert n in lines[0], (n, lines[0])
 
@@ -142,7 +143,7 @@ def test_show_map_with_observability(capsys):
     assert out[-1] == (
         "  L's view at observability 0.14: 4 of 31 patroller cells, 4 of them in L's line of sight"
     )
-    assert "; visible: 4 of 31 patroller cells (0.13)" in out
+    assert "; visible: 4 of 31 patroller cells (13 %)" in out
 
 
 def test_show_map_plain(capsys):
@@ -281,10 +282,18 @@ def test_learn_and_run_give_intervals_and_verdicts(tmp_path, capsys):
     j = json.loads(capsys.readouterr().out)["robots"]["J"]
     assert set(j["feature_intervals"]) == set(j["feature_probabilities"])
     assert all(0 <= lo <= hi <= 1 for lo, hi in j["feature_intervals"].values())
-    assert j["verdict"]["part"] == "left_wheel" and 0.5 < j["verdict"]["confidence"] <= 1
+    verdict = j["verdict"]
+    named = [verdict["part"]] if verdict["part"] else verdict["candidates"]
+    damage = verdict["damage_probabilities"]
+    assert "left_wheel" in named and max(damage, key=damage.get) == "left_wheel"
+    assert 0.5 < verdict["confidence"] <= 1 and verdict["fit"]["ok"]
+    models = j["motion_models"]
+    assert set(models) == {"paper/uniform", "paper/stop", "free-turns/uniform", "free-turns/stop"}
+    assert abs(sum(models.values()) - 1) < 1e-3
+    assert j["motion_model"] == "paper/uniform"  # the grid's own, which the record favours
     assert main(learn) == 0
     text = capsys.readouterr().out
-    assert "J's left wheel is damaged (confidence" in text and "95 % interval" in text
+    assert "left wheel" in text and "95 % interval" in text and "motion        " in text
     assert main([*learn, "--method", "mirl", "--json"]) == 0  # no feature probabilities
     assert "verdict" not in json.loads(capsys.readouterr().out)["robots"]["J"]
     run = ["run", "--obs-steps", "100", "--seed", "0", "--max-wait", "20"]
@@ -295,15 +304,53 @@ def test_learn_and_run_give_intervals_and_verdicts(tmp_path, capsys):
     assert "verdict: " in capsys.readouterr().out
 
 
-def test_learn_explains_an_estimate_outside_its_interval(tmp_path, capsys):
-    """The README's learn example: I's navigation is learned 0.833 with an interval of
-    0.89-1.00, and the text says why right under I's intervals; J's estimates sit in theirs."""
+def test_the_readme_learn_example(tmp_path, capsys):
+    """The README's learn example (boyd2, 450 steps, seed 1, L's door): J's lines exactly as the
+    README shows them; no estimate disagrees with the posterior, so the features line is Eq.
+    4's."""
+    import re
+
+    import mirl
+
+    readme = (Path(mirl.__file__).resolve().parents[2] / "README.md").read_text()
+    block = re.search(r"```(?:text)?\nrobot J\n(.*?)```", readme, re.S)
+    assert block is not None
     obs = tmp_path / "obs.csv"
     sim = ["simulate", "--scenario", "boyd2", "--steps", "450", "--seed", "1"]
     assert main([*sim, "--observations", str(obs)]) == 0
     capsys.readouterr()
     assert main(["learn", "--scenario", "boyd2", "--observations", str(obs)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    notes = [k for k, line in enumerate(lines) if "well outside its interval" in line]
-    assert len(notes) == 1 and lines[notes[0] - 1].strip().startswith("95 % interval")
-    assert "navigation=0.833" in lines[notes[0] - 2] and "veers" not in lines[notes[0]]
+    shown = block.group(1).splitlines()
+    j = lines.index("robot J")
+    assert [x for x in lines[j + 1 :] if x.startswith("  ") and x in shown] == shown
+    j = lines.index("robot J")
+    features, interval, motion, verdict = (line.strip() for line in lines[j + 2 : j + 6])
+    assert features.startswith("features      left_wheel=0.541  right_wheel=1.000")
+    assert "(navigation and floor: the steps cannot tell them apart)" in features
+    assert interval.startswith("95 % interval left_wheel 0.")
+    assert motion.startswith("motion        turns need a wheel") and "L plans with it" in motion
+    assert verdict.startswith("verdict       J's left wheel is damaged (confidence 0.9")
+    assert not any("posterior's medians" in line for line in lines)
+
+
+def test_features_line_gives_one_answer():
+    """Where Eq. 4's estimate lies outside its interval, or reads a part as damaged where the
+    posterior does not, the features line is the posterior's medians and Eq. 4's follows,
+    labelled as what L plans with."""
+    from mirl.cli.learn_report import feature_lines
+    from mirl.world.faults import DamageDefinition
+
+    record = {
+        "feature_probabilities": {"left_wheel": 0.767, "right_wheel": 1.0},
+        "feature_intervals": {"left_wheel": [0.75, 0.99], "right_wheel": [0.88, 0.99]},
+        "feature_medians": {"left_wheel": 0.94, "right_wheel": 0.96},
+        "indistinguishable": [],
+    }
+    lines = feature_lines(record, DamageDefinition())
+    assert lines[0].startswith("features      left_wheel 0.94  right_wheel 0.96")
+    assert "(the posterior's medians)" in lines[0]
+    assert lines[2].startswith("Eq. 4         left_wheel=0.767") and "L plans with it" in lines[2]
+    record["feature_probabilities"]["left_wheel"] = 0.93  # both read it healthy, inside
+    lines = feature_lines(record, DamageDefinition())
+    assert len(lines) == 2 and lines[0].startswith("features      left_wheel=0.930")

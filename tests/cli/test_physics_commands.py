@@ -27,6 +27,14 @@ def test_simulate_physics_writes_true_and_observed_pose_tracks(tmp_path, capsys)
     assert len(observed) == sum(1 for _ in open(obs)) - 1  # one measurement per grid observation
 
 
+def test_simulate_in_physics_refuses_misread_headings(capsys):
+    """Its camera measures headings with its own noise: --heading-noise would be ignored."""
+    code = main(["simulate", "--scenario", "boyd2", "--world", "physics", "--steps", "3",
+                 "--heading-noise", "0.1"])  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "--heading-noise applies to the grid world" in err[0]
+
+
 def test_run_physics_json_and_plot(tmp_path, capsys):
     png = tmp_path / "run.png"
     code = main(["run", "--world", "physics", "--scenario", "boyd2", "--obs-steps", "40",

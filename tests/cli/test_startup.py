@@ -19,8 +19,19 @@ try:
 except SystemExit:
     pass
 print(json.dumps(sorted(m for m in sys.modules if m.split('.')[0] in
-      ('scipy', 'nashpy', 'networkx', 'matplotlib', 'joblib', 'dask', 'mirl'))))
+      ('numpy', 'scipy', 'nashpy', 'networkx', 'matplotlib', 'joblib', 'dask', 'mirl'))))
 """
+# the modules of those stages the parser reads: the tables and the option types (all light)
+TABLES = {
+    "mirl.learning",
+    "mirl.learning.methods",
+    "mirl.learning.options",
+    "mirl.experiments",
+    "mirl.worlds",
+    "mirl.worlds.contract",
+    "mirl.worlds.registry",
+    "mirl.experiments.options",
+}
 
 
 def _modules_after(argv: list[str]) -> set[str]:
@@ -38,13 +49,22 @@ def test_light_commands_import_nothing_heavy(argv):
     loaded = _modules_after(argv)
     heavy = sorted(m for m in loaded if any(m == h or m.startswith(h + ".") for h in HEAVY))
     assert heavy == [], heavy
-    # the parser reads the tables of methods and worlds, and nothing else of those stages
-    tables = {"mirl.learning", "mirl.learning.methods"} | {
-        "mirl.experiments",
-        "mirl.experiments.worlds",
-    }
-    stages = ("mirl.learning", "mirl.planning", "mirl.experiments")
-    assert not any(m.startswith(stages) for m in loaded - tables), sorted(loaded - tables)
+    # the parser reads the tables and the option types, and nothing else of those stages
+    stages = ("mirl.learning", "mirl.planning", "mirl.worlds", "mirl.experiments")
+    assert not any(m.startswith(stages) for m in loaded - TABLES), sorted(loaded - TABLES)
+
+
+@pytest.mark.parametrize("argv", [["--version"], ["run", "--help"], ["learn", "--help"]])
+def test_building_the_parser_imports_no_numpy(argv):
+    """The flags are built from the option types and tables, which import nothing heavy."""
+    loaded = _modules_after(argv)
+    assert not any(m.split(".")[0] in ("numpy", "scipy") for m in loaded), sorted(loaded)
+
+
+def test_import_mirl_imports_no_numpy():
+    code = "import sys, mirl; print(sorted({m.split('.')[0] for m in sys.modules} & {'numpy'}))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
 
 
 def test_a_run_on_a_shipped_scenario_imports_no_game_solver_or_plotting():
@@ -66,17 +86,13 @@ def test_loading_a_scenario_does_not_enumerate_equilibria():
     assert out.stdout.strip() == "False"
 
 
-def test_parser_choices_match_their_sources():
-    from mirl.cli import parser
-    from mirl.experiments import records
-    from mirl.learning import dbn_em, irl
+def test_the_vocabularies_have_one_home():
+    """The learner's names are the options' own objects, not copies of them."""
+    from mirl.learning import dbn_em, irl, options
 
-    assert parser.IRL_OBJECTIVES == irl.OBJECTIVES
-    assert parser.IRL_OPTIMIZERS == irl.OPTIMIZERS
-    assert parser.RUN_MAX_WAIT == records.MAX_WAIT
-    assert parser.RUN_WATCH_UNTIL_SEEN == records.WATCH_UNTIL_SEEN
-    assert parser.RUN_WATCH_LIMIT == records.WATCH_LIMIT
-    assert parser.EM_INITS == dbn_em.EM_INITS
+    assert irl.OBJECTIVES is options.IRL_OBJECTIVES
+    assert irl.OPTIMIZERS is options.IRL_OPTIMIZERS
+    assert dbn_em.EM_INITS is options.EM_INITS
 
 
 def test_pure_equilibrium_by_best_response_is_the_enumerated_one():
@@ -111,9 +127,3 @@ def test_cli_limits_blas_threads_before_numpy_loads():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip().splitlines()[-1] == "1"
 
-
-def test_parser_go_rules_are_the_planners():
-    from mirl.cli.parser import GO_RULE_CHOICES
-    from mirl.planning.go import GO_RULES
-
-    assert set(GO_RULE_CHOICES) == set(GO_RULES)

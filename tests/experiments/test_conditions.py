@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from mirl.experiments.conditions import Condition, StoreError, get_experiment, in_world
-from mirl.experiments.worlds import WORLDS
+from mirl.worlds import WORLDS
 
 
 def test_damage_is_part_of_the_key_only_when_set():
@@ -44,3 +44,30 @@ def test_the_verdicts_experiment_spans_both_worlds_and_every_wheel():
     assert len(exp.conditions) * exp.default_runs >= 200
     with pytest.raises(StoreError, match="every world already"):
         in_world(exp, "physics")
+
+
+def test_the_experiments_are_a_table_whose_rows_are_checked():
+    from dataclasses import replace
+
+    from mirl._registry import Registry
+    from mirl.experiments.conditions import EXPERIMENTS, _check_experiment
+
+    assert EXPERIMENTS.names[:4] == ("fig3", "fig4a", "fig4b", "fig4c")
+    fig3 = EXPERIMENTS["fig3"]
+    for change, message in (
+        ({"default_runs": 0}, "default_runs must be at least 1"),
+        ({"conditions": fig3.conditions[:2] * 2}, "each once"),
+        ({"conditions": (Condition("mirl_t"),)}, "did you mean 'mirl-t'"),
+        ({"conditions": (Condition("mirl-t", world="mujoco"),)}, "unknown world 'mujoco'"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            Registry("experiment", [replace(fig3, **change)], check=_check_experiment)
+
+
+def test_an_unknown_experiment_names_the_nearest_listed_ones():
+    with pytest.raises(StoreError, match=r"^unknown experiment 'tabel1' \(did you mean 'table1'"):
+        get_experiment("tabel1")
+    with pytest.raises(StoreError) as e:
+        get_experiment("zzz")
+    assert "selftest" not in str(e.value)  # hidden: runs when named, never offered
+    assert get_experiment("selftest").hidden

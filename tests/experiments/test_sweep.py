@@ -20,7 +20,12 @@ from mirl.experiments.conditions import EXPERIMENTS, Condition, StoreError, run_
 from mirl.experiments.store import load_results
 from mirl.experiments.sweep import run_experiment
 
-QUIET = {"progress": False, "log": lambda msg: None}
+QUIET = {"log": lambda msg: None}
+
+
+def sweep(**options):
+    """Sweep options as the tests give them: quiet, one worker unless told."""
+    return {"progress": False, "workers": 1} | options
 VOLATILE = {"elapsed", "finished_at"}  # timing columns differ between identical runs
 
 
@@ -36,7 +41,7 @@ def comparable(rows: list[dict]) -> list[dict]:
 def reference(tmp_path_factory) -> list[dict]:
     """The uninterrupted, single-worker selftest sweep (10 runs per condition)."""
     out = tmp_path_factory.mktemp("ref")
-    run_experiment("selftest", out, runs=10, workers=1, **QUIET)
+    run_experiment("selftest", out, sweep(runs=10, workers=1), **QUIET)
     return comparable(load_results(out)[1])
 
 
@@ -55,7 +60,7 @@ def test_seeds_depend_on_run_only_and_are_distinct():
 
 
 def test_one_and_two_workers_store_identical_rows(tmp_path, reference):
-    run_experiment("selftest", tmp_path, runs=10, workers=2, **QUIET)
+    run_experiment("selftest", tmp_path, sweep(runs=10, workers=2), **QUIET)
     assert comparable(load_results(tmp_path)[1]) == reference
     assert (tmp_path / "results.csv").read_text().count("\n") == len(reference) + 1
 
@@ -80,7 +85,8 @@ def test_sigkill_then_resume_stores_each_run_exactly_once(tmp_path, reference):
     assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
     con.close()
 
-    summary = run_experiment("selftest", tmp_path, runs=10, workers=2, resume=True, **QUIET)
+    options = sweep(runs=10, workers=2, resume=True)
+    summary = run_experiment("selftest", tmp_path, options, **QUIET)
     assert summary.already_done == killed_at
     assert summary.finished == len(reference) - killed_at
     con = sqlite3.connect(db)
@@ -111,9 +117,8 @@ def test_local_dask_scheduler_gives_the_same_rows(tmp_path, reference):
         host="127.0.0.1", protocol="tcp", n_workers=1, threads_per_worker=2,
         processes=False, dashboard_address=None,
     ) as cluster:  # fmt: skip
-        summary = run_experiment(
-            "selftest", tmp_path, runs=10, dask_scheduler=cluster.scheduler_address, **QUIET
-        )
+        options = sweep(runs=10, dask_scheduler=cluster.scheduler_address)
+        summary = run_experiment("selftest", tmp_path, options, **QUIET)
     assert summary.workers == 2
     assert comparable(load_results(tmp_path)[1]) == reference
 
@@ -126,31 +131,31 @@ def failing_run(condition: Condition, seed: int) -> dict:
 
 def test_failed_runs_are_recorded_then_retried_on_resume(tmp_path, reference):
     bad = replace(EXPERIMENTS["selftest"], run_function=failing_run)
-    summary = run_experiment(bad, tmp_path, runs=10, **QUIET)
+    summary = run_experiment(bad, tmp_path, sweep(runs=10), **QUIET)
     assert summary.outcomes["error"] == 2  # method a at both observabilities
     rows = load_results(tmp_path)[1]
     assert {r["error"] for r in rows if r["outcome"] == "error"} == {"RuntimeError: boom"}
-    summary = run_experiment("selftest", tmp_path, runs=10, resume=True, **QUIET)
+    summary = run_experiment("selftest", tmp_path, sweep(runs=10, resume=True), **QUIET)
     assert summary.finished == 2
     assert comparable(load_results(tmp_path)[1]) == reference
 
 
 def test_existing_results_need_resume_and_the_same_experiment(tmp_path):
-    run_experiment("selftest", tmp_path, runs=1, **QUIET)
+    run_experiment("selftest", tmp_path, sweep(runs=1), **QUIET)
     with pytest.raises(StoreError, match="`resume`"):
-        run_experiment("selftest", tmp_path, runs=1, **QUIET)
+        run_experiment("selftest", tmp_path, sweep(runs=1), **QUIET)
     with pytest.raises(StoreError, match="not table1"):
-        run_experiment("table1", tmp_path, runs=1, resume=True, **QUIET)
+        run_experiment("table1", tmp_path, sweep(runs=1, resume=True), **QUIET)
     with pytest.raises(StoreError, match="`base_seed`"):
-        run_experiment("selftest", tmp_path, runs=1, resume=True, base_seed=3, **QUIET)
-    grown = run_experiment("selftest", tmp_path, runs=2, resume=True, **QUIET)
+        run_experiment("selftest", tmp_path, sweep(runs=1, resume=True, base_seed=3), **QUIET)
+    grown = run_experiment("selftest", tmp_path, sweep(runs=2, resume=True), **QUIET)
     assert (grown.already_done, grown.finished) == (4, 4)
 
 
 @pytest.mark.parametrize("name", ["fig3", "fig4a", "fig4b", "fig4c", "table1"])
 def test_report_from_a_tiny_database(tmp_path, name):
     fake = replace(EXPERIMENTS[name], run_function=selftest_run)
-    run_experiment(fake, tmp_path / name, runs=3, **QUIET)
+    run_experiment(fake, tmp_path / name, sweep(runs=3), **QUIET)
     assert main(["report", str(tmp_path)]) == 0
     text = (tmp_path / "report.md").read_text()
     assert f"## {name}" in text and "**Paper:**" in text
@@ -167,7 +172,8 @@ def test_report_from_a_tiny_database(tmp_path, name):
 
 
 def test_cli_one_line_errors(tmp_path, capsys):
-    assert main(["experiment", "fig9", "--out", str(tmp_path)]) == 2
+    with pytest.raises(SystemExit, match="2"):  # argparse refuses the name
+        main(["experiment", "fig9", "--out", str(tmp_path)])
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "unknown experiment 'fig9'" in err
     assert main(["report", str(tmp_path / "nothing")]) == 2
@@ -179,7 +185,7 @@ def test_cli_one_line_errors(tmp_path, capsys):
 
 def test_report_takes_the_database_file_and_names_any_other_file(tmp_path, capsys):
     run_experiment(
-        replace(EXPERIMENTS["table1"], run_function=selftest_run), tmp_path, runs=1, **QUIET
+        replace(EXPERIMENTS["table1"], run_function=selftest_run), tmp_path, sweep(runs=1), **QUIET
     )
     assert main(["report", str(tmp_path / "results.sqlite")]) == 0  # its directory's report
     assert (tmp_path / "report.md").exists()

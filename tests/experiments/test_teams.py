@@ -1,6 +1,7 @@
-"""Teams of N ≥ 2 patrollers: meetings between any pair in the simulator, the sparse
-meeting masks, the exact N-robot joint filter against the pair filter and the factored one,
-equilibrium weighing over pairs, three-robot learning, and the RL environments."""
+"""Teams of N ≥ 2 patrollers: meetings between any pair in the simulator, the exact N-robot
+joint filter against the pair filter and the factored one, equilibrium weighing over pairs and
+three-robot learning (the filters' parts: tests/planning/test_team_filter.py; the RL
+environments: tests/envs)."""
 
 from __future__ import annotations
 
@@ -11,27 +12,13 @@ from mirl.learning.equilibria import meeting_pairs, weigh_equilibria, weigh_team
 from mirl.learning.results import oracle_models
 from mirl.planning.belief import UNSEEN, BeliefFilter
 from mirl.planning.observer import observer_model
-from mirl.planning.team_filter import meeting_matrix
 from mirl.simulation.grid import PatrolSimulator, simulate
-from mirl.world.game import meeting
 from mirl.world.scenario import load_scenario
 
 
 @pytest.fixture(scope="module")
 def br3():
     return load_scenario("boydright-3")
-
-
-def test_meeting_matrix_is_the_meeting_rule(br3):
-    d = br3.domain
-    S = d.n_states
-    pol = [br3.true_policy(i) for i in range(3)]
-    si, sj = np.divmod(np.arange(S * S), S)
-    for i, j in ((0, 1), (0, 2), (2, 1)):
-        dense = meeting(d, si, sj, pol[i][si], pol[j][sj]).reshape(S, S)
-        sparse = meeting_matrix(d, pol[i], pol[j]).toarray() > 0
-        np.testing.assert_array_equal(sparse, dense)
-        assert dense.any()
 
 
 def test_three_robots_meet_pairwise_and_first_meeting_wins(br3):
@@ -60,11 +47,8 @@ def test_exact_team_filter_equals_the_pair_filter():
     model = observer_model(sc)
     vis = sc.domain.visible_states(sc.observability)
     pair = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
-    team = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
-    # force the general tensor code on two robots
-    from mirl.planning.team_filter import ExactTeam, TeamParts
-
-    team.mode, team._team = "team", ExactTeam(TeamParts(sc.domain, learned))
+    team = BeliefFilter(sc.domain, learned, visible=vis, mode="team")  # the tensor code on two
+    assert pair.mode == "pair"
     res = simulate(sc, 60, seed=4, random_starts=True)
     seen = np.stack([res.observations.state_series(sc.domain, i) for i in range(2)], axis=1)
     for row in seen:
@@ -113,7 +97,7 @@ def test_factored_filter_is_closer_to_exact_than_independent_marginals(tmp_path)
     indep = BeliefFilter(sc.domain, learned, visible=vis, joint=False)
     parts = TeamParts(sc.domain, learned)
     parts.meet = [m * 0.0 for m in parts.meet]
-    indep._team = FactoredTeam(parts)
+    indep.form.team = FactoredTeam(parts)
     assert exact.mode == "team" and fact.mode == "factored"
     res = simulate(sc, 30, seed=1, random_starts=True)
     assert res.interactions > 0
@@ -129,28 +113,6 @@ def test_factored_filter_is_closer_to_exact_than_independent_marginals(tmp_path)
     assert err_fact < err_indep
 
 
-def test_factored_propagation_is_the_plain_sparse_products(br3):
-    """The factored step calls scipy's kernels directly: bit for bit the products through `@`
-    (the first implementation's loop, kept here)."""
-    from mirl.planning.team_filter import FactoredTeam, TeamParts
-
-    parts = TeamParts(br3.domain, oracle_models(br3))
-    rng = np.random.default_rng(3)
-    belief = rng.random((parts.n, parts.S)) ** 3
-    belief /= belief.sum(axis=1, keepdims=True)
-    expected = np.empty_like(belief)
-    for i in range(parts.n):
-        free, extra = np.ones(parts.S), []
-        for k, other, side in parts.robot_pairs(i):
-            m = parts.meet[k] if side == 0 else parts.meet[k].T
-            w = free * np.clip(m @ belief[other], 0.0, 1.0)
-            free = free - w
-            if w.any():
-                extra.append(parts.game_T[k][side] @ (belief[i] * w))
-        expected[i] = parts.step_T[i] @ (belief[i] * free) + sum(extra, np.zeros(parts.S))
-    assert np.array_equal(FactoredTeam(parts).propagate(belief), expected)
-
-
 def _ring3(tmp_path):
     (tmp_path / "ring.txt").write_text(RING)
     (tmp_path / "ring3.toml").write_text(RING_SCENARIO)
@@ -163,7 +125,7 @@ def _reference_filter(sc, learned, vis):
     from tests.references.team_filter import ReferenceExactTeam
 
     f = BeliefFilter(sc.domain, learned, visible=vis, joint=True)
-    f._team = ReferenceExactTeam(TeamParts(sc.domain, learned))
+    f.form.team = ReferenceExactTeam(TeamParts(sc.domain, learned))
     return f
 
 
@@ -177,9 +139,10 @@ def test_exact_team_propagation_equals_the_first_implementation(tmp_path):
     ref = _reference_filter(sc, learned, vis)
     b = np.random.default_rng(0).random((sc.domain.n_states,) * 3)
     b /= b.sum()
-    assert len(new._team.meetings.idx) > 0
-    np.testing.assert_allclose(new._team.propagate(b), ref._team.propagate(b), rtol=1e-12, atol=0)
-    np.testing.assert_allclose(new._team.marginals(b), ref._team.marginals(b), rtol=1e-12)
+    assert len(new.form.team.meetings.idx) > 0
+    new_team, ref_team = new.form.team, ref.form.team
+    np.testing.assert_allclose(new_team.propagate(b), ref_team.propagate(b), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(new_team.marginals(b), ref_team.marginals(b), rtol=1e-12)
     res = simulate(sc, 25, seed=3, random_starts=True)
     assert res.interactions > 0
     seen = np.stack([res.observations.state_series(sc.domain, i) for i in range(3)], axis=1)
@@ -267,73 +230,3 @@ def test_learn_prints_each_pair_of_a_team(tmp_path, capsys):
     lines = capsys.readouterr().out.splitlines()
     (pairs,) = [x for x in lines if x.startswith("pairs ")]
     assert "I/J " in pairs and "(other pairs: the equilibrium above)" in pairs
-
-
-# ---- environments ------------------------------------------------------------------------------
-def test_gymnasium_env_passes_the_checker():
-    from gymnasium.utils.env_checker import check_env
-
-    from mirl.envs import PenetrationEnv
-
-    env = PenetrationEnv("boyd2", max_steps=200)
-    check_env(env, skip_render_check=True)
-    a, _ = env.reset(seed=5)
-    b, _ = env.reset(seed=5)
-    np.testing.assert_array_equal(a["patrollers"], b["patrollers"])
-
-
-def test_pettingzoo_env_passes_the_parallel_api_test():
-    from pettingzoo.test import parallel_api_test
-
-    from mirl.envs import TeamEnv
-
-    env = TeamEnv("boydright-3", max_cycles=40)
-    parallel_api_test(env, num_cycles=50)
-    assert env.possible_agents == ["I", "J", "K", "L"]
-
-
-def test_envs_end_with_goal_or_detection():
-    from mirl.envs import PenetrationEnv
-
-    env = PenetrationEnv("boyd2", max_steps=300)
-    outcomes = set()
-    for seed in range(3):
-        env.reset(seed=seed)
-        env.action_space.seed(seed)
-        while True:
-            _, reward, term, trunc, info = env.step(env.action_space.sample())
-            if term or trunc:
-                break
-        outcomes.add(info["outcome"])
-        if info["outcome"] == "detected":
-            assert reward == -1.0
-    assert outcomes <= {"detected", "success", None}
-
-
-def test_envs_refuse_what_they_would_otherwise_default_or_drop():
-    from gymnasium.error import ResetNeeded
-
-    from mirl.envs import PenetrationEnv, TeamEnv
-
-    with pytest.raises(ResetNeeded, match="reset"):
-        PenetrationEnv("boyd2").step(0)
-    env = TeamEnv("boyd2")
-    with pytest.raises(ValueError, match="reset"):
-        env.step({"I": 0, "J": 0, "L": 0})
-    env.reset(seed=0)
-    good = {"I": 0, "J": 3, "L": 3}
-    for actions, needle in [
-        (good | {"X": 0}, r"unknown \['X'\]"),
-        ({"I": 0, "L": 3}, r"missing \['J'\]"),
-        (good | {"J": 99}, "agent J: action 99"),
-        (good | {"L": -1}, "agent L: action -1"),
-    ]:
-        with pytest.raises(ValueError, match=needle):
-            env.step(actions)
-    obs, *_ = env.step(good)  # nothing refused above moved anyone
-    fresh = TeamEnv("boyd2")
-    fresh.reset(seed=0)
-    expected, *_ = fresh.step(good)
-    for name in ("I", "J"):
-        np.testing.assert_array_equal(obs[name], expected[name])
-    np.testing.assert_array_equal(obs["L"]["observer"], expected["L"]["observer"])

@@ -215,20 +215,19 @@ def test_joint_filter_is_bitwise_the_plain_one(name, degree):
 def test_forward_operator_pattern_reuse_and_direct_lapack_solve_are_bitwise(boyd2):
     import scipy.linalg as sla
 
-    from mirl.learning.irl import OccludedMaxEntIRL
-    from mirl.learning.sequence import _block_operator
+    from mirl.learning.sequence import BlockOperator, _block_operator
     from mirl.learning.soft_policy import _dense_solve
 
     d = boyd2.domain
     T = boyd2.true_transitions(1)
-    irl = OccludedMaxEntIRL(d.reward_features, T)
+    forward_operator = BlockOperator()  # one per fit in OccludedMaxEntIRL
     dyn = _Dynamics(T, d.n_actions)
     rng = np.random.default_rng(1)
     for _ in range(2):  # the second call reuses the pattern built by the first
         pi = rng.dirichlet(np.ones(d.n_actions), size=d.n_states)
         dpi = rng.normal(size=(d.n_states, d.n_actions, 3))
         PT, dPT = dyn.transposed_policy(pi), dyn.transposed_policy(dpi)
-        got, ref = irl._forward_operator(PT, dPT), _block_operator(PT, dPT)
+        got, ref = forward_operator(PT, dPT), _block_operator(PT, dPT)
         assert np.array_equal(got.indptr, ref.indptr)
         assert np.array_equal(got.indices, ref.indices)
         assert np.array_equal(got.data, ref.data)

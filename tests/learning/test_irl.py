@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import itertools
+from functools import partial
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
 from mirl.learning.equilibria import joint_log_likelihood, potential_meetings, weigh_equilibria
-from mirl.learning.irl import ANCHORS, OBJECTIVES, OccludedMaxEntIRL
+from mirl.learning.irl import ANCHORS, OBJECTIVES, IRLProblem, OccludedMaxEntIRL
 from mirl.learning.soft_policy import soft_policy_iteration
 from mirl.mdp import TabularMDP, soft_value_iteration, value_iteration
 from mirl.world.domain import FORWARD, STOP
@@ -74,9 +75,9 @@ def test_soft_policy_iteration_matches_soft_value_iteration(expert):
 @pytest.mark.parametrize("optimizer", ["lbfgs", "nelder-mead"])
 def test_fully_observed_expert_policy_is_recovered(expert, objective, optimizer):
     T, _, phi, policy, x, a = expert
-    irl = OccludedMaxEntIRL(
-        phi, T, discount=0.9, objective=objective, optimizer=optimizer, random_state=0
-    ).fit(x, a)
+    irl = OccludedMaxEntIRL(objective=objective, optimizer=optimizer, random_state=0).fit(
+        IRLProblem(phi, T, discount=0.9), x, a
+    )
     assert irl.policy_.tolist() == policy.tolist()
     assert irl.result_.x.shape == (2,) and np.isfinite(irl.result_.fun)
 
@@ -88,9 +89,8 @@ def test_policy_is_recovered_with_the_east_end_occluded(expert):
     objective = "sequence"
     visible = np.array([True, True, True, False, False])
     x_obs = np.where(visible[x], x, -1)
-    irl = OccludedMaxEntIRL(
-        phi, T, discount=0.9, visible=visible, objective=objective, random_state=0
-    ).fit(x_obs, a)
+    problem = IRLProblem(phi, T, discount=0.9, visible=visible)
+    irl = OccludedMaxEntIRL(objective=objective, random_state=0).fit(problem, x_obs, a)
     assert irl.policy_.tolist() == policy.tolist()
 
 
@@ -100,7 +100,8 @@ def test_occluded_steps_contribute_nothing_to_the_expert_counts(expert):
     x_obs = np.where(visible[x], x, -1)
     seen = x_obs >= 0
     labels = np.where(seen, a, -1)
-    fit = OccludedMaxEntIRL(phi, T, discount=0.9, visible=visible, objective="sequence").fit
+    problem = IRLProblem(phi, T, discount=0.9, visible=visible)
+    fit = partial(OccludedMaxEntIRL(objective="sequence").fit, problem)
     counts = fit(x_obs, labels).expert_counts_
     # by hand: φ(s_t, a_t) summed over the observed, labelled steps only
     np.testing.assert_allclose(counts, phi[x[seen], a[seen]].sum(axis=0))
@@ -111,9 +112,11 @@ def test_occluded_steps_contribute_nothing_to_the_expert_counts(expert):
     # while the expected counts are over observable states only
     irl = fit(x_obs, labels)
     assert irl.expected_counts_[0] > 0  # the east end (feature 0) is observable here
-    hidden_only = OccludedMaxEntIRL(
-        phi, T, discount=0.9, visible=np.array([True, True, True, True, False]), objective="counts"
-    ).fit(np.where(x < 4, x, -1), np.where(x < 4, a, -1))
+    hidden_only = OccludedMaxEntIRL(objective="counts").fit(
+        IRLProblem(phi, T, discount=0.9, visible=np.array([True, True, True, True, False])),
+        np.where(x < 4, x, -1),
+        np.where(x < 4, a, -1),
+    )
     assert hidden_only.expert_counts_[0] == 0 and hidden_only.expected_counts_[0] == 0
 
 
@@ -122,10 +125,10 @@ def test_occluded_steps_contribute_nothing_to_the_expert_counts(expert):
 def test_gradients_match_finite_differences(expert, objective, anchor):
     T, _, phi, _, x, a = expert
     visible = np.array([True, True, False, False, True])
-    irl = OccludedMaxEntIRL(
-        phi, T, discount=0.9, visible=visible, objective=objective, anchor=anchor
+    irl = OccludedMaxEntIRL(objective=objective, anchor=anchor)
+    irl._prepare(
+        IRLProblem(phi, T, discount=0.9, visible=visible), np.where(visible[x], x, -1), a, None
     )
-    irl._prepare(np.where(visible[x], x, -1), a, None)
     irl._V_warm = None
     theta = np.array([0.8, -0.4])
     _, g = irl._loss(theta, grad=True)
@@ -138,8 +141,8 @@ def test_sequence_likelihood_equals_enumeration_over_occluded_paths(expert):
     T, T3, phi, *_ = expert
     visible = np.array([True, True, False, False, False])
     x = np.array([0, 1, -1, -1, 1, -1, -1, 1, -1, -1])
-    irl = OccludedMaxEntIRL(phi, T, discount=0.9, visible=visible, objective="sequence")
-    irl._prepare(x, None, None)
+    irl = OccludedMaxEntIRL(objective="sequence")
+    irl._prepare(IRLProblem(phi, T, discount=0.9, visible=visible), x, None, None)
     irl._V_warm = None
     _, _, pi = irl._soft(np.array([0.3, -0.7]))
     ll, _ = irl._sequence_loglik(pi, irl._dyn.transposed_policy(pi))
@@ -157,9 +160,9 @@ def test_sequence_likelihood_equals_enumeration_over_occluded_paths(expert):
 def test_restarts_are_seeded(expert):
     T, _, phi, _, x, a = expert
     fits = [
-        OccludedMaxEntIRL(
-            phi, T, discount=0.9, optimizer="nelder-mead", n_restarts=3, random_state=7
-        ).fit(x, a)
+        OccludedMaxEntIRL(optimizer="nelder-mead", n_restarts=3, random_state=7).fit(
+            IRLProblem(phi, T, discount=0.9), x, a
+        )
         for _ in range(2)
     ]
     np.testing.assert_array_equal(fits[0].weights_, fits[1].weights_)
@@ -173,7 +176,9 @@ def test_a_looser_tol_stops_sooner_near_the_same_weights(expert):
     visible = np.array([True, True, True, False, False])
     x_obs = np.where(visible[x], x, -1)
     fits = {
-        tol: OccludedMaxEntIRL(phi, T, discount=0.9, visible=visible, tol=tol).fit(x_obs, a)
+        tol: OccludedMaxEntIRL(tol=tol).fit(
+            IRLProblem(phi, T, discount=0.9, visible=visible), x_obs, a
+        )
         for tol in (None, 1e-5)
     }
     loose, default = fits[1e-5], fits[None]
@@ -182,15 +187,54 @@ def test_a_looser_tol_stops_sooner_near_the_same_weights(expert):
     assert loose.result_.fun <= default.result_.fun * (1 + 1e-5)
     np.testing.assert_allclose(loose.weights_, default.weights_, rtol=1e-3)
     with pytest.raises(ValueError, match="tol must be positive"):
-        OccludedMaxEntIRL(phi, T, tol=0.0)
+        OccludedMaxEntIRL(tol=0.0)
 
 
 def test_bad_inputs_are_rejected(expert):
     T, _, phi, *_ = expert
     with pytest.raises(ValueError, match="objective"):
-        OccludedMaxEntIRL(phi, T, objective="magic")
+        OccludedMaxEntIRL(objective="magic")
+    for option, typo, meant in (
+        ("objective", "sequense", "sequence"),
+        ("optimizer", "l-bfgs", "lbfgs"),
+        ("anchor", "re-entry", "reentry"),
+        ("gradient", "reversed", "reverse"),
+    ):  # each choice is a table's name: an unknown one answers with the nearest
+        near = f"unknown {option} '{typo}' \\(did you mean '{meant}'"
+        with pytest.raises(ValueError, match=near):
+            OccludedMaxEntIRL(**{option: typo})
     with pytest.raises(ValueError, match="never observed"):
-        OccludedMaxEntIRL(phi, T).fit(np.full(10, -1))
+        OccludedMaxEntIRL().fit(IRLProblem(phi, T, 0.9), np.full(10, -1))
+
+
+def test_a_problem_that_does_not_fit_together_is_refused_where_it_is_made(expert):
+    T, _, phi, *_ = expert
+    for kwargs, needle in (
+        ({"features": phi[0]}, r"features must be \(S, A, K\), got shape \(3, 2\)"),
+        ({"transitions": T[:5]}, r"transitions must be \(15, 5\), got \(5, 5\)"),
+        ({"visible": np.ones(4, bool)}, r"visible must be \(5,\), got \(4,\)"),
+        ({"discount": 1.0}, r"discount must be in \[0, 1\), got 1.0"),
+    ):
+        with pytest.raises(ValueError, match=needle):
+            IRLProblem(**{"features": phi, "transitions": T, "discount": 0.9, **kwargs})
+    problem = IRLProblem(phi.astype(int), T, 0.9, visible=[1, 1, 0, 0, 1])
+    assert problem.features.dtype == float and problem.visible.dtype == bool
+    assert problem.transitions is T  # kept as given: learn() asks which T a fit used
+
+
+def test_one_estimator_fits_two_problems_as_two_fresh_ones_do(expert):
+    """The problem is fit()'s: nothing of the first fit (its warm values, its operator's
+    pattern) leaks into the second."""
+    T, T3, phi, _, x, a = expert
+    other, *_ = corridor(p=0.7)
+    problems = [IRLProblem(phi, T, discount=0.9), IRLProblem(phi, other, discount=0.8)]
+    reused = OccludedMaxEntIRL(random_state=0)
+    for problem in problems:
+        fresh = OccludedMaxEntIRL(random_state=0).fit(problem, x, a)
+        reused.fit(problem, x, a)
+        assert reused.problem_ is problem
+        np.testing.assert_array_equal(reused.weights_, fresh.weights_)
+        np.testing.assert_array_equal(reused.policy_, fresh.policy_)
 
 
 # ---- interactions on boyd2 -------------------------------------------------------------------

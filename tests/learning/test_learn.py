@@ -10,7 +10,8 @@ import pytest
 
 from mirl.cli import main
 from mirl.learning.learn import LoopTrace, learn
-from mirl.learning.methods import LEARNING_METHODS
+from mirl.learning.methods import LEARNING_METHODS, METHODS
+from mirl.learning.options import LearnOptions
 from mirl.learning.results import LearnResult, oracle_models
 from mirl.learning.transitions import (
     count_subsets,
@@ -92,20 +93,22 @@ def test_label_tol_counts_a_round_within_it_as_converged(boyd2, full_run, relabe
     n = sum(len(observed_steps(x)[0]) for x in series)
     assert first > 0.01 * n  # the default tolerance did not stop it after one round
     obs = full_run.observations
-    at = learn(obs, boyd2, "mirl-t", observability=1.0, label_tol=first / n)
+    at = learn(obs, boyd2, "mirl-t", observability=1.0, options={"label_tol": first / n})
     assert at.iterations == 1 and at.success
     assert f"labels converged ({first} of {n} changed, within label_tol)" in at.message
-    below = learn(obs, boyd2, "mirl-t", observability=1.0, label_tol=(first - 0.5) / n)
+    looser = {"label_tol": (first - 0.5) / n}
+    below = learn(obs, boyd2, "mirl-t", observability=1.0, options=looser)
     assert below.iterations > 1
     assert below.label_changes == result.label_changes[: below.iterations]  # the same rounds
-    with pytest.raises(ValueError, match="label_tol must be in"):
-        learn(obs, boyd2, "mirl-t", label_tol=1.5)
+    with pytest.raises(ValueError, match=r"`label_tol` must be a number in \[0, 1\]"):
+        learn(obs, boyd2, "mirl-t", options={"label_tol": 1.5})
 
 
 @pytest.mark.parametrize("method", [m for m in LEARNING_METHODS if m != "mirl-t"])
 def test_every_method_returns_models(boyd2, method):
     run = simulate(boyd2, 120, seed=1, observability=0.5, random_starts=True)
-    result = learn(run.observations, boyd2, method, observability=0.5, p=0.8)
+    options = {"p": 0.8} if METHODS[method].uses_p else {}
+    result = learn(run.observations, boyd2, method, observability=0.5, options=options)
     assert result.method == method
     assert len(result.robots) == 2
     for r in result.robots:
@@ -244,9 +247,10 @@ def test_a_method_that_does_not_relabel_keeps_its_labels_and_starts_the_irl_warm
     obs, first_half = grown
     first = learn(first_half, boyd2, "mirl-t", observability=0.5)
     cold_trace, warm_trace = LoopTrace(), LoopTrace()
-    cold = learn(obs, boyd2, method, observability=0.5, n_restarts=2, trace=cold_trace)
+    two = LearnOptions(n_restarts=2)
+    cold = learn(obs, boyd2, method, observability=0.5, options=two, trace=cold_trace)
     warm = learn(
-        obs, boyd2, method, observability=0.5, n_restarts=2, warm_start=first, trace=warm_trace
+        obs, boyd2, method, observability=0.5, options=two, warm_start=first, trace=warm_trace
     )
     for a, b in zip(warm_trace.labels[0], cold_trace.labels[0], strict=True):
         np.testing.assert_array_equal(a, b)
@@ -272,8 +276,8 @@ def test_a_warm_start_of_other_robots_or_another_map_is_refused(boyd2, grown, re
 def test_bad_arguments(boyd2, full_run):
     with pytest.raises(ValueError, match="unknown method"):
         learn(full_run.observations, boyd2, "magic")
-    with pytest.raises(ValueError, match="p must be"):
-        learn(full_run.observations, boyd2, "mirl", p=1.5)
+    with pytest.raises(ValueError, match="`p` must be"):
+        learn(full_run.observations, boyd2, "mirl", options={"p": 1.5})
     other = load_scenario("boyd2")
     renamed = type(full_run.observations)(
         ("A", "B"),

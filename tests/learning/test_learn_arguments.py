@@ -36,7 +36,11 @@ def test_a_scenario_name_is_the_scenario(record):
         ({"random_state": 1.5}, ValueError, "random_state"),
         ({"visible": np.ones(5, bool)}, ValueError, "visible must have shape"),
         ({"visible": np.full(124, 2)}, ValueError, "visible must be booleans"),
-        ({"label_tol": 2.0}, ValueError, "label_tol"),
+        ({"options": {"label_tol": 2.0}}, ValueError, "`label_tol` must be a number in"),
+        ({"options": {"labeltol": 0.1}}, ValueError, "did you mean 'label_tol'"),
+        ({"options": 3}, TypeError, "`options` must be a LearnOptions"),
+        ({"method": "mirl-t", "options": {"p": 0.5}}, ValueError, "`p` applies to the methods"),
+        ({"random_state": 2**63}, ValueError, r"`random_state` must be an integer in \[0, 2\^63"),
     ],
 )
 def test_bad_arguments_are_named(record, change, error, needle):
@@ -70,18 +74,24 @@ def test_simulate_takes_a_scenario_by_name_too(record):
         ({"l2": -1.0}, "l2 must be at least 0"),
         ({"max_evaluations": 0}, "max_evaluations must be at least 1"),
         ({"n_restarts": 0}, "n_restarts must be at least 1"),
-        ({"visible": np.ones(7, bool)}, r"visible must be \(3,\)"),
     ],
 )
 def test_irl_options_that_would_fit_nothing_are_refused(option, needle):
     # each ran and returned θ = 0 (or a NaN policy) without a word
-    import scipy.sparse as sp
-
     from mirl.learning.irl import OccludedMaxEntIRL
 
-    stay = sp.csr_array((np.ones(6), (np.arange(6), np.repeat(np.arange(3), 2))), shape=(6, 3))
     with pytest.raises(ValueError, match=needle):
-        OccludedMaxEntIRL(np.zeros((3, 2, 1)), stay, **option)
+        OccludedMaxEntIRL(**option)
+
+
+def test_an_irl_problem_with_a_view_of_another_map_is_refused():
+    import scipy.sparse as sp
+
+    from mirl.learning.irl import IRLProblem
+
+    stay = sp.csr_array((np.ones(6), (np.arange(6), np.repeat(np.arange(3), 2))), shape=(6, 3))
+    with pytest.raises(ValueError, match=r"visible must be \(3,\)"):
+        IRLProblem(np.zeros((3, 2, 1)), stay, 0.9, visible=np.ones(7, bool))
 
 
 def test_backward_induction_refuses_a_negative_horizon():

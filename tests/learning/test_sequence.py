@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mirl.learning.irl import OccludedMaxEntIRL
+from mirl.learning.irl import IRLProblem, OccludedMaxEntIRL
 from mirl.learning.sequence import BlockOperator, ObservedSequence
 from mirl.learning.soft_policy import _Dynamics
 from mirl.simulation.grid import simulate
@@ -106,15 +106,14 @@ def test_fits_with_either_gradient_reach_the_same_weights():
     d = sc.domain
     obs = simulate(sc, 300, seed=4, observability=0.14, random_starts=True).observations
     x = obs.state_series(d, 1)
+    problem = IRLProblem(
+        d.reward_features,
+        sc.true_transitions(1),
+        discount=sc.discount,
+        visible=d.visible_states(0.14),
+    )
     forward, reverse = (
-        OccludedMaxEntIRL(
-            d.reward_features,
-            sc.true_transitions(1),
-            discount=sc.discount,
-            visible=d.visible_states(0.14),
-            gradient=mode,
-        ).fit(x)
-        for mode in ("forward", "reverse")
+        OccludedMaxEntIRL(gradient=mode).fit(problem, x) for mode in ("forward", "reverse")
     )
     np.testing.assert_allclose(reverse.weights_, forward.weights_, rtol=1e-6, atol=1e-6)
     assert np.array_equal(reverse.policy_, forward.policy_)
@@ -126,8 +125,9 @@ def test_auto_takes_forward_mode_on_the_small_maps_and_reverse_on_the_office():
         sc = load_scenario(name)
         d = sc.domain
         run = simulate(sc, 300, seed=1, observability=1.0)
-        irl = OccludedMaxEntIRL(d.reward_features, sc.true_transitions(0))
-        irl._prepare(run.observations.state_series(d, 0), None, None)
+        irl = OccludedMaxEntIRL()
+        problem = IRLProblem(d.reward_features, sc.true_transitions(0), sc.discount)
+        irl._prepare(problem, run.observations.state_series(d, 0), None, None)
         modes[name] = irl._reverse_mode()
     assert modes == {"boyd2": False, "boydright-3": False, "office": True}
 
@@ -138,19 +138,19 @@ def test_auto_falls_back_to_forward_mode_when_the_history_would_not_fit(monkeypa
     sc = load_scenario("office")
     d = sc.domain
     x = simulate(sc, 200, seed=2, observability=sc.observability).observations.state_series(d, 0)
-    irl = OccludedMaxEntIRL(
-        d.reward_features, sc.true_transitions(0), visible=d.visible_states(0.14)
+    irl = OccludedMaxEntIRL()
+    problem = IRLProblem(
+        d.reward_features, sc.true_transitions(0), sc.discount, visible=d.visible_states(0.14)
     )
-    irl._prepare(x, None, None)
+    irl._prepare(problem, x, None, None)
     assert irl._sequence.history_size > 0 and irl._reverse_mode()
     monkeypatch.setattr(irl_module, "_HISTORY_BYTES", 16 * irl._sequence.history_size - 1)
     assert not irl._reverse_mode()
 
 
 def test_unknown_gradient_mode_is_refused():
-    sc = load_scenario("boyd2")
     with pytest.raises(ValueError, match="unknown gradient 'adjoint'"):
-        OccludedMaxEntIRL(sc.domain.reward_features, sc.true_transitions(0), gradient="adjoint")
+        OccludedMaxEntIRL(gradient="adjoint")
 
 
 def test_a_robot_seen_on_one_step_only_has_no_observed_move():

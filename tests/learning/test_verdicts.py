@@ -1,5 +1,6 @@
 """Intervals and fault verdicts (mirl.learning.verdicts), checked against a brute-force grid
-posterior, on simulated data, and through learn()."""
+posterior, on simulated data, and through learn(). The motion models' evidence and the model
+check have their own tests (test_motion_models.py, test_model_check.py)."""
 
 from __future__ import annotations
 
@@ -8,10 +9,11 @@ import pytest
 from scipy.stats import beta as beta_dist
 
 from mirl.learning.learn import learn
-from mirl.learning.transitions import count_subsets, observed_steps
+from mirl.learning.transitions import observed_steps
 from mirl.learning.verdicts import (
     LateralDrift,
     PriorSpec,
+    RobotRecord,
     Verdict,
     drift_log_likelihood,
     failure_dispersion,
@@ -22,11 +24,9 @@ from mirl.learning.verdicts import (
     point_verdict,
     posterior_draws,
     robot_uncertainty,
-    soft_counts,
     verdict_from_draws,
 )
 from mirl.simulation.grid import PatrolSimulator
-from mirl.world.domain import ACTIONS
 from mirl.world.faults import DamageDefinition, DriftSpec
 from mirl.world.scenario import load_scenario
 
@@ -177,52 +177,6 @@ def _steps(seed=0, steps=300):
         info = sim.step()[-1]
         states.append(info["states"].copy())
     return scenario, np.asarray(states)
-
-
-def test_soft_counts_without_a_soft_policy_are_the_hard_counts():
-    scenario, states = _steps()
-    d = scenario.domain
-    t, s, s_next = observed_steps(states[:, 1])
-    labels = scenario.true_policy(1)[s]
-    k, n = soft_counts(d, s, labels, s_next)
-    hard = count_subsets(d, s, labels, s_next)
-    assert np.array_equal(k, hard.successes) and np.array_equal(n, hard.trials)
-    # a soft policy certain of the labelled action changes nothing where T explains the step
-    pi = np.eye(d.n_actions)[scenario.true_policy(1)]
-    k2, n2 = soft_counts(d, s, labels, s_next, scenario.true_transitions(1), pi)
-    assert np.allclose(k2, k) and np.allclose(n2, n)
-    # an undecided policy moves failures of the labelled action to successes of another
-    k3, n3 = soft_counts(
-        d, s, labels, s_next, scenario.true_transitions(1), np.full(pi.shape, 0.25)
-    )
-    assert n3.sum() == pytest.approx(n.sum())
-    assert k3.sum() > k.sum()
-
-
-@pytest.mark.parametrize("error_model", ["uniform", "stop"])
-def test_a_label_its_model_cannot_explain_is_not_a_failure(error_model):
-    """A hard "stop" (a meeting rule's, a known policy's) after which the robot drove into the
-    cell ahead: under Eq. 5 a failed stop can end there, and it counts as a failure of the
-    floor; where failures stay put it cannot, and the step counts for the action that explains
-    it (forward, whose success it is), with or without a soft policy."""
-    from mirl.world.motion import transition_matrix
-
-    scenario = load_scenario("boyd2")
-    d = scenario.domain
-    stop, forward = ACTIONS.index("stop"), ACTIONS.index("forward")
-    s = np.array([s for s in range(d.n_states) if d.intended[s, forward] != s][:1])
-    s_next = d.intended[s, forward]
-    probs = scenario.robots[0].feature_probabilities
-    T = transition_matrix(d, probs, error_model)
-    for soft in (None, np.full((d.n_states, d.n_actions), 1.0 / d.n_actions)):
-        own = None if soft is None else np.full(d.n_states, forward)  # "stop" is the rule's
-        k, n = soft_counts(d, s, np.array([stop]), s_next, T, soft, own)
-        floor = d.subsets.index(("floor",))
-        fwd = d.subset_index[s[0], forward]
-        if error_model == "uniform":
-            assert n[floor] == 1 and k[floor] == 0
-        else:
-            assert n[floor] == 0 and k[fwd] == pytest.approx(n[fwd]) and n.sum() == 1
 
 
 def test_dispersion_sees_clustered_failures():
@@ -423,12 +377,34 @@ def test_steps_held_by_another_robot_are_no_evidence_of_a_part():
     labels = np.full(len(x), -1)
     labels[t] = scenario.true_policy(i)[s]
     probs = scenario.robots[i].feature_probabilities
-    T = scenario.true_transitions(i)
     definition = scenario.faults
-    jammed = robot_uncertainty(d, x, labels, T, probs, definition)
+    jammed = robot_uncertainty(d, RobotRecord(x, labels), probs, definition)
     held = held_by_others(d, [x, other], 0)
     assert held[100:141].all() and held.sum() == 41
-    free = robot_uncertainty(d, x, labels, T, probs, definition, held=held)
-    # the jam alone makes a damaged part as likely as not (0.45 here); left out, it is gone
-    assert jammed.verdict.confidence < 0.7
+    free = robot_uncertainty(d, RobotRecord(x, labels, held=held), probs, definition)
+    # the jam makes a damaged part likely, or fails the check; left out, it is gone
+    assert jammed.verdict.part is not None or jammed.verdict.candidates or not jammed.verdict.fit.ok
+    assert free.verdict.fit.ok
     assert free.verdict.part is None and free.verdict.confidence > 0.99
+    # the stuck robot's jump back to its own track at step 140 is explained by no action
+    assert free.verdict.fit.left_out["in another robot's way"] == 40
+
+
+def test_a_wheel_that_only_drifts_is_weakened_not_damaged():
+    """A robot that veers to the right beyond a healthy robot's spread, where the verdict is
+    that no part is damaged: its right wheel is weakened, its moves unaffected."""
+    from mirl.learning.verdicts import weakened_wheel
+
+    spec = DriftSpec(per_gap=0.25)
+    right = LateralDrift(-0.06, 0.008, 120)
+    assert weakened_wheel(right, spec, ()) == "right_wheel"
+    assert weakened_wheel(LateralDrift(0.06, 0.008, 120), spec, ()) == "left_wheel"
+    assert weakened_wheel(LateralDrift(-0.02, 0.008, 120), spec, ()) is None  # within τ
+    assert weakened_wheel(right, spec, ("right_wheel",)) is None  # damaged, said so
+    assert weakened_wheel(None, spec, ()) is None
+    v = Verdict(None, 0.97, weakened="right_wheel")
+    assert v.sentence("I") == (
+        "no part of I is damaged (confidence 0.97); its right wheel is weakened, its moves "
+        "unaffected"
+    )
+    assert v.to_dict()["weakened"] == "right_wheel"

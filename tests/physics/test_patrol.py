@@ -102,7 +102,7 @@ def test_patroller_camera_range_and_walls(healthy):
 
 def test_default_camera_sees_the_first_four_upper_cells():
     sc = load_scenario("boyd2")
-    cfg = physics_config(sc.physics, sc.source, sc.robot_names)
+    cfg = physics_config(sc.section("physics"), sc.source, sc.robot_names)
     frame = sc.map.frame
     (cx, cy, cyaw), cone, overhead = observer_camera(sc, cfg, frame, 0.14)
     assert cone.fov_deg == 57 and cone.range == pytest.approx(4.5)
@@ -134,27 +134,49 @@ def test_same_seed_same_pose_tracks(healthy):
     assert not np.array_equal(a[0], c[0])
 
 
-def _meeting(scenario, seed: int) -> bool:
-    """I going south and J going north in the long hallway: whether they got past each other
-    within 10 steps without touching."""
-    w = PhysicalWorld(
-        scenario, seed=seed, starts=[(4, 1, 3), (12, 1, 1)], observer=False, record_ticks=False
-    )
-    for _ in range(10):
-        w.step()
-    ys = w.poses()[:2, 1]
-    return bool(ys[0] < ys[1]) and w.contacts == 0
+# Head-on meetings, a chaotic outcome: which seeds touch differs between CPUs (numpy's AVX-512
+# and AVX2 paths give another trajectory from the same seed) and MuJoCo releases, so the tests
+# count passes over many seeds against the measured rate, with a margin no such difference
+# reaches. Measured with `python benchmarks/bench_meetings.py --seeds 300` (MuJoCo 3.17.0): 9 of
+# 300 fail on an AVX-512 CPU, and 9-11 of 300 with numpy's AVX2 or SSE paths, with the timestep
+# or the robots' masses changed by 1e-9, or with MuJoCo's CG solver (docs/results.md, "Keeping
+# right"). The margins are set for a failure rate of 6 %, nearly twice the measured 3.3 %.
+MEETING_FAILURES_PLANNED = 0.06
+MEETINGS = (20, 5)  # seeds, most that may fail: P(> 5 of 20 | 6 %) = 9e-4
+MEETINGS_SLOW = (200, 24)  # P(> 24 of 200 | 6 %) = 4e-4; a fall to 75 % passes fails it surely
 
 
-def test_head_on_meetings_pass_without_contact(healthy):
-    assert all(_meeting(healthy, s) for s in range(8))
+def _failed_meetings(scenario, seeds: int) -> list[int]:
+    from mirl.physics.calibration import head_on_meeting
+
+    return [s for s in range(seeds) if not head_on_meeting(scenario, s).passed]
+
+
+def test_the_meeting_tests_margins():
+    """The allowed failures are far in the tail at the planned rate, and a patrol that passed
+    only half its meetings would fail both tests."""
+    from scipy.stats import binom
+
+    for n, most in (MEETINGS, MEETINGS_SLOW):
+        assert binom.sf(most, n, MEETING_FAILURES_PLANNED) < 1e-3
+        assert binom.cdf(most, n, 0.5) < 0.03
+
+
+def test_head_on_meetings_mostly_pass_without_contact(healthy):
+    """I going south and J going north in the long hallway get past each other untouched in
+    at least 15 of 20 seeds (measured: about 97 %)."""
+    n, most = MEETINGS
+    failed = _failed_meetings(healthy, n)
+    assert len(failed) <= most, f"{len(failed)} of {n} meetings failed: seeds {failed}"
 
 
 @pytest.mark.slow
-def test_head_on_meetings_pass_without_contact_95_of_100(healthy):
-    """A meeting that has not passed after 10 steps (seed 57: the robots still face each
-    other) fails like one that touched."""
-    assert sum(not _meeting(healthy, s) for s in range(100)) <= 5
+def test_head_on_meetings_pass_without_contact_nine_in_ten(healthy):
+    """A meeting that has not got past after 10 steps (the robots still facing each other)
+    fails like one that touched; at least 176 of 200 pass (measured: about 97 %)."""
+    n, most = MEETINGS_SLOW
+    failed = _failed_meetings(healthy, n)
+    assert len(failed) <= most, f"{len(failed)} of {n} meetings failed: seeds {failed}"
 
 
 def test_walls_are_merged_rectangles_covering_exactly_the_walls():
@@ -209,7 +231,15 @@ def test_boydright_patrols_with_its_own_door_camera():
     assert cone.range > 0 and len(w.true) == 6
 
 
-def _lone_drift(scenario, robot: int, wheel: str | None) -> float:
+LONE_SEEDS = range(4)
+"""A lone robot's path is chaotic too (a 1e-9 change of the timestep moves one seed's mean
+offset by up to 3 cm): its tests average the seeds' offsets. Measured over seeds 0-29 (MuJoCo
+3.17.0, docs/results.md, "Keeping right"): one seed's mean offset has a spread (sd) of 1.5 cm
+healthy and 2 cm with a weak motor, so the mean over four seeds 0.8 and 1 cm, against margins
+of 4 cm."""
+
+
+def _lone_drift(scenario, robot: int, wheel: str | None, seed: int) -> float:
     """Patroller ``robot`` alone in the long hallway (the other parked at the far end of the
     other hallway), patrolling south for 12 steps: its mean lateral offset (m, left of the
     heading positive) at the decision times after forward steps."""
@@ -219,7 +249,7 @@ def _lone_drift(scenario, robot: int, wheel: str | None) -> float:
         scenario = with_motor_strength(scenario, scenario.robot_names[robot], wheel, 0.6)
     starts = [(0, 8, 0), (0, 8, 0)]
     starts[robot] = (1, 1, 3)
-    w = PhysicalWorld(scenario, seed=0, starts=starts, observer=False)
+    w = PhysicalWorld(scenario, seed=seed, starts=starts, observer=False)
     offsets = []
     for _ in range(12):
         w.step()
@@ -235,12 +265,15 @@ def _lone_drift(scenario, robot: int, wheel: str | None) -> float:
 def test_a_lone_robot_drives_the_middle_and_veers_to_its_weak_wheel(healthy, robot):
     """Alone, a patroller keeps to the hallway's centre line; a weak motor makes it veer to
     that wheel's side, by about the same amount on either side (a mirror image), whichever
-    robot it is."""
-    centre = _lone_drift(healthy, robot, None)
-    left = _lone_drift(healthy, robot, "left_wheel")
-    right = _lone_drift(healthy, robot, "right_wheel")
-    assert abs(centre) < 0.03
-    assert left > centre + 0.03 and right < centre - 0.03
+    robot it is (means over :data:`LONE_SEEDS`; measured over seeds 0-29: 0.2 cm from the
+    centre line healthy on average, 9.5-10 cm to the weak side)."""
+
+    def mean(wheel):
+        return float(np.mean([_lone_drift(healthy, robot, wheel, s) for s in LONE_SEEDS]))
+
+    centre, left, right = mean(None), mean("left_wheel"), mean("right_wheel")
+    assert abs(centre) < 0.04
+    assert left > centre + 0.04 and right < centre - 0.04
     assert abs((left - centre) + (right - centre)) < 0.5 * (left - right)
 
 
@@ -262,52 +295,14 @@ def test_a_weak_motor_still_pivots_in_time(healthy, wheel):
             assert int(np.rint(wrap(w.poses()[0][2]) / (np.pi / 2))) % 4 == target
 
 
-def test_the_physical_world_is_modelled_with_turns_that_need_no_wheel(healthy):
-    """What the test above measures is what L's model of this world says: its ξ takes the
-    wheels out of the turns, failed steps stay put, and the rest is the scenario's."""
-    from mirl.experiments.physics_world import PhysicsRunWorld
-    from mirl.world.motion import transition_matrix
-
-    model = PhysicsRunWorld.modelled(healthy)
-    subsets = model.feature_map.action_subsets
-    assert subsets["turn_left"] == subsets["turn_right"] == ("navigation", "floor")
-    assert subsets["forward"] == healthy.feature_map.action_subsets["forward"]
-    assert model.robots == healthy.robots and model.map is not None
-    assert healthy.error_model == "uniform" and model.error_model == "stop"
-    # the patrollers follow the scenario's policies; only the model of their motion changes
-    for sc in (healthy, load_scenario("boydright")):
-        model = PhysicsRunWorld.modelled(sc)
-        for i in range(len(sc.robots)):
-            assert np.array_equal(model.true_policy(i), sc.true_policy(i))
-            probs = sc.robots[i].feature_probabilities
-            expected = transition_matrix(model.domain, probs, "stop")
-            assert abs(model.true_transitions(i) - expected).max() == 0
-            success = model.domain.success_probabilities(probs)[:, 1:3]  # the turns
-            assert np.allclose(success, probs["navigation"] * probs["floor"])
-
-
-def test_the_physical_world_states_how_far_a_weak_wheel_drifts_its_robot(healthy):
-    """L's model of this world reads a robot's drift with the world's measured κ; a scenario
-    that states its own keeps it."""
-    from dataclasses import replace
-
-    from mirl.experiments.physics_world import PhysicsRunWorld
-    from mirl.physics.config import scenario_physics
-    from mirl.world.faults import DriftSpec
-
-    cfg = scenario_physics(healthy)
-    drift = PhysicsRunWorld.modelled(healthy).faults.drift
-    assert healthy.faults.drift.per_gap is None
-    assert (drift.per_gap, drift.spread) == (cfg.drift_per_gap, cfg.drift_spread)
-    own = replace(healthy, faults=replace(healthy.faults, drift=DriftSpec(per_gap=0.1)))
-    assert PhysicsRunWorld.modelled(own).faults.drift.per_gap == 0.1
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("wheel", ["left_wheel", "right_wheel"])
 def test_the_measured_drift_per_gap_holds_on_seeds_it_was_not_measured_on(healthy, wheel):
-    """κ re-measured (benchmarks/calibrate_drift.py's measurement, robot J, strength 0.6, a
-    seed outside the calibration's) lies within the stated spread of the constant."""
+    """κ re-measured (benchmarks/calibrate_drift.py's measurement, robot J, strength 0.6, seeds
+    outside the calibration's) lies within the stated spread of the constant. A seed on which
+    neither robot drove a forward step alone has no rate to measure κ by (seed 302: the healthy
+    I queued behind the slow J throughout), so κ is the mean over the seeds that have one, at
+    least two of three. Measured on seeds 300-309: 0.20-0.26 per seed."""
     import importlib.util
     from pathlib import Path
 
@@ -317,27 +312,35 @@ def test_the_measured_drift_per_gap_holds_on_seeds_it_was_not_measured_on(health
     spec = importlib.util.spec_from_file_location("calibrate_drift", path)
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)
-    i, out = bench.measure(healthy, "J", wheel, 0.6, seed=300, steps=300)
-    drift, q_weak, _ = out[i]
-    q_healthy = out[1 - i][1]
-    gap = bench.HEALTHY * (1 - q_weak / q_healthy)
-    kappa = abs(drift.mean) / gap
+    kappas, signs = [], []
+    for seed in (300, 301, 302):
+        i, out = bench.measure(healthy, "J", wheel, 0.6, seed=seed, steps=300)
+        drift, q_weak, _ = out[i]
+        q_healthy = out[1 - i][1]
+        gap = bench.HEALTHY * (1 - q_weak / q_healthy)
+        signs.append(np.sign(drift.mean))
+        if np.isfinite(gap) and gap > 0:
+            kappas.append(abs(drift.mean) / gap)
     cfg = scenario_physics(healthy)
-    assert abs(kappa - cfg.drift_per_gap) <= 2 * cfg.drift_spread * cfg.drift_per_gap
-    assert np.sign(drift.mean) == (1 if wheel == "left_wheel" else -1)
+    assert len(kappas) >= 2, kappas
+    assert abs(np.mean(kappas) - cfg.drift_per_gap) <= 2 * cfg.drift_spread * cfg.drift_per_gap
+    assert signs == [1 if wheel == "left_wheel" else -1] * 3
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("wheel", [None, "left_wheel", "right_wheel"])
 def test_failed_steps_stay_put(healthy, wheel):
     """What L's model of this world says of a failed step (it stays where it started) is what
-    the physics does, healthy or with either motor weak."""
+    the physics does, healthy or with either motor weak. Counted over three patrols: a healthy
+    robot fails only 16-57 steps in one (seeds 11-20), and one seed's share moves with the CPU.
+    Measured on seeds 11-20: 89-100 % of a healthy robot's failed steps stay put, 95-100 % of
+    a weak one's, and 0-3 % end in another action's state."""
     from mirl.physics.calibration import calibrate
     from mirl.physics.config import with_motor_strength
 
     sc = healthy if wheel is None else with_motor_strength(healthy, "J", wheel, 0.6)
-    cal = calibrate(sc, steps=200, seeds=[11])
+    cal = calibrate(sc, steps=200, seeds=[11, 12, 13])
     share, failed = cal.stayed()
-    assert failed >= 10 and share >= 0.8
+    assert failed >= 30 and share >= 0.8
     # Eq. 5's uniform error model would send two thirds of them to another action's state
-    assert cal.failure_ends[:, :3, 1].sum() <= 0.05 * failed
+    assert cal.failure_ends[:, :3, 1].sum() <= 0.1 * failed

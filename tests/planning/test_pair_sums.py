@@ -29,13 +29,13 @@ def _beliefs(S: int, n: int, seed: int) -> np.ndarray:
 def test_propagation_is_the_dense_products_bit_for_bit(boyd2_filter):
     _, bf = boyd2_filter
     S = bf.n_states
-    assert 0 < bf._meet.sum() < S * S / 10  # few meeting states: the sparse sum pays off
+    assert 0 < bf.form.meet.sum() < S * S / 10  # few meeting states: the sparse sum pays off
     for b in _beliefs(S, 20, 0):
         B = b.reshape(S, S)
-        met = B * bf._meet  # the former computation, dense
-        ref = csr_matmul(bf._step_T[1], csr_matmul(bf._step_T[0], B - met).T).T
-        ref = ref + csr_matmul(bf._mixed_T[1], csr_matmul(bf._mixed_T[0], met).T).T
-        out = bf._propagate(b)
+        met = B * bf.form.meet  # the former computation, dense
+        ref = csr_matmul(bf.form.step_T[1], csr_matmul(bf.form.step_T[0], B - met).T).T
+        ref = ref + csr_matmul(bf.form.mixed_T[1], csr_matmul(bf.form.mixed_T[0], met).T).T
+        out = bf.propagate(b)
         assert np.array_equal(out, ref.ravel())
         assert out.sum() == pytest.approx(1.0)
 

@@ -92,9 +92,9 @@ def test_a_shared_belief_is_close_to_per_state_beliefs_on_boyd2():
     # L's failed moves split it over several states; sharing one belief among them is the
     # factored filter's approximation (docs/design.md: mean difference −0.001, largest 0.023
     # over 96 moments of 16 runs)
-    from mirl.experiments.worlds import make_world
     from mirl.learning.results import oracle_models
     from mirl.world.scenario import load_scenario
+    from mirl.worlds import make_world
 
     sc = load_scenario("boyd2")
     model = observer_model(sc)

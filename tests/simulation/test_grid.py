@@ -237,3 +237,16 @@ def test_gymnasium_api(boyd2):
     sim0 = PatrolSimulator(boyd2, observability=0.0)
     obs, _ = sim0.reset(seed=0)
     assert obs.shape == (0, 4)
+
+
+def test_given_actions_are_taken_and_bad_ones_move_nobody():
+    sim = PatrolSimulator("boyd2")
+    sim.reset(seed=0)
+    before = sim.states.copy()
+    for bad in ([0], [0, 4], [0.5, 1.0], [[0, 1]]):
+        with pytest.raises(ValueError, match="one per robot"):
+            sim.step_actions(np.asarray(bad))
+        assert sim.t == 0 and np.array_equal(sim.states, before)
+    obs, _, _, _, info = sim.step_actions(np.array([STOP, STOP]))
+    assert sim.t == 1 and info["interaction"] is False and list(info["actions"]) == [STOP, STOP]
+    assert obs.shape[1] == 4

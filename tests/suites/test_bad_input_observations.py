@@ -142,3 +142,42 @@ def test_any_hostile_csv_converts_or_is_one_line(tmp_path, header, extra, rows, 
     lines = err.getvalue().strip().splitlines()
     assert code == 0 or (code == 2 and len(lines) == 1 and "f.csv" in lines[0]), err.getvalue()
     assert code == 2 or out.exists()
+
+
+PNG = b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256))  # a figure given by mistake
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["learn", "--scenario", "boyd2", "--observations", "{f}"],
+        ["learn-transitions", "--scenario", "boyd2", "--observations", "{f}"],
+        ["convert", "{f}", "{d}/grid.csv", "--scenario", "boyd2"],
+    ],
+    ids=lambda argv: argv[0],
+)
+def test_a_file_that_is_not_text_is_answered_with_the_formats_mirl_reads(tmp_path, capsys, argv):
+    path = tmp_path / "run.png"
+    path.write_bytes(PNG)
+    code = main([a.format(f=path, d=tmp_path) for a in argv])
+    out, err = capsys.readouterr()
+    lines = err.strip().splitlines()
+    assert code == 2 and not out and len(lines) == 1, err
+    assert str(path) in lines[0] and "not a file of observations mirl reads" in lines[0]
+    assert "grid CSV" in lines[0] and "pose CSV" in lines[0] and ".mcap" in lines[0]
+    assert "codec" not in lines[0]
+    assert "line 1" not in lines[0]  # an image has no lines
+
+
+def test_the_csv_readers_say_a_file_is_not_text(tmp_path):
+    from mirl.observations.poses import PoseError, read_pose_csv
+    from mirl.observations.trajectories import TrajectoryError, read_csv
+
+    path = tmp_path / "run.png"
+    path.write_bytes(PNG)
+    domain = load_scenario("boyd2").domain
+    for read, error in ((read_pose_csv, PoseError), (lambda p: read_csv(p, domain, ("I",)),
+                                                      TrajectoryError)):  # fmt: skip
+        with pytest.raises(error, match=r"run.png: .*not UTF-8 text \(byte 0x89") as e:
+            read(path)
+        assert "codec" not in str(e.value)

@@ -50,7 +50,7 @@ def _plan(scenario) -> None:
 def _run(scenario) -> None:
     from mirl.experiments.episode import run_episode
 
-    run_episode(scenario, obs_steps=300, seed=0)
+    run_episode(scenario, seed=0, protocol={"obs_steps": 300, "watch_until_seen": None})
 
 
 def _exponent(work, sides, tmp_path) -> tuple[float, list[tuple[int, int]]]:

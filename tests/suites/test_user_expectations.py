@@ -14,7 +14,7 @@ from mirl.cli import main
 from mirl.cli.checks import unique_lowest
 from mirl.experiments.conditions import EXPERIMENTS, Condition, with_em_init
 from mirl.experiments.episode import run_episode
-from mirl.experiments.records import WATCH_LIMIT
+from mirl.experiments.options import RunProtocol
 from mirl.experiments.run_report import format_report, state_text
 from mirl.experiments.store import ResultStore
 from mirl.experiments.sweep import run_experiment
@@ -36,7 +36,7 @@ def test_experiment_writes_report_and_figures_and_says_where(tmp_path, capsys):
 
 
 def test_progress_lines_when_piped(tmp_path, capsys):
-    run_experiment("selftest", tmp_path, runs=3, progress=True, progress_every=4, log=print)
+    run_experiment("selftest", tmp_path, {"runs": 3, "workers": 1, "progress_every": 4}, log=print)
     err = capsys.readouterr().err  # captured: not a terminal, so lines instead of a bar
     lines = [ln for ln in err.splitlines() if " selftest " in ln and "/12 " in ln]
     assert [ln.split()[2] for ln in lines] == ["4/12", "8/12", "12/12"]
@@ -48,7 +48,8 @@ def test_csvs_end_lines_with_newline_only(tmp_path, boyd2):
     sim = simulate(boyd2, 20, seed=1)
     sim.truth.to_csv(tmp_path / "t.csv")
     assert b"\r" not in (tmp_path / "t.csv").read_bytes()
-    run_experiment("selftest", tmp_path / "x", runs=1, progress=False, log=lambda m: None)
+    quiet = {"runs": 1, "workers": 1, "progress": False}
+    run_experiment("selftest", tmp_path / "x", quiet, log=lambda m: None)
     assert b"\r" not in (tmp_path / "x" / "results.csv").read_bytes()
 
 
@@ -84,7 +85,7 @@ def test_learn_em_init_is_validated(boyd2):
 
     obs = simulate(boyd2, 30, seed=2).observations
     with pytest.raises(ValueError, match="unknown EM initialisation 'zeros'"):
-        learn(obs, boyd2, "dbn-em", em_init="zeros")
+        learn(obs, boyd2, "dbn-em", options={"em_init": "zeros"})
 
 
 def test_run_plot_failure_still_prints_the_report(tmp_path, capsys, monkeypatch):
@@ -104,7 +105,8 @@ def test_run_plot_failure_still_prints_the_report(tmp_path, capsys, monkeypatch)
 def test_run_plot_has_a_legend(boyd2):
     from mirl.viz.runs import run_figure
 
-    result = run_episode(boyd2, "random", obs_steps=30, seed=1, max_wait=20)
+    protocol = {"obs_steps": 30, "watch_until_seen": None, "max_wait": 20}
+    result = run_episode(boyd2, "random", seed=1, protocol=protocol)
     fig, _ = run_figure(boyd2, result)
     labels = [t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().texts]
     assert labels  # what each mark and colour on the run plot means
@@ -113,21 +115,24 @@ def test_run_plot_has_a_legend(boyd2):
 
 
 def test_watching_until_every_patroller_was_seen(boyd2):
-    fixed = run_episode(boyd2, "random", seed=0)
+    fixed = run_episode(boyd2, "random", seed=0, protocol=RunProtocol.paper())
     assert fixed.obs_steps == 300 and fixed.seen_steps["J"] == 0  # seed 0: J unseen in 300
     assert "watch_until_seen" not in fixed.to_dict()  # experiments' JSON is unchanged
-    watched = run_episode(boyd2, "random", seed=0, watch_until_seen=10)
-    assert 300 < watched.obs_steps <= WATCH_LIMIT
+    watched = run_episode(boyd2, "random", seed=0, protocol={"watch_until_seen": 10})
+    assert 300 < watched.obs_steps <= RunProtocol().max_obs_steps
     assert min(watched.seen_steps.values()) == 10  # stopped as soon as the rule was met
     assert watched.to_dict()["watch_until_seen"] == 10
-    capped = run_episode(boyd2, "random", seed=0, watch_until_seen=10, max_obs_steps=400)
+    capped = run_episode(
+        boyd2, "random", seed=0, protocol={"watch_until_seen": 10, "max_obs_steps": 400}
+    )
     assert capped.obs_steps == 400 and capped.seen_steps["J"] < 10
 
 
 def test_run_report_explains_its_terms(boyd2):
     result = run_episode(
-        boyd2, "oracle", seed=0, learned=oracle_models(boyd2), obs_steps=60, max_wait=30
-    )
+        boyd2, "oracle", seed=0, learned=oracle_models(boyd2),
+        protocol={"obs_steps": 60, "watch_until_seen": None, "max_wait": 30},
+    )  # fmt: skip
     text = format_report(boyd2, result)
     assert "(Oracle in the paper's figures): the true models" in text and "(row, col)" in text
     assert "interaction equilibrium (I/J): stop/go — when I and J meet, I yields" in text
@@ -168,11 +173,16 @@ def test_run_report_says_which_patroller_never_came_into_view():
 
     from mirl.experiments.run_report import _observed_line
 
+    def watched(seen):
+        return SimpleNamespace(
+            seen_steps=seen, obs_steps=1800, watch_until_seen=40, protocol=RunProtocol()
+        )
+
     seen = {"I": 1438, "J": 213, "K": 215, "M": 0}
-    line = _observed_line(SimpleNamespace(seen_steps=seen, obs_steps=1800, watch_until_seen=40))
+    line = _observed_line(watched(seen))
     assert "watching limit" in line and "M never came into view" in line and "--obs-steps" in line
     seen["M"] = 3  # seen, if too little: no such note
-    line = _observed_line(SimpleNamespace(seen_steps=seen, obs_steps=1800, watch_until_seen=40))
+    line = _observed_line(watched(seen))
     assert "watching limit" in line and "never came into view" not in line
 
 
@@ -200,7 +210,8 @@ def test_mirl_run_default_tells_the_story_on_seeds_0_to_19(capsys):
 
 
 def test_store_read_only_open_leaves_file(tmp_path):
-    run_experiment("selftest", tmp_path, runs=1, progress=False, log=lambda m: None)
+    quiet = {"runs": 1, "workers": 1, "progress": False}
+    run_experiment("selftest", tmp_path, quiet, log=lambda m: None)
     db = tmp_path / "results.sqlite"
     before = db.read_bytes()
     store = ResultStore(db, read_only=True)
@@ -215,7 +226,8 @@ def test_report_with_one_run_per_condition_has_no_nan(tmp_path):
     from mirl.experiments.conditions import selftest_run
 
     fake = replace(EXPERIMENTS["fig4b"], run_function=selftest_run)
-    run_experiment(fake, tmp_path, runs=1, progress=False, log=lambda m: None)
+    quiet = {"runs": 1, "workers": 1, "progress": False}
+    run_experiment(fake, tmp_path, quiet, log=lambda m: None)
     assert main(["report", str(tmp_path)]) == 0
     text = (tmp_path / "report.md").read_text()
     assert "nan" not in text and "no test (fewer than 2 runs)" in text
@@ -228,6 +240,7 @@ def test_em_init_changes_dbn_em_transitions(boyd2):
     states = np.full((4, 2), -1)
     states[:3, 0] = boyd2.domain.state_index([0, 0, 0], [4, 3, 2], [2, 2, 2])
     obs = Trajectories.from_states(boyd2.domain, boyd2.robot_names, states)
-    a = learn(obs, boyd2, "dbn-em", em_init="uniform", score=False).robots[0].transitions
+    uniform = {"em_init": "uniform"}
+    a = learn(obs, boyd2, "dbn-em", options=uniform, score=False).robots[0].transitions
     b = learn(obs, boyd2, "dbn-em", score=False).robots[0].transitions
     assert a.nnz > b.nnz  # uniform: every state reachable; intended: only ψ(s, a') targets

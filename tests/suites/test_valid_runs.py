@@ -11,9 +11,9 @@ import json
 import pytest
 
 from mirl.cli import main
-from mirl.experiments.worlds import DEFAULT_WORLD, WORLDS
 from mirl.learning.methods import METHODS
 from mirl.world.scenario import shipped_scenarios
+from mirl.worlds import DEFAULT_WORLD, WORLDS
 
 OUTCOMES = {"success", "detected", "timeout"}
 

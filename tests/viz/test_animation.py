@@ -8,8 +8,11 @@ import pytest
 from PIL import Image
 
 from mirl.experiments.episode import run_episode
+from mirl.experiments.options import RunProtocol
 from mirl.viz.animation import HOLD_SECONDS, animation_times, save_run_animation
 from mirl.world.scenario import load_scenario
+
+SHORT = RunProtocol(obs_steps=30, watch_until_seen=None)
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +33,7 @@ def _frames(path):
 
 def test_detected_run_is_subsampled_and_ends_on_the_detection(boyd2, tmp_path):
     # random goes at once and is seen within a few steps: a cheap run with a detection
-    result = run_episode(boyd2, "random", obs_steps=30, seed=3)
+    result = run_episode(boyd2, "random", seed=3, protocol=SHORT)
     assert result.outcome == "detected" and result.go_time is not None
     times = animation_times(result, context=20, max_frames=8)
     assert len(times) == 8
@@ -51,7 +54,7 @@ def test_detected_run_is_subsampled_and_ends_on_the_detection(boyd2, tmp_path):
 
 
 def test_a_short_span_has_one_frame_a_step(boyd2, tmp_path):
-    result = run_episode(boyd2, "random", obs_steps=30, seed=3)
+    result = run_episode(boyd2, "random", seed=3, protocol=SHORT)
     span = result.end_time - (result.go_time - 3) + 1
     path = save_run_animation(boyd2, result, tmp_path / "run.gif", fps=2, context=3)
     n, _, durations = _frames(path)
@@ -60,7 +63,9 @@ def test_a_short_span_has_one_frame_a_step(boyd2, tmp_path):
 
 
 def test_timeout_run_animates_its_last_steps(boyd2, tmp_path):
-    result = run_episode(boyd2, "oracle", obs_steps=30, seed=3, max_wait=5, go_rule="value")
+    result = run_episode(
+        boyd2, "oracle", seed=3, protocol=SHORT.replace(max_wait=5, go_rule="value")
+    )
     assert result.outcome == "timeout" and result.go_time is None
     times = animation_times(result, context=6)
     assert list(times) == list(range(result.end_time - 6, result.end_time + 1))
@@ -69,7 +74,7 @@ def test_timeout_run_animates_its_last_steps(boyd2, tmp_path):
 
 
 def test_bad_arguments_are_refused(boyd2, tmp_path):
-    result = run_episode(boyd2, "random", obs_steps=30, seed=3)
+    result = run_episode(boyd2, "random", seed=3, protocol=SHORT)
     with pytest.raises(ValueError, match="max_frames"):
         save_run_animation(boyd2, result, tmp_path / "x.gif", max_frames=1)
     with pytest.raises(ValueError, match="context"):
@@ -80,7 +85,7 @@ def test_bad_arguments_are_refused(boyd2, tmp_path):
 
 
 def test_physics_run_animates(boyd2, tmp_path):
-    result = run_episode(boyd2, "random", obs_steps=30, seed=3, world="physics")
+    result = run_episode(boyd2, "random", seed=3, world="physics", protocol=SHORT)
     assert result.extras is not None
     path = save_run_animation(boyd2, result, tmp_path / "physics.gif", context=4, max_frames=5)
     n, _, _ = _frames(path)

@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import pytest
 
-from mirl.world.faults import DamageDefinition, read_faults
+from mirl.world.faults import (
+    HEALTHY_PROBABILITIES,
+    WHEELS,
+    DamageDefinition,
+    read_faults,
+)
 from mirl.world.scenario import ScenarioError, load_scenario
 from mirl.world.schema import FieldError
 
@@ -17,6 +22,21 @@ def test_default_threshold_is_healthy_minus_margin():
     assert d.damaged("left_wheel", 0.7) and not d.damaged("left_wheel", 0.85)
     assert d.damaged_parts({"left_wheel": 0.7, "right_wheel": 0.95}) == ("left_wheel",)
     assert d.threshold("custom") == pytest.approx(0.80)
+
+
+def test_wheels_and_healthy_levels_have_one_home():
+    """The wheels and the healthy levels are defined here and only imported elsewhere: the
+    scenario's default robots, the verdicts and the physical world read these objects."""
+    from mirl.learning import verdicts
+    from mirl.physics import config
+    from mirl.world import scenario, scenario_sections
+    from mirl.world.domain import DEFAULT_FEATURE_MAP
+
+    assert verdicts.WHEELS is WHEELS and config.WHEELS is WHEELS
+    assert scenario.HEALTHY_PROBABILITIES is HEALTHY_PROBABILITIES
+    assert scenario_sections.HEALTHY_PROBABILITIES is HEALTHY_PROBABILITIES
+    assert set(WHEELS) <= set(DEFAULT_FEATURE_MAP.features) == set(HEALTHY_PROBABILITIES)
+    assert DamageDefinition().healthy == HEALTHY_PROBABILITIES
 
 
 def test_shipped_scenarios_have_the_default():

@@ -150,6 +150,17 @@ def test_good_toml_loads_with_defaults(tmp_path):
     np.testing.assert_allclose(sc.robots[0].weights, [1.0, 0.05, 0.05, 0.3])
 
 
+def test_a_file_s_defaults_are_the_scenario_s_fields(tmp_path):
+    """A key a file leaves out takes the default the Scenario dataclass declares (one home)."""
+    from dataclasses import fields
+
+    declared = {f.name: f.default for f in fields(Scenario)}
+    sc = load_scenario(write(tmp_path, GOOD.replace('played = ["stop", "go"]', "")))
+    for key in ("detect_distance", "observability", "discount", "error_model", "played"):
+        assert getattr(sc, key) == declared[key], key
+    assert sc.played == ("stop", "go")  # the paper's
+
+
 def test_map_path_relative_to_scenario(tmp_path):
     (tmp_path / "maps").mkdir()
     text = (Path(__file__).parents[2] / "src/mirl/data/maps/boyd2.txt").read_text()
@@ -371,3 +382,38 @@ def test_text_map_positions_in_metres_use_its_frame(tmp_path):
     path.write_text(metric)
     sc, ref = load_scenario(path), load_scenario("boyd2")
     assert sc.robots[0].start == ref.robots[0].start and sc.goal == ref.goal
+
+
+# ---- the worlds' own sections --------------------------------------------------------------------
+def _with_section(tmp_path, section: str, top: str = "") -> Path:
+    path = tmp_path / "s.toml"
+    path.write_text(
+        textwrap.dedent(f"""
+        map = "boyd2"
+        {top}
+        [[robots]]
+        start = [8, 1, 3]
+        [[robots]]
+        start = [0, 8, 0]
+        {section}
+    """)
+    )
+    return path
+
+
+def test_a_worlds_section_is_kept_as_written_for_the_world_to_read(tmp_path):
+    sc = load_scenario(_with_section(tmp_path, "[physics]\nmax_speed = 0.5\nnot_yet_read = 1"))
+    assert sc.section("physics") == {"max_speed": 0.5, "not_yet_read": 1}
+    assert load_scenario("boyd2-healthy").section("physics") == {}
+    changed = sc.with_section("physics", {"max_speed": 0.4})
+    assert changed.section("physics") == {"max_speed": 0.4}
+    assert sc.section("physics")["max_speed"] == 0.5
+
+
+def test_a_misspelt_or_malformed_world_section_is_refused_when_loaded(tmp_path):
+    with pytest.raises(ScenarioError, match="s.toml: phyiscs: unknown field .known: .*physics"):
+        load_scenario(_with_section(tmp_path, "[phyiscs]\nmax_speed = 0.5"))
+    with pytest.raises(ScenarioError, match="s.toml: physics: expected a table"):
+        load_scenario(_with_section(tmp_path, "", top="physics = 3"))
+    with pytest.raises(ValueError, match="unknown world section 'phyiscs'"):
+        load_scenario("boyd2").section("phyiscs")

@@ -5,15 +5,16 @@ user must see. Every refusal is a :class:`UsageError` (one line, exit 2)."""
 from __future__ import annotations
 
 import os
-import re
 import sys
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+from mirl.world.actions import STEP_SECONDS
+from mirl.worlds import get_world
 
-from mirl.experiments.worlds import get_world
-from mirl.learning.methods import METHODS
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = [
     "UsageError",
@@ -24,7 +25,6 @@ __all__ = [
     "check_distinct",
     "check_pose_flags",
     "check_poses_output",
-    "check_fixed_p",
     "check_experiment_flags",
     "check_observations",
     "check_visible",
@@ -41,7 +41,7 @@ MIN_TRIALS = 10
 MAX_POSES_PER_STEP = 1000
 MAX_POSES = 20_000_000
 MAX_POSE_NOISE = (100.0, 360.0)  # metres, degrees: beyond, a pose says nothing of its cell
-DEFAULT_P = 0.9
+DEFAULT_POSE_RATE = 10.0  # Hz: `simulate --poses`, a pose tracker's usual rate
 
 
 class UsageError(Exception):
@@ -49,11 +49,39 @@ class UsageError(Exception):
 
 
 def warn(message: str) -> None:
+    """Print a warning a user must see on stderr, as ``mirl: warning: MESSAGE``.
+
+    Parameters
+    ----------
+    message : str
+        One line, naming the file or flag it is about.
+    """
     print(f"mirl: warning: {message}", file=sys.stderr)
 
 
 def check_output(path: str | Path, flag: str, suffixes: tuple[str, ...] | None = None) -> Path:
-    """Refuse an output file that cannot be written, before the work that would fill it."""
+    """Refuse an output file that cannot be written, before the work that would fill it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    flag : str
+        The flag that named it (``--plot``), for the message.
+    suffixes : tuple of str, optional
+        The lower-case suffixes it may end in (``FIGURE_SUFFIXES``); any if None.
+
+    Returns
+    -------
+    Path
+        ``path``, as a :class:`~pathlib.Path`.
+
+    Raises
+    ------
+    UsageError
+        If its suffix is not one of ``suffixes``, it is a directory, its directory does not
+        exist, or it (or its directory) is not writable.
+    """
     p = Path(path)
     if suffixes and p.suffix.lower() not in suffixes:
         raise UsageError(f"{flag} {p}: expected a file ending in {', '.join(suffixes)}")
@@ -70,7 +98,18 @@ def check_output(path: str | Path, flag: str, suffixes: tuple[str, ...] | None =
 def check_distinct(*flags: tuple[str, str | None]) -> None:
     """Refuse two of a command's files that are one file (an output would overwrite an input, or
     one output another), e.g. ``convert run.csv run.csv`` or ``--observations o.csv --truth
-    o.csv``."""
+    o.csv``.
+
+    Parameters
+    ----------
+    *flags : tuple of (str, str or None)
+        (flag, path) of each file; a None or empty path is not given and skipped.
+
+    Raises
+    ------
+    UsageError
+        If two paths resolve to the same file, naming both flags.
+    """
     seen: dict[str, str] = {}
     for flag, path in flags:
         if not path:
@@ -85,7 +124,20 @@ def check_distinct(*flags: tuple[str, str | None]) -> None:
 def check_pose_flags(args) -> None:
     """``simulate``'s pose flags: only with ``--poses`` in the grid world (the physics world
     writes its own tracks: L's camera measurements and the true poses at the control rate), and
-    within limits; fills in their defaults (10 Hz, 2 s steps)."""
+    within limits; fills in their defaults (``DEFAULT_POSE_RATE``, the grid's step).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``simulate``'s arguments: ``poses``, ``pose_rate``, ``pose_noise``, ``step_seconds``,
+        ``steps`` and ``world``; ``pose_rate`` and ``step_seconds`` are filled in where None.
+
+    Raises
+    ------
+    UsageError
+        If a pose flag is given without ``--poses`` or for a world that records its own poses,
+        or the poses per step, the poses in all or the noise exceed their limits.
+    """
     given = [
         flag
         for flag, value in (
@@ -100,8 +152,8 @@ def check_pose_flags(args) -> None:
     if given and get_world(args.world).records_poses:
         raise UsageError(f"{given[0]}: the physics world writes its own tracks (L's camera, and "
                          "the true poses at the control rate); leave it out")  # fmt: skip
-    args.pose_rate = 10.0 if args.pose_rate is None else args.pose_rate
-    args.step_seconds = 2.0 if args.step_seconds is None else args.step_seconds
+    args.pose_rate = DEFAULT_POSE_RATE if args.pose_rate is None else args.pose_rate
+    args.step_seconds = STEP_SECONDS if args.step_seconds is None else args.step_seconds
     per_step = args.pose_rate * args.step_seconds
     if per_step > MAX_POSES_PER_STEP:
         raise UsageError(
@@ -126,7 +178,22 @@ def check_pose_flags(args) -> None:
 
 def check_poses_output(path: str | None, world: str) -> None:
     """``--poses OUT`` before the simulation: a pose CSV, an MCAP file or (grid world) a ROS 2
-    bag directory to create, in a directory that exists and can be written."""
+    bag directory to create, in a directory that exists and can be written.
+
+    Parameters
+    ----------
+    path : str or None
+        ``--poses``'s value; nothing is checked if None or empty.
+    world : str
+        The world's name (a row of :data:`~mirl.worlds.WORLDS`): a world that records its own
+        poses writes no bag directory.
+
+    Raises
+    ------
+    UsageError
+        If the suffix is not one the world writes, the file cannot be written, an MCAP file
+        exists already, or the bag directory cannot be created.
+    """
     if not path:
         return
     out = Path(path)
@@ -145,35 +212,47 @@ def check_poses_output(path: str | None, world: str) -> None:
         raise UsageError(f"--poses {out}: cannot create a bag directory there")
 
 
-def check_fixed_p(args) -> float:
-    """``--p`` only for the methods that fix every action's success at p; returns the p to use."""
-    if args.p is not None and not METHODS[args.method].uses_p:
-        fixed_p = [m.name for m in METHODS.values() if m.uses_p]
-        raise UsageError(f"--p applies to --method {' and '.join(fixed_p)} only (they "
-                         f"fix every action's success at p), not {args.method}")  # fmt: skip
-    return DEFAULT_P if args.p is None else args.p
-
-
 def check_experiment_flags(args) -> None:
-    """``experiment --out`` must name a directory (or nothing yet); ``--dask-scheduler`` must
-    look like an address, before a sweep creates anything."""
+    """``experiment --out`` must name a directory (or nothing yet), before a sweep creates
+    anything (``--dask-scheduler``'s address is checked by its option's declaration).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``experiment``'s arguments (its ``out``).
+
+    Raises
+    ------
+    UsageError
+        If ``--out`` is empty or names a file.
+    """
     if args.out is not None:
         if not args.out.strip():
             raise UsageError("--out: an empty path (leave --out out for results/NAME)")
         if os.path.exists(args.out) and not os.path.isdir(args.out):
             raise UsageError(f"--out {args.out}: is a file, not a directory")
-    address = args.dask_scheduler
-    if address is not None:
-        m = re.fullmatch(r"(?:[a-z][a-z0-9+.-]*://)?(\[[0-9a-fA-F:]+\]|[^:/\s\[\]]+):(\d{1,5})",
-                         address)  # fmt: skip
-        if m is None or not 0 < int(m.group(2)) < 65536:
-            raise UsageError(f"--dask-scheduler {address}: expected HOST:PORT, e.g. "
-                             "tcp://127.0.0.1:8786")  # fmt: skip
 
 
 def check_observations(path, obs, domain) -> None:
     """Refuse observations with no rows (nothing to learn from) and warn loudly about observed
-    steps that no action explains (a robot jumping between cells L saw it on)."""
+    steps that no action explains (a robot jumping between cells L saw it on).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file the observations were read from, for the messages.
+    obs : Trajectories
+        The observations.
+    domain : PatrolDomain
+        The scenario's domain.
+
+    Raises
+    ------
+    UsageError
+        If ``obs`` has no rows.
+    """
+    import numpy as np
+
     from mirl.learning.transitions import observed_steps, perception_labels
 
     if len(obs) == 0:
@@ -186,14 +265,36 @@ def check_observations(path, obs, domain) -> None:
             a, b = (tuple(int(x) for x in domain.states[v]) for v in (s[k], s_next[k]))
             warn(
                 f"{path}: {bad.size} of robot {name}'s {len(t)} observed steps are explained by "
-                f"no action (first: t={int(t[k])} {a} -> {b}); they count as failed actions"
+                f"no action (first: t={int(t[k])} {a} -> {b}); they are left out as no trial of "
+                "any part, and the verdicts check whether the record fits"
             )
 
 
 def check_visible(path, obs, domain, visible: np.ndarray, degree: float) -> None:
     """Observed rows where L sees nothing are refused (``--observability 0`` with rows: the
     learner's "unseen means out of view" would contradict every row); rows on cells outside
-    L's view are warned about, once, with the first of them."""
+    L's view are warned about, once, with the first of them.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file the observations were read from, for the messages.
+    obs : Trajectories
+        The observations.
+    domain : PatrolDomain
+        The scenario's domain.
+    visible : ndarray of shape (S,) of bool
+        The states L can see.
+    degree : float
+        The observability ``visible`` was made at, for the messages.
+
+    Raises
+    ------
+    UsageError
+        If L sees no state at all yet ``obs`` has rows.
+    """
+    import numpy as np  # here: building the command line loads no numpy
+
     outside = ~np.asarray(visible, dtype=bool)[obs.states(domain)]
     if not outside.any():
         return
@@ -211,7 +312,20 @@ def check_visible(path, obs, domain, visible: np.ndarray, degree: float) -> None
 
 
 def feature_trials(counts) -> dict[str, int]:
-    """Observed trials behind each feature: the trials of every subset that contains it."""
+    """Observed trials behind each feature: the trials of every subset that contains it.
+
+    Parameters
+    ----------
+    counts : SubsetCounts
+        A transition-feature learner's pooled counts
+        (:class:`~mirl.learning.transitions.SubsetCounts`: its ``subsets`` and their
+        ``trials``).
+
+    Returns
+    -------
+    dict of str to int
+        Per feature, its trials.
+    """
     out: dict[str, int] = {}
     for subset, n in zip(counts.subsets, counts.trials, strict=True):
         for f in subset:
@@ -220,7 +334,20 @@ def feature_trials(counts) -> dict[str, int]:
 
 
 def unique_lowest(probs: Mapping[str, float], tol: float = 1e-6) -> str | None:
-    """The feature with the single lowest probability; None on a tie (no damaged-part guess)."""
+    """The feature with the single lowest probability; None on a tie (no damaged-part guess).
+
+    Parameters
+    ----------
+    probs : mapping of str to float
+        Per feature, its learned success probability.
+    tol : float, default 1e-6
+        Probabilities closer than this to the lowest tie with it.
+
+    Returns
+    -------
+    str or None
+        The feature's name, or None if ``probs`` is empty or the lowest ties.
+    """
     ranked = sorted(probs.items(), key=lambda kv: kv[1])
     if not ranked or (len(ranked) > 1 and ranked[1][1] - ranked[0][1] <= tol):
         return None

@@ -8,14 +8,15 @@ import json
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import TypeVar
 
+from mirl._validation import Options
 from mirl.cli.checks import (
     FIGURE_SUFFIXES,
     MIN_TRIALS,
     UsageError,
     check_distinct,
     check_experiment_flags,
-    check_fixed_p,
     check_observations,
     check_output,
     check_pose_flags,
@@ -26,12 +27,15 @@ from mirl.cli.checks import (
     warn,
 )
 from mirl.cli.flags import parse_damage, parse_same_frame, parse_topic
-from mirl.experiments.worlds import DEFAULT_WORLD, WorldSpec, get_world
-from mirl.learning.methods import METHODS
+from mirl.experiments.options import RunProtocol, SweepOptions
+from mirl.learning.options import LearnOptions
+from mirl.world.actions import HEADING_NAMES
+from mirl.worlds import DEFAULT_WORLD, WorldSpec, get_world
 
 __all__ = ["COMMANDS", "UsageError", "print_json"]
 
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {}
+OptionsT = TypeVar("OptionsT", bound=Options)
 
 
 def command(name: str):
@@ -79,7 +83,7 @@ def _show_map(args: argparse.Namespace) -> int:
     if args.png:
         check_output(args.png, "--png", FIGURE_SUFFIXES)
     scenario = None
-    if Path(args.map).suffix.lower() == ".toml":
+    if Path(args.map).suffix.lower() == ".toml" or _names_a_scenario_only(args.map):
         from mirl.world.scenario import load_scenario
 
         if args.cell_size is not None:
@@ -121,6 +125,16 @@ def _show_map(args: argparse.Namespace) -> int:
     return 0
 
 
+def _names_a_scenario_only(name: str) -> bool:
+    """Whether ``name`` is a shipped scenario's and no shipped map's: ``show-map office`` shows
+    the floor `mirl run --scenario office` runs on (office-60x60-s2), not the generated map the
+    bare name ``office`` would also name (office-60x60-s0, another floor)."""
+    from mirl.world.catalog import shipped_maps
+    from mirl.world.scenario import shipped_scenarios
+
+    return name in shipped_scenarios() and name not in shipped_maps()
+
+
 def _map_summary(gridmap, mask, degree) -> list[str]:
     """What show-map says of a map: cells, states, frame and L's view."""
     import numpy as np
@@ -158,11 +172,10 @@ def _scenario_summary(scenario, routes) -> list[str]:
     for what, cell in (("start", scenario.observer_start), ("goal", scenario.goal)):
         x, y = f.cell_centre(*cell)
         lines.append(f"  L's {what}: cell {tuple(cell)}, x = {float(x):g}, y = {float(y):g} m")
-    headings = ("east", "north", "west", "south")
     for robot, (name, route) in zip(scenario.robots, routes.items(), strict=True):
         r, c, h = robot.start
         lines.append(
-            f"  {name}: starts on cell ({r}, {c}) facing {headings[h]}; its true policy "
+            f"  {name}: starts on cell ({r}, {c}) facing {HEADING_NAMES[h]}; its true policy "
             f"covers {len({tuple(x) for x in route.tolist()})} cells"
         )
     return lines
@@ -170,8 +183,6 @@ def _scenario_summary(scenario, routes) -> list[str]:
 
 @command("simulate")
 def _simulate(args: argparse.Namespace) -> int:
-    from mirl.simulation.grid import simulate
-
     check_pose_flags(args)
     outputs = (("--observations", args.observations), ("--truth", args.truth))
     check_distinct(*outputs, ("--poses", args.poses))
@@ -180,12 +191,9 @@ def _simulate(args: argparse.Namespace) -> int:
             check_output(path, flag)
     check_poses_output(args.poses, args.world)
     scenario = _load_scenario(args)
-    if get_world(args.world).records_poses:
-        from mirl.cli.simulate_physics import simulate_physics
-
-        return simulate_physics(args, scenario)
-    start = time.perf_counter()
-    result = simulate(
+    world = _world(args.world).load()
+    start, cpu = time.perf_counter(), time.process_time()
+    sim = world.simulate(
         scenario,
         args.steps,
         seed=args.seed,
@@ -193,27 +201,58 @@ def _simulate(args: argparse.Namespace) -> int:
         heading_noise=args.heading_noise,
         random_starts=args.random_starts,
     )
-    elapsed = time.perf_counter() - start
-    share = result.observed_share()
-    degree = scenario.observability if args.observability is None else args.observability
-    print(
-        f"scenario {scenario.name}: {args.steps} steps, seed {args.seed}, "
-        f"observability {degree:g} ({int(scenario.domain.visible_states(degree).sum() // 4)}"
-        f"/{scenario.map.n_patroller_cells} cells)"
-    )
-    for name, s in zip(scenario.robot_names, share, strict=True):
-        print(f"  {name}: observed {s:.1%} of steps")
-    print(f"  interactions: {result.interactions} ({result.interactions_seen} seen by L)")
-    print(f"  simulated in {elapsed:.3f} s")
+    elapsed, cpu = time.perf_counter() - start, time.process_time() - cpu
+    print(*_simulation_summary(scenario, sim, args.seed, elapsed, cpu), sep="\n")
     if args.observations:
-        result.observations.to_csv(args.observations)
-        print(f"wrote {args.observations} ({len(result.observations)} rows)")
+        sim.observations.to_csv(args.observations)
+        print(f"wrote {args.observations} ({len(sim.observations)} rows)")
     if args.truth:
-        result.truth.to_csv(args.truth)
-        print(f"wrote {args.truth} ({len(result.truth)} rows)")
-    if args.poses:
-        _write_poses(args, scenario, result.observations)
+        sim.truth.to_csv(args.truth)
+        print(f"wrote {args.truth} ({len(sim.truth)} rows)")
+    if args.poses and sim.poses is not None:
+        _write_measured_poses(Path(args.poses), sim.poses)
+    elif args.poses:
+        _write_poses(args, scenario, sim.observations)
     return 0
+
+
+def _simulation_summary(scenario, sim, seed: int, elapsed: float, cpu: float) -> list[str]:
+    """What ``mirl simulate`` says of a simulation: the scenario and what the world ran with,
+    the steps (and the simulated time, for a world with a clock), L's view, how often L saw
+    each patroller, the world's own counts and the time it took."""
+    conditions = f" ({sim.conditions})" if sim.conditions else ""
+    clock = sim.step_seconds is not None
+    simulated = (sim.steps - 1) * sim.step_seconds if clock else 0.0
+    minutes = f" ({simulated / 60:.1f} min)" if clock else ""
+    cells = int(scenario.map.visible_mask(sim.observability).sum())
+    lines = [
+        f"scenario {scenario.name}{conditions}: {sim.steps} steps{minutes}, seed {seed}, "
+        f"observability {sim.observability:g} ({cells}/{scenario.map.n_patroller_cells} cells)"
+    ]
+    for name, share in zip(scenario.robot_names, sim.observed_share(), strict=True):
+        lines.append(f"  {name}: observed {share:.1%} of steps")
+    lines += [f"  {line}" for line in sim.report]
+    factor = f" (real-time factor {simulated / max(cpu, 1e-9):.0f} on CPU time)" if clock else ""
+    lines.append(f"  simulated in {elapsed:.3f} s wall, {cpu:.3f} s CPU{factor}")
+    return lines
+
+
+def _write_measured_poses(out: Path, poses) -> None:
+    """``--poses OUT`` of a world that measures poses itself: what L's sensor measured to
+    ``OUT``, the true poses beside it (``.true`` before the suffix)."""
+    from mirl.observations.poses import write_pose_csv
+
+    if out.suffix.lower() == ".csv":  # .csv or .mcap: checked before the simulation
+        write = write_pose_csv
+    else:
+        from mirl.observations.bags import write_mcap as write
+    true_out = out.with_name(out.stem + ".true" + out.suffix)
+    write(poses.observed, out)
+    write(poses.true, true_out)
+    print(
+        f"wrote {out} ({len(poses.observed)} poses L's camera measured, one per seen patroller "
+        f"per step) and {true_out} ({len(poses.true)} true poses at {poses.true_rate_hz:g} Hz)"
+    )
 
 
 def _write_poses(args: argparse.Namespace, scenario, observations) -> None:
@@ -300,11 +339,11 @@ def _nothing_placed(report) -> str:
 
 @command("learn-transitions")
 def _learn_transitions(args: argparse.Namespace) -> int:
+    from mirl.learning.options import LABELLINGS
     from mirl.learning.transitions import (
         TransitionFeatureLearner,
         observed_steps,
         perception_labels,
-        policy_labels,
     )
 
     scenario = _load_scenario(args)
@@ -312,14 +351,12 @@ def _learn_transitions(args: argparse.Namespace) -> int:
     obs = _read_observations(args, scenario).trajectories
     check_observations(args.observations, obs, domain)
     series = [obs.state_series(domain, i) for i in range(len(scenario.robots))]
-    if args.labels == "true-policy":
-        # Known R/T setting: the scenario's true policies and played equilibrium label the steps
-        policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
-        labels = policy_labels(domain, series, policies, scenario.played_equilibrium)
+    labels = LABELLINGS[args.labels].load()(scenario, series)
     learned = {}
     for i, name in enumerate(scenario.robot_names):
         t, s, s_next = observed_steps(series[i])
-        a = labels[i][t] if args.labels == "true-policy" else perception_labels(domain, s, s_next)
+        a = labels[i][t].copy()
+        a[perception_labels(domain, s, s_next) < 0] = -1  # no trial of any part
         learned[name] = TransitionFeatureLearner(domain, scenario.error_model).fit(s, a, s_next)
     if args.json:
         print_json({n: m.feature_probabilities_ for n, m in learned.items()})
@@ -351,55 +388,48 @@ def _learn_transitions(args: argparse.Namespace) -> int:
 
 @command("experiment")
 def _experiment(args: argparse.Namespace) -> int:
-    from mirl.experiments.conditions import (
-        get_experiment,
-        in_world,
-        with_em_init,
-        with_protocol,
-    )
+    from mirl.experiments.conditions import get_experiment, in_world, with_em_init, with_protocol
     from mirl.experiments.sweep import run_experiment
 
     check_experiment_flags(args)
-    exp = with_em_init(get_experiment(args.name), args.em_init)  # unknown: one line, exit 2
-    exp = with_protocol(exp, args.go_rule, not args.learn_once)
-    _world(args.world)
-    exp = in_world(exp, args.world)
-    suffix = "" if args.world == DEFAULT_WORLD else f"-{args.world}"
+    options = _options(args, SweepOptions)
+    _world(options.world)
+    exp = get_experiment(args.name)
+    # the grid as the sweep will run it, refused here before anything is created
+    in_world(with_protocol(with_em_init(exp, options.em_init), options.go_rule, options.relearn),
+             options.world)  # fmt: skip
+    suffix = "" if options.world == DEFAULT_WORLD else f"-{options.world}"
     out = args.out or f"results/{exp.name}{suffix}"
-    summary = run_experiment(
-        exp,
-        out,
-        runs=args.runs,
-        workers=args.workers,
-        resume=args.resume,
-        dask_scheduler=args.dask_scheduler,
-        base_seed=args.seed,
-        progress=not args.quiet,
-        progress_every=args.progress_every,
-    )
-    from mirl.viz.report import write_report
+    summary = run_experiment(exp, out, options)
+    from mirl.viz.report import write_report_and_figures
 
-    report = write_report(out)
-    print(
-        f"wrote {out}/results.sqlite, {out}/results.csv, {report} and the figures in "
-        f"{out}/figures/ (`mirl report {out}` redraws them)"
+    written = write_report_and_figures(out)
+    figures = (
+        f" and {len(written.figures)} figure files in {out}/figures/ (`mirl report {out}` "
+        "redraws them)"
+        if written.figures
+        else " (no figures: the experiment has none to draw)"
     )
+    print(f"wrote {out}/results.sqlite, {out}/results.csv, {written.report}{figures}")
     return 1 if summary.outcomes.get("error") else 0
 
 
 @command("report")
 def _report(args: argparse.Namespace) -> int:
-    from mirl.viz.report import write_report
+    from mirl.viz.report import write_report_and_figures
 
-    print(f"wrote {write_report(args.dir)}")
+    written = write_report_and_figures(args.dir)
+    print(f"wrote {written.report}")
+    for figure in written.figures:
+        print(f"wrote {figure}")
+    if not written.figures:
+        print("(no figures: no experiment here has one to draw)")
     return 0
 
 
 @command("run")
 def _run(args: argparse.Namespace) -> int:
-    from mirl.experiments.conditions import DEFAULT_OBS_STEPS
     from mirl.experiments.episode import run_episode
-    from mirl.experiments.records import WATCH_UNTIL_SEEN
     from mirl.experiments.run_report import format_report
 
     if args.plot:  # before the run: a bad path must not cost a run
@@ -407,25 +437,23 @@ def _run(args: argparse.Namespace) -> int:
     if args.animate:
         check_output(args.animate, "--animate", (".gif",))
     check_distinct(("--plot", args.plot), ("--animate", args.animate))
-    _check_em_init(args)
-    fixed = args.obs_steps is not None
-    if fixed and args.watch_until_seen is not None:
+    learning = _options(args, LearnOptions)
+    learning.check_method(args.method)
+    if args.obs_steps is not None and args.watch_until_seen is not None:
         raise UsageError("--obs-steps (a fixed time) and --watch-until-seen exclude each other")
+    protocol = _options(args, RunProtocol)
+    if args.obs_steps is not None:  # a fixed observation time, as the experiments have
+        protocol = protocol.replace(watch_until_seen=None)
     scenario = _load_scenario(args)
-    _check_cost(args, scenario, "run", args.obs_steps if fixed else DEFAULT_OBS_STEPS)
+    _check_cost(args, scenario, "run", protocol.obs_steps)
     result = run_episode(
         scenario,
         args.method,
-        observability=args.observability,
-        obs_steps=args.obs_steps if fixed else DEFAULT_OBS_STEPS,
-        watch_until_seen=None if fixed else args.watch_until_seen or WATCH_UNTIL_SEEN,
         seed=args.seed,
-        p=check_fixed_p(args),
-        max_wait=args.max_wait,
-        learn_options={"em_init": args.em_init} if args.em_init else None,
+        observability=args.observability,
+        protocol=protocol,
+        learn_options=learning,
         world=args.world,
-        go_rule=args.go_rule,
-        relearn=not args.learn_once,
     )
     if args.json:
         print_json(result.to_dict())
@@ -451,14 +479,15 @@ def _run(args: argparse.Namespace) -> int:
 
 @command("learn")
 def _learn(args: argparse.Namespace) -> int:
-    from mirl.cli.learn_report import learn_record, print_learn
+    from mirl.cli.learn_report import learn_record, pace_record, print_learn
     from mirl.learning.learn import learn
 
+    options = _options(args, LearnOptions)
+    options.check_method(args.method)
     scenario = _load_scenario(args)
     degree = scenario.observability if args.observability is None else args.observability
     loaded = _read_observations(args, scenario, observability=degree)
     obs = loaded.trajectories
-    _check_em_init(args)
     check_observations(args.observations, obs, scenario.domain)
     _check_cost(args, scenario, "learn", obs.horizon)
     visible = loaded.visible_states(scenario)
@@ -470,16 +499,11 @@ def _learn(args: argparse.Namespace) -> int:
         obs,
         scenario,
         args.method,
-        score=truth,
-        p=check_fixed_p(args),
+        options=options,
         visible=visible,
         observability=degree,
-        max_iterations=args.max_iterations,
-        label_tol=args.label_tol,
-        objective=args.objective,
-        optimizer=args.optimizer,
         random_state=args.seed,
-        em_init=args.em_init or "intended",
+        score=truth,
     )
     agreement = None
     if not truth:  # robot data: the scenario is the user's description, not a truth
@@ -492,12 +516,13 @@ def _learn(args: argparse.Namespace) -> int:
             for i, r in enumerate(result.robots)
         }
     out = learn_record(result, scenario, str(args.observations), obs.horizon, degree, agreement)
+    out.update(pace_record(loaded.discretised))
     if args.json:
         print_json(out)
     else:
         if loaded.discretised is not None:
             print(f"{args.observations}: " + loaded.discretised.summary())
-        print_learn(out, result, scenario.name)
+        print_learn(out, result, scenario)
     return 0
 
 
@@ -521,10 +546,23 @@ def _check_cost(args: argparse.Namespace, scenario, command: str, steps: int) ->
     check_budget(scenario, estimate_cost(scenario, command, steps=steps), budget)
 
 
-def _check_em_init(args: argparse.Namespace) -> None:
-    if args.em_init is not None and not METHODS[args.method].uses_em_init:
-        raise UsageError(f"--em-init applies to --method dbn-em only, not {args.method}")
+def _options(args: argparse.Namespace, options: type[OptionsT]) -> OptionsT:
+    """The ``options`` of a command: each option whose flag the command has and the user gave
+    (a flag left out leaves the declared default)."""
+    given = {
+        name: getattr(args, name)
+        for name in options.__options__
+        if getattr(args, name, None) is not None
+    }
+    return options(**given)
 
 
 def print_json(obj) -> None:
+    """Print ``obj`` as indented JSON, its keys in the order given.
+
+    Parameters
+    ----------
+    obj : object
+        Anything :func:`json.dumps` writes (the records' ``to_dict()``).
+    """
     print(json.dumps(obj, indent=2, sort_keys=False))

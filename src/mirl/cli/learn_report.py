@@ -3,14 +3,35 @@ text form printed without ``--json``."""
 
 from __future__ import annotations
 
-__all__ = ["drift_line", "learn_record", "print_learn", "verdict_sentence"]
+from mirl.world.faults import WHEELS
+
+__all__ = [
+    "pace_record",
+    "drift_line",
+    "learn_record",
+    "print_learn",
+    "verdict_sentence",
+    "feature_lines",
+    "motion_line",
+]
 
 
 def verdict_sentence(robot: str, record: dict) -> str:
     """A verdict's JSON record (:meth:`~mirl.learning.verdicts.Verdict.to_dict`) in words."""
+    from mirl.learning.model_check import Check, ModelFit
     from mirl.learning.verdicts import Verdict
 
-    verdict = Verdict(record["part"], record["confidence"], tuple(record["candidates"]))
+    fit = None
+    if "fit" in record:  # only its words are needed here
+        fit = ModelFit((Check("record", record["fit"]["ok"], None, record["fit"]["reason"]),))
+    verdict = Verdict(
+        record["part"],
+        record["confidence"],
+        tuple(record["candidates"]),
+        fit=fit,
+        seen_moving=record.get("seen_moving", True),
+        weakened=record.get("weakened"),
+    )
     return verdict.sentence(robot)
 
 
@@ -67,6 +88,17 @@ def learn_record(
     }
 
 
+def pace_record(discretised) -> dict:
+    """The step pose data were read at, and how it was chosen (``{}`` for grid data)."""
+    if discretised is None:
+        return {}
+    auto = discretised.auto_step
+    return {
+        "step_seconds": discretised.step_seconds,
+        "step_chosen": "given" if auto is None else auto.sentence(),
+    }
+
+
 def drift_line(record: dict) -> str:
     """A lateral drift's JSON record (:meth:`~mirl.learning.verdicts.LateralDrift.to_dict`)
     in words."""
@@ -77,21 +109,96 @@ def drift_line(record: dict) -> str:
 
 
 def _uncertainty(robot) -> dict:
-    """``feature_intervals`` (95 %, [lo, hi]) and ``verdict`` of a model that has them."""
+    """``feature_intervals`` (95 %, [lo, hi]), ``feature_medians``, the motion models,
+    the parts the steps cannot tell apart and ``verdict`` of a model that has them."""
     if robot.verdict is None:
         return {}
-    return {
+    u = robot.uncertainty
+    out: dict = {
         "feature_intervals": {
             f: [round(float(lo), 4), round(float(hi), 4)]
             for f, (lo, hi) in robot.feature_intervals.items()
-        },
-        "verdict": robot.verdict.to_dict(),
-        **(
-            {"lateral_drift": robot.lateral_drift.to_dict()}
-            if robot.lateral_drift is not None
-            else {}
-        ),
+        }
     }
+    if u is not None:
+        out["feature_medians"] = {f: round(float(v), 4) for f, v in u.medians.items()}
+        out["motion_model"] = robot.motion_model
+        out["motion_models"] = {m: round(float(w), 4) for m, w in u.motion_models.items()}
+        out["indistinguishable"] = [
+            {
+                "features": list(g),
+                "told_apart_by": "drift" if u.sided_by_drift and set(g) == set(WHEELS) else None,
+            }
+            for g in u.indistinguishable
+        ]
+    out["verdict"] = robot.verdict.to_dict()
+    if robot.lateral_drift is not None:
+        out["lateral_drift"] = robot.lateral_drift.to_dict()
+    return out
+
+
+def feature_lines(r: dict, definition) -> list[str]:
+    """A robot's features, intervals and, where Eq. 4's estimate and the posterior disagree
+    (:func:`~mirl.learning.verdicts.estimate_disagrees`; ``definition`` what "damaged" means),
+    the posterior's medians as the answer and Eq. 4's labelled as the paper's estimate — one
+    answer per question (docs/design.md, "Fault verdicts")."""
+    from mirl.learning.verdicts import estimate_disagrees
+
+    probs = r["feature_probabilities"]
+    spans = r.get("feature_intervals")
+    same = _same_value_note(r)
+    if not spans:
+        return [f"features      {_values(probs, '=', 3)}{same}"]
+    interval = "  ".join(f"{k} {lo:.2f}–{hi:.2f}" for k, (lo, hi) in spans.items())
+    medians = r.get("feature_medians")
+    if medians is None or not estimate_disagrees(probs, spans, medians, definition):
+        return [f"features      {_values(probs, '=', 3)}{same}", f"95 % interval {interval}"]
+    return [
+        f"features      {_values(r['feature_medians'], ' ', 2)}  (the posterior's medians){same}",
+        f"95 % interval {interval}",
+        f"Eq. 4         {_values(probs, '=', 3)}  (the paper's estimate, from the step outcomes "
+        "alone; L plans with it)",
+    ]
+
+
+def _values(values: dict, sep: str, digits: int) -> str:
+    return "  ".join(f"{k}{sep}{v:.{digits}f}" for k, v in values.items())
+
+
+def _same_value_note(r: dict) -> str:
+    """The parts the steps cannot tell apart, as a note for the features line."""
+    notes = []
+    for group in r.get("indistinguishable", []):
+        names = " and ".join(group["features"])
+        side = "; the drift tells the side" if group["told_apart_by"] == "drift" else ""
+        notes.append(f"{names}: the steps cannot tell them apart{side}")
+    return f"  ({'; '.join(notes)})" if notes else ""
+
+
+def motion_line(r: dict) -> str | None:
+    """The motion models' weights and the one L plans with, in words."""
+    from mirl.learning.motion_models import motion_sentence
+
+    weights = r.get("motion_models")
+    if not weights:
+        return None
+    return f"motion        {motion_sentence(weights, r.get('motion_model', ''))}"
+
+
+def record_lines(verdict: dict) -> list[str]:
+    """What the verdict left out of the record, and what would make a misfit record fit."""
+    from mirl.cli.flags import in_flags
+
+    fit = verdict.get("fit")
+    if not fit:
+        return []
+    lines = []
+    left = ", ".join(f"{n} {why}" for why, n in fit.get("left_out", {}).items())
+    if left:
+        lines.append(f"left out      {left}")
+    if fit.get("fix"):
+        lines.append(f"to fit        {in_flags(fit['fix'])}")
+    return lines
 
 
 def _observed_line(m: dict) -> str:
@@ -117,31 +224,30 @@ def _pair_labels(result, scenario) -> dict:
     }
 
 
-def print_learn(out: dict, result, scenario_name: str) -> None:
+def print_learn(out: dict, result, scenario) -> None:
     """The text form of ``mirl learn``'s result."""
-    from mirl.learning.verdicts import estimate_outside_interval, outside_interval_note
-
     robots = out["robots"]
     print(
-        f"{result.method} on {scenario_name}: {out['observations']} ({out['steps']} steps, "
+        f"{result.method} on {scenario.name}: {out['observations']} ({out['steps']} steps, "
         f"observability {out['observability']:g})"
     )
     for name, r in robots.items():
         print(f"robot {name}")
         print("  weights       " + "  ".join(f"{k}={v:.3f}" for k, v in r["weights"].items()))
         probs = r["feature_probabilities"]
-        line = "  ".join(f"{k}={v:.3f}" for k, v in probs.items()) if probs else result.message
-        print(f"  features      {line}")
-        if "feature_intervals" in r:
-            spans = "  ".join(
-                f"{k} {lo:.2f}–{hi:.2f}" for k, (lo, hi) in r["feature_intervals"].items()
-            )
-            print(f"  95 % interval {spans}")
-            if estimate_outside_interval(probs, r["feature_intervals"]):
-                print("  " + outside_interval_note("lateral_drift" in r))
-            if "lateral_drift" in r:
-                print("  " + drift_line(r["lateral_drift"]))
+        if not probs:
+            print(f"  features      {result.message}")
+        for line in feature_lines(r, scenario.faults) if probs else []:
+            print(f"  {line}")
+        motion = motion_line(r)
+        if motion is not None:
+            print(f"  {motion}")
+        if "lateral_drift" in r:
+            print("  " + drift_line(r["lateral_drift"]))
+        if "verdict" in r:
             print(f"  verdict       {verdict_sentence(name, r['verdict'])}")
+            for line in record_lines(r["verdict"]):
+                print(f"  {line}")
         if r["behavior_accuracy"] is not None:
             print(f"  behaviour accuracy {r['behavior_accuracy']:.3f} (vs the scenario's truth)")
         if "observed_moves" in r:

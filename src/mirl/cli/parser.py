@@ -1,14 +1,21 @@
-"""The argument parser of ``mirl``: every sub-command, flag, default and help text."""
+"""The argument parser of ``mirl``: every sub-command, flag, default and help text.
+
+The flags that set an option of :class:`~mirl.learning.options.LearnOptions`,
+:class:`~mirl.experiments.options.RunProtocol` or :class:`~mirl.experiments.options.SweepOptions`
+are built from its declaration (:func:`_option`): the flag, its type and bounds, its choices, its
+default and its help. The tables (methods, worlds, experiments, go rules) give the choices.
+"""
 
 from __future__ import annotations
 
 import argparse
-import os
+from functools import partial
+from typing import Any
 
+from mirl._validation import Boolean, Options
+from mirl.cli.checks import DEFAULT_POSE_RATE
 from mirl.cli.flags import (
-    MAX_OBS_STEPS,
     MAX_STEPS,
-    MAX_WAIT_STEPS,
     OneLineParser,
     bounded_int,
     finite_float,
@@ -18,21 +25,49 @@ from mirl.cli.flags import (
     non_negative_float,
     positive_float,
     seed,
+    spec_type,
     step_seconds,
+    step_seconds_or_auto,
 )
-from mirl.experiments.worlds import DEFAULT_WORLD, WORLDS
+from mirl.experiments.options import RunProtocol, SweepOptions
 from mirl.learning.methods import LEARNING_METHODS, METHODS
+from mirl.learning.options import DEFAULT_P, EM_INITS, LABELLINGS, LearnOptions
+from mirl.world.actions import STEP_SECONDS
+from mirl.worlds import WORLDS
 
 __all__ = ["build_parser"]
 
-# Literal copies of tuples whose modules import numpy and scipy, so that building the parser
-# imports none of them; tests/test_startup.py checks that they match their sources.
-IRL_OBJECTIVES = ("counts", "likelihood", "both", "sequence")  # learning.irl.OBJECTIVES
-IRL_OPTIMIZERS = ("nelder-mead", "lbfgs")  # learning.irl.OPTIMIZERS
-RUN_MAX_WAIT = 450  # experiments.records.MAX_WAIT
-RUN_WATCH_UNTIL_SEEN = 40  # experiments.records.WATCH_UNTIL_SEEN
-RUN_WATCH_LIMIT = 1800  # experiments.records.WATCH_LIMIT
-EM_INITS = ("intended", "uniform")  # learning.dbn_em.EM_INITS
+_DECLARED: Any = object()  # a flag's default: the option's declared one
+
+
+def _option(
+    sp: argparse._ActionsContainer,
+    options: type[Options],
+    name: str,
+    *,
+    default: Any = _DECLARED,
+    help: str | None = None,
+) -> None:
+    """Add the flag of option ``name`` of ``options``, built from its declaration: a switch
+    for a True/False option (its flag turns the declared default over), else a value checked
+    by the declaration, with its choices. ``default`` None leaves the option to the library
+    (the flag given or not: a check that it applies to the method needs to know)."""
+    spec = options.spec(name)
+    assert spec.flag is not None, f"{options.__name__}.{name} has no flag"
+    text = (spec.doc if help is None else help).replace("%", "%%")  # argparse formats help
+    if any(isinstance(c, Boolean) for c in spec.constraints):
+        action = "store_false" if spec.default else "store_true"
+        sp.add_argument(spec.flag, dest=name, action=action, help=text)
+        return
+    sp.add_argument(
+        spec.flag,
+        dest=name,
+        type=spec_type(spec),
+        choices=spec.choices,
+        default=spec.default if default is _DECLARED else default,
+        metavar=spec.metavar,
+        help=text,
+    )
 
 
 class _VersionAction(argparse.Action):
@@ -63,38 +98,11 @@ def _learn_parser(sub) -> None:
         default="mirl-t",
         help="learning method (mirl-t is the paper's mIRL*/T+Int; see README 'Methods')",
     )
-    le.add_argument(
-        "--p", type=fraction, default=None, help="fixed success p of mirl / known-r (None: 0.9)"
-    )
     _observability_arg(le, "degree the observations were taken at (default: the scenario's)")
-    le.add_argument(
-        "--max-iterations",
-        type=bounded_int(1, 100),
-        default=5,
-        metavar="N",
-        help="relabelling rounds of mirl-t / known-r-t",
-    )
-    le.add_argument(
-        "--label-tol",
-        type=fraction,
-        default=0.01,
-        metavar="F",
-        help="mirl-t's relabelling has converged when a round changes at most this share of "
-        "the labelled steps (0: none)",
-    )
-    le.add_argument(
-        "--objective",
-        choices=IRL_OBJECTIVES,
-        default="sequence",
-        help="IRL objective (paper: counts)",
-    )
-    le.add_argument(
-        "--optimizer",
-        choices=IRL_OPTIMIZERS,
-        default="lbfgs",
-        help="IRL optimiser (paper: nelder-mead)",
-    )
-    _em_init_arg(le)
+    # every option of learning that has a flag is a flag of learn: a new one needs no line here
+    for name, spec in LearnOptions.__options__.items():
+        if spec.flag is not None:
+            {"p": _p_arg, "em_init": _em_init_arg}.get(name, partial(_learn_option, name=name))(le)
     _max_memory_arg(le)
     le.add_argument(
         "--compare",
@@ -126,34 +134,23 @@ def _run_parser(sub) -> None:
     _observability_arg(
         ru, "share of the patrollers' cells L sees (None: the scenario's, 0.14 on boyd2)"
     )
-    ru.add_argument(
-        "--obs-steps",
-        type=bounded_int(1, MAX_OBS_STEPS),
-        default=None,
-        metavar="N",
-        help="observe exactly N steps (2 s each), as the experiments do; None: 300 steps, then "
-        "--watch-until-seen",
-    )
-    ru.add_argument(
-        "--watch-until-seen",
-        type=bounded_int(1, RUN_WATCH_LIMIT),
-        default=None,
-        metavar="K",
-        help=f"without --obs-steps: after 300 steps L keeps watching until it has seen every "
-        f"patroller on K steps, for at most {RUN_WATCH_LIMIT} steps "
-        f"({RUN_WATCH_LIMIT * 2 // 60} min) (None: {RUN_WATCH_UNTIL_SEEN})",
-    )
+    steps = RunProtocol.default("obs_steps")
+    _option(
+        ru, RunProtocol, "obs_steps", default=None,
+        help=f"observe exactly N steps ({STEP_SECONDS:g} s each), as the experiments do; None: "
+        f"{steps} steps, then --watch-until-seen",
+    )  # fmt: skip
+    limit = RunProtocol.default("max_obs_steps")
+    _option(
+        ru, RunProtocol, "watch_until_seen", default=None,
+        help=f"without --obs-steps: after {steps} steps L keeps watching until it has seen "
+        f"every patroller on K steps, for at most {limit} steps "
+        f"({limit * STEP_SECONDS / 60:g} min) "
+        f"(None: {RunProtocol.default('watch_until_seen')})",
+    )  # fmt: skip
     ru.add_argument("--seed", type=seed, default=0, help="seed of the whole run")
-    ru.add_argument(
-        "--p", type=fraction, default=None, help="fixed success p of mirl / known-r (None: 0.9)"
-    )
-    ru.add_argument(
-        "--max-wait",
-        type=bounded_int(0, MAX_WAIT_STEPS),
-        default=RUN_MAX_WAIT,
-        metavar="N",
-        help="steps L may wait after observing (450: 25 min in all with 300 observed)",
-    )
+    _p_arg(ru)
+    _option(ru, RunProtocol, "max_wait")
     _em_init_arg(ru)
     _protocol_args(ru)
     _max_memory_arg(ru)
@@ -167,6 +164,15 @@ def _run_parser(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``mirl`` command's parser, every sub-command's flags built from the tables and the
+    option types (it imports neither numpy nor scipy).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        A :class:`~mirl.cli.flags.OneLineParser`; ``parse_args`` puts the sub-command's name
+        in ``command``.
+    """
     p = OneLineParser(
         prog="mirl",
         description="Learn other robots' rewards, policies and faulty motion under occlusion.",
@@ -183,64 +189,92 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+class _ExperimentHelp(argparse.Action):
+    """``mirl experiment --help``: every experiment of the table with what it measures, read
+    when asked for (building the table designs the atlas's grid, with numpy), as is a name."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, **kwargs) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        from mirl.experiments.conditions import EXPERIMENTS, experiment_names
+
+        listed = experiment_names()
+        parser.description = (
+            f"{parser.description} The experiments: "
+            + "; ".join(f"{n}: {EXPERIMENTS[n].description}" for n in listed)
+            + "."
+        )
+        for action in parser._actions:
+            if action.dest == "name":
+                action.help = ", ".join(listed)
+        parser.print_help()
+        parser.exit()
+
+
 def _experiment_parsers(sub) -> None:
     ex = sub.add_parser(
         "experiment",
-        help="run one of the paper's experiments (fig3, fig4a, fig4b, fig4c, table1)",
+        help="run one of the paper's experiments or calibrations (`mirl experiment --help` "
+        "lists them)",
         description="Runs a grid of conditions × seeds in parallel, committing every finished "
         "run to DIR/results.sqlite; --resume continues an interrupted (or extends a) sweep.",
+        add_help=False,
     )
-    ex.add_argument("name", metavar="NAME", help="fig3, fig4a, fig4b, fig4c or table1")
-    _world_arg(ex)
+    ex.add_argument("-h", "--help", action=_ExperimentHelp, help="show this help message and exit")
     ex.add_argument(
-        "--runs",
-        type=bounded_int(1, 100_000),
-        default=None,
-        help="runs per condition (None: the experiment's default, 200 for the paper's)",
+        "name", metavar="NAME", type=_experiment_name, help="an experiment (listed below)"
     )
-    ex.add_argument(
-        "--workers", type=bounded_int(1, 1024), default=os.cpu_count() or 1, help="local processes"
-    )
+    _option(ex, SweepOptions, "world", help=_world_help())
+    for name in ("runs", "workers"):
+        _option(ex, SweepOptions, name)
     ex.add_argument("--out", metavar="DIR", help="results directory (None: results/NAME)")
-    ex.add_argument("--resume", action="store_true", help="skip the runs DIR already holds")
-    ex.add_argument("--dask-scheduler", metavar="ADDRESS", help="run on this Dask cluster")
-    ex.add_argument("--seed", type=seed, default=0, help="base seed of the run seeds")
-    ex.add_argument("--quiet", action="store_true", help="no progress bar or progress lines")
-    ex.add_argument(
-        "--progress-every",
-        type=bounded_int(1, 100_000),
-        default=None,
-        metavar="N",
-        help="when output is not a terminal, a progress line every N runs (None: ~every 5%%)",
-    )
+    _option(ex, SweepOptions, "resume")
+    _option(ex, SweepOptions, "dask_scheduler")
+    _option(ex, SweepOptions, "base_seed")
+    _option(ex, SweepOptions, "progress", help="no progress bar or progress lines")
+    _option(ex, SweepOptions, "progress_every")
     _em_init_arg(ex)
     _protocol_args(ex)
     rp = sub.add_parser("report", help="figures and DIR/report.md from an experiment's results")
     rp.add_argument("dir", metavar="DIR", help="an experiment's results directory (or parent)")
 
 
-# mirl.planning.go.GO_RULES, spelled out so that building the parser imports no numpy (a test
-# checks that the two agree)
-GO_RULE_CHOICES = ("adaptive", "value")
+def _experiment_name(text: str) -> str:
+    """An experiment's name (the hidden ones too; the refusal lists the others)."""
+    from mirl.experiments.conditions import EXPERIMENTS, experiment_names
+
+    if text not in EXPERIMENTS:
+        raise argparse.ArgumentTypeError(str(EXPERIMENTS.unknown(text, known=experiment_names())))
+    return text
 
 
 def _protocol_args(sp: argparse.ArgumentParser) -> None:
     """How L decides to go and whether it keeps learning while it waits; ``--go-rule value
     --learn-once`` is the paper's protocol."""
-    sp.add_argument(
-        "--go-rule",
-        choices=GO_RULE_CHOICES,
-        default="adaptive",
-        help="adaptive: go when the chance of going now beats the value of waiting until the "
-        "deadline, and state the exact P(success); value: the published rule (the best plan "
-        "value in the window, if positive)",
-    )
-    sp.add_argument(
-        "--learn-once",
-        action="store_true",
-        help="learn once after observing, as published (default: re-learn while waiting, "
-        "whenever the record has grown 1.5x)",
-    )
+    _option(sp, RunProtocol, "go_rule")
+    growth = RunProtocol.default("relearn_growth")
+    _option(
+        sp, RunProtocol, "relearn",
+        help=f"learn once after observing, as published (default: re-learn while waiting, "
+        f"whenever the record has grown {growth:g}x)",
+    )  # fmt: skip
+
+
+def _learn_option(sp: argparse.ArgumentParser, *, name: str) -> None:
+    _option(sp, LearnOptions, name)
+
+
+def _p_arg(sp: argparse.ArgumentParser) -> None:
+    spec = LearnOptions.spec("p")
+    _option(sp, LearnOptions, "p", help=f"{spec.doc} (None: {DEFAULT_P:g})")
+
+
+def _em_init_arg(sp: argparse.ArgumentParser) -> None:
+    _option(
+        sp, LearnOptions, "em_init",
+        help=f"{LearnOptions.spec('em_init').doc} (None: {EM_INITS.names[0]})",
+    )  # fmt: skip
 
 
 def _scenario_args(sp: argparse.ArgumentParser, default: str | None = None) -> None:
@@ -287,10 +321,11 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
     )
     g.add_argument(
         "--step-seconds",
-        type=step_seconds,
+        type=step_seconds_or_auto,
         default=None,
-        metavar="S",
-        help="seconds per time step (None: 2, the paper's)",
+        metavar="S|auto",
+        help="seconds per time step, or auto: the robots' own pace, at which a typical move "
+        "is one cell (None: auto; the report states the step chosen)",
     )
     g.add_argument(
         "--start-time",
@@ -331,16 +366,6 @@ def _max_memory_arg(sp: argparse.ArgumentParser) -> None:
     )
 
 
-def _em_init_arg(sp: argparse.ArgumentParser) -> None:
-    sp.add_argument(
-        "--em-init",
-        choices=EM_INITS,
-        default=None,
-        help="DBN-EM's initial transitions: uniform over the intended states of all actions, or "
-        "over all states (None: intended)",
-    )
-
-
 def _show_map_parser(sub) -> None:
     """``mirl show-map``."""
     sm = sub.add_parser(
@@ -372,7 +397,10 @@ def _simulate_parser(sub) -> None:
     _scenario_args(si)
     _world_arg(si)
     si.add_argument(
-        "--steps", type=bounded_int(1, MAX_STEPS), default=300, help="time steps (2 s each)"
+        "--steps",
+        type=bounded_int(1, MAX_STEPS),
+        default=300,
+        help=f"time steps ({STEP_SECONDS:g} s each)",
     )
     si.add_argument("--seed", type=seed, default=0, help="seed of the simulation")
     _observability_arg(si, "share of the patrollers' cells L sees (None: the scenario's)")
@@ -401,7 +429,7 @@ def _simulate_parser(sub) -> None:
         type=float_between(0.001, 1000.0, " Hz"),
         default=None,
         metavar="HZ",
-        help="poses per second (None: 10)",
+        help=f"poses per second (None: {DEFAULT_POSE_RATE:g})",
     )
     si.add_argument(
         "--pose-noise",
@@ -415,7 +443,7 @@ def _simulate_parser(sub) -> None:
         type=step_seconds,
         default=None,
         metavar="S",
-        help="seconds per time step of the written poses (None: 2)",
+        help=f"seconds per time step of the written poses (None: {STEP_SECONDS:g})",
     )
 
 
@@ -428,9 +456,10 @@ def _data_parsers(sub) -> None:
     _observation_args(lt)
     lt.add_argument(
         "--labels",
-        choices=("true-policy", "perception"),
+        choices=tuple(LABELLINGS),
         default="true-policy",
-        help="label observed steps with the true policy (Known R/T) or by perception",
+        help="how observed steps are labelled with actions: "
+        + "; ".join(f"{r.name}: {r.description}" for r in LABELLINGS.values()),
     )
     lt.add_argument("--json", action="store_true", help="print the probabilities as JSON")
     cv = sub.add_parser(
@@ -446,16 +475,17 @@ def _data_parsers(sub) -> None:
     _observation_args(cv, with_file=False)
 
 
+def _world_help() -> str:
+    return "; ".join(
+        f"{w.name}: {w.description}, where --damage sets {w.damage}"
+        + (f' (pip install "mirl[{w.requirement_extra}]")' if w.requirement_extra else "")
+        for w in WORLDS.values()
+    )
+
+
 def _world_arg(sp: argparse.ArgumentParser) -> None:
     sp.add_argument(
-        "--world",
-        choices=tuple(WORLDS),
-        default=DEFAULT_WORLD,
-        help="; ".join(
-            f"{w.name}: {w.description}, where --damage sets {w.damage}"
-            + (f' (pip install "mirl[{w.requirement_extra}]")' if w.requirement_extra else "")
-            for w in WORLDS.values()
-        ),
+        "--world", choices=tuple(WORLDS), default=SweepOptions.default("world"), help=_world_help()
     )
 
 

@@ -3,9 +3,9 @@ policy with mirl's planner: :class:`PenetrationEnv`, a ``gymnasium.Env`` of L's 
 patrollers follow their true policies inside), and :class:`TeamEnv`, a PettingZoo
 ``ParallelEnv`` in which every robot — each patroller and L — is an agent.
 
-This stage sits beside :mod:`mirl.experiments` (it uses the simulator, L's MDP and the world
-model, never the learner) and needs the optional extra ``pip install mirl[envs]``
-(gymnasium, pettingzoo); the names load on first use.
+This stage sits beside :mod:`mirl.experiments` (it steps a world of :data:`mirl.worlds.WORLDS`
+through the world contract, as runs do, and never uses the learner) and needs the optional
+extra ``pip install mirl[envs]`` (gymnasium, pettingzoo); the names load on first use.
 """
 
 from __future__ import annotations

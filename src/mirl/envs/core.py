@@ -1,78 +1,103 @@
-"""The world both environments step: the grid simulator's patrollers, L's MDP (its moves fail
-with probability 2.5 %, it stays put), the true detection rule and what L sees from its room.
-Seeding follows the simulator: one seed fixes the patrollers' starts and moves and L's failures
-(independent streams spawned from it)."""
+"""One episode of a world as both environments see it (:class:`Episode`): a world of
+:data:`mirl.worlds.WORLDS` stepped through its contract, with what an agent observes of it.
+
+The world does all the stepping — the patrollers' moves, L's failures, detection and the goal —
+exactly as in a run of :func:`~mirl.experiments.episode.run_episode`; an episode only seeds it,
+remembers whether L has left its start cell, and reads L's view. One seed fixes an episode: it
+is split into the world's seed and L's failure stream (independent streams).
+"""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from mirl.planning.observer import ObserverModel, observer_model
-from mirl.simulation.grid import PatrolSimulator
+from mirl.planning.observer import ObserverModel
 from mirl.world.scenario import Scenario
+from mirl.worlds import RunSetup, RunWorld, World
 
-__all__ = ["PenetrationWorld"]
+__all__ = ["Episode"]
 
 
-class PenetrationWorld:
-    """Patrollers and L on one map. ``observe()`` is L's view: the (row, col, heading) of each
-    patroller L sees from its room (−1 rows for the rest, and for all once L is out) and L's
-    own state."""
+class Episode:
+    """A new world for one episode, seeded by ``seed``.
 
-    def __init__(self, scenario: Scenario, observability: float | None = None) -> None:
-        self.scenario = scenario
-        self.sim = PatrolSimulator(scenario, observability=observability)
-        self.model: ObserverModel = observer_model(scenario)
-        self.n = len(scenario.robots)
-        self.rng = np.random.default_rng()
-        self.observer = self.model.start_state
-        self.out = False
-        self._seen = np.empty((0, 4), dtype=int)
+    Parameters
+    ----------
+    world_class : World
+        The world's class, from its row of :data:`~mirl.worlds.WORLDS`.
+    scenario : Scenario
+        The patrollers, their true models and L's map.
+    model : ObserverModel
+        L's model (its start, goal, moves and failure probability).
+    observability : float
+        The degree of L's view from its room.
+    seed : int
+        Fixes the episode.
+    """
 
-    def reset(self, seed: int) -> None:
-        sim_seq, l_seq = np.random.SeedSequence(seed).spawn(2)
-        obs, _ = self.sim.reset(
-            seed=int(sim_seq.generate_state(1)[0]), options={"random_starts": True}
+    def __init__(
+        self,
+        world_class: World,
+        scenario: Scenario,
+        model: ObserverModel,
+        observability: float,
+        seed: int,
+    ) -> None:
+        world_seq, observer_seq = np.random.SeedSequence(seed).spawn(2)
+        setup = RunSetup(
+            scenario, model, observability, int(world_seq.generate_state(1)[0]), observer_seq
         )
-        self.rng = np.random.default_rng(l_seq)
-        self.observer = self.model.start_state
-        self.out = False
-        self._seen = obs
+        self.world: RunWorld = world_class(setup)
+        self.scenario, self.model = scenario, model
+        self._start_cell = int(model.cell_of(model.start_state))
+        self.out = False  # L has left its start cell (and sees nothing from then on)
+        self.detected = False
+        self.arrived = False
 
-    def step_patrollers(self, actions: np.ndarray | None = None) -> None:
-        """Move the patrollers: by their true policies and the game (``None``), or by the
-        given actions through their true transition functions."""
-        if actions is None:
-            obs, *_ = self.sim.step()
-        else:
-            T = [self.scenario.true_transitions(i) for i in range(self.n)]
-            A = self.sim.domain.n_actions
-            for i, a in enumerate(np.asarray(actions, dtype=int)):
-                row = T[i][[int(self.sim.states[i]) * A + int(a)]].toarray().ravel()
-                self.sim.states[i] = int(self.sim.np_random.choice(len(row), p=row / row.sum()))
-            self.sim.t += 1
-            obs = self.sim._observe()
-        self._seen = obs
+    @property
+    def patroller_states(self) -> np.ndarray:
+        """(N,) the patrollers' true state indices now."""
+        return self.world.true[-1].copy()
 
-    def move_observer(self, action: int) -> None:
-        if self.model.failure > 0 and self.rng.random() < self.model.failure:
-            return
-        nxt = int(self.model.domain.intended[self.observer, int(action)])
-        start_cell = self.model.cell_of(self.model.start_state)
-        self.out = self.out or int(self.model.cell_of(nxt)) != int(start_cell)
-        self.observer = nxt
+    def step(self, observer_action: int, patroller_actions: np.ndarray | None = None) -> None:
+        """L takes ``observer_action`` and the patrollers move.
 
-    def detected(self) -> bool:
-        return bool(self.model.seen_by(self.sim.states, self.observer).any())
+        Then it records whether a patroller saw L, or else L arrived.
 
-    def at_goal(self) -> bool:
-        return bool(self.model.goal[self.observer])
+        Parameters
+        ----------
+        observer_action : int
+            L's action, an index into :data:`~mirl.world.actions.ACTIONS`.
+        patroller_actions : ndarray of int, shape (N,), optional
+            The patrollers' actions; by their policies if None.
+        """
+        self.world.step(observer_action, patroller_actions=patroller_actions)
+        cell = int(self.model.cell_of(self.world.observer_state()))
+        self.out = self.out or cell != self._start_cell
+        self.detected = bool(self.world.detections())
+        self.arrived = not self.detected and self.world.at_goal()
 
-    def patrollers_seen(self) -> np.ndarray:
-        out = np.full((self.n, 3), -1, dtype=np.int64)
-        if not self.out and len(self._seen):
-            out[self._seen[:, 0]] = self._seen[:, 1:]
-        return out
+    @property
+    def outcome(self) -> str | None:
+        """``"detected"``, ``"success"`` or None (the episode goes on)."""
+        return "detected" if self.detected else ("success" if self.arrived else None)
 
-    def observer_state(self) -> np.ndarray:
-        return self.model.domain.states[self.observer].astype(np.int64)
+    def observer_view(self) -> dict[str, Any]:
+        """L's observation.
+
+        Returns
+        -------
+        dict
+            ``patrollers`` (N, 3): the (row, col, heading) of each patroller L sees from its
+            room (−1 rows for the rest, and for all once L is out); ``observer``: L's own (row,
+            col, heading); ``out``: 1 once L has left its start cell.
+        """
+        patrollers = np.full((len(self.scenario.robots), 3), -1, dtype=np.int64)
+        seen = self.world.seen[-1]
+        if not self.out:
+            mask = seen >= 0
+            patrollers[mask] = self.scenario.domain.states[seen[mask]]
+        observer = self.model.domain.states[self.world.observer_state()].astype(np.int64)
+        return {"patrollers": patrollers, "observer": observer, "out": int(self.out)}

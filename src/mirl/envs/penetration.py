@@ -10,34 +10,48 @@
 * **Reward**: ``goal_reward`` on reaching the goal unseen, ``−detection_penalty`` when a
   patroller sees L (both end the episode), 0 otherwise; truncated after ``max_steps``.
 * The patrollers start at random states of their patrol cycles and follow their **true**
-  policies, meetings resolved by the scenario's game (:class:`~mirl.simulation.grid.
-  PatrolSimulator`). ``reset(seed=...)`` seeds ``np_random`` and through it the simulator and
-  L's failures, so a seed fixes an episode.
+  policies, meetings resolved by the scenario's game, in a world of :data:`mirl.worlds.WORLDS`
+  (``world="grid"`` by default: :class:`~mirl.simulation.grid.PatrolSimulator`), stepped
+  through the world contract as a run steps it. ``reset(seed=...)`` seeds ``np_random`` and
+  through it the world and L's failures, so a seed fixes an episode.
 """
 
 from __future__ import annotations
-
-from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from mirl.envs.core import PenetrationWorld
+from mirl.envs.core import Episode
+from mirl.planning.observer import observer_model
 from mirl.world.scenario import Scenario, as_scenario
+from mirl.worlds import DEFAULT_WORLD, get_world
 
 __all__ = ["PenetrationEnv", "observation_space", "OBSERVER_ACTIONS"]
 
 OBSERVER_ACTIONS = ("forward", "turn_left", "turn_right", "wait")
 
 
-def observation_space(world: PenetrationWorld) -> spaces.Dict:
-    rows, cols = world.scenario.map.shape
+def observation_space(scenario: Scenario) -> spaces.Dict:
+    """L's observation space on ``scenario`` (the module doc's ``Dict``).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario: its map's shape and number of patrollers.
+
+    Returns
+    -------
+    gymnasium.spaces.Dict
+        ``patrollers``, ``observer`` and ``out``.
+    """
+    rows, cols = scenario.map.shape
     high = np.array([rows - 1, cols - 1, 3], dtype=np.int64)
+    n = len(scenario.robots)
     return spaces.Dict(
         {
-            "patrollers": spaces.Box(-1, np.tile(high, (world.n, 1)), dtype=np.int64),
+            "patrollers": spaces.Box(-1, np.tile(high, (n, 1)), dtype=np.int64),
             "observer": spaces.Box(np.zeros(3, dtype=np.int64), high, dtype=np.int64),
             "out": spaces.Discrete(2),
         }
@@ -45,7 +59,30 @@ def observation_space(world: PenetrationWorld) -> spaces.Dict:
 
 
 class PenetrationEnv(gym.Env):
-    """L's task on ``scenario`` (a :class:`~mirl.world.scenario.Scenario` or a shipped name)."""
+    """L's task on ``scenario`` in ``world`` (module doc).
+
+    Parameters
+    ----------
+    scenario : Scenario or str, default "boyd2"
+        A :class:`~mirl.world.scenario.Scenario`, or a shipped name or path.
+    world : str, default "grid"
+        A name in :data:`mirl.worlds.WORLDS`.
+    observability : float, optional
+        The fraction of the hallway L sees from its room; the scenario's by default.
+    max_steps : int, default 1000
+        Steps after which an episode is truncated, at least 1.
+    goal_reward : float, default 1.0
+        The reward for reaching the goal unseen.
+    detection_penalty : float, default 1.0
+        The penalty (a reward of minus it) for being seen.
+
+    Raises
+    ------
+    ValueError
+        ``max_steps`` below 1, or an unknown world.
+    ImportError
+        A world that cannot run on this installation.
+    """
 
     metadata = {"render_modes": []}
 
@@ -53,6 +90,7 @@ class PenetrationEnv(gym.Env):
         self,
         scenario: Scenario | str = "boyd2",
         *,
+        world: str = DEFAULT_WORLD,
         observability: float | None = None,
         max_steps: int = 1000,
         goal_reward: float = 1.0,
@@ -60,44 +98,84 @@ class PenetrationEnv(gym.Env):
     ) -> None:
         if max_steps < 1:
             raise ValueError(f"max_steps must be at least 1, got {max_steps}")
-        self.world = PenetrationWorld(as_scenario(scenario), observability)
+        self.scenario = as_scenario(scenario)
+        self.world_class = get_world(world).load()
+        self.model = observer_model(self.scenario)
+        self.observability = (
+            self.scenario.observability if observability is None else float(observability)
+        )
         self.max_steps = int(max_steps)
         self.goal_reward = float(goal_reward)
         self.detection_penalty = float(detection_penalty)
-        self.observation_space = observation_space(self.world)
+        self.observation_space = observation_space(self.scenario)
         self.action_space = spaces.Discrete(len(OBSERVER_ACTIONS))
-        self._t = 0
-        self._reset_once = False  # step() before the first reset() has no episode to step
-
-    def _obs(self) -> dict[str, Any]:
-        w = self.world
-        return {
-            "patrollers": w.patrollers_seen(),
-            "observer": w.observer_state(),
-            "out": int(w.out),
-        }
+        self.episode: Episode | None = None  # step() before the first reset() has none
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start an episode: patrollers at random states of their patrol cycles, L in its room.
+
+        Parameters
+        ----------
+        seed : int, optional
+            Seeds ``np_random`` and through it the world and L's failures.
+        options : dict, optional
+            Unused (Gymnasium's signature).
+
+        Returns
+        -------
+        observation : dict
+            L's view (:meth:`~mirl.envs.core.Episode.observer_view`).
+        info : dict
+            ``t`` (0) and the patrollers' true states.
+        """
         super().reset(seed=seed)
-        self.world.reset(int(self.np_random.integers(2**63 - 1)))
-        self._t = 0
-        self._reset_once = True
-        return self._obs(), {"t": 0, "patroller_states": self.world.sim.states.copy()}
+        self.episode = Episode(
+            self.world_class, self.scenario, self.model, self.observability,
+            int(self.np_random.integers(2**63 - 1)),
+        )  # fmt: skip
+        return self.episode.observer_view(), {
+            "t": 0,
+            "patroller_states": self.episode.patroller_states,
+        }
 
     def step(self, action):
-        if not self._reset_once:
+        """L takes ``action``; the world steps.
+
+        Parameters
+        ----------
+        action : int
+            An index into :data:`OBSERVER_ACTIONS`.
+
+        Returns
+        -------
+        observation : dict
+            L's view.
+        reward : float
+            ``goal_reward`` on reaching the goal, ``-detection_penalty`` when seen, else 0.
+        terminated : bool
+            Whether L was seen or arrived.
+        truncated : bool
+            Whether ``max_steps`` were reached first.
+        info : dict
+            ``t``, the ``outcome`` (None while running) and the patrollers' true states.
+
+        Raises
+        ------
+        gymnasium.error.ResetNeeded
+            :meth:`reset` was never called.
+        ValueError
+            An action outside the action space.
+        """
+        episode = self.episode
+        if episode is None:
             raise ResetNeeded("call reset() before step()")
         if not self.action_space.contains(action):
             raise ValueError(f"action {action!r} is not in {self.action_space}")
-        w = self.world
-        w.move_observer(3 if int(action) == 3 else int(action))  # wait = L's stop action
-        w.step_patrollers()
-        self._t += 1
-        reward, terminated, outcome = 0.0, False, None
-        if w.detected():
-            reward, terminated, outcome = -self.detection_penalty, True, "detected"
-        elif w.at_goal():
-            reward, terminated, outcome = self.goal_reward, True, "success"
-        truncated = not terminated and self._t >= self.max_steps
-        info = {"t": self._t, "outcome": outcome, "patroller_states": w.sim.states.copy()}
-        return self._obs(), reward, terminated, truncated, info
+        episode.step(int(action))  # OBSERVER_ACTIONS index ACTIONS: wait is L's stop action
+        reward = -self.detection_penalty if episode.detected else 0.0
+        reward = self.goal_reward if episode.arrived else reward
+        terminated = episode.outcome is not None
+        t = episode.world.t
+        truncated = not terminated and t >= self.max_steps
+        info = {"t": t, "outcome": episode.outcome, "patroller_states": episode.patroller_states}
+        return episode.observer_view(), reward, terminated, truncated, info

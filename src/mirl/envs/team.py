@@ -10,7 +10,10 @@ an agent acting at the same time.
   :class:`~mirl.envs.penetration.PenetrationEnv`.
 
 The episode ends for every agent when L is seen or reaches its goal, and is truncated after
-``max_cycles`` steps. ``reset(seed=...)`` fixes the patrollers' starts and every outcome.
+``max_cycles`` steps. ``reset(seed=...)`` fixes the patrollers' starts and every outcome. The
+world (``world="grid"`` by default, a name in :data:`mirl.worlds.WORLDS`) is stepped through the
+world contract with the patrollers' actions; a world whose patrollers cannot take given actions
+(the physics world's drive by their policies) is refused.
 """
 
 from __future__ import annotations
@@ -21,10 +24,12 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from mirl.envs.core import PenetrationWorld
+from mirl.envs.core import Episode
 from mirl.envs.penetration import OBSERVER_ACTIONS, observation_space
+from mirl.planning.observer import observer_model
 from mirl.world.domain import ACTIONS
 from mirl.world.scenario import Scenario, as_scenario
+from mirl.worlds import DEFAULT_WORLD, get_world
 
 __all__ = ["TeamEnv", "OBSERVER"]
 
@@ -32,7 +37,30 @@ OBSERVER = "L"
 
 
 class TeamEnv(ParallelEnv):
-    """Patrollers and L of ``scenario`` (a Scenario or a shipped name) as parallel agents."""
+    """Patrollers and L of ``scenario`` as parallel agents, in ``world`` (module doc).
+
+    Parameters
+    ----------
+    scenario : Scenario or str, default "boyd2"
+        A Scenario, or a shipped name or path; no patroller may be named ``L``.
+    world : str, default "grid"
+        A name in :data:`mirl.worlds.WORLDS` whose patrollers take given actions.
+    observability : float, optional
+        The fraction of the hallway L sees from its room; the scenario's by default.
+    max_cycles : int, default 500
+        Steps after which an episode is truncated.
+    goal_reward : float, default 1.0
+        L's reward for reaching the goal unseen.
+    detection_penalty : float, default 1.0
+        L's penalty for being seen.
+    detection_reward : float, default 1.0
+        Every patroller's bonus when some patroller sees L.
+
+    Raises
+    ------
+    ValueError
+        A patroller named ``L``, an unknown world, or one whose patrollers cannot take actions.
+    """
 
     metadata = {"render_modes": [], "name": "mirl_team_v0"}
 
@@ -40,6 +68,7 @@ class TeamEnv(ParallelEnv):
         self,
         scenario: Scenario | str = "boyd2",
         *,
+        world: str = DEFAULT_WORLD,
         observability: float | None = None,
         max_cycles: int = 500,
         goal_reward: float = 1.0,
@@ -49,7 +78,15 @@ class TeamEnv(ParallelEnv):
         sc = as_scenario(scenario)
         if OBSERVER in sc.robot_names:
             raise ValueError(f"a patroller may not be named '{OBSERVER}' (L's agent name)")
-        self.world = PenetrationWorld(sc, observability)
+        self.world_class = get_world(world).load()
+        if not self.world_class.takes_patroller_actions:
+            raise ValueError(
+                f"world '{world}': its patrollers drive by their own policies and take no "
+                "actions, so they cannot be agents"
+            )
+        self.scenario, self.model = sc, observer_model(sc)
+        self.observability = sc.observability if observability is None else float(observability)
+        self.episode: Episode | None = None
         self.max_cycles = int(max_cycles)
         self.rewards_for = (float(goal_reward), float(detection_penalty), float(detection_reward))
         self.possible_agents = [*sc.robot_names, OBSERVER]
@@ -59,38 +96,73 @@ class TeamEnv(ParallelEnv):
             np.zeros(3, dtype=np.int64), np.array([rows - 1, cols - 1, 3]), dtype=np.int64
         )
         self._obs_spaces: dict[str, spaces.Space] = {n: own for n in sc.robot_names}
-        self._obs_spaces[OBSERVER] = observation_space(self.world)
+        self._obs_spaces[OBSERVER] = observation_space(sc)
         self._act_spaces: dict[str, spaces.Space] = {
             n: spaces.Discrete(len(ACTIONS)) for n in sc.robot_names
         }
         self._act_spaces[OBSERVER] = spaces.Discrete(len(OBSERVER_ACTIONS))
         self._rewards = [sc.domain.rewards(list(r.weights)) for r in sc.robots]
-        self._t = 0
 
     def observation_space(self, agent: str) -> spaces.Space:
+        """An agent's observation space.
+
+        Parameters
+        ----------
+        agent : str
+            A patroller's name or ``"L"``.
+
+        Returns
+        -------
+        gymnasium.spaces.Space
+            A patroller's own (row, col, heading) box, or L's ``Dict``.
+        """
         return self._obs_spaces[agent]
 
     def action_space(self, agent: str) -> spaces.Space:
+        """An agent's action space.
+
+        Parameters
+        ----------
+        agent : str
+            A patroller's name or ``"L"``.
+
+        Returns
+        -------
+        gymnasium.spaces.Discrete
+            The four patroller actions, or L's four moves.
+        """
         return self._act_spaces[agent]
 
-    def _observations(self) -> dict[str, Any]:
-        w = self.world
-        states = w.sim.domain.states[w.sim.states].astype(np.int64)
-        obs: dict[str, Any] = {n: states[i] for i, n in enumerate(w.scenario.robot_names)}
-        obs[OBSERVER] = {
-            "patrollers": w.patrollers_seen(),
-            "observer": w.observer_state(),
-            "out": int(w.out),
-        }
+    def _observations(self, episode: Episode) -> dict[str, Any]:
+        states = self.scenario.domain.states[episode.patroller_states].astype(np.int64)
+        obs: dict[str, Any] = {n: states[i] for i, n in enumerate(self.scenario.robot_names)}
+        obs[OBSERVER] = episode.observer_view()
         return obs
 
     def reset(self, seed: int | None = None, options: dict | None = None):
+        """Start an episode.
+
+        Parameters
+        ----------
+        seed : int, optional
+            Fixes the patrollers' starts and every outcome; a fresh one if None.
+        options : dict, optional
+            Unused (PettingZoo's signature).
+
+        Returns
+        -------
+        observations : dict of str to object
+            Per agent.
+        infos : dict of str to dict
+            Per agent, empty.
+        """
         if seed is None:
             seed = int(np.random.SeedSequence().generate_state(1)[0])
-        self.world.reset(int(seed))
+        self.episode = Episode(
+            self.world_class, self.scenario, self.model, self.observability, int(seed)
+        )
         self.agents = list(self.possible_agents)
-        self._t = 0
-        return self._observations(), {a: {} for a in self.agents}
+        return self._observations(self.episode), {a: {} for a in self.agents}
 
     def _check_actions(self, actions: dict[str, Any]) -> None:
         """One action per live agent, each in its space (PettingZoo's contract), or a
@@ -114,32 +186,57 @@ class TeamEnv(ParallelEnv):
                 )
 
     def step(self, actions: dict[str, Any]):
+        """Every live agent acts at once.
+
+        Parameters
+        ----------
+        actions : dict of str to int
+            One action per live agent, each in its space.
+
+        Returns
+        -------
+        observations : dict
+            Per live agent.
+        rewards : dict
+            Per live agent: a patroller's true r(s, a) (plus ``detection_reward`` when L is seen);
+            L's as in :class:`~mirl.envs.penetration.PenetrationEnv`.
+        terminations : dict
+            Per live agent: whether L was seen or arrived.
+        truncations : dict
+            Per live agent: whether ``max_cycles`` were reached first.
+        infos : dict
+            Per live agent: ``t`` and the ``outcome``.
+
+        Raises
+        ------
+        ValueError
+            An agent missing or unknown, an action outside its space, or no live agents.
+        """
         self._check_actions(actions)
-        w = self.world
-        names = w.scenario.robot_names
+        episode = self.episode
+        assert episode is not None  # live agents exist only after reset()
+        names = self.scenario.robot_names
         acts = np.array([int(actions[n]) for n in names])
-        before = w.sim.states.copy()
-        w.move_observer(int(actions[OBSERVER]))
-        w.step_patrollers(acts)
-        self._t += 1
+        before = episode.patroller_states
+        episode.step(int(actions[OBSERVER]), acts)
+        t = episode.world.t
         goal_reward, penalty, bonus = self.rewards_for
-        detected, arrived = w.detected(), (not w.detected()) and w.at_goal()
+        detected, arrived = episode.detected, episode.arrived
         rewards = {
             n: float(self._rewards[i][before[i], acts[i]]) + (bonus if detected else 0.0)
             for i, n in enumerate(names)
         }
         rewards[OBSERVER] = -penalty if detected else (goal_reward if arrived else 0.0)
         done = detected or arrived
-        truncated = not done and self._t >= self.max_cycles
+        truncated = not done and t >= self.max_cycles
         agents = self.agents
-        obs = self._observations()
-        outcome = "detected" if detected else ("success" if arrived else None)
+        obs = self._observations(episode)
         result = (
             {a: obs[a] for a in agents},
             {a: rewards[a] for a in agents},
             {a: done for a in agents},
             {a: truncated for a in agents},
-            {a: {"t": self._t, "outcome": outcome} for a in agents},
+            {a: {"t": t, "outcome": episode.outcome} for a in agents},
         )
         if done or truncated:
             self.agents = []

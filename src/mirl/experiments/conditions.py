@@ -24,10 +24,11 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from mirl.experiments.worlds import DEFAULT_WORLD, WORLDS
+from mirl._registry import Registry
+from mirl.experiments.atlas import atlas_design, atlas_run
+from mirl.experiments.options import PAPER_GO_RULE, RunProtocol
 from mirl.learning.methods import METHODS
+from mirl.worlds import DEFAULT_WORLD, WORLDS
 
 __all__ = [
     "Condition",
@@ -44,26 +45,52 @@ __all__ = [
     "OUTCOMES",
 ]
 
-DEFAULT_OBS_STEPS = 300
-GO_RULE_PUBLISHED = "value"  # the paper's rule
-GO_RULE_DEFAULT = "adaptive"  # mirl's rule, run_episode's and the command line's default
+DEFAULT_OBS_STEPS: int = RunProtocol.default("obs_steps")
+GO_RULE_PUBLISHED = PAPER_GO_RULE
+GO_RULE_DEFAULT: str = RunProtocol.default("go_rule")  # mirl's, the API's and the command line's
 DEFAULT_RUNS = 200  # per point, as in the paper's simulations
-OUTCOMES = ("success", "detected", "timeout")
+DOOR_VIEW = 0.14  # the paper's L at its door on boyd2 (its scenario's observability)
+FULL_VIEW = 1.0  # L sees every patroller cell
+OUTCOMES = ("success", "detected", "timeout", "learned")  # learned: a run with no L to go (atlas)
 
 
 @dataclass(frozen=True)
 class Condition:
-    """One point of an experiment grid. ``p`` is the fixed success probability of the
-    fixed-T methods (``mirl``, ``known-r``); None for methods that learn or know T.
-    ``damage`` (``"ROBOT:FEATURE"``) damages one part of the scenario, to the world's
-    :attr:`~mirl.experiments.worlds.WorldSpec.experiment_damage`."""
+    """One point of an experiment grid; its :attr:`key` names its runs in the store.
+
+    Parameters
+    ----------
+    method : str
+        The method (a row of :data:`~mirl.learning.methods.METHODS`).
+    scenario : str, default "boyd2"
+        The shipped scenario's name.
+    observability : float, default 0.14
+        The share of the hallway L sees from its room.
+    obs_steps : int, default 300
+        Steps L observes before it may go (``RunProtocol``'s default).
+    p : float, optional
+        The fixed success probability of the fixed-T methods (``mirl``, ``known-r``); None for
+        methods that learn or know T.
+    world : str, default "grid"
+        The world (a row of :data:`~mirl.worlds.WORLDS`).
+    em_init : str, optional
+        DBN-EM's initial T; None: the default (``"intended"``).
+    go_rule : str, optional
+        How L decides to go; None is the paper's rule (``"value"``).
+    relearn : bool, default False
+        Whether L re-learns while it waits (False: the paper's protocol).
+    damage : str, optional
+        ``"ROBOT:FEATURE"``: one part of the scenario damaged, to the world's
+        :attr:`~mirl.worlds.registry.WorldSpec.experiment_damage`; None: as the scenario has
+        it.
+    """
 
     method: str
     scenario: str = "boyd2"
-    observability: float = 0.14
+    observability: float = DOOR_VIEW
     obs_steps: int = DEFAULT_OBS_STEPS
     p: float | None = None
-    world: str = DEFAULT_WORLD  # a name in mirl.experiments.worlds.WORLDS
+    world: str = DEFAULT_WORLD  # a name in mirl.worlds.WORLDS
     em_init: str | None = None  # DBN-EM's initial T; None: the default ("intended")
     # how L decides to go and whether it re-learns while it waits; None and False are the
     # paper's protocol (``with_protocol`` gives mirl's, the command line's default), so that
@@ -90,10 +117,24 @@ class Condition:
 
     @classmethod
     def from_key(cls, key: str) -> Condition:
+        """The condition a :attr:`key` names.
+
+        Parameters
+        ----------
+        key : str
+            A condition's key, as stored.
+
+        Returns
+        -------
+        Condition
+            The condition.
+        """
         return cls(**json.loads(key))
 
     @property
     def label(self) -> str:
+        """The condition in words, for reports and messages (its method, p, initialisation,
+        protocol and damage where they are not the defaults)."""
         label = self.method if self.p is None else f"{self.method} (p={self.p:g})"
         if self.em_init is not None:
             label = f"{label} ({self.em_init} init)"
@@ -119,7 +160,13 @@ class Condition:
         return f"{rule} rule, {'re-learning while waiting' if self.relearn else 'learning once'}"
 
     def scenario_object(self):
-        """The condition's scenario, with its ``damage`` applied in its world."""
+        """The condition's scenario, with its ``damage`` applied in its world.
+
+        Returns
+        -------
+        Scenario
+            The scenario (loaded once per process).
+        """
         scenario = _scenario(self.scenario)
         if self.damage is None:
             return scenario
@@ -129,15 +176,34 @@ class Condition:
 
 
 def in_world(experiment: Experiment, world: str) -> Experiment:
-    """The same grid of conditions run in another world (``mirl experiment --world``)."""
+    """The same grid of conditions run in another world (``mirl experiment --world``).
+
+    Parameters
+    ----------
+    experiment : Experiment
+        An experiment whose conditions run in the grid world.
+    world : str
+        The world's name.
+
+    Returns
+    -------
+    Experiment
+        The experiment with every condition in ``world`` (itself for the grid).
+
+    Raises
+    ------
+    StoreError
+        If the world is unknown, the experiment runs in several worlds already, or its runs
+        are not episodes.
+    """
     if world == DEFAULT_WORLD:
         return experiment
     if world not in WORLDS:
         raise StoreError(f"unknown world '{world}' (known: {', '.join(WORLDS)})")
-    if experiment.run_function is not episode_run:
-        raise StoreError(f"experiment '{experiment.name}' has no physical version")
     if any(c.world != DEFAULT_WORLD for c in experiment.conditions):
         raise StoreError(f"experiment '{experiment.name}' runs in every world already")
+    if experiment.run_function is not episode_run:
+        raise StoreError(f"experiment '{experiment.name}' has no physical version")
     conds = tuple(replace(c, world=world) for c in experiment.conditions)
     desc = experiment.description.replace("on the grid simulator", f"in the {world} world")
     return replace(experiment, conditions=conds, description=f"{desc} ({world} world)")
@@ -152,6 +218,24 @@ JSON-serialisable entries are kept as metrics."""
 
 @dataclass(frozen=True)
 class Experiment:
+    """An experiment: a grid of conditions, each run ``runs`` times by its run function.
+
+    Parameters
+    ----------
+    name : str
+        Its name (``mirl experiment NAME``).
+    description : str
+        One line, for ``--help`` and the report.
+    conditions : tuple of Condition
+        The grid, in the order the report shows it.
+    run_function : callable
+        ``fn(condition, seed) -> mapping`` (:data:`RunFunction`), top-level so it pickles.
+    default_runs : int, default 200
+        Runs per condition unless ``--runs`` says otherwise.
+    hidden : bool, default False
+        A built-in smoke experiment, runnable by name but not listed in help.
+    """
+
     name: str
     description: str
     conditions: tuple[Condition, ...]
@@ -177,7 +261,22 @@ def code_version() -> str:
 
 
 def run_seed(base_seed: int, run: int) -> int:
-    """Seed of run ``run`` of every condition: a function of (base seed, run) only."""
+    """Seed of run ``run`` of every condition: a function of (base seed, run) only.
+
+    Parameters
+    ----------
+    base_seed : int
+        The sweep's base seed.
+    run : int
+        The run's index.
+
+    Returns
+    -------
+    int
+        The seed (common random numbers: every condition's run ``run`` gets it).
+    """
+    import numpy as np  # here: the command line reads this module's table at start-up
+
     return int(np.random.SeedSequence([base_seed, run]).generate_state(1)[0])
 
 
@@ -194,26 +293,41 @@ def _scenario(name: str):
 
 
 def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
-    """The real run: one episode of :func:`mirl.experiments.episode.run_episode`, flattened to a
-    result mapping."""
+    """The real run: one episode of :func:`mirl.experiments.episode.run_episode` under the
+    condition's protocol, flattened to a result mapping.
+
+    Parameters
+    ----------
+    condition : Condition
+        The condition.
+    seed : int
+        The run's seed.
+
+    Returns
+    -------
+    dict
+        ``outcome``, ``go_time``, ``behavior_accuracy``, ``feature_probabilities``,
+        ``timings`` and the run's further numbers (per-robot accuracy and sightings, the plan's
+        value, the world's counts, and for methods that learn feature probabilities each
+        robot's verdict, its confidence, the truth and whether it was right).
+    """
     from mirl.experiments.episode import run_episode
 
-    kwargs: dict[str, Any] = {}
-    if condition.p is not None:
-        kwargs["p"] = condition.p
-    if condition.em_init is not None:
-        kwargs["learn_options"] = {"em_init": condition.em_init}
-    kwargs["go_rule"] = condition.go_rule or GO_RULE_PUBLISHED
-    kwargs["relearn"] = condition.relearn
+    learning = {"p": condition.p, "em_init": condition.em_init}
     scenario = condition.scenario_object()
     result = run_episode(
         scenario,
         condition.method,
-        observability=condition.observability,
-        obs_steps=condition.obs_steps,
         seed=seed,
+        observability=condition.observability,
+        # the paper's protocol: a fixed observation time, and the condition's rule
+        protocol=RunProtocol.paper(
+            obs_steps=condition.obs_steps,
+            go_rule=condition.go_rule or GO_RULE_PUBLISHED,
+            relearn=condition.relearn,
+        ),
+        learn_options={k: v for k, v in learning.items() if v is not None},
         world=condition.world,
-        **kwargs,
     )
     out = _flatten_run_result(result)
     if METHODS[condition.method].has_feature_probabilities and result.learned is not None:
@@ -273,8 +387,23 @@ def _maybe_float(v: Any) -> float | None:
 def selftest_run(condition: Condition, seed: int) -> dict[str, Any]:
     """A cheap deterministic stand-in for an episode (the ``selftest`` experiment): the result
     is a pure function of (condition, seed); ``MIRL_SELFTEST_SLEEP`` seconds of sleep make it
-    slow enough to be interrupted in tests."""
+    slow enough to be interrupted in tests.
+
+    Parameters
+    ----------
+    condition : Condition
+        The condition (its key and observability shape the result).
+    seed : int
+        The run's seed.
+
+    Returns
+    -------
+    dict
+        A result mapping as :func:`episode_run`'s, made up from the seed.
+    """
     time.sleep(float(os.environ.get("MIRL_SELFTEST_SLEEP", "0")))
+    import numpy as np
+
     rng = np.random.default_rng([seed, zlib.crc32(condition.key.encode())])
     acc = float(np.clip(0.4 + 0.5 * condition.observability + 0.1 * rng.standard_normal(), 0, 1))
     u = rng.random()
@@ -296,7 +425,7 @@ def selftest_run(condition: Condition, seed: int) -> dict[str, Any]:
 # ---------------------------------------------------------------------------------------------
 # Grids (docs/design.md, "The paper's experiments as data")
 
-OBSERVABILITIES = (0.14, 0.3, 0.5, 0.75, 1.0)
+OBSERVABILITIES = (DOOR_VIEW, 0.3, 0.5, 0.75, FULL_VIEW)
 OBS_STEPS = (150, 300, 450, 900)
 FIXED_PS = (0.7, 0.8, 0.9, 0.95)
 
@@ -312,7 +441,7 @@ def _fig3() -> tuple[Condition, ...]:
 
 def _fig4a() -> tuple[Condition, ...]:
     conds: list[Condition] = []
-    for d in (0.14, 1.0):
+    for d in (DOOR_VIEW, FULL_VIEW):
         conds += [Condition(m, "boyd2", d) for m in ("oracle", "known-r-t", "mirl-t")]
         conds.append(Condition("known-r", "boyd2", d, p=0.9))
         conds += [Condition("mirl", "boyd2", d, p=p) for p in FIXED_PS]
@@ -321,7 +450,9 @@ def _fig4a() -> tuple[Condition, ...]:
 
 
 def _features(scenario: str) -> tuple[Condition, ...]:
-    return tuple(Condition(m, scenario, d) for d in (0.14, 1.0) for m in ("mirl-t", "known-r-t"))
+    return tuple(
+        Condition(m, scenario, d) for d in (DOOR_VIEW, FULL_VIEW) for m in ("mirl-t", "known-r-t")
+    )
 
 
 def _verdicts() -> tuple[Condition, ...]:
@@ -331,26 +462,43 @@ def _verdicts() -> tuple[Condition, ...]:
     return tuple(
         Condition("mirl-t", "boyd2-healthy", d, world=w, damage=x)
         for w in WORLDS
-        for d in (0.14, 1.0)
+        for d in (DOOR_VIEW, FULL_VIEW)
         for x in damages
     )
 
 
 def _table1() -> tuple[Condition, ...]:
     return tuple(
-        Condition(m, s, 0.14, p=p)
+        Condition(m, s, DOOR_VIEW, p=p)
         for s in ("boyd2", "boyd2-healthy")
         for m, p in (("mirl-t", None), ("mirl", 0.9), ("random", None))
     )
 
 
 def _selftest() -> tuple[Condition, ...]:
-    return tuple(Condition(m, "boyd2", d, 10) for m in ("a", "b") for d in (0.14, 1.0))
+    return tuple(Condition(m, "boyd2", d, 10) for m in ("a", "b") for d in (DOOR_VIEW, FULL_VIEW))
 
 
-EXPERIMENTS: dict[str, Experiment] = {
-    e.name: e
-    for e in (
+def _check_experiment(exp: Experiment) -> None:
+    """An experiment runs as its table row says: at least one run per condition by default,
+    conditions of known methods and worlds, no condition twice (its key names its rows in
+    the store). The fake run of ``selftest`` takes any method name."""
+    where = f"experiment '{exp.name}'"
+    if exp.default_runs < 1:
+        raise ValueError(f"{where}: default_runs must be at least 1, got {exp.default_runs}")
+    keys = [c.key for c in exp.conditions]
+    if not keys or len(set(keys)) != len(keys):
+        raise ValueError(f"{where}: needs conditions, each once")
+    for c in exp.conditions:
+        if c.world not in WORLDS:
+            raise ValueError(f"{where}: condition {c.label}: unknown world '{c.world}'")
+        if exp.run_function is episode_run and c.method not in METHODS:
+            raise ValueError(f"{where}: condition {c.label}: {METHODS.unknown(c.method)}")
+
+
+EXPERIMENTS: Registry[Experiment] = Registry(
+    "experiment",
+    (
         Experiment(
             "fig3",
             "behaviour accuracy and success vs observability × observation time",
@@ -381,6 +529,13 @@ EXPERIMENTS: dict[str, Experiment] = {
             default_runs=10,
         ),
         Experiment(
+            "atlas",
+            "calibration atlas of the fault verdicts: worlds, data paths, faults, views, lengths",
+            tuple(Condition(**p) for p in atlas_design()),
+            atlas_run,
+            default_runs=1,
+        ),
+        Experiment(
             "selftest",
             "built-in smoke test with a fake run",
             _selftest(),
@@ -388,20 +543,51 @@ EXPERIMENTS: dict[str, Experiment] = {
             default_runs=6,
             hidden=True,
         ),
-    )
-}
+    ),
+    check=_check_experiment,
+)
+"""Every experiment by name, in the order of the paper's figures (docs/design.md, "The paper's
+experiments as data")."""
 
 
 def experiment_names(include_hidden: bool = False) -> list[str]:
+    """The experiments' names, in the table's order.
+
+    Parameters
+    ----------
+    include_hidden : bool, default False
+        Whether to list the hidden smoke experiments too.
+
+    Returns
+    -------
+    list of str
+        The names.
+    """
     return [n for n, e in EXPERIMENTS.items() if include_hidden or not e.hidden]
 
 
 def get_experiment(name: str) -> Experiment:
-    try:
-        return EXPERIMENTS[name]
-    except KeyError:
-        known = ", ".join(experiment_names())
-        raise StoreError(f"unknown experiment '{name}' (known: {known})") from None
+    """The experiment ``name``; a :class:`StoreError` naming the nearest and the listed ones
+    otherwise (hidden experiments run when named, and are not offered).
+
+    Parameters
+    ----------
+    name : str
+        The experiment's name.
+
+    Returns
+    -------
+    Experiment
+        Its row of :data:`EXPERIMENTS`.
+
+    Raises
+    ------
+    StoreError
+        If no experiment has that name.
+    """
+    if name not in EXPERIMENTS:
+        raise StoreError(str(EXPERIMENTS.unknown(name, known=experiment_names())))
+    return EXPERIMENTS[name]
 
 
 class StoreError(ValueError):

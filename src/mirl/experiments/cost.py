@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mirl.experiments.options import RunProtocol
 from mirl.world.domain import N_HEADINGS
 from mirl.world.maps import HEADING_DELTAS
 from mirl.world.scenario import Scenario
@@ -46,8 +47,6 @@ PLAN_BYTES_PER_STATE = 6_000
 LEARN_SECONDS_PER_STATE = 3.0e-4
 LEARN_SECONDS_PER_STATE_STEP = 1.0e-7
 PLAN_SECONDS_PER_STATE_STEP = 1.5e-7
-# the run's planning window and the shortest horizon after it (mirl.experiments.episode)
-WINDOW, MIN_TRAVEL = 60, 20
 
 
 class CostError(ValueError):
@@ -56,7 +55,27 @@ class CostError(ValueError):
 
 @dataclass(frozen=True)
 class CostEstimate:
-    """The estimated peak memory (bytes) and time (seconds) of one command."""
+    """The estimated peak memory (bytes) and time (seconds) of one command.
+
+    Parameters
+    ----------
+    command : {"learn", "run"}
+        The command estimated.
+    cells : int
+        The patrollers' cells.
+    states : int
+        The patrollers' states (cells × headings).
+    robots : int
+        The patrollers.
+    steps : int
+        Observed steps.
+    horizon : int
+        L's planning horizon (0 for ``learn``).
+    memory : int
+        The peak memory, bytes.
+    seconds : float
+        The wall time, seconds.
+    """
 
     command: str  # "learn" or "run"
     cells: int  # the patrollers' cells
@@ -68,6 +87,13 @@ class CostEstimate:
     seconds: float
 
     def describe(self) -> str:
+        """The estimate in words, for a refusal or ``--dry-run``.
+
+        Returns
+        -------
+        str
+            ``"124 states (31 cells x 4 headings), 2 robots: about 123 MB and 1 s"``.
+        """
         return (
             f"{self.states:,} states ({self.cells:,} cells x {N_HEADINGS} headings), "
             f"{self.robots} robots: about {_size(self.memory)} and {_duration(self.seconds)}"
@@ -77,7 +103,13 @@ class CostEstimate:
 def default_max_memory() -> int:
     """Half of the machine's physical memory: the other half is left to the system and to
     whatever else runs (a sweep's workers, a second run), and a run that needs more than half
-    a machine is better refused at once than swapped or killed late."""
+    a machine is better refused at once than swapped or killed late.
+
+    Returns
+    -------
+    int
+        Bytes (half of 8 GB where the machine does not say).
+    """
     try:
         total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (AttributeError, ValueError, OSError):  # not POSIX: assume a small machine
@@ -85,23 +117,55 @@ def default_max_memory() -> int:
     return int(total // 2)
 
 
-def planning_horizon(scenario: Scenario) -> int:
-    """About L's planning horizon of a run: the go window plus 3 × its shortest path (at least
-    20), the path in cells by a breadth-first search over the free cells (no states built; the
-    run's path also counts L's turns, a few per cent more)."""
+def planning_horizon(scenario: Scenario, protocol: RunProtocol | None = None) -> int:
+    """About L's planning horizon of a run: the go window plus the travel after it (by default
+    3 × L's shortest path, at least 20: :meth:`~mirl.experiments.options.RunProtocol.travel`),
+    the path in cells by a breadth-first search over the free cells (no states built; the
+    run's path also counts L's turns, a few per cent more).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (its map, L's start and goal).
+    protocol : RunProtocol, optional
+        The run's protocol (its window and travel); the default protocol if None.
+
+    Returns
+    -------
+    int
+        Steps.
+    """
+    protocol = RunProtocol() if protocol is None else protocol
     gm = scenario.map
     free = gm.patroller | gm.observer_only
     assert scenario.observer_start is not None and scenario.goal is not None  # set by Scenario
     dist = _cell_distances(free, scenario.observer_start)
     path = dist[scenario.goal]
-    return WINDOW + max(MIN_TRAVEL, 3 * int(path if path >= 0 else free.sum()))
+    return protocol.window + protocol.travel(int(path if path >= 0 else free.sum()))
 
 
 def estimate_cost(
     scenario: Scenario, command: str, *, steps: int, robots: int | None = None
 ) -> CostEstimate:
     """The cost of ``learn`` (``command="learn"``) or ``run`` on ``scenario`` with ``steps``
-    observed steps, from counts of the map's cells only (nothing is built)."""
+    observed steps, from counts of the map's cells only (nothing is built).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    command : {"learn", "run"}
+        The command; ``"run"`` adds planning to learning.
+    steps : int
+        Observed steps.
+    robots : int, optional
+        The patrollers (the scenario's if None).
+
+    Returns
+    -------
+    CostEstimate
+        The estimate.
+    """
     gm = scenario.map
     cells = int(gm.patroller.sum())
     n = len(scenario.robots) if robots is None else int(robots)
@@ -119,7 +183,22 @@ def estimate_cost(
 
 def check_budget(scenario: Scenario, estimate: CostEstimate, max_memory: int) -> None:
     """Refuse (:class:`CostError`, one line) when ``estimate`` exceeds ``max_memory`` bytes,
-    naming the states, the estimate and a cell size (or a map size) that fits."""
+    naming the states, the estimate and a cell size (or a map size) that fits.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario estimated (its map, for the advice).
+    estimate : CostEstimate
+        The estimate.
+    max_memory : int
+        The budget, bytes.
+
+    Raises
+    ------
+    CostError
+        If the estimate's memory exceeds ``max_memory``.
+    """
     if estimate.memory <= max_memory:
         return
     fits = _fitting_states(estimate, max_memory)

@@ -1,107 +1,82 @@
 """One penetration run end to end: observe → learn → plan → execute → outcome.
 
-Protocol (:func:`run_episode`):
+Protocol (:func:`run_episode`; its settings are a :class:`~mirl.experiments.options.RunProtocol`,
+whose defaults are ``mirl run``'s):
 
 1. **Observe.** The patrollers start at uniformly drawn states of their patrol cycles and move in
-   a :class:`~mirl.simulation.grid.PatrolSimulator` for ``obs_steps`` steps (t = 0 …
-   obs_steps − 1) while L records what it sees at the observability degree.
+   the run's world for ``obs_steps`` steps (t = 0 … obs_steps − 1) while L records what it sees
+   at the observability degree; with ``watch_until_seen`` L then keeps watching until it has
+   seen every patroller on that many steps, or ``max_obs_steps`` have passed.
 2. **Learn** the patrollers' models with :func:`mirl.learning.learn.learn` (the truth for
    ``oracle``; nothing for ``random``).
 3. **Plan.** A :class:`~mirl.planning.belief.BeliefFilter` runs over everything L saw; its
    prediction feeds L's time-indexed MDP (:func:`~mirl.planning.go.solve_observer_mdp`), which
    scores every go time in the next ``window`` steps. L keeps watching from its room (the same
-   simulator keeps running and new observations enter the filter; with ``relearn`` the models
-   are re-learned as the record grows) and re-plans
-   every ``replan_every`` steps while it has no go time with a positive value, and also whenever
-   a patroller leaves its view — the moment its belief about that robot is sharpest. A newer
-   plan may move or cancel a go time (``commit=True`` keeps the first one; on boyd2 the two
-   gave identical outcomes over 50 seeds, because the best go time is almost always "now").
-   When ``max_wait`` steps have passed since the end of the observation phase without a go
-   time the outcome is ``timeout``.
+   world keeps running and new observations enter the filter; with ``relearn`` the models are
+   re-learned as the record grows) and decides by its go rule
+   (:data:`~mirl.experiments.options.GO_RULES`, :mod:`mirl.experiments.go_rules`) every
+   ``replan_every`` steps while it has no go time, and also whenever a patroller leaves its
+   view — the moment its belief about that robot is sharpest. A newer plan may move or cancel a
+   go time (``commit`` keeps the first one). When ``max_wait`` steps have passed since the end
+   of the observation phase without a go time the outcome is ``timeout``.
 4. **Execute.** L follows its time-indexed policy; each of its actions fails (it stays put) with
-   probability 2.5 %; the true patrollers move on in the simulator; after every step the true
+   probability 2.5 %; the true patrollers move on in the world; after every step the true
    detection rule is checked. ``success``: L reaches its goal unseen; ``detected``: some
    patroller saw it. If L outlives its plan it re-plans from where it stands, with the filter
    propagated without evidence (L sees nothing once it has left its room).
 
 ``random`` waits ``obs_steps``, draws a go time uniformly in [0, window] and follows a shortest
 path. Every random choice comes from ``seed`` through independent ``SeedSequence`` streams
-(simulator, L's action noise, learning, random baseline), so a run is a function of its
-arguments.
-
-Defaults, measured with the true models (``oracle``) on boyd2 at 0.14, 50 seeds, while the
-waiting time was 300 steps (success / detected / timeout): ``detection_penalty=0.5`` — go only
-when the predicted
-success beats half the predicted detection — 0.44 / 0.38 / 0.18, against 0.32 / 0.08 / 0.60
-at 1.0 (too cautious: mostly timeouts) and 0.36 / 0.64 / 0.00 at 0.25; the joint filter 0.44
-vs 0.38 with independent marginals; negative evidence 0.44 vs 0.32 without; the first-order
-hazard 0.44 vs 0.28 with independent per-step detection. ``max_wait`` 450 instead of 300
-(100 seeds): oracle 0.47 / 0.46 / 0.07 instead of 0.41 / 0.35 / 0.24 (200 seeds).
+(the world, L's action noise, learning, random baseline), so a run is a function of its
+arguments. How the defaults were chosen: :class:`~mirl.experiments.options.RunProtocol`.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from mirl.experiments.execution import Decision, PlanFollower, execute, wait_for_go
-from mirl.experiments.records import (
-    MAX_WAIT,
-    WATCH_LIMIT,
-    Detection,
-    PlanAttempt,
-    Relearn,
-    RunResult,
-)
-from mirl.experiments.worlds import DEFAULT_WORLD, RunWorld, get_world, make_world
+from mirl._validation import SEED, Interval, check_argument
+from mirl.experiments.execution import PlanFollower, execute, wait_for_go
+from mirl.experiments.go_rules import GoRuleStrategy, Planning, Waiting
+from mirl.experiments.options import GO_RULES, RunProtocol
+from mirl.experiments.records import Detection, PlanAttempt, Relearn, RunResult
 from mirl.learning.learn import learn
 from mirl.learning.methods import Method, get_method
+from mirl.learning.options import LearnOptions
 from mirl.learning.results import LearnResult, behavior_accuracy, oracle_models
 from mirl.observations.trajectories import Trajectories
 from mirl.planning.belief import BeliefFilter
-from mirl.planning.go import GO_RULES, ObserverPlan, solve_observer_mdp, waiting_value
+from mirl.planning.go import ObserverPlan
 from mirl.planning.observer import ObserverModel, observer_model, shortest_path_policy
-from mirl.planning.success import success_probability
 from mirl.world.scenario import Scenario
+from mirl.worlds import DEFAULT_WORLD, RunWorld, get_world, make_world
 
-__all__ = ["run_episode", "RELEARN_GROWTH", "OPPORTUNITY_STEPS"]
+__all__ = ["run_episode"]
 
-# L re-learns while it waits once its record holds this factor more observed steps than at its
-# last learning (docs/design.md, "Learning while waiting")
-RELEARN_GROWTH = 1.5
-# the adaptive go rule counts one fresh chance to go per this many steps left after the window:
-# one per planning round (docs/design.md, "The go rule")
-OPPORTUNITY_STEPS = 10
+# a re-learn needs at least this many newly observed steps, whatever its growth factor (a short
+# record grows by the factor within a few steps)
+MIN_NEW_OBSERVED = 10
+# L stops executing after this many times its planning horizon (it re-plans whenever it
+# outlives a plan, so only a run that cannot end gets there)
+EXECUTE_PATIENCE = 10
 # the adaptive rule's picture of its chances: what going would have promised at the moments of
 # L's record (the observation phase and its wait) when a patroller left its view, and every
 # this many steps, from step CHANCE_FROM on (the filter has settled by then)
 CHANCE_EVERY = 30
 CHANCE_FROM = 60
-# ... at most one moment per planning round, and of the observation phase the last this many: a
-# moment's chance costs a prediction and an MDP solve (~1 s on the 60 × 60 office floor)
+# ... at most one moment per planning round (MOMENT_GAP steps) and of the observation phase the
+# last CHANCE_SAMPLE: a moment's chance costs a prediction and an MDP solve (~1 s on the
+# 60 × 60 office floor)
+MOMENT_GAP = 10
 CHANCE_SAMPLE = 16
+# going at once needs L's path and some slack for its failed moves and for waiting out a
+# patroller, not the whole travel horizon: the moments' plans cost in proportion to it
 MOMENT_SLACK = 20
-
-
-@dataclass(frozen=True)
-class _Planning:
-    """How L plans: the go window, horizons and the MDP's settings (see :func:`run_episode`)."""
-
-    window: int
-    deadline: int  # last step at which L may still go (end of observing + max_wait)
-    travel: int  # planning horizon after the last go time
-    replan_every: int
-    commit: bool
-    hazard: str
-    goal_reward: float
-    detection_penalty: float
-    go_rule: str = "value"
-    opportunity_steps: int = OPPORTUNITY_STEPS
-    moment_travel: int = 0  # horizon of the plans that score the record's moments
 
 
 @dataclass
@@ -124,64 +99,64 @@ def run_episode(
     scenario: Scenario,
     method: str = "mirl-t",
     *,
-    observability: float | None = None,
-    obs_steps: int = 300,
     seed: int = 0,
-    p: float = 0.9,
-    max_wait: int = MAX_WAIT,
-    window: int = 60,
-    replan_every: int = 10,
-    travel_steps: int | None = None,
-    joint: bool | None = None,
-    hazard: str = "markov",
-    goal_reward: float = 1.0,
-    detection_penalty: float = 0.5,
-    commit: bool = False,
-    negative_evidence: bool = True,
-    learn_options: dict[str, Any] | None = None,
+    observability: float | None = None,
+    protocol: RunProtocol | Mapping[str, Any] | None = None,
+    learn_options: LearnOptions | Mapping[str, Any] | None = None,
     learned: LearnResult | None = None,
-    watch_until_seen: int | None = None,
-    max_obs_steps: int = WATCH_LIMIT,
     world: str = DEFAULT_WORLD,
-    go_rule: str = "adaptive",
-    relearn: bool = True,
-    relearn_growth: float = RELEARN_GROWTH,
-    opportunity_steps: int = OPPORTUNITY_STEPS,
 ) -> RunResult:
-    """Run one penetration (module doc). ``learned`` overrides learning (for tests and
-    experiments with hand-made models). ``travel_steps`` is the part of the planning horizon
-    after the last go time (default: 3 × L's shortest path, at least 20). ``world`` names the
-    world of :data:`~mirl.experiments.worlds.WORLDS` the run happens in (``"physics"``: MuJoCo).
-
-    ``watch_until_seen=K`` (``mirl run``'s default; None here, so experiments keep the paper's
-    fixed observation time): L observes at least ``obs_steps`` steps and then keeps watching
-    until it has seen every patroller on K steps, or ``max_obs_steps`` have passed.
-
-    ``go_rule`` is one of :data:`~mirl.planning.go.GO_RULES`: ``"adaptive"`` (default) goes
-    when the chance of going now beats the value of waiting (one fresh chance per
-    ``opportunity_steps`` steps left after the window) and states the exact P(success) it goes
-    with; ``"value"`` is the published rule (``detection_penalty`` applies to it alone). With
-    ``relearn`` (default), a method that learns re-learns while L waits whenever its record
-    holds ``relearn_growth`` times the observed steps of its last learning.
-    ``go_rule="value", relearn=False`` is the paper's protocol.
+    """Run one penetration (module docstring).
 
     .. versionchanged:: 0.2.0
-       The adaptive rule and re-learning are the default; the paper's protocol is
-       ``go_rule="value", relearn=False`` (``--go-rule value --learn-once``).
+       The protocol's settings are one ``protocol`` argument and its defaults are the command
+       line's: after 300 steps L watches until it has seen every patroller on 40 steps
+       (``watch_until_seen=40``), decides by the adaptive rule and re-learns while it waits.
+       ``protocol=RunProtocol.paper()`` is the paper's; ``p`` is a learning option.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The world's map, patrollers and L.
+    method : str, default "mirl-t"
+        How L comes by models of the patrollers (:data:`~mirl.learning.methods.METHODS`).
+    seed : int in [0, 2^63 - 1], default 0
+        Seeds every random choice of the run.
+    observability : float in [0, 1], optional
+        The share of the patrollers' cells L sees (default: the scenario's).
+    protocol : RunProtocol or mapping, optional
+        How the run goes (:class:`~mirl.experiments.options.RunProtocol`: observing, watching,
+        waiting, the go rule, re-learning, planning), or a mapping of its option names to
+        values; by default ``mirl run``'s. ``RunProtocol.paper()`` is the paper's (a fixed
+        observation time, the value rule, learning once).
+    learn_options : LearnOptions or mapping, optional
+        How L learns (:class:`~mirl.learning.options.LearnOptions`); refused where they change
+        nothing for ``method``.
+    learned : LearnResult, optional
+        Models to use instead of learning (tests, hand-made models).
+    world : str, default "grid"
+        The world of :data:`~mirl.worlds.WORLDS` the run happens in (``"physics"``:
+        MuJoCo).
+
+    Returns
+    -------
+    RunResult
+        The outcome, L's path and planning rounds, what it saw and learned, and the protocol it
+        ran.
+
+    Raises
+    ------
+    mirl._validation.OptionError
+        An option out of its range or unknown, a bad seed or observability (the message names
+        it). A ValueError.
     """
     spec = get_method(method)
-    if obs_steps < 1:
-        raise ValueError(f"obs_steps must be at least 1, got {obs_steps}")
-    if watch_until_seen is not None and not 1 <= watch_until_seen <= max_obs_steps:
-        raise ValueError(f"watch_until_seen must be in [1, {max_obs_steps}]")
-    if max_wait < 0 or window < 0 or replan_every < 1:
-        raise ValueError("max_wait and window must be >= 0 and replan_every >= 1")
-    if go_rule not in GO_RULES:
-        raise ValueError(f"`go_rule` must be one of {', '.join(GO_RULES)}, got '{go_rule}'")
-    if not relearn_growth > 1.0:
-        raise ValueError(f"`relearn_growth` must be above 1, got {relearn_growth}")
-    if opportunity_steps < 1:
-        raise ValueError(f"`opportunity_steps` must be at least 1, got {opportunity_steps}")
+    check_argument("seed", seed, SEED)
+    check_argument("observability", observability, Interval(float, 0.0, 1.0), None)
+    run = RunProtocol.of(protocol)
+    learning = LearnOptions.of(learn_options)
+    learning.check_method(spec)
+    rule: GoRuleStrategy = GO_RULES[run.go_rule].load()()
     degree = scenario.observability if observability is None else float(observability)
     sim_seed, noise_seed, learn_seed, random_seed = np.random.SeedSequence(int(seed)).spawn(4)
     timings = dict.fromkeys(("observe", "learn", "plan", "execute"), 0.0)
@@ -189,13 +164,13 @@ def run_episode(
 
     clock = time.perf_counter()
     model = observer_model(scenario)
-    # L's models of the patrollers (learned, the oracle's, the filter's) take the world's ξ
+    # the oracle's models of the patrollers take the world's ξ (the learner weighs its own)
     modelled = get_world(world).load().modelled(scenario)
     run_world = make_world(
         world, scenario, model, observability=degree,
         seed=int(sim_seed.generate_state(1)[0]), noise=noise_seed,
     )  # fmt: skip
-    _observe(run_world, obs_steps, watch_until_seen, max_obs_steps)
+    _observe(run_world, run)
     t_obs = run_world.t  # last step of the observation phase
     timings["observe"] += time.perf_counter() - clock
 
@@ -204,40 +179,30 @@ def run_episode(
     if learned is None and spec.plans and not spec.learns:
         learned = oracle_models(modelled)
     elif learned is None and spec.learns:
-        learn_seed_int = int(learn_seed.generate_state(1)[0])
-        kwargs: dict[str, Any] = {"method": method, "p": p, **(learn_options or {})}
         # the run's observability (maybe not the scenario's) and the run's learning stream
-        kwargs.setdefault("visible", run_world.visible)
-        kwargs.setdefault("random_state", learn_seed_int)
-        learner = _Learner(modelled, run_world, spec, kwargs, relearn_growth if relearn else None)
+        kwargs: dict[str, Any] = {
+            "method": method,
+            "options": learning,
+            "visible": run_world.visible,
+            "random_state": int(learn_seed.generate_state(1)[0]),
+        }
+        growth = run.relearn_growth if run.relearn else None
+        # L learns with the scenario's motion model and lets the record decide whether another
+        # fits it better; of the world's model it takes only how its robots drift
+        # (docs/design.md, "Fault verdicts")
+        learner_scenario = replace(scenario, faults=modelled.faults)
+        learner = _Learner(learner_scenario, run_world, spec, kwargs, growth)
         learned = learner.learn_now()
     timings["learn"] += time.perf_counter() - clock
 
-    path_len = int(model.distance_to_goal[model.start_state])
-    travel = max(20, 3 * path_len) if travel_steps is None else int(travel_steps)
-    planning = _Planning(
-        window=window,
-        deadline=t_obs + max_wait,
-        travel=travel,
-        replan_every=replan_every,
-        commit=commit,
-        hazard=hazard,
-        goal_reward=goal_reward,
-        detection_penalty=detection_penalty,
-        go_rule=go_rule,
-        opportunity_steps=opportunity_steps,
-        # going at once needs L's path and some slack for its failed moves and for waiting
-        # out a patroller, not the whole travel horizon (3× the path): the moments' plans
-        # cost in proportion to it
-        moment_travel=min(travel, path_len + MOMENT_SLACK),
-    )
+    planning = _planning(run, model, t_obs)
     if not spec.plans:
-        going = _random_going(model, t_obs, window, np.random.default_rng(random_seed))
+        going = _random_going(model, t_obs, run.window, np.random.default_rng(random_seed))
     else:
         assert learned is not None
-        visible = run_world.visible if negative_evidence else None
-        watcher = _Watcher(modelled, run_world, learned, learner, visible, joint, timings)
-        going = _planned_going(run_world, watcher, model, planning, timings)
+        visible = run_world.visible if run.negative_evidence else None
+        watcher = _Watcher(modelled, run_world, learned, learner, visible, run.joint, timings)
+        going = _planned_going(run_world, watcher, model, planning, rule, timings)
         learned = going.learned
 
     outcome, plan = "timeout", going.plan
@@ -251,7 +216,7 @@ def run_episode(
         clock = time.perf_counter()
         follower = PlanFollower(going.policy, going.plan, going.replan, run_world.t)
         outcome, path, detections = execute(
-            run_world, model, follower, going.belief, 10 * (planning.travel + 1)
+            run_world, model, follower, going.belief, EXECUTE_PATIENCE * (planning.travel + 1)
         )
         plan = follower.plan
         timings["execute"] += time.perf_counter() - clock
@@ -263,21 +228,42 @@ def run_episode(
     )  # fmt: skip
     return replace(
         result,
-        watch_until_seen=watch_until_seen,
+        protocol=run,
         predicted_success=going.predicted_success,
         relearns=going.relearns if learner is not None and learner.growth is not None else None,
+        world=world,
     )
 
 
-def _observe(world: RunWorld, obs_steps: int, until_seen: int | None, limit: int) -> None:
-    """The observation phase: ``obs_steps`` steps, then (``until_seen``) on until every
-    patroller was seen on ``until_seen`` steps or ``limit`` steps have passed."""
-    for _ in range(obs_steps - 1):
+def _planning(run: RunProtocol, model: ObserverModel, t_obs: int) -> Planning:
+    """How L plans in this run: the protocol's settings, its deadline after observing until
+    ``t_obs``, and the horizons for L's shortest path."""
+    path_len = int(model.distance_to_goal[model.start_state])
+    travel = run.travel(path_len)
+    return Planning(
+        window=run.window,
+        deadline=t_obs + run.max_wait,
+        travel=travel,
+        replan_every=run.replan_every,
+        commit=run.commit,
+        hazard=run.hazard,
+        goal_reward=run.goal_reward,
+        detection_penalty=run.detection_penalty,
+        opportunity_steps=run.opportunity_steps,
+        moment_travel=min(travel, path_len + MOMENT_SLACK),
+    )
+
+
+def _observe(world: RunWorld, protocol: RunProtocol) -> None:
+    """The observation phase: ``obs_steps`` steps, then (``watch_until_seen``) on until every
+    patroller was seen on that many steps or ``max_obs_steps`` steps have passed."""
+    for _ in range(protocol.obs_steps - 1):
         world.step()
+    until_seen = protocol.watch_until_seen
     if until_seen is None:
         return
     counts = (np.asarray(world.seen) >= 0).sum(axis=0)
-    while counts.min() < until_seen and world.t + 1 < limit:
+    while counts.min() < until_seen and world.t + 1 < protocol.max_obs_steps:
         world.step()
         counts += world.seen[-1] >= 0
 
@@ -335,7 +321,8 @@ class _Learner:
         """Whether the record has grown enough for a re-learn."""
         if self.growth is None:
             return False
-        return self._count() >= max(self.growth * self.learned_on, self.learned_on + 10)
+        enough = max(self.growth * self.learned_on, self.learned_on + MIN_NEW_OBSERVED)
+        return self._count() >= enough
 
 
 class _Watcher:
@@ -368,7 +355,7 @@ class _Watcher:
         t = belief.t
         if t < CHANCE_FROM or not (left_view or t % CHANCE_EVERY == 0) or belief.belief is None:
             return
-        if self.moments and t - self.moments[-1][0] < OPPORTUNITY_STEPS:
+        if self.moments and t - self.moments[-1][0] < MOMENT_GAP:
             return
         self.moments.append((t, belief.belief))  # update() replaces, never mutates, it
 
@@ -436,65 +423,20 @@ def _planned_going(
     world: RunWorld,
     watcher: _Watcher,
     model: ObserverModel,
-    planning: _Planning,
+    planning: Planning,
+    rule: GoRuleStrategy,
     timings: dict[str, float],
 ) -> _Going:
     """Wait in the room, deciding by the go rule until a go time (or the deadline); the plan's
     time-indexed policy is how L will go."""
-
-    def solve(steps: int, window: int, penalty: float, min_value: float = 0.0) -> ObserverPlan:
-        return solve_observer_mdp(
-            model,
-            watcher.belief.predict(steps, model),
-            window=window,
-            goal_reward=planning.goal_reward,
-            detection_penalty=penalty,
-            min_value=min_value,
-            hazard=planning.hazard,
-        )
-
-    def decide_value() -> Decision:
-        """The published rule: the best go value in the window, if positive."""
-        win = min(planning.window, planning.deadline - world.t)
-        plan = solve(win + planning.travel, win, planning.detection_penalty)
-        go_time = None if plan.go_time is None else world.t + plan.go_time
-        attempt = PlanAttempt(world.t, float(plan.go_values.max()), go_time)
-        next_round = world.t + planning.replan_every if go_time is None else planning.deadline + 1
-        return Decision(plan, go_time, next_round, attempt)
-
-    def chance_at(t: int, belief: np.ndarray) -> float:
-        """The planner's P(success) of going at step t of the record with that step's belief,
-        along the best plan for going then (window 0)."""
-        prediction = watcher.belief.predict(planning.moment_travel, model, belief=belief, t=t)
-        plan = solve_observer_mdp(
-            model, prediction, window=0, goal_reward=planning.goal_reward,
-            detection_penalty=0.0, min_value=-1.0, hazard=planning.hazard,
-        )  # fmt: skip
-        return float(plan.go_values[0])
-
-    def decide_adaptive() -> Decision:
-        """Go now when the window's best go time is now and its chance beats the value of the
-        chances still to come before the deadline, drawn like those of the record's moments;
-        on going, state the exact P(success) (docs/design.md, "The go rule")."""
-        t = world.t
-        win = min(planning.window, planning.deadline - t)
-        plan = solve(win + planning.travel, win, 0.0, min_value=-1.0)  # P(success) objective
-        best = plan.go_time if plan.go_time is not None else 0
-        go = win == 0
-        if not go and best == 0:  # a later go time in the window is better: wait for it
-            later = (planning.deadline - t - win) // planning.opportunity_steps
-            go = float(plan.go_values[0]) >= waiting_value(watcher.chances(chance_at), later)
-        now = None
-        if go:
-            now = success_probability(watcher.belief, model, plan, extra=planning.travel).success
-        go_time = t if go else None
-        step = best if 0 < best < planning.replan_every else planning.replan_every
-        attempt = PlanAttempt(t, float(plan.go_values.max()), go_time, now)
-        return Decision(plan, go_time, t + step, attempt)
-
-    decide = decide_adaptive if planning.go_rule == "adaptive" else decide_value
+    waiting = Waiting(world, watcher, model, planning)
     plan, go_time, attempts = wait_for_go(
-        world, decide, watcher.observe, planning.deadline, planning.commit, timings
+        world,
+        lambda: rule.decide(waiting),
+        watcher.observe,
+        planning.deadline,
+        planning.commit,
+        timings,
     )
     plan_value = None if go_time is None else float(plan.go_values[go_time - plan.t0])
     belief = watcher.belief
@@ -504,8 +446,7 @@ def _planned_going(
 
     def replan() -> ObserverPlan:
         # L out in the hallway: the same MDP (its start-cell rule does not matter there)
-        penalty = planning.detection_penalty if planning.go_rule == "value" else 0.0
-        return solve(planning.travel, 0, penalty)
+        return waiting.solve(planning.travel, 0, rule.replan_penalty(planning))
 
     return _Going(
         go_time, policy, replan, plan, tuple(attempts), plan_value, belief,

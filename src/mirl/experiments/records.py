@@ -8,38 +8,38 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from mirl.experiments.worlds import Detection
+from mirl.experiments.options import RunProtocol
 from mirl.learning.results import LearnResult
 from mirl.observations.trajectories import Trajectories
 from mirl.planning.go import ObserverPlan
+from mirl.worlds import DEFAULT_WORLD, Detection
 
 if TYPE_CHECKING:
-    from mirl.experiments.worlds import WorldExtras
+    from mirl.worlds import WorldExtras
 
 __all__ = [
-    "MAX_WAIT",
-    "WATCH_UNTIL_SEEN",
-    "WATCH_LIMIT",
     "Detection",
     "PlanAttempt",
     "Relearn",
     "RunResult",
 ]
 
-# L may wait 450 steps (15 min) after observing: with the default 300 observation steps a run
-# lasts at most 25 min of robot time, the paper's limit for its physical runs
-MAX_WAIT = 450
-# `mirl run`'s default observation rule: after the 300 steps, L keeps watching until
-# it has seen every patroller on WATCH_UNTIL_SEEN steps, for at most WATCH_LIMIT steps in all
-# (60 min of robot time: on boyd2 at 0.14, seed 19's J first enters L's view at t=1555)
-WATCH_UNTIL_SEEN = 40
-WATCH_LIMIT = 1800
-
 
 @dataclass(frozen=True)
 class PlanAttempt:
-    """One planning round: when, the best go value in the window and the chosen go time
-    (absolute; None when no go value was positive)."""
+    """One planning round: when, the best go value in the window and the chosen go time.
+
+    Parameters
+    ----------
+    t : int
+        The step the round planned at.
+    best_value : float
+        The best go value in the planning window.
+    go_time : int or None
+        The chosen go time (an absolute step; None when no go value was positive).
+    predicted_success : float, optional
+        The adaptive rule's P(success) of going now (None under the value rule).
+    """
 
     t: int
     best_value: float
@@ -47,6 +47,13 @@ class PlanAttempt:
     predicted_success: float | None = None  # the adaptive rule: P(success) of going now
 
     def to_dict(self) -> dict[str, Any]:
+        """The round's JSON form (``predicted_success`` only when set).
+
+        Returns
+        -------
+        dict
+            ``t``, ``best_value``, ``go_time`` and ``predicted_success``.
+        """
         return {
             "t": self.t,
             "best_value": self.best_value,
@@ -60,7 +67,24 @@ class Relearn:
     """One re-learn while L waited: when, on how many observed steps (both ends seen, summed
     over the patrollers), and what it changed to — the feature probabilities, each robot's fault
     verdict in words (for methods that give one), the behaviour accuracy (mean over the
-    patrollers) — and its wall time."""
+    patrollers) — and its wall time.
+
+    Parameters
+    ----------
+    t : int
+        The step it re-learned at.
+    observed_steps : int
+        Observed steps with both ends seen, summed over the patrollers.
+    feature_probabilities : dict of str to dict of str to float
+        Per robot, per feature, the learned success probability.
+    verdicts : dict of str to str
+        Per robot, its fault verdict's sentence (empty for methods that give none).
+    behavior_accuracy : float or None
+        The learned policies' behaviour accuracy, the mean over the patrollers (None without a
+        truth to score against).
+    seconds : float
+        Its wall time (not in the JSON form, which is the same for the same seed).
+    """
 
     t: int
     observed_steps: int
@@ -70,6 +94,14 @@ class Relearn:
     seconds: float
 
     def to_dict(self) -> dict[str, Any]:
+        """The re-learn's JSON form (its wall time left out).
+
+        Returns
+        -------
+        dict
+            ``t``, ``observed_steps``, ``feature_probabilities``, ``verdicts`` and
+            ``behavior_accuracy``.
+        """
         return {
             "t": self.t,
             "observed_steps": self.observed_steps,
@@ -81,7 +113,66 @@ class Relearn:
 
 @dataclass(frozen=True, eq=False)
 class RunResult:
-    """Everything about one run; :meth:`to_dict` is its JSON form."""
+    """Everything about one run; :meth:`to_dict` is its JSON form (``mirl run --json``).
+
+    Parameters
+    ----------
+    scenario : str
+        The scenario's name.
+    method : str
+        The method's name (a row of :data:`~mirl.learning.methods.METHODS`).
+    seed : int
+        The run's seed.
+    observability : float
+        The share of the hallway L saw from its room.
+    obs_steps : int
+        Steps L observed before it could go.
+    outcome : {"success", "detected", "timeout"}
+        How the run ended.
+    go_time : int or None
+        The absolute step at which L left its start cell (None: it never went).
+    plan_value : float or None
+        The go value of the executed plan.
+    behavior_accuracy : float or None
+        The learned policies' behaviour accuracy, the mean over the patrollers.
+    behavior_accuracy_per_robot : dict of str to float
+        The same per robot.
+    feature_probabilities : dict of str to dict of str to float
+        Per robot, per feature, the learned success probability (empty for methods that learn
+        none).
+    timings : dict of str to float
+        Wall seconds per phase (observe, learn, plan, execute), their total and the CPU time.
+    observer_path : ndarray of shape (n, 4)
+        L's (t, row, col, heading) from its go time on.
+    detections : tuple of Detection
+        The patrollers that saw L, and where.
+    true_states : ndarray of shape (end_time + 1, N)
+        The patrollers' true state indices at every step.
+    observations : Trajectories
+        Everything L saw from its room.
+    attempts : tuple of PlanAttempt
+        The planning rounds, in order.
+    robot_names : tuple of str
+        The patrollers' names.
+    end_time : int
+        The run's last step.
+    learned : LearnResult, optional
+        The models L planned with (None for a method that learns nothing to report).
+    plan : ObserverPlan, optional
+        The executed (or last) plan.
+    seen_steps : dict of str to int, default {}
+        Per patroller, the steps L saw it on while observing.
+    extras : WorldExtras, optional
+        What the run's world records beyond the contract (the physical world's contacts).
+    predicted_success : float, optional
+        The adaptive rule's P(success) at the go time.
+    relearns : tuple of Relearn, optional
+        The re-learns while L waited (None: L learned once).
+    protocol : RunProtocol, optional
+        How the run went (None: a record made by hand).
+    world : str, default "grid"
+        The run's world, a name in :data:`~mirl.worlds.WORLDS`.
+    """
 
     scenario: str
     method: str
@@ -106,11 +197,27 @@ class RunResult:
     plan: ObserverPlan | None = None  # the executed (or last) plan
     seen_steps: dict[str, int] = field(default_factory=dict)  # observation-phase sightings
     extras: WorldExtras | None = None  # what the run's world records beyond the interface
-    watch_until_seen: int | None = None  # the observation rule of `mirl run` (None: fixed)
     predicted_success: float | None = None  # the adaptive rule's P(success) at the go time
     relearns: tuple[Relearn, ...] | None = None  # None: L learned once
+    protocol: RunProtocol | None = None  # how the run went (None: a record made by hand)
+    world: str = DEFAULT_WORLD  # the run's world, a name in mirl.worlds.WORLDS
+
+    @property
+    def watch_until_seen(self) -> int | None:
+        """The protocol's watching rule (None: a fixed observation time)."""
+        return None if self.protocol is None else self.protocol.watch_until_seen
 
     def to_dict(self) -> dict[str, Any]:
+        """The run's JSON form, ``mirl run --json``'s (optional keys absent when unset).
+
+        Returns
+        -------
+        dict
+            The fields above (the learned models as their ``feature_intervals``,
+            ``verdicts`` and ``lateral_drifts`` where a method gives them; the plan and the
+            observations left out), the detections and plan rounds as lists, and the world's
+            extras.
+        """
         return {
             "scenario": self.scenario,
             "method": self.method,

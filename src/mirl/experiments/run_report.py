@@ -7,29 +7,41 @@ import numpy as np
 
 from mirl.experiments.records import RunResult
 from mirl.learning.methods import METHODS
-from mirl.learning.verdicts import estimate_outside_interval, outside_interval_note
+from mirl.learning.verdicts import estimate_disagrees
+from mirl.world.actions import HEADING_NAMES, STEP_SECONDS
+from mirl.world.game import GAME_ACTIONS, Equilibrium
 from mirl.world.scenario import Scenario
-
-HEADING_NAMES = ("east", "north", "west", "south")  # heading 0-3 (the map's x east, y north)
 
 
 def state_text(state) -> str:
-    """A patroller state (row, col, heading) in words: ``(16, 8) facing west``."""
+    """A patroller state (row, col, heading) in words: ``(16, 8) facing west``.
+
+    Parameters
+    ----------
+    state : sequence of int
+        (row, col, heading), a heading an index into the domain's headings.
+
+    Returns
+    -------
+    str
+        The state in words.
+    """
     r, c, h = (int(x) for x in state)
     return f"({r}, {c}) facing {HEADING_NAMES[h]}"
 
 
 def _observed_line(result: RunResult) -> str:
     seen = "; ".join(f"saw {n} on {k} steps" for n, k in result.seen_steps.items())
-    minutes = result.obs_steps * 2 / 60
+    minutes = result.obs_steps * STEP_SECONDS / 60
     line = f"observed  {result.obs_steps} steps ({minutes:.0f} min of robot time): {seen}"
     k = result.watch_until_seen
-    if k is None:
+    if k is None or result.protocol is None:
         return line
-    if min(result.seen_steps.values(), default=0) >= k and result.obs_steps > 300:
-        why = f"L watched past 300 steps until it had seen every patroller on {k} steps"
+    first = result.protocol.obs_steps
+    if min(result.seen_steps.values(), default=0) >= k and result.obs_steps > first:
+        why = f"L watched past {first} steps until it had seen every patroller on {k} steps"
     elif min(result.seen_steps.values(), default=0) >= k:
-        why = f"every patroller was seen on {k} steps within the first 300"
+        why = f"every patroller was seen on {k} steps within the first {first}"
     else:
         why = f"L stopped at its watching limit before seeing every patroller on {k} steps"
         never = [n for n, c in result.seen_steps.items() if c == 0]
@@ -40,24 +52,33 @@ def _observed_line(result: RunResult) -> str:
     return f"{line}\n          ({why})"
 
 
-def _wrapped(text: str) -> str:
+def _wrapped(text: str, indent: int = 10) -> str:
     import textwrap
 
-    return textwrap.fill(text, 96, initial_indent=" " * 10, subsequent_indent=" " * 10)
+    return textwrap.fill(text, 96, initial_indent=" " * indent, subsequent_indent=" " * indent)
 
 
-def _equilibrium_text(label: str, a: str, b: str) -> str:
-    """What the learned interaction equilibrium means for robots ``a`` (the row side) and ``b``
-    meeting head-on."""
-    parts = label.split("/")
-    if len(parts) != 2 or any(p.startswith("(") for p in parts):
-        return "a mixed strategy: each robot randomises between go, stop and turn"
-    i, j = parts
+def _equilibrium_text(eq: Equilibrium, a: str, b: str) -> str:
+    """What the learned interaction equilibrium ``eq`` means for robots ``a`` (the row side) and
+    ``b`` meeting head-on; a mixed one names only the actions each robot plays."""
+    if not eq.is_pure:
+        return "a mixed strategy when they meet: " + "; ".join(
+            f"{name} {_mix(p)}" for name, p in ((a, eq.row), (b, eq.col))
+        )
+    i, j = (GAME_ACTIONS[int(np.argmax(p))] for p in (eq.row, eq.col))
     if i == "stop" and j == "go":
         return f"when {a} and {b} meet, {a} yields (stops) and {b} goes on"
     if i == "go" and j == "stop":
         return f"when {a} and {b} meet, {b} yields (stops) and {a} goes on"
     return f"when {a} and {b} meet, {a} plays {i} and {b} plays {j}"
+
+
+def _mix(p) -> str:
+    """A robot's strategy in words: each action it plays with its probability."""
+    played = [(GAME_ACTIONS[k], x) for k, x in enumerate(p) if x > 1e-9]
+    if len(played) == 1:
+        return f"always plays {played[0][0]}"
+    return "plays " + " or ".join(f"{act} with probability {x:.2f}" for act, x in played)
 
 
 def _equilibrium_lines(learned, names: list[str]) -> list[str]:
@@ -67,12 +88,12 @@ def _equilibrium_lines(learned, names: list[str]) -> list[str]:
     pad = "          "
     if len(names) == 2:
         label = learned.equilibrium.label()
-        text = _equilibrium_text(label, *names)
+        text = _equilibrium_text(learned.equilibrium, *names)
         return [f"{pad}interaction equilibrium ({names[0]}/{names[1]}): {label} — {text}"]
     lines = []
     for (i, j), eq in sorted(learned.pair_equilibria.items()):
         label = eq.label()
-        text = _equilibrium_text(label, names[i], names[j])
+        text = _equilibrium_text(eq, names[i], names[j])
         lines.append(f"{pad}interaction equilibrium ({names[i]}/{names[j]}): {label} — {text}")
     weighed = ", ".join(f"{names[i]}/{names[j]}" for i, j in sorted(learned.pair_equilibria))
     lines.append(
@@ -84,7 +105,22 @@ def _equilibrium_lines(learned, names: list[str]) -> list[str]:
 
 # ---- the readable report of `mirl run` -------------------------------------------------------
 def policy_cycle(domain, policy: np.ndarray, start: int) -> np.ndarray:
-    """States of the loop that ``policy`` settles into from ``start`` under intended outcomes."""
+    """States of the loop that ``policy`` settles into from ``start`` under intended outcomes.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain (its intended next states).
+    policy : ndarray of shape (S,) of int
+        A deterministic policy.
+    start : int
+        The state to start from.
+
+    Returns
+    -------
+    ndarray of int
+        The loop's states in order, from where the walk first met it.
+    """
     s = int(start)
     for _ in range(domain.n_states):  # walk long enough to be on the loop
         s = int(domain.intended[s, policy[s]])
@@ -109,9 +145,11 @@ def _turn_cells(domain, cycle: np.ndarray) -> list[tuple[int, int]]:
 
 
 def _truth(scenario: Scenario, result: RunResult) -> str:
-    """What is really damaged: in the grid world the scenario's success probabilities below 0.9;
-    in the physics world the motor strengths the robots drive with (the grid probabilities are
-    then only what the scenario would mean on the grid, not what L watches)."""
+    """What is really damaged: in the grid world the success probabilities the scenario's
+    definition of damage (``[faults]``, the one the verdicts are held against) counts as
+    damaged; in the physics world the motor strengths the robots drive with (the grid
+    probabilities are then only what the scenario would mean on the grid, not what L
+    watches)."""
     world_truth = result.extras.truth() if result.extras is not None else None
     if world_truth is not None:
         return world_truth
@@ -119,9 +157,76 @@ def _truth(scenario: Scenario, result: RunResult) -> str:
         f"{r.name}:{f}={p:g}"
         for r in scenario.robots
         for f, p in r.feature_probabilities.items()
-        if p < 0.9
+        if scenario.faults.damaged(f, p)
     ]
     return f"truth: {', '.join(damaged) or 'no damage'}"
+
+
+def _feature_table(scenario: Scenario, result: RunResult, learned) -> list[str]:
+    """Each robot's learned feature probabilities, their 95 % intervals, the motion model and
+    the verdict — one answer per question: where Eq. 4's estimate lies outside its interval,
+    the posterior's median is the answer and Eq. 4's is shown as the paper's estimate, which L
+    plans with (docs/design.md, "Fault verdicts")."""
+    feats = list(scenario.feature_map.features)
+    lines = [f"learned   transition-feature probabilities ({learned.method}):"]
+    lines.append("            robot" + " " * 11 + "".join(f"{f:>13}" for f in feats))
+    models = {r.name: r for r in learned.robots}
+    outside = False
+    for name, fp in result.feature_probabilities.items():
+        r = models[name]
+        spans = r.feature_intervals
+        u = r.uncertainty
+        unseen = " (never seen: maximum entropy)" if result.seen_steps.get(name) == 0 else ""
+        if spans and u is not None and estimate_disagrees(fp, spans, u.medians, scenario.faults):
+            outside = True
+            lines.append(f"            {name:<5}{'posterior':<11}" + _cells(u.medians, feats, 2))
+            lines.append(f"            {'':<5}{'95 %':<11}" + _spans(spans, feats))
+            lines.append(f"            {'':<5}{'Eq. 4':<11}" + _cells(fp, feats, 3) + unseen)
+            continue
+        lines.append(f"            {name:<5}{'':<11}" + _cells(fp, feats, 3) + unseen)
+        if spans:
+            lines.append(f"            {'':<5}{'95 %':<11}" + _spans(spans, feats))
+    note = (
+        "            (each is how often an action that relies on the part does what was "
+        "intended; below it, its 95 % interval"
+    )
+    if outside:
+        note += (
+            "; where Eq. 4's estimate, from the step outcomes alone, and the posterior disagree "
+            "(outside the interval, or on the other side of the damage threshold), the "
+            "posterior's median is the answer and Eq. 4's the paper's estimate, which L plans "
+            "with"
+        )
+    lines += _wrapped(note.strip() + ")", indent=12).splitlines()
+    for r in learned.robots:
+        if r.lateral_drift is not None:
+            lines.append(f"          drift of {r.name}: {r.lateral_drift.sentence()}")
+    for r in learned.robots:
+        motion = _motion_words(r)
+        if motion:
+            lines += _wrapped(f"motion of {r.name}: {motion}").splitlines()
+    for r in learned.robots:
+        if r.verdict is not None:
+            lines.append(f"          verdict: {r.verdict.sentence(r.name)}")
+    return lines
+
+
+def _cells(values, feats, digits: int) -> str:
+    return "".join(f"{values[f]:>13.{digits}f}" for f in feats if f in values)
+
+
+def _spans(spans, feats) -> str:
+    return "".join(f"{f'{spans[f][0]:.2f}–{spans[f][1]:.2f}':>13}" for f in feats)
+
+
+def _motion_words(robot) -> str:
+    """The motion model L plans with and the records' weights, in words."""
+    from mirl.learning.motion_models import motion_sentence
+
+    u = robot.uncertainty
+    if u is None or not u.motion_models or not robot.motion_model:
+        return ""
+    return motion_sentence(u.motion_models, robot.motion_model)
 
 
 def _relearn_lines(result: RunResult) -> list[str]:
@@ -147,7 +252,20 @@ def _relearn_lines(result: RunResult) -> list[str]:
 
 
 def format_report(scenario: Scenario, result: RunResult) -> str:
-    """The short readable report printed by ``mirl run``."""
+    """The short readable report printed by ``mirl run``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The run's scenario, as run (its damage applied).
+    result : RunResult
+        The run.
+
+    Returns
+    -------
+    str
+        The report's lines, joined (the timings' line last).
+    """
     dom = scenario.domain
     paper, meaning = METHODS[result.method].paper_name, METHODS[result.method].description
     n_vis = int(scenario.map.visible_mask(result.observability).sum())
@@ -158,7 +276,8 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         _wrapped(
             f"{result.method} ({paper} in the paper's figures): {meaning}. L hides in its room at "
             f"{scenario.observer_start} and wants to reach {scenario.goal} unseen; cells "
-            "are (row, col), a patroller's state is its cell and the way it faces; a step is 2 s."
+            "are (row, col), a patroller's state is its cell and the way it faces; a step is "
+            f"{STEP_SECONDS:g} s."
         ),
         "",
         _observed_line(result),
@@ -168,35 +287,7 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
     if learned is not None and not has_features:
         lines.append(f"learned   no feature probabilities: {learned.message or learned.method}")
     if learned is not None and has_features:
-        feats = list(scenario.feature_map.features)
-        lines.append(f"learned   transition-feature probabilities ({learned.method}):")
-        lines.append("            robot" + "".join(f"{f:>13}" for f in feats))
-        probs = result.feature_probabilities
-        models = {r.name: r for r in learned.robots}
-        for name, fp in probs.items():
-            cells = "".join(f"{fp[f]:>13.3f}" for f in feats if f in fp)
-            unseen = " (never seen: maximum entropy)" if result.seen_steps.get(name) == 0 else ""
-            lines.append(f"            {name:<5}{cells}{unseen}")
-            spans = models[name].feature_intervals
-            if spans:
-                cells = "".join(f"{f'{spans[f][0]:.2f}–{spans[f][1]:.2f}':>13}" for f in feats)
-                lines.append(f"            {'95 %':<5}{cells}")
-        lines.append(
-            "            (each is how often an action that relies on the part does what was "
-            "intended; below it, its 95 % interval)"
-        )
-        if any(
-            estimate_outside_interval(fp, models[name].feature_intervals)
-            for name, fp in probs.items()
-        ):
-            poses = any(r.lateral_drift is not None for r in learned.robots)
-            lines.append("            " + outside_interval_note(poses))
-        for r in learned.robots:
-            if r.lateral_drift is not None:
-                lines.append(f"          drift of {r.name}: {r.lateral_drift.sentence()}")
-        for r in learned.robots:
-            if r.verdict is not None:
-                lines.append(f"          verdict: {r.verdict.sentence(r.name)}")
+        lines += _feature_table(scenario, result, learned)
     if learned is not None:
         acc = ", ".join(f"{n} {a:.2f}" for n, a in result.behavior_accuracy_per_robot.items())
         lines.append(f"          behaviour accuracy: {acc} (mean {result.behavior_accuracy:.2f})")

@@ -29,7 +29,39 @@ __all__ = ["RunRecord", "ResultStore", "check_store", "open_store", "load_result
 
 @dataclass(frozen=True)
 class RunRecord:
-    """One finished run as stored: one row of the ``runs`` table."""
+    """One finished run as stored: one row of the ``runs`` table.
+
+    Parameters
+    ----------
+    experiment : str
+        The experiment's name (a row of :data:`~mirl.experiments.conditions.EXPERIMENTS`).
+    condition_key : str
+        The run's condition, as :attr:`Condition.key <mirl.experiments.conditions.Condition.key>`
+        writes it.
+    run : int
+        The run's index within its condition.
+    seed : int
+        The run's seed.
+    outcome : str
+        How it ended: one of :data:`~mirl.experiments.conditions.OUTCOMES`, or ``"error"``
+        for a run that raised (retried on resume).
+    go_time : float or None
+        The step L went at (None: it never went).
+    behavior_accuracy : float or None
+        The learned policies' behaviour accuracy, the mean over the patrollers.
+    feature_probabilities : dict of str to dict of str to float
+        Per robot, per feature, the learned success probability.
+    timings : dict of str to float
+        Wall seconds per phase.
+    metrics : dict
+        The experiment's further numbers (its run function's).
+    error : str
+        The error's message, for an ``"error"`` run (else empty).
+    elapsed : float
+        The run's wall seconds.
+    version : str
+        What the result depends on: mirl's version and code, and the world's.
+    """
 
     experiment: str
     condition_key: str
@@ -89,7 +121,16 @@ class ResultStore:
 
     Only the parent process writes; each run is one ``BEGIN IMMEDIATE … COMMIT`` with
     ``INSERT OR IGNORE`` on the primary key, so a kill leaves the database consistent and a
-    re-delivered result can never duplicate a row."""
+    re-delivered result can never duplicate a row.
+
+    Parameters
+    ----------
+    path : str or Path
+        The database file (created with its tables unless ``read_only``).
+    read_only : bool, default False
+        Open it so that nothing, not even SQLite's journal files, changes it (``mirl
+        report``).
+    """
 
     def __init__(self, path: str | Path, *, read_only: bool = False) -> None:
         self.path = Path(path)
@@ -114,23 +155,72 @@ class ResultStore:
         self.con.execute("COMMIT")
 
     def meta(self) -> dict[str, str]:
+        """The ``meta`` table: what the sweep was started with.
+
+        Returns
+        -------
+        dict of str to str
+            ``experiment`` and ``base_seed`` (empty for a new store).
+        """
         return dict(self.con.execute("SELECT key, value FROM meta"))
 
     def set_meta(self, **values: str) -> None:
+        """Write entries of the ``meta`` table, in one transaction.
+
+        Parameters
+        ----------
+        **values : str
+            The entries, by key (an existing key is replaced).
+        """
         with self._tx() as con:
             con.executemany("INSERT OR REPLACE INTO meta VALUES (?, ?)", values.items())
 
     def count(self) -> int:
+        """The runs stored.
+
+        Returns
+        -------
+        int
+            Rows of the ``runs`` table, errors included.
+        """
         return int(self.con.execute("SELECT COUNT(*) FROM runs").fetchone()[0])
 
     def finished_keys(self) -> set[tuple[str, int]]:
+        """The (condition, run) pairs stored, which a resumed sweep skips.
+
+        Returns
+        -------
+        set of (str, int)
+            (condition key, run index) of every stored run.
+        """
         return set(self.con.execute("SELECT condition_key, run FROM runs"))
 
     def delete_errors(self) -> int:
+        """Remove the runs that raised, so that a resumed sweep runs them again.
+
+        Returns
+        -------
+        int
+            The runs removed.
+        """
         with self._tx() as con:
             return con.execute("DELETE FROM runs WHERE outcome = 'error'").rowcount
 
     def begin_session(self, workers: int, backend: str) -> int:
+        """Record the start of a sweep's invocation.
+
+        Parameters
+        ----------
+        workers : int
+            Its worker processes.
+        backend : str
+            Where it runs: ``"joblib"`` (this machine) or ``"dask"`` (a cluster).
+
+        Returns
+        -------
+        int
+            The session's id, for :meth:`add`.
+        """
         with self._tx() as con:
             cur = con.execute(
                 "INSERT INTO sessions (started_at, backend, workers, version) VALUES (?,?,?,?)",
@@ -139,6 +229,20 @@ class ResultStore:
             return int(cur.lastrowid or 0)
 
     def add(self, rec: RunRecord, session: int, finished: int, seconds: float) -> None:
+        """Store one finished run and its session's progress, in one transaction (a run
+        stored already is left as it is).
+
+        Parameters
+        ----------
+        rec : RunRecord
+            The run.
+        session : int
+            The session's id (:meth:`begin_session`).
+        finished : int
+            Runs the session has finished, this one included.
+        seconds : float
+            The session's wall seconds so far.
+        """
         c = Condition.from_key(rec.condition_key)
         row = (
             rec.condition_key, rec.run, rec.seed, rec.experiment, c.method, c.scenario,
@@ -154,13 +258,29 @@ class ResultStore:
             )
 
     def sessions(self) -> list[dict[str, Any]]:
+        """Every invocation of the sweep, in order.
+
+        Returns
+        -------
+        list of dict
+            Per session its ``id``, ``started_at``, ``backend``, ``workers``, ``finished``,
+            ``seconds`` and ``version``.
+        """
         cur = self.con.execute("SELECT * FROM sessions ORDER BY id")
         names = [d[0] for d in cur.description]
         return [dict(zip(names, r, strict=True)) for r in cur]
 
     def rows(self) -> list[dict[str, Any]]:
         """Every run as a flat dict: fixed columns, then ``metric.*``-free metric names,
-        ``fp.<robot>.<feature>`` and ``time.<phase>``."""
+        ``fp.<robot>.<feature>`` and ``time.<phase>``.
+
+        Returns
+        -------
+        list of dict
+            One per run, ordered by condition and run: the fixed columns, the metrics, the
+            feature probabilities, the timings, then ``elapsed``, ``error``, ``version``,
+            ``finished_at`` and ``condition_key``.
+        """
         cur = self.con.execute("SELECT * FROM runs ORDER BY condition_key, run")
         names = [d[0] for d in cur.description]
         out = []
@@ -176,7 +296,20 @@ class ResultStore:
         return out
 
     def export_csv(self, path: str | Path, order: Mapping[str, int] | None = None) -> int:
-        """Write every run to ``path`` (atomically: a kill never leaves half a CSV)."""
+        """Write every run to ``path`` (atomically: a kill never leaves half a CSV).
+
+        Parameters
+        ----------
+        path : str or Path
+            The CSV file (replaced).
+        order : mapping of str to int, optional
+            The conditions' order, by key (the experiment's); by key and run if None.
+
+        Returns
+        -------
+        int
+            The runs written.
+        """
         rows = self.rows()
         if order:
             rows.sort(key=lambda r: (order.get(r["condition_key"], len(order)), r["run"]))
@@ -192,6 +325,7 @@ class ResultStore:
         return len(rows)
 
     def close(self) -> None:
+        """Close the connection."""
         self.con.close()
 
 
@@ -219,7 +353,18 @@ def _read_only(path: Path) -> sqlite3.Connection:
 def check_store(path: str | Path) -> None:
     """Refuse (StoreError, one line) an existing ``results.sqlite`` that is empty, not SQLite,
     truncated, corrupt or not mirl's — reading it only, so the file stays byte for byte as it
-    was (connecting read-write would turn an empty file into a database)."""
+    was (connecting read-write would turn an empty file into a database).
+
+    Parameters
+    ----------
+    path : str or Path
+        The database file (nothing is checked if it does not exist).
+
+    Raises
+    ------
+    StoreError
+        If it is not a file, empty, not SQLite, corrupt or without mirl's tables.
+    """
     p = Path(path)
     if not p.exists():
         return
@@ -249,7 +394,30 @@ def check_store(path: str | Path) -> None:
 def open_store(path: str | Path, experiment: str, base_seed: int, *, resume: bool) -> ResultStore:
     """Open (creating) an experiment's store, refusing to mix it with other results: without
     ``resume`` a database that already holds runs is an error, and with it the experiment and
-    base seed must be the ones it was started with."""
+    base seed must be the ones it was started with.
+
+    Parameters
+    ----------
+    path : str or Path
+        The database file.
+    experiment : str
+        The experiment's name.
+    base_seed : int
+        The sweep's base seed.
+    resume : bool
+        Whether runs already stored may be continued.
+
+    Returns
+    -------
+    ResultStore
+        The open store, its ``meta`` set.
+
+    Raises
+    ------
+    StoreError
+        If the file is not a store (:func:`check_store`), holds runs without ``resume``, or
+        holds runs of another experiment or base seed.
+    """
     check_store(path)
     store = ResultStore(path)
     try:
@@ -273,7 +441,28 @@ def open_store(path: str | Path, experiment: str, base_seed: int, *, resume: boo
 
 
 def load_results(path: str | Path) -> tuple[dict[str, str], list[dict[str, Any]], list[dict]]:
-    """(meta, flat rows, sessions) of a results directory or database file."""
+    """What a sweep stored, read without changing it (``mirl report``).
+
+    Parameters
+    ----------
+    path : str or Path
+        A results directory (its ``results.sqlite``) or the database file.
+
+    Returns
+    -------
+    meta : dict of str to str
+        The ``meta`` table.
+    rows : list of dict
+        Every run, flat (:meth:`ResultStore.rows`).
+    sessions : list of dict
+        Every invocation (:meth:`ResultStore.sessions`).
+
+    Raises
+    ------
+    StoreError
+        If there is no database, it is not a store, or it holds runs a sweep cannot have
+        written (no experiment or base seed, an unknown outcome).
+    """
     p = Path(path)
     db = p / "results.sqlite" if p.is_dir() else p
     if not db.exists():

@@ -23,14 +23,17 @@ from mirl.experiments.conditions import (
     Condition,
     Experiment,
     RunFunction,
-    StoreError,
     _maybe_float,
     code_version,
     get_experiment,
+    in_world,
     run_seed,
+    with_em_init,
+    with_protocol,
 )
+from mirl.experiments.options import SweepOptions
 from mirl.experiments.store import RunRecord, open_store
-from mirl.experiments.worlds import get_world
+from mirl.worlds import get_world
 
 __all__ = ["Summary", "run_experiment", "conditions_of"]
 
@@ -80,6 +83,28 @@ def run_version(cond: Condition) -> str:
 
 @dataclass
 class Summary:
+    """What one invocation of a sweep did; :meth:`line` says it in one line.
+
+    Parameters
+    ----------
+    experiment : str
+        The experiment's name.
+    out_dir : Path
+        Its results directory.
+    planned : int
+        The (condition, run) pairs of the grid: conditions × runs.
+    already_done : int
+        Those finished before this invocation.
+    finished : int
+        Those finished in this invocation.
+    wall_seconds : float
+        This invocation's wall time.
+    workers : int
+        Its worker processes.
+    outcomes : dict of str to int, default {}
+        This invocation's runs per outcome.
+    """
+
     experiment: str
     out_dir: Path
     planned: int  # conditions × runs
@@ -91,9 +116,17 @@ class Summary:
 
     @property
     def runs_per_minute(self) -> float:
+        """This invocation's throughput (0 if it took no time)."""
         return 60.0 * self.finished / self.wall_seconds if self.wall_seconds > 0 else 0.0
 
     def line(self) -> str:
+        """The summary as ``mirl experiment`` prints it.
+
+        Returns
+        -------
+        str
+            Runs, wall time, workers, throughput, progress and outcomes, in one line.
+        """
         counts = ", ".join(f"{k} {v}" for k, v in sorted(self.outcomes.items()))
         return (
             f"{self.experiment}: {self.finished} runs in {self.wall_seconds / 60:.1f} min on "
@@ -106,29 +139,47 @@ class Summary:
 def run_experiment(
     experiment: Experiment | str,
     out_dir: str | Path,
+    options: SweepOptions | Mapping[str, Any] | None = None,
     *,
-    runs: int | None = None,
-    workers: int = 1,
-    resume: bool = False,
-    dask_scheduler: str | None = None,
-    base_seed: int = 0,
-    progress: bool = True,
     log: Callable[[str], None] | None = None,
-    progress_every: int | None = None,
 ) -> Summary:
     """Run every pending (condition, run) of ``experiment``, storing each result as it arrives
     in ``out_dir/results.sqlite``; export ``out_dir/results.csv`` at the end.
 
-    Without ``resume`` an existing non-empty database is refused (StoreError) rather than
-    silently mixed; with it, finished runs are skipped, ``error`` runs retried, and a larger
-    ``runs`` extends the sweep. ``dask_scheduler`` runs the same tasks on a Dask cluster.
-    ``progress_every``: when stderr is not a terminal, a progress line every this many runs
-    (default: about every 5 % of the sweep).
+    .. versionchanged:: 0.2.0
+       The settings are one ``options`` argument, with the command line's defaults: one worker
+       per CPU and mirl's protocol on the runs of L (``go_rule="value", relearn=False`` keeps
+       the conditions' own, the paper's).
+
+    Parameters
+    ----------
+    experiment : Experiment or str
+        An experiment or its name in :data:`~mirl.experiments.conditions.EXPERIMENTS`.
+    out_dir : str or Path
+        The results directory (created if missing).
+    options : SweepOptions or mapping, optional
+        How to run it (:class:`~mirl.experiments.options.SweepOptions`: runs, workers,
+        resume, Dask, the base seed, progress, and the world, go rule, re-learning and DBN-EM
+        initialisation every condition takes), or a mapping of its option names to values; by
+        default ``mirl experiment``'s. Without ``resume`` an existing non-empty database is
+        refused (StoreError) rather than silently mixed; with it, finished runs are skipped,
+        ``error`` runs retried, and a larger ``runs`` extends the sweep.
+    log : callable, optional
+        Receives the sweep's lines (default: stderr).
+
+    Returns
+    -------
+    Summary
+        What ran, how fast, and the outcomes of this session.
     """
+    opts = SweepOptions.of(options)
     exp = get_experiment(experiment) if isinstance(experiment, str) else experiment
-    runs = exp.default_runs if runs is None else runs
-    if runs < 1:
-        raise StoreError(f"runs must be at least 1, got {runs}")
+    exp = with_em_init(exp, opts.em_init)
+    exp = with_protocol(exp, opts.go_rule, opts.relearn)
+    exp = in_world(exp, opts.world)
+    runs = exp.default_runs if opts.runs is None else opts.runs
+    workers, resume, dask_scheduler = opts.n_workers, opts.resume, opts.dask_scheduler
+    base_seed, progress, progress_every = opts.base_seed, opts.progress, opts.progress_every
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     store = open_store(out / "results.sqlite", exp.name, base_seed, resume=resume)
@@ -257,7 +308,19 @@ def _hms(seconds: float) -> str:
 
 
 def conditions_of(rows: Iterable[Mapping[str, Any]]) -> list[Condition]:
-    """Distinct conditions of stored rows, in first-seen order."""
+    """Distinct conditions of stored rows, in first-seen order.
+
+    Parameters
+    ----------
+    rows : iterable of mapping
+        Stored runs (:meth:`~mirl.experiments.store.ResultStore.rows`), each with its
+        ``condition_key``.
+
+    Returns
+    -------
+    list of Condition
+        One per distinct key.
+    """
     seen: dict[str, Condition] = {}
     for r in rows:
         seen.setdefault(r["condition_key"], Condition.from_key(r["condition_key"]))

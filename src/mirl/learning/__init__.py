@@ -2,6 +2,8 @@
 
 * :mod:`~mirl.learning.methods` — the table of methods: what each is called, where its reward
   and transition models come from;
+* :mod:`~mirl.learning.options` — :class:`~mirl.learning.options.LearnOptions`, how ``learn``
+  learns, each option declared once, and the names its options choose among;
 * :mod:`~mirl.learning.learn` — :func:`~mirl.learning.learn.learn`, the one entry point, which
   builds a method's models and runs the relabelling rounds of mIRL*/T+Int;
 * :mod:`~mirl.learning.transitions` — labelling observed steps with actions, and the
@@ -29,6 +31,7 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 from mirl.learning.methods import LEARNING_METHODS, METHODS, Method, get_method
+from mirl.learning.options import LearnOptions
 
 # public name -> module that defines it (imported on first use: they need numpy and scipy)
 _EXPORTS = {
@@ -37,6 +40,7 @@ _EXPORTS = {
     "RobotModel": "mirl.learning.results",
     "behavior_accuracy": "mirl.learning.results",
     "oracle_models": "mirl.learning.results",
+    "IRLProblem": "mirl.learning.irl",
     "OccludedMaxEntIRL": "mirl.learning.irl",
     "TransitionFeatureLearner": "mirl.learning.transitions",
     "solve_feature_probabilities": "mirl.learning.feature_solver",
@@ -53,11 +57,13 @@ __all__ = [
     "LEARNING_METHODS",
     "Method",
     "get_method",
+    "LearnOptions",
     "LoopTrace",
     "LearnResult",
     "RobotModel",
     "behavior_accuracy",
     "oracle_models",
+    "IRLProblem",
     "OccludedMaxEntIRL",
     "TransitionFeatureLearner",
     "solve_feature_probabilities",
@@ -92,7 +98,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
         weigh_team_equilibria,
     )
     from mirl.learning.feature_solver import FeatureSolveResult, solve_feature_probabilities
-    from mirl.learning.irl import OccludedMaxEntIRL
+    from mirl.learning.irl import IRLProblem, OccludedMaxEntIRL
     from mirl.learning.learn import LoopTrace
     from mirl.learning.results import LearnResult, RobotModel, behavior_accuracy, oracle_models
     from mirl.learning.transitions import TransitionFeatureLearner

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from mirl.learning.options import EM_INITS
 from mirl.world.domain import PatrolDomain
 
 __all__ = [
@@ -61,6 +62,22 @@ MAX_DENSE_ENTRIES = 50_000_000  # S·A·S floats of the dense T: 400 MB
 
 @dataclass(frozen=True)
 class EMResult:
+    """What :func:`em_fit` learned.
+
+    Parameters
+    ----------
+    policy : ndarray of shape (S, A)
+        The policy π(a | s).
+    transitions : ndarray of shape (S, A, S)
+        T(s, a, s').
+    log_likelihood : tuple of float
+        After the E-step of each iteration (non-decreasing).
+    iterations : int
+        The iterations made.
+    converged : bool
+        Whether the gain fell below ``tol`` before ``n_iter``.
+    """
+
     policy: np.ndarray  # (S, A) π(a | s)
     transitions: np.ndarray  # (S, A, S) T(s, a, s')
     log_likelihood: tuple[float, ...]  # after the E-step of each iteration (non-decreasing)
@@ -68,20 +85,23 @@ class EMResult:
     converged: bool
 
     def transition_matrix(self) -> sp.csr_array:
+        """T as the solvers take it.
+
+        Returns
+        -------
+        scipy.sparse.csr_array of shape (S*A, S)
+            T(s, a, s') in row s·A + a.
+        """
         S, A, _ = self.transitions.shape
         return sp.csr_array(self.transitions.reshape(S * A, S))
 
 
-EM_INITS = ("intended", "uniform")
-
-
 def initial_transitions(domain: PatrolDomain, init: str = "intended") -> np.ndarray:
     """(S, A, S) initial T: uniform over {ψ(s, a')} (``intended``) or over all states."""
+    EM_INITS.lookup(init)  # an unknown name: UnknownNameError (a ValueError), one line
     S, A = domain.n_states, domain.n_actions
     if init == "uniform":
         return np.full((S, A, S), 1.0 / S)
-    if init != "intended":
-        raise ValueError(f"unknown EM initialisation '{init}' (known: intended, uniform)")
     support = np.zeros((S, S))
     support[np.repeat(np.arange(S), A), domain.intended.ravel()] = 1.0  # duplicates count once
     support /= support.sum(axis=1, keepdims=True)
@@ -108,12 +128,33 @@ def expected_counts(
     prior: np.ndarray | None = None,
     hidden_states: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float]:
-    """E-step: expected counts N(s, a, s') (S, A, S) and the log-likelihood of the data.
+    """E-step: expected counts N(s, a, s') and the log-likelihood of the data.
 
-    ``series_list`` holds (horizon,) state indices with -1 where the robot was not observed.
-    ``prior`` is the distribution of s_0 (default uniform). ``hidden_states`` (S,) bool, if
-    given, restricts where an unobserved robot can be (negative evidence); default: anywhere,
-    i.e. occluded steps are plain missing data.
+    Parameters
+    ----------
+    policy : ndarray of shape (S, A)
+        The policy π(a | s).
+    transitions : ndarray of shape (S, A, S)
+        T(s, a, s').
+    series_list : sequence of ndarray of int, shape (horizon,)
+        One or more of the robot's state series, -1 where it was occluded.
+    prior : ndarray of shape (S,), optional
+        The distribution of s_0; uniform by default.
+    hidden_states : ndarray of bool, shape (S,), optional
+        Where an unobserved robot can be (negative evidence); by default anywhere, i.e. occluded
+        steps are plain missing data.
+
+    Returns
+    -------
+    counts : ndarray of shape (S, A, S)
+        N(s, a, s').
+    log_likelihood : float
+        Of the data under π and T.
+
+    Raises
+    ------
+    ValueError
+        A series that is not 1-D of at least two steps, or holds indices outside -1 … S − 1.
     """
     S, A, _ = transitions.shape
     P = np.einsum("sa,sat->st", policy, transitions)  # chain P(s, s')
@@ -175,7 +216,35 @@ def em_fit(
     hidden_states: np.ndarray | None = None,
     min_count: float = 1e-9,
 ) -> EMResult:
-    """EM for π and T of one robot (module doc); stops when the log-likelihood gains < ``tol``."""
+    """EM for π and T of one robot (module doc).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    series_list : sequence of ndarray of int, shape (horizon,)
+        One or more of the robot's state series, -1 where it was occluded.
+    n_iter : int, default 20
+        At most this many EM iterations.
+    tol : float, default 1e-4
+        Stop when an iteration gains less log-likelihood than this.
+    init : {"intended", "uniform"}, default "intended"
+        The initial T (:func:`initial_transitions`).
+    hidden_states : ndarray of bool, shape (S,), optional
+        Where an unobserved robot can be (:func:`expected_counts`).
+    min_count : float, default 1e-9
+        An (s, a) or s with no more expected count than this keeps its previous parameters.
+
+    Returns
+    -------
+    EMResult
+        π, T and the log-likelihood's history.
+
+    Raises
+    ------
+    ValueError
+        A dense T too large for the map, or a malformed series.
+    """
     S, A = domain.n_states, domain.n_actions
     if S * S * A > MAX_DENSE_ENTRIES:
         raise ValueError(
@@ -197,8 +266,20 @@ def em_fit(
 
 
 def unreachable_observations(domain: PatrolDomain, x: np.ndarray) -> np.ndarray:
-    """(horizon,) bool: the observations of ``x`` (state indices, -1 unseen) that no sequence of
-    intended moves reaches from the previous observation kept, in the steps between them."""
+    """The observations that no sequence of intended moves reaches from the previous one kept.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    x : ndarray of int, shape (horizon,)
+        State indices, -1 unseen.
+
+    Returns
+    -------
+    ndarray of bool, shape (horizon,)
+        True at the observations unreachable in the steps since the previous observation kept.
+    """
     x = np.asarray(x, dtype=int)
     S = domain.n_states
     succ = sp.csr_array(
@@ -232,8 +313,32 @@ def em_transitions(
     tol: float = 1e-4,
     init: str = "intended",
 ) -> tuple[sp.csr_array, int]:
-    """DBN-EM's T(s, a, s') as a CSR (S·A, S) matrix, and how many observations no sequence of
-    moves reaches were left out as unseen (``init="intended"`` only; see the module doc)."""
+    """DBN-EM's T(s, a, s'), and how many observations were left out as unseen.
+
+    With ``init="intended"``, observations no sequence of moves reaches are left out as unseen
+    (:func:`unreachable_observations`; see the module doc), and a large map is fitted on T's
+    support (:func:`em_fit_on_support`).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    series_list : sequence of ndarray of int, shape (horizon,)
+        One or more of the robot's state series, -1 where it was occluded.
+    n_iter : int, default 20
+        At most this many EM iterations.
+    tol : float, default 1e-4
+        Stop when an iteration gains less log-likelihood than this.
+    init : {"intended", "uniform"}, default "intended"
+        The initial T (:func:`initial_transitions`).
+
+    Returns
+    -------
+    transitions : scipy.sparse.csr_array of shape (S*A, S)
+        T(s, a, s').
+    dropped : int
+        The observations left out.
+    """
     dropped = 0
     if init == "intended":
         cleaned = []
@@ -257,10 +362,27 @@ def em_transition_model(
     tol: float = 1e-4,
     init: str = "intended",
 ) -> sp.csr_array:
-    """DBN-EM estimate of one robot's T(s, a, s') as a CSR (S·A, S) matrix.
+    """DBN-EM estimate of one robot's T(s, a, s').
 
-    ``series_list``: one or more (horizon,) arrays of the same robot's state indices, -1 where
-    it was occluded. See the module doc for the model and :func:`em_fit` for diagnostics.
+    See the module doc for the model and :func:`em_fit` for diagnostics.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    series_list : sequence of ndarray of int, shape (horizon,)
+        One or more of the robot's state series, -1 where it was occluded.
+    n_iter : int, default 20
+        At most this many EM iterations.
+    tol : float, default 1e-4
+        Stop when an iteration gains less log-likelihood than this.
+    init : {"intended", "uniform"}, default "intended"
+        The initial T (:func:`initial_transitions`).
+
+    Returns
+    -------
+    scipy.sparse.csr_array of shape (S*A, S)
+        T(s, a, s').
     """
     return em_transitions(domain, series_list, n_iter=n_iter, tol=tol, init=init)[0]
 
@@ -273,8 +395,23 @@ def em_fit_on_support(
     tol: float = 1e-4,
     min_count: float = 1e-9,
 ) -> tuple[sp.csr_array, tuple[float, ...]]:
-    """:func:`em_fit` with ``init="intended"`` on T's support: each state's distinct intended
-    successors {ψ(s, a')}, the only states EM can ever give mass to.
+    """:func:`em_fit` with ``init="intended"`` on T's support.
+
+    The support is each state's distinct intended successors {ψ(s, a')}, the only states EM can
+    ever give mass to.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    series_list : sequence of ndarray of int, shape (horizon,)
+        One or more of the robot's state series, -1 where it was occluded.
+    n_iter : int, default 20
+        At most this many EM iterations.
+    tol : float, default 1e-4
+        Stop when an iteration gains less log-likelihood than this.
+    min_count : float, default 1e-9
+        An (s, a) or s with no more expected count than this keeps its previous parameters.
 
     Returns
     -------

@@ -15,7 +15,7 @@ is M ← Pᵢᵀ (M off meetings) Pⱼ + Gᵢᵀ (M at meetings) Gⱼ, where P a
 steps and G the equilibrium's game moves. Each step adds the same products in the same order as
 the plain form (two dense-by-sparse products of the whole S × S matrix, and scipy's
 sparse-sparse kernel for the meeting part), so the likelihood is bit for bit the plain one
-(``tests/joint_filter_reference.py``), but it skips what is known to be zero:
+(``tests/references/joint_filter.py``), but it skips what is known to be zero:
 
 * after a step at which L saw robot I, M is zero off that robot's row, so the next step is an
   outer product of two vectors (and after one at which it saw J, the product of Pᵢᵀ with the few
@@ -75,9 +75,23 @@ __all__ = [
 
 # ---- interactions ------------------------------------------------------------------------------
 def potential_meetings(domain: PatrolDomain, series_i: np.ndarray, series_j: np.ndarray):
-    """(horizon,) bool: both robots observed and *some* pair of actions would make them meet.
+    """The steps at which both robots are observed and *some* pair of actions would make them meet.
 
     Used to leave game-driven steps out of the per-robot IRL without knowing the policies yet.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    series_i : ndarray of int, shape (horizon,)
+        One robot's observed states, -1 where occluded.
+    series_j : ndarray of int, shape (horizon,)
+        The other's.
+
+    Returns
+    -------
+    ndarray of bool, shape (horizon,)
+        True at those steps.
     """
     x, y = np.asarray(series_i), np.asarray(series_j)
     both = np.flatnonzero((x >= 0) & (y >= 0))
@@ -137,10 +151,33 @@ def joint_log_likelihood(
 
     A forward (HMM) filter over the joint state (s_I, s_J): S² states, propagated as an S × S
     matrix M ← P_Iᵀ (M off meetings) P_J + the equilibrium's joint moves at meeting states, then
-    conditioned on what L saw (the observed state, or "somewhere not visible"). Policies are the
-    greedy ones mixed with ε of uniform actions so that no observation has probability 0.
-    Above ``max_joint_states`` pair states (None: never) the robots are filtered on their own
-    and coupled at meetings (:func:`factored_log_likelihood`), an approximation.
+    conditioned on what L saw (the observed state, or "somewhere not visible").
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    series : sequence of ndarray of int, shape (horizon,)
+        Each robot's observed states, -1 where occluded.
+    policies : sequence of ndarray of int, shape (S,)
+        Each robot's (learned) policy.
+    transitions : sequence of scipy.sparse.csr_array of shape (S*A, S)
+        Each robot's (learned) T.
+    equilibrium : Equilibrium
+        The equilibrium the robots play when they meet.
+    visible : ndarray of bool, shape (S,)
+        The states L sees (a robot seen elsewhere counts too).
+    epsilon : float, default 1e-3
+        The uniform action mixed into the greedy policies, so that no observation has
+        probability 0.
+    max_joint_states : int or None, default MAX_JOINT_STATES
+        Above this many pair states the robots are filtered on their own and coupled at meetings
+        (:func:`factored_log_likelihood`), an approximation; None: never.
+
+    Returns
+    -------
+    float
+        The log-likelihood.
     """
     x, y = (np.asarray(s, dtype=int) for s in series)
     S = domain.n_states
@@ -184,8 +221,33 @@ def meeting_log_likelihood(
     *,
     epsilon: float = 1e-3,
 ) -> tuple[float, int]:
-    """log-likelihood of the *evident* meetings — both robots observed at t and t+1 and meeting
-    under the policies — under the equilibrium, and how many there were."""
+    """The log-likelihood of the *evident* meetings under the equilibrium, and how many there were.
+
+    A meeting is evident when both robots are observed at t and t+1 and meet under the policies.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    series : sequence of ndarray of int, shape (horizon,)
+        Each robot's observed states, -1 where occluded.
+    policies : sequence of ndarray of int, shape (S,)
+        Each robot's (learned) policy.
+    transitions : sequence of scipy.sparse.csr_array of shape (S*A, S)
+        Each robot's (learned) T.
+    equilibrium : Equilibrium
+        The equilibrium the robots play when they meet.
+    epsilon : float, default 1e-3
+        The uniform action mixed into the greedy policies, so that no observation has
+        probability 0.
+
+    Returns
+    -------
+    log_likelihood : float
+        Of the evident meetings' moves.
+    n_meetings : int
+        The evident meetings.
+    """
     x, y = (np.asarray(s, dtype=int) for s in series)
     t = np.flatnonzero((x[:-1] >= 0) & (y[:-1] >= 0) & (x[1:] >= 0) & (y[1:] >= 0))
     pol = [np.asarray(p, dtype=int) for p in policies]
@@ -207,7 +269,23 @@ def meeting_log_likelihood(
 
 @dataclass(frozen=True)
 class EquilibriumWeights:
-    """Candidate equilibria scored against the observations."""
+    """Candidate equilibria scored against the observations.
+
+    Parameters
+    ----------
+    candidates : tuple of Equilibrium
+        The candidates, in order.
+    log_likelihoods : ndarray of shape (n,)
+        The joint-filter log-likelihood of each.
+    weights : ndarray of shape (n,)
+        The posterior under a uniform prior.
+    meeting_log_likelihoods : ndarray of shape (n,)
+        Of the evident meetings only, per candidate.
+    n_meetings : int
+        The evident meetings seen.
+    best : int
+        The index of the most likely candidate (ties: the earlier).
+    """
 
     candidates: tuple[Equilibrium, ...]
     log_likelihoods: np.ndarray  # joint-filter log-likelihood per candidate
@@ -218,13 +296,31 @@ class EquilibriumWeights:
 
     @property
     def equilibrium(self) -> Equilibrium:
+        """The most likely candidate."""
         return self.candidates[self.best]
 
     @classmethod
     def from_log_likelihoods(
         cls, candidates, ll: np.ndarray, meeting_ll: np.ndarray, n_meetings: int
     ) -> EquilibriumWeights:
-        """Posterior weights (uniform prior) and the best candidate (ties: the earlier)."""
+        """Posterior weights (uniform prior) and the best candidate (ties: the earlier).
+
+        Parameters
+        ----------
+        candidates : sequence of Equilibrium
+            The candidates.
+        ll : ndarray of shape (n,)
+            Their joint-filter log-likelihoods.
+        meeting_ll : ndarray of shape (n,)
+            Their evident meetings' log-likelihoods.
+        n_meetings : int
+            The evident meetings seen.
+
+        Returns
+        -------
+        EquilibriumWeights
+            The weighing.
+        """
         w = np.exp(ll - ll.max())
         best = int(np.flatnonzero(ll >= ll.max() - 1e-9)[0])
         return cls(tuple(candidates), ll, w / w.sum(), meeting_ll, n_meetings, best)
@@ -241,9 +337,42 @@ def weigh_equilibria(
     epsilon: float = 1e-3,
     max_joint_states: int | None = MAX_JOINT_STATES,
 ) -> EquilibriumWeights:
-    """Weight each candidate equilibrium by the likelihood of everything L saw of both robots
-    (:func:`joint_log_likelihood`, exact up to ``max_joint_states`` pair states); ties go to
-    the earlier candidate."""
+    """Weight each candidate equilibrium by the likelihood of everything L saw of both robots.
+
+    The likelihood is :func:`joint_log_likelihood`'s, exact up to ``max_joint_states`` pair
+    states; ties go to the earlier candidate.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    series : sequence of ndarray of int, shape (horizon,)
+        Each robot's observed states, -1 where occluded.
+    policies : sequence of ndarray of int, shape (S,)
+        Each robot's (learned) policy.
+    transitions : sequence of scipy.sparse.csr_array of shape (S*A, S)
+        Each robot's (learned) T.
+    candidates : sequence of Equilibrium
+        The equilibria to weigh.
+    visible : ndarray of bool, shape (S,)
+        The states L sees.
+    epsilon : float, default 1e-3
+        The uniform action mixed into the greedy policies, so that no observation has
+        probability 0.
+    max_joint_states : int or None, default MAX_JOINT_STATES
+        Above this many pair states the robots are filtered on their own and coupled at meetings
+        (:func:`factored_log_likelihood`), an approximation; None: never.
+
+    Returns
+    -------
+    EquilibriumWeights
+        The candidates' log-likelihoods, weights and the best.
+
+    Raises
+    ------
+    ValueError
+        Other than two robots.
+    """
     if len(series) != 2:
         raise ValueError("equilibrium weighting is defined for two robots")
     ll = np.array(
@@ -280,9 +409,19 @@ class MeetingMaps:
 
     scipy's sparse-sparse kernel (Gustavson's) forms Y = (M at meetings) Gⱼ summing each entry
     over the meeting states of its row in order, then Gᵢᵀ Y summing each entry over Gᵢᵀ's row in
-    its stored order. The two maps below sum the same terms in the same orders (an entry that is
-    zero adds an exact zero, as the kernel's dropped entries do not), so the result is bitwise
-    the kernel's; their structure is built once rather than at every step."""
+    its stored order. The two maps sum the same terms in the same orders (an entry that is zero
+    adds an exact zero, as the kernel's dropped entries do not), so the result is bitwise the
+    kernel's; their structure is built once rather than at every step.
+
+    Parameters
+    ----------
+    GT_i : scipy.sparse.csr_array of shape (S, S)
+        Robot I's game-move step, transposed.
+    GT_j : scipy.sparse.csr_array of shape (S, S)
+        Robot J's.
+    meet : ndarray of bool, shape (S, S)
+        The joint states where the robots' intended moves meet.
+    """
 
     def __init__(self, GT_i: sp.csr_array, GT_j: sp.csr_array, meet: np.ndarray) -> None:
         S = meet.shape[0]
@@ -305,7 +444,15 @@ class MeetingMaps:
         self._n = (len(mi), len(y_keys), len(self._c_keys))
 
     def add_to(self, out: np.ndarray, M: np.ndarray) -> None:
-        """``out`` (C-contiguous) += Gᵢᵀ (M at meetings) Gⱼ."""
+        """Add Gᵢᵀ (M at meetings) Gⱼ into ``out``.
+
+        Parameters
+        ----------
+        out : ndarray of shape (S, S)
+            C-contiguous; added into in place.
+        M : ndarray of shape (S, S)
+            The joint belief.
+        """
         m, n_y, n_c = self._n
         if m == 0:
             return
@@ -318,9 +465,17 @@ class MeetingMaps:
 
 
 class JointFilter:
-    """One step of the joint belief of two robots (module docstring). ``PT``, ``GT``: per robot
-    the transposed ε-greedy policy step and game-move step, (S, S) CSR; ``meet``: (S, S) bool,
-    the joint states where the robots' intended moves meet."""
+    """One step of the joint belief of two robots (module docstring).
+
+    Parameters
+    ----------
+    PT : sequence of scipy.sparse.csr_array of shape (S, S)
+        Per robot the transposed ε-greedy policy step.
+    GT : sequence of scipy.sparse.csr_array of shape (S, S)
+        Per robot the transposed game-move step.
+    meet : ndarray of bool, shape (S, S)
+        The joint states where the robots' intended moves meet.
+    """
 
     def __init__(self, PT, GT, meet: np.ndarray) -> None:
         S = meet.shape[0]
@@ -334,8 +489,22 @@ class JointFilter:
         self._xt, self._y, self._yt = np.empty((S, S)), np.empty((S, S)), np.empty((S, S))
 
     def step(self, M: np.ndarray, seen_i: int, seen_j: int) -> np.ndarray:
-        """M one step on. ``seen_i``, ``seen_j``: the states L saw the robots in at the step M
-        was conditioned on (-1: not seen), where M is zero off that row (column)."""
+        """M one step on.
+
+        Parameters
+        ----------
+        M : ndarray of shape (S, S)
+            The joint belief, conditioned on the last step's observations.
+        seen_i : int
+            The state L saw robot I in at that step (-1: not seen), where M is zero off that row.
+        seen_j : int
+            The state L saw robot J in (-1: not seen), where M is zero off that column.
+
+        Returns
+        -------
+        ndarray of shape (S, S)
+            The propagated joint.
+        """
         S = self.S
         out = np.zeros((S, S))
         if seen_i >= 0:  # (M off meetings) is row x: Pᵢᵀ e_x (Pⱼᵀ row)ᵀ, an outer product
@@ -381,8 +550,24 @@ def _condition(M: np.ndarray, x: int, visible: np.ndarray, axis: int) -> None:
 
 # ---- the factored filter, coupled at meetings ----------------------------------------------------
 def meeting_matrix(domain: PatrolDomain, policy_i: np.ndarray, policy_j: np.ndarray):
-    """(S, S) sparse 0/1 matrix of the pair states where the policies' intended moves meet,
-    without enumerating all S² pairs: only states whose cells are within two steps can meet."""
+    """The pair states where the policies' intended moves meet.
+
+    Without enumerating all S² pairs: only states whose cells are within two steps can meet.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    policy_i : ndarray of int, shape (S,)
+        Robot I's policy.
+    policy_j : ndarray of int, shape (S,)
+        Robot J's.
+
+    Returns
+    -------
+    scipy.sparse.csr_array of shape (S, S)
+        1 where they meet.
+    """
     S = domain.n_states
     cells = domain.cells
     rows, cols = domain.cell_lut.shape
@@ -425,10 +610,28 @@ def factored_log_likelihood(
     meet: sp.csr_array,
     visible: np.ndarray,
 ) -> float:
-    """log P(observations of both robots) under the factored filter (module docstring), for the
-    model of :func:`joint_log_likelihood`: per robot the transposed
-    ε-greedy policy step ``PT`` and game-move step ``GT``, the sparse ``meet`` matrix of
-    :func:`meeting_matrix` and the (S,) states L can see (a robot seen elsewhere counts)."""
+    """log P(observations of both robots) under the factored filter (module docstring).
+
+    For the model of :func:`joint_log_likelihood`.
+
+    Parameters
+    ----------
+    series : sequence of ndarray of int, shape (horizon,)
+        Each robot's observed states, -1 where occluded.
+    PT : sequence of scipy.sparse.csr_array of shape (S, S)
+        Per robot the transposed ε-greedy policy step.
+    GT : sequence of scipy.sparse.csr_array of shape (S, S)
+        Per robot the transposed game-move step.
+    meet : scipy.sparse.csr_array of shape (S, S)
+        :func:`meeting_matrix`.
+    visible : ndarray of bool, shape (S,)
+        The states L can see (a robot seen elsewhere counts).
+
+    Returns
+    -------
+    float
+        The log-likelihood.
+    """
     x, y = (np.asarray(s, dtype=int) for s in series)
     S = meet.shape[0]
     meet_T = sp.csr_array(meet.T)
@@ -456,9 +659,23 @@ def factored_log_likelihood(
 
 # ---- teams of N ≥ 2 ----------------------------------------------------------------------------
 def meeting_pairs(domain: PatrolDomain, series: Sequence[np.ndarray]) -> list[tuple[int, int]]:
-    """The pairs (i < j) L has seen meet — both in view at a step where some pair of actions
-    would make them meet; the first pair if none was (its joint filter still weighs what L did
-    *not* see)."""
+    """The pairs (i < j) L has seen meet.
+
+    Both in view at a step where some pair of actions would make them meet.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    series : sequence of ndarray of int, shape (horizon,)
+        Each robot's observed states, -1 where occluded.
+
+    Returns
+    -------
+    list of (int, int)
+        The pairs; the first pair if none was seen meeting (its joint filter still weighs what L
+        did *not* see).
+    """
     n = len(series)
     pairs = [
         (i, j)
@@ -471,14 +688,28 @@ def meeting_pairs(domain: PatrolDomain, series: Sequence[np.ndarray]) -> list[tu
 
 @dataclass(frozen=True)
 class TeamEquilibria:
-    """Equilibria weighed on every pair L has seen meet. ``shared`` sums the pairs'
-    log-likelihoods (one game for the whole team, the scenario format's default); ``pairs`` keeps
-    each pair's own weighing (a team whose pairs play different equilibria)."""
+    """Equilibria weighed on every pair L has seen meet.
+
+    Parameters
+    ----------
+    shared : EquilibriumWeights
+        The pairs' log-likelihoods summed: one game for the whole team, the scenario format's
+        default.
+    pairs : dict of (int, int) to EquilibriumWeights
+        Each pair's own weighing (a team whose pairs play different equilibria).
+    """
 
     shared: EquilibriumWeights
     pairs: dict[tuple[int, int], EquilibriumWeights]
 
     def best_per_pair(self) -> dict[tuple[int, int], Equilibrium]:
+        """Each pair's most likely equilibrium.
+
+        Returns
+        -------
+        dict of (int, int) to Equilibrium
+            Per pair.
+        """
         return {p: w.equilibrium for p, w in self.pairs.items()}
 
 
@@ -493,10 +724,36 @@ def weigh_team_equilibria(
     epsilon: float = 1e-3,
     max_joint_states: int | None = MAX_JOINT_STATES,
 ) -> TeamEquilibria:
-    """:func:`weigh_equilibria` on every pair of :func:`meeting_pairs` (each pair's joint
-    filter ignores the other robots), combined by summing log-likelihoods. With two robots this
-    is exactly :func:`weigh_equilibria`. A pair whose joint has more than ``max_joint_states``
-    states is filtered factored, coupled at meetings (:func:`factored_log_likelihood`).
+    """:func:`weigh_equilibria` on every pair of :func:`meeting_pairs`, combined.
+
+    Each pair's joint filter ignores the other robots; the pairs are combined by summing
+    log-likelihoods. With two robots this is exactly :func:`weigh_equilibria`.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    series : sequence of ndarray of int, shape (horizon,)
+        Each robot's observed states, -1 where occluded.
+    policies : sequence of ndarray of int, shape (S,)
+        Each robot's (learned) policy.
+    transitions : sequence of scipy.sparse.csr_array of shape (S*A, S)
+        Each robot's (learned) T.
+    candidates : sequence of Equilibrium
+        The equilibria to weigh.
+    visible : ndarray of bool, shape (S,)
+        The states L sees.
+    epsilon : float, default 1e-3
+        The uniform action mixed into the greedy policies, so that no observation has
+        probability 0.
+    max_joint_states : int or None, default MAX_JOINT_STATES
+        Above this many pair states the robots are filtered on their own and coupled at meetings
+        (:func:`factored_log_likelihood`), an approximation; None: never.
+
+    Returns
+    -------
+    TeamEquilibria
+        The shared weighing and each pair's.
     """
     per_pair = {
         (i, j): weigh_equilibria(

@@ -57,7 +57,7 @@ from __future__ import annotations
 import itertools
 import math
 import numbers
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,9 +65,9 @@ import scipy.linalg as sla
 from scipy.optimize import linprog, minimize, nnls
 from scipy.special import entr, gammaln
 
-__all__ = ["solve_feature_probabilities", "FeatureSolveResult"]
+from mirl._registry import Registry
 
-_METHODS = ("maxent", "paper")
+__all__ = ["solve_feature_probabilities", "FeatureSolveResult", "FeatureSolver", "FEATURE_SOLVERS"]
 
 
 def solve_feature_probabilities(
@@ -100,25 +100,22 @@ def solve_feature_probabilities(
     ValueError
         Duplicate or non-string feature names; an observation that is not a triple, names an
         unknown or repeated feature, has negative, non-integer or inconsistent counts
-        (successes > trials, or failures of an empty subset); an unknown method. The message
-        names the offending observation by index.
+        (successes > trials, or failures of an empty subset); an unknown method (a row of
+        :data:`FEATURE_SOLVERS`, the nearest suggested). The message names the offending
+        observation by index.
     """
-    if method not in _METHODS:
-        raise ValueError(f"unknown method {method!r}; expected one of {', '.join(_METHODS)}")
-    pooled = _pool(features, observations)
-    if method == "paper":
-        return _solve_paper(pooled)
-    return _solve_maxent(pooled)
+    solver = FEATURE_SOLVERS.lookup(method)
+    return solver.solve(_pool(features, observations))
 
 
 @dataclass(frozen=True)
 class FeatureSolveResult:
     """Outcome of :func:`solve_feature_probabilities`.
 
-    Attributes
+    Parameters
     ----------
     probabilities : dict of str to float
-        p_τ for every feature, informed or not, each in [0, 1].
+        The probability p_τ of every feature, informed or not, each in [0, 1].
     success : bool
         ``maxent``: the procedure reached a verified optimum (the constraints may still be
         unmeetable — see ``message``/``residuals``). ``paper``: BFGS converged *and* every
@@ -802,3 +799,39 @@ def _solve_paper(pooled: _Pooled) -> FeatureSolveResult:
         n_evaluations=int(res.nfev),
         message="; ".join(parts),
     )
+
+
+# ---- the table of solvers --------------------------------------------------------------------
+@dataclass(frozen=True)
+class FeatureSolver:
+    """A way to solve Eq. 4, a row of :data:`FEATURE_SOLVERS`.
+
+    Parameters
+    ----------
+    name : str
+        Its name, as ``method=`` takes it.
+    description : str
+        What it does.
+    solve : callable
+        ``solve(pooled)``: the result from the pooled counts of the observations.
+    """
+
+    name: str
+    description: str
+    solve: Callable[[_Pooled], FeatureSolveResult]
+
+
+FEATURE_SOLVERS: Registry[FeatureSolver] = Registry(
+    "method",
+    (
+        FeatureSolver(
+            "maxent",
+            "maximum likelihood, then maximum entropy: the exact Eq. 4 maximiser",
+            _solve_maxent,
+        ),
+        FeatureSolver(
+            "paper", "the paper's BFGS on the squared gradient of the Lagrangian", _solve_paper
+        ),
+    ),
+)
+"""The Eq. 4 solvers by name (the module docstring)."""

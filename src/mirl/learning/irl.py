@@ -53,22 +53,34 @@ Interactions (meetings, equilibria) are :mod:`mirl.learning.equilibria`.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import OptimizeResult, minimize
 
+from mirl._registry import Registry
+from mirl.learning.options import IRL_OBJECTIVES as OBJECTIVES
+from mirl.learning.options import IRL_OPTIMIZERS as OPTIMIZERS
 from mirl.learning.sequence import BlockOperator, ObservedSequence
 from mirl.learning.soft_policy import _Dynamics, soft_policy_iteration
 from mirl.mdp import TabularMDP, value_iteration
 from mirl.sparse import csr_matmul
 
-__all__ = ["OBJECTIVES", "ANCHORS", "OPTIMIZERS", "OccludedMaxEntIRL"]
+__all__ = ["OBJECTIVES", "ANCHORS", "OPTIMIZERS", "IRLProblem", "OccludedMaxEntIRL"]
 
-OBJECTIVES = ("counts", "likelihood", "both", "sequence")
-ANCHORS = ("first", "reentry")
-OPTIMIZERS = ("nelder-mead", "lbfgs")
-GRADIENTS = ("auto", "forward", "reverse")
+# the estimator's choices (module docstring), each carried out by this module's code;
+# its objectives and optimizers are LearnOptions' choices (mirl.learning.options), read
+# by the command line at start-up
+ANCHORS = Registry.of_choices("anchor", {
+    "first": "the counts' expected visits propagate from the first observation",
+    "reentry": "and restart at every re-entry into view",
+})  # fmt: skip
+GRADIENTS = Registry.of_choices("gradient", {
+    "auto": "reverse mode on large models, forward on small ones",
+    "forward": "the derivatives propagated with the distributions",
+    "reverse": "an adjoint pass over the filter's history",
+})  # fmt: skip
 # "auto" takes the sequence gradient in reverse mode from this many nonzeros of the forward
 # operator ((2K + 1)·nnz(P_πᵀ)); below it the reverse pass's per-step bookkeeping eats what it
 # saves (benchmarks/bench_gradients.py, forward/reverse per evaluation: boyd2 (3 888) 0.73-0.96,
@@ -77,21 +89,69 @@ _REVERSE_FROM = 20_000
 _HISTORY_BYTES = 1 << 30  # and while its two history arrays take at most this much memory
 
 
-# ---- the estimator -----------------------------------------------------------------------------
-class OccludedMaxEntIRL:
-    """Max-entropy IRL for one robot from an occluded trajectory (mIRL*, Sec. 2 of the paper).
+# ---- the problem -------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class IRLProblem:
+    """One robot's inverse problem: its MDP without a reward (reward features φ, transition
+    model T, discount γ) and the states L can see it in. It is the data
+    :meth:`OccludedMaxEntIRL.fit` learns θ against, with the robot's record; the estimator
+    itself holds only how it fits, as a scikit-learn estimator does.
 
     Parameters
     ----------
     features : ndarray of shape (S, A, K)
-        Reward features φ.
-    transitions : sparse array of shape (S·A, S)
-        The robot's transition model, CSR (learned by mIRL*/T, or fixed).
-    discount : float, default 0.95
-        The robot's discount factor.
+        Reward features φ (kept as a float array).
+    transitions : sparse array or ndarray of shape (S·A, S)
+        The robot's transition model (learned by mIRL*/T, or fixed); kept as given, so that a
+        caller can tell which model an estimator was fitted with.
+    discount : float
+        The robot's discount factor γ, in [0, 1).
     visible : ndarray of shape (S,) of bool, optional
         The states L can observe (all if None). Observed states are always treated as
         observable.
+
+    Raises
+    ------
+    ValueError
+        If ``features`` is not (S, A, K), ``transitions`` not (S·A, S), ``visible`` not (S,), or
+        ``discount`` outside [0, 1).
+    """
+
+    features: np.ndarray
+    transitions: sp.sparray | np.ndarray
+    discount: float
+    visible: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        features = np.asarray(self.features, dtype=float)
+        if features.ndim != 3:
+            raise ValueError(f"features must be (S, A, K), got shape {features.shape}")
+        S, A, _ = features.shape
+        if self.transitions.shape != (S * A, S):
+            raise ValueError(f"transitions must be ({S * A}, {S}), got {self.transitions.shape}")
+        shape = None if self.visible is None else np.shape(self.visible)
+        if shape not in (None, (S,)):
+            raise ValueError(f"visible must be {(S,)}, got {shape}")
+        if not 0 <= self.discount < 1:
+            raise ValueError(f"discount must be in [0, 1), got {self.discount}")
+        object.__setattr__(self, "features", features)
+        if self.visible is not None:
+            object.__setattr__(self, "visible", np.asarray(self.visible, dtype=bool))
+
+
+# ---- the estimator -----------------------------------------------------------------------------
+class OccludedMaxEntIRL:
+    """Max-entropy IRL for one robot from an occluded trajectory (mIRL*, Sec. 2 of the paper).
+
+    The estimator holds how it fits; the problem (the robot's features, T, discount and L's
+    view, an :class:`IRLProblem`) and the robot's record are :meth:`fit`'s.
+
+    .. versionchanged:: 0.2.0
+       The problem's data (``features``, ``transitions``, ``discount``, ``visible``) moved from
+       the constructor to :meth:`fit`, as an :class:`IRLProblem`.
+
+    Parameters
+    ----------
     objective : {"sequence", "counts", "likelihood", "both"}, default "sequence"
         What is fitted (module docstring); the default is the measured best, the paper's is
         ``"counts"``.
@@ -100,7 +160,7 @@ class OccludedMaxEntIRL:
     optimizer : {"lbfgs", "nelder-mead"}, default "lbfgs"
         L-BFGS-B with the exact gradient, or the paper's derivative-free Nelder–Mead.
     temperature : float, default 1.0
-        τ of the soft policy; θ's scale is learned, so τ only fixes the units.
+        The soft policy's τ; θ's scale is learned, so τ only fixes the units.
     l2 : float, default 1e-4
         Weight of the L2 penalty on θ.
     n_restarts : int, default 1
@@ -120,11 +180,19 @@ class OccludedMaxEntIRL:
         :meth:`~mirl.learning.sequence.ObservedSequence.loglik_reverse`), or ``"auto"``:
         reverse on large models, where it is several times faster, forward on small ones
         (boyd2), where it is not.
-    random_state : int, Generator or None
+    random_state : int, Generator or None, default None
         Seed for the restarts.
+
+    Raises
+    ------
+    ValueError
+        If a choice is not a name its table holds (the nearest suggested), or ``temperature``,
+        ``l2``, ``n_restarts``, ``max_evaluations`` or ``tol`` is out of its range.
 
     Attributes
     ----------
+    problem_ : IRLProblem
+        The problem of the last fit.
     weights_ : ndarray of shape (K,)
         The learned reward weights θ.
     policy_ : ndarray of shape (S,)
@@ -143,11 +211,7 @@ class OccludedMaxEntIRL:
 
     def __init__(
         self,
-        features: np.ndarray,
-        transitions: sp.csr_array,
         *,
-        discount: float = 0.95,
-        visible: np.ndarray | None = None,
         objective: str = "sequence",
         anchor: str = "first",
         optimizer: str = "lbfgs",
@@ -159,36 +223,23 @@ class OccludedMaxEntIRL:
         gradient: str = "auto",
         random_state: int | np.random.Generator | None = None,
     ) -> None:
-        for name, value, allowed in (
-            ("objective", objective, OBJECTIVES),
-            ("anchor", anchor, ANCHORS),
-            ("optimizer", optimizer, OPTIMIZERS),
-            ("gradient", gradient, GRADIENTS),
+        for value, table in (
+            (objective, OBJECTIVES),
+            (anchor, ANCHORS),
+            (optimizer, OPTIMIZERS),
+            (gradient, GRADIENTS),
         ):
-            if value not in allowed:
-                raise ValueError(f"unknown {name} '{value}' (known: {', '.join(allowed)})")
-        self.features = np.asarray(features, dtype=float)
-        self._V_warm: np.ndarray | None = None  # soft values of the last evaluation (warm start)
-        self._forward_operator = BlockOperator()  # P_πᵀ with its derivatives, forward mode
-        if self.features.ndim != 3:
-            raise ValueError(f"features must be (S, A, K), got shape {self.features.shape}")
-        self.transitions_source = transitions  # as given (learn() reuses policy_ for it)
-        self.transitions = sp.csr_array(transitions)
-        S, A, _ = self.features.shape
-        if self.transitions.shape != (S * A, S):
-            raise ValueError(f"transitions must be ({S * A}, {S}), got {self.transitions.shape}")
-        shape = None if visible is None else np.shape(visible)
+            table.lookup(value)  # an unknown name: UnknownNameError (a ValueError), one line
         for name, got, ok, needed in (
             ("temperature", temperature, temperature > 0, "positive"),
             ("l2", l2, l2 >= 0, "at least 0"),
             ("max_evaluations", max_evaluations, max_evaluations >= 1, "at least 1"),
             ("n_restarts", n_restarts, n_restarts >= 1, "at least 1"),
-            ("visible", shape, shape in (None, (S,)), (S,)),
         ):  # each would run and return a meaningless fit (0/0 policies, an unbounded loss)
             if not ok:
                 raise ValueError(f"{name} must be {needed}, got {got}")
-        self.discount = discount
-        self.visible = None if visible is None else np.asarray(visible, dtype=bool)
+        if tol is not None and not tol > 0:
+            raise ValueError(f"tol must be positive (or None for scipy's default), got {tol}")
         self.objective = objective
         self.anchor = anchor
         self.optimizer = optimizer
@@ -196,15 +247,19 @@ class OccludedMaxEntIRL:
         self.l2 = l2
         self.n_restarts = n_restarts
         self.max_evaluations = max_evaluations
-        if tol is not None and not tol > 0:
-            raise ValueError(f"tol must be positive (or None for scipy's default), got {tol}")
         self.tol = tol
         self.gradient = gradient
         self.random_state = random_state
 
     # -- data preparation --
-    def _prepare(self, series, labels, exclude) -> None:
-        S, A, K = self.features.shape
+    def _prepare(self, problem: IRLProblem, series, labels, exclude) -> None:
+        self._features = problem.features
+        self._transitions = sp.csr_array(problem.transitions)
+        self._discount = problem.discount
+        self._visible = problem.visible
+        self._V_warm: np.ndarray | None = None  # soft values of the last evaluation (warm start)
+        self._forward_operator = BlockOperator()  # P_πᵀ with its derivatives, forward mode
+        S, A, K = self._features.shape
         x = np.asarray(series, dtype=int)
         H = len(x)
         lab = np.full(H, -1, dtype=int) if labels is None else np.asarray(labels, dtype=int)
@@ -218,8 +273,8 @@ class OccludedMaxEntIRL:
         counted = np.ones(H, dtype=bool) if exclude is None else ~np.asarray(exclude, dtype=bool)
         t0 = int(np.flatnonzero(seen)[0])
         counted[:t0] = False
-        vis = np.zeros(S, dtype=bool) if self.visible is None else self.visible.copy()
-        if self.visible is None:
+        vis = np.zeros(S, dtype=bool) if self._visible is None else self._visible.copy()
+        if self._visible is None:
             vis[:] = True
         vis[x[seen]] = True
         self._vis = vis
@@ -229,7 +284,7 @@ class OccludedMaxEntIRL:
         known = obs & (lab >= 0)
         self._lab_s, self._lab_a = x[known], lab[known]
         self._unl_s = x[obs & (lab < 0)]
-        self._expert_fixed = self.features[self._lab_s, self._lab_a].sum(axis=0)
+        self._expert_fixed = self._features[self._lab_s, self._lab_a].sum(axis=0)
         # segments of the propagation: anchored at the first observation, and at re-entries
         start = seen.copy()
         start[:t0] = False
@@ -247,13 +302,13 @@ class OccludedMaxEntIRL:
         self._W = W
         self._U0 = np.zeros((S, len(anchors)))
         self._U0[x[anchors], np.arange(len(anchors))] = 1.0
-        self._dyn = _Dynamics(self.transitions, A)
+        self._dyn = _Dynamics(self._transitions, A)
         self._prepare_sequence(x, counted | ~seen)
 
     def _prepare_sequence(self, x: np.ndarray, own: np.ndarray) -> None:
         """Pieces of log P(observed series) (:class:`~mirl.learning.sequence.ObservedSequence`).
         Steps leaving an excluded time (``own`` False) are not the robot's own choice: skipped."""
-        self._sequence = ObservedSequence(x, own, self._dyn, self.features.shape[0])
+        self._sequence = ObservedSequence(x, own, self._dyn, self._features.shape[0])
         self._n_steps = max(len(x) - 1, 1)
 
     def _sequence_loglik(self, pi, B, dpi=None):
@@ -262,7 +317,7 @@ class OccludedMaxEntIRL:
     def _reverse_mode(self) -> bool:
         if self.gradient != "auto":
             return self.gradient == "reverse"
-        K = self.features.shape[2]
+        K = self._features.shape[2]
         # reverse mode keeps the filter's history and its adjoint: two S × (columns over all
         # steps) arrays, which on a huge map and a long record would not fit in memory
         history = 2 * 8 * self._sequence.history_size
@@ -272,11 +327,11 @@ class OccludedMaxEntIRL:
 
     # -- objective --
     def _soft(self, theta: np.ndarray):
-        R = self.features @ theta
+        R = self._features @ theta
         V, Q, pi, _ = soft_policy_iteration(
             self._dyn,
             R,
-            self.discount,
+            self._discount,
             temperature=self.temperature,
             initial_values=self._V_warm,
             tol=1e-9,
@@ -304,42 +359,42 @@ class OccludedMaxEntIRL:
         return expected, expert
 
     def _loss(self, theta: np.ndarray, grad: bool = False):
-        S, A, K = self.features.shape
+        S, A, K = self._features.shape
         V, Q, pi = self._soft(theta)
         PT = self._dyn.transposed_policy(pi)
         loss = self.l2 * float(theta @ theta)
         g = 2 * self.l2 * theta
-        counts = self.objective in ("counts", "both")
-        actions = self.objective in ("likelihood", "both")
+        terms = OBJECTIVES[self.objective]
+        counts, actions = terms.counts, terms.likelihood
         dpi: np.ndarray | None = None
         dPT: sp.csr_array | None = None
         if grad:
             # dQ/dθ = φ + γ T dV/dθ, dV/dθ = Σ_a π dQ/dθ (soft Bellman): successor features
-            phi_pi = np.einsum("sa,sak->sk", pi, self.features)
-            dV = self._dyn.solve_policy(pi, self.discount, phi_pi)
-            dQ = self.features + self.discount * self._dyn.next_values(dV)
+            phi_pi = np.einsum("sa,sak->sk", pi, self._features)
+            dV = self._dyn.solve_policy(pi, self._discount, phi_pi)
+            dQ = self._features + self._discount * self._dyn.next_values(dV)
             # dπ(a|s)/dθ = π (dQ(s,a) − Σ_b π dQ(s,b)) / τ
             dQ_c = dQ - np.einsum("sa,sak->sk", pi, dQ)[:, None, :]
             dpi = pi[:, :, None] * dQ_c / self.temperature  # (S, A, K)
-        reverse = grad and self.objective == "sequence" and self._reverse_mode()
+        reverse = grad and terms.sequence and self._reverse_mode()
         if dpi is not None and (counts or not reverse):  # forward mode needs dP_πᵀ/dθ itself
             dPT = self._dyn.transposed_policy(dpi)
         B = self._forward_operator(PT, dPT)
         if counts:
-            phi_pi = np.einsum("sa,sak->sk", pi, self.features)
+            phi_pi = np.einsum("sa,sak->sk", pi, self._features)
             D, dD = self._occupancy(B, K if grad else 0)
             expected, expert = self._counts(phi_pi, D)
             diff = (expected - expert) / self._n_obs
             loss += float(diff @ diff)
             if grad:
                 assert dpi is not None
-                dphi_pi = np.einsum("saj,sak->skj", dpi, self.features)  # dφ_π[:, k]/dθ_j
+                dphi_pi = np.einsum("saj,sak->skj", dpi, self._features)  # dφ_π[:, k]/dθ_j
                 expected_g = np.einsum("s,sk,sj->kj", self._vis, phi_pi, dD) + np.einsum(
                     "s,skj->kj", D * self._vis, dphi_pi
                 )
                 expert_g = dphi_pi[self._unl_s].sum(axis=0)
                 g = g + 2 * (diff @ (expected_g - expert_g)) / self._n_obs
-        if self.objective == "sequence":
+        if terms.sequence:
             if reverse:
                 ll, g_ll = self._sequence.loglik_reverse(pi, PT, self._vis, dpi)
             else:
@@ -358,6 +413,7 @@ class OccludedMaxEntIRL:
     # -- fitting --
     def fit(
         self,
+        problem: IRLProblem,
         series: np.ndarray,
         labels: np.ndarray | None = None,
         *,
@@ -368,6 +424,8 @@ class OccludedMaxEntIRL:
 
         Parameters
         ----------
+        problem : IRLProblem
+            The robot's features, transition model, discount and the states L can see.
         series : ndarray of shape (horizon,) of int
             The state L saw the robot in at each time step, -1 where occluded.
         labels : ndarray of shape (horizon,) of int, optional
@@ -380,11 +438,11 @@ class OccludedMaxEntIRL:
 
         Returns
         -------
-        self : OccludedMaxEntIRL
-            Fitted (attributes in the class docstring).
+        OccludedMaxEntIRL
+            ``self``, fitted (attributes in the class docstring).
         """
-        self._prepare(series, labels, exclude)
-        S, A, K = self.features.shape
+        self._prepare(problem, series, labels, exclude)
+        S, A, K = self._features.shape
         rng = np.random.default_rng(self.random_state)
         x0 = np.zeros(K) if initial_weights is None else np.asarray(initial_weights, float)
         starts = [x0] + [rng.normal(0.0, 1.0, K) for _ in range(max(self.n_restarts, 1) - 1)]
@@ -406,7 +464,10 @@ class OccludedMaxEntIRL:
         self._V_warm = None
         V, Q, pi = self._soft(theta)
         self._final_counts: tuple[np.ndarray, np.ndarray] | None = None
-        hard = value_iteration(TabularMDP(self.transitions, self.features @ theta, self.discount))
+        hard = value_iteration(
+            TabularMDP(self._transitions, self._features @ theta, self._discount)
+        )
+        self.problem_ = problem
         self.weights_ = theta
         self.soft_policy_ = pi
         self.q_values_ = hard.q_values
@@ -425,10 +486,12 @@ class OccludedMaxEntIRL:
     # propagation over the whole record cost as much as a tenth of the sequence objective's fit
     @property
     def expected_counts_(self) -> np.ndarray:
+        """(K,) expected feature counts on the observable states, computed when first read."""
         return self._counts_of_fit()[0]
 
     @property
     def expert_counts_(self) -> np.ndarray:
+        """(K,) observed feature counts on the observable states, computed when first read."""
         return self._counts_of_fit()[1]
 
     def _counts_of_fit(self) -> tuple[np.ndarray, np.ndarray]:
@@ -437,7 +500,7 @@ class OccludedMaxEntIRL:
                 raise AttributeError("expected_counts_ and expert_counts_ exist after fit()")
             pi = self.soft_policy_
             D, _ = self._occupancy(self._dyn.transposed_policy(pi), 0)
-            phi_pi = np.einsum("sa,sak->sk", pi, self.features)
+            phi_pi = np.einsum("sa,sak->sk", pi, self._features)
             self._final_counts = self._counts(phi_pi, D)
         assert self._final_counts is not None
         return self._final_counts

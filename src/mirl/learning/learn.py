@@ -41,6 +41,12 @@ A method that does not relabel learns its T from the first labels (its labels co
 T) and its reward once (from a warm start's weights, when given). The equilibria are weighed by
 the joint filter once, for the final models.
 
+A method with feature probabilities learns each robot's T under a motion model (ξ and where
+failed steps end): the scenario's, unless the robot's record rejects it — its verdict's motion
+models (:mod:`mirl.learning.motion_models`) make another :data:`SWITCH_ODDS` times more probable,
+or L's policy does not predict its moves — and then once more under the model its record favours
+(docs/design.md, "Fault verdicts", "What L learns and plans with").
+
 Every learned policy is the greedy policy of hard value iteration with the learned weights and that
 robot's T. ``behavior_accuracy`` (docs/design.md, "Behaviour accuracy") is filled in from the
 scenario's truth when ``score=True``.
@@ -49,7 +55,7 @@ scenario's truth when ``score=True``.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
@@ -57,7 +63,9 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.dbn_em import EM_INITS, em_transitions
+from mirl._registry import Registry
+from mirl._validation import SEED, check_argument
+from mirl.learning.dbn_em import em_transitions
 from mirl.learning.equilibria import (
     EquilibriumWeights,
     TeamEquilibria,
@@ -65,28 +73,44 @@ from mirl.learning.equilibria import (
     potential_meetings,
     weigh_team_equilibria,
 )
-from mirl.learning.irl import OccludedMaxEntIRL
-from mirl.learning.methods import LEARNING_METHODS, Method, get_method
+from mirl.learning.irl import IRLProblem, OccludedMaxEntIRL
+from mirl.learning.methods import (
+    LEARNING_METHODS,
+    REWARD_SOURCES,
+    TRANSITION_SOURCES,
+    Method,
+    get_method,
+)
+from mirl.learning.motion_models import (
+    MotionModel,
+    candidate_models,
+    model_domain,
+    unexplained_steps,
+)
+from mirl.learning.options import LearnOptions
 from mirl.learning.results import LearnResult, RobotModel, behavior_accuracy, oracle_models
 from mirl.learning.transitions import (
     TransitionFeatureLearner,
     observed_steps,
-    perception_labels,
+    perceived_labels,
     policy_labels,
 )
-from mirl.learning.verdicts import (
-    FeatureUncertainty,
-    held_by_others,
-    in_company,
-    robot_uncertainty,
-)
+from mirl.learning.verdicts import FeatureUncertainty, robot_record, robot_uncertainty
 from mirl.mdp import TabularMDP, value_iteration
 from mirl.observations.trajectories import Trajectories
 from mirl.world.game import Equilibrium
 from mirl.world.motion import transition_matrix_from_success
 from mirl.world.scenario import Scenario, as_scenario
 
-__all__ = ["learn", "LoopTrace", "relabel_loop"]
+__all__ = [
+    "learn",
+    "LoopTrace",
+    "relabel_loop",
+    "RewardBuilder",
+    "TransitionBuilder",
+    "REWARD_BUILDERS",
+    "TRANSITION_BUILDERS",
+]
 
 
 def learn(
@@ -94,22 +118,19 @@ def learn(
     scenario: Scenario | str,
     method: str = "mirl-t",
     *,
-    p: float = 0.9,
+    options: LearnOptions | Mapping[str, Any] | None = None,
     visible: np.ndarray | None = None,
     observability: float | None = None,
-    max_iterations: int = 5,
-    label_tol: float = 0.01,
-    objective: str = "sequence",
-    optimizer: str = "lbfgs",
-    n_restarts: int | None = None,
-    irl_options: Mapping[str, Any] | None = None,
     random_state: int | None = 0,
     score: bool = True,
     trace: LoopTrace | None = None,
-    em_init: str = "intended",
     warm_start: LearnResult | None = None,
 ) -> LearnResult:
     """Learn models of the scenario's patrollers from L's ``observations`` with ``method``.
+
+    .. versionchanged:: 0.2.0
+       The options (``p``, ``max_iterations``, ``label_tol``, ``objective``, ``optimizer``,
+       ``n_restarts``, ``irl_options``, ``em_init``) are one ``options`` argument.
 
     Parameters
     ----------
@@ -121,28 +142,15 @@ def learn(
     method : str, default "mirl-t"
         One of :data:`~mirl.learning.methods.LEARNING_METHODS` (the rows of
         :data:`~mirl.learning.methods.METHODS` with models to build).
-    p : float, default 0.9
-        Success probability of every action, for the methods with a fixed T.
+    options : LearnOptions or mapping, optional
+        How to learn (:class:`~mirl.learning.options.LearnOptions`: the fixed ``p``, the
+        relabelling rounds, the IRL's objective and optimiser, DBN-EM's initialisation), or a
+        mapping of its option names to values; by default its defaults. An option that changes
+        nothing for ``method`` (``p`` for a method that learns T) is refused.
     visible : ndarray of shape (S,) of bool, optional
         The states L can see; by default those of ``observability``.
     observability : float, optional
         Share of the map L sees, when ``visible`` is not given (default: the scenario's).
-    max_iterations : int, default 5
-        Rounds of relabelling at most.
-    label_tol : float, default 0.01
-        The relabelling has converged when a round changes at most this share of the labelled
-        steps (those T is learned from); on long records a few labels can flip back and forth
-        for rounds, each a full refit (docs/design.md, "A looser stopping rule").
-    objective, optimizer : str
-        Passed to :class:`~mirl.learning.irl.OccludedMaxEntIRL`. The defaults were picked by
-        measured behaviour accuracy and speed (the :mod:`mirl.learning.irl` docstring); the
-        paper's are ``objective="counts", optimizer="nelder-mead"``.
-    n_restarts : int, optional
-        The IRL's starts: by default 1 for L-BFGS (its restarts were measured to land on the
-        same optimum) and 3 for Nelder–Mead.
-    irl_options : mapping, optional
-        Further keyword arguments of the estimator (e.g. ``anchor``, ``l2``,
-        ``max_evaluations``).
     random_state : int or None, default 0
         Seeds every random choice (the IRL's restarts); None counts as 0, so learning is
         deterministic.
@@ -151,8 +159,6 @@ def learn(
         scenario's truth.
     trace : LoopTrace, optional
         An empty trace to receive the labels, estimators and weighings of every round.
-    em_init : {"intended", "uniform"}, default "intended"
-        DBN-EM's initial T (:mod:`mirl.learning.dbn_em`).
     warm_start : LearnResult, optional
         An earlier solution for the same robots, typically learned on a shorter record (a
         re-learn while L waits). The first IRL starts from its reward weights, once, instead of
@@ -175,53 +181,58 @@ def learn(
 
     Raises
     ------
+    mirl._validation.OptionError
+        An unknown method, an option out of its range or one that does not apply to the method,
+        an unknown option, a bad ``random_state`` (the message names it). A ValueError.
     ValueError
-        An unknown method or EM initialisation, or an option out of its range (the message
-        names it); observations of other robots than the scenario's; a ``warm_start`` of other
-        robots or another map.
+        Observations of other robots than the scenario's; a ``warm_start`` of other robots or
+        another map; a ``visible`` of the wrong shape.
     TypeError
         ``observations`` that are not :class:`~mirl.observations.trajectories.Trajectories`;
         a ``warm_start`` that is not a :class:`~mirl.learning.results.LearnResult`.
     """
-    scenario, row = _check_arguments(
-        observations, scenario, method, p, em_init, max_iterations, label_tol, random_state
-    )
+    scenario, row, opts = _check_arguments(observations, scenario, method, options, random_state)
     if warm_start is not None:
         _check_warm_start(warm_start, scenario)
     if visible is not None:
         visible = _checked_visible(visible, scenario.domain.n_states)
     start = time.perf_counter()
-    if row.transitions == "true":  # the scenario's truth: nothing to learn
+    if not row.learns:  # the scenario's truth: nothing to learn
         res = oracle_models(scenario, method=row.name)
         res.timings["total"] = time.perf_counter() - start
         return res
     irl_options = {
-        "objective": objective,
-        "optimizer": optimizer,
-        "n_restarts": n_restarts or (1 if optimizer == "lbfgs" else 3),
-        **(irl_options or {}),
+        "objective": opts.objective,
+        "optimizer": opts.optimizer,
+        "n_restarts": opts.restarts,
+        **(opts.irl_options or {}),
     }
     setup = _round_setup(
-        observations, scenario, visible, observability, irl_options, random_state, em_init
-    )
+        observations, scenario, visible, observability, irl_options, random_state,
+        opts.initial_transitions,
+    )  # fmt: skip
     setup.warm_start = warm_start
     clock = setup.clock
     trace = LoopTrace() if trace is None else trace
-    weights, transitions, probs, eq, message = _method_models(
-        setup, row, p, max_iterations, trace, label_tol
-    )
-    if row.relabels:  # the last round's policies
-        policies = trace.policies
-    else:
-        with clock("policies"):
-            policies = policies_of(setup, transitions, weights, trace)
-    if eq is None:
-        with clock("equilibria"):
-            trace.equilibria = weigh(setup, policies, transitions, trace)
-        eq = trace.equilibria.equilibrium
-    message = "; ".join(m for m in (message, *sorted(trace.notes)) if m)
-    with clock("verdicts"):
-        sure = _uncertainties(setup, row, trace, transitions, probs, policies)
+    setup.models = initial_models(scenario, warm_start)
+    fitted = _fit(setup, row, opts, trace)
+    # L learns with the scenario's motion model unless a robot's record rejects it; then once
+    # more with the models the records favour, and keeps that learning unless its labels
+    # explain the records decisively worse (docs/design.md, "Fault verdicts")
+    switched = None
+    if row.has_feature_probabilities:
+        candidates = candidate_models(scenario.feature_map)
+        switched = switched_models(setup.models, fitted[-1], candidates, declared_model(scenario))
+    if switched is not None:
+        first, setup.models = setup.models, switched
+        again = LoopTrace()
+        refit = _fit(setup, row, opts, again)
+        if log_evidence(refit[-1]) >= log_evidence(fitted[-1]) - np.log(SWITCH_ODDS):
+            fitted = refit
+            vars(trace).update(vars(again))
+        else:
+            setup.models = first
+    weights, transitions, probs, eq, policies, message, sure = fitted
     robots = []
     for i, r in enumerate(scenario.robots):
         acc = behavior_accuracy(scenario, i, policies[i]) if score else None
@@ -232,6 +243,8 @@ def learn(
                 feature_intervals=u.intervals if u is not None else {},
                 verdict=u.verdict if u is not None else None,
                 lateral_drift=u.drift if u is not None else None,
+                uncertainty=u,
+                motion_model=setup.models[i].name if row.has_feature_probabilities else "",
             )
         )  # fmt: skip
     clock.timings["total"] = time.perf_counter() - start
@@ -250,6 +263,26 @@ def learn(
         pair_equilibria=team.best_per_pair() if team is not None else {},
         horizon=observations.horizon,
     )
+
+
+def _fit(setup: RoundSetup, row: Method, opts: LearnOptions, trace: LoopTrace):
+    """One learning under ``setup.models``: weights, T, feature probabilities, equilibrium,
+    policies, message and each robot's verdict."""
+    clock = setup.clock
+    weights, transitions, probs, eq, message = _method_models(setup, row, opts, trace)
+    if row.relabels:  # the last round's policies
+        policies = trace.policies
+    else:
+        with clock("policies"):
+            policies = policies_of(setup, transitions, weights, trace)
+    if eq is None:
+        with clock("equilibria"):
+            trace.equilibria = weigh(setup, policies, transitions, trace)
+        eq = trace.equilibria.equilibrium
+    message = "; ".join(m for m in (message, *sorted(trace.notes)) if m)
+    with clock("verdicts"):
+        sure = _uncertainties(setup, row, trace, probs, policies)
+    return weights, transitions, probs, eq, policies, message, sure
 
 
 def _round_setup(
@@ -283,128 +316,79 @@ def _round_setup(
     )
 
 
-def _method_models(
-    setup: RoundSetup,
-    row: Method,
-    p: float,
-    max_iterations: int,
-    trace: LoopTrace,
-    label_tol: float,
-):
+def _method_models(setup: RoundSetup, row: Method, options: LearnOptions, trace: LoopTrace):
     """Weights, transition matrices, feature probabilities, equilibrium (None: to be weighed)
-    and a message, from the sources ``row`` names."""
+    and a message, built from the sources ``row`` names (:data:`REWARD_BUILDERS`,
+    :data:`TRANSITION_BUILDERS`)."""
     if row.relabels:
-        return (*relabel_loop(setup, max_iterations, trace, label_tol), trace.message)
-    scenario = setup.scenario
+        return (
+            *relabel_loop(setup, options.max_iterations, trace, options.label_tol),
+            trace.message,
+        )
+    reward, motion = REWARD_BUILDERS[row.reward], TRANSITION_BUILDERS[row.transitions]
     labels = None
-    eq: Equilibrium | None
-    if row.reward == "learned" or row.transitions == "features":
+    if reward.labelled or motion.labelled:
         with setup.clock("labels"):
-            labels = _first_labels(setup, row)
+            labels = reward.first_labels(setup)
         trace.labels.append(labels)
-    transitions, probs, message = _transitions(setup, row.transitions, labels, p)
-    if row.reward == "learned":  # once, against the T just found
-        weights = irl_round(setup, transitions, labels, setup.initial_weights(), 1, trace)
-        eq = None
-    else:
-        weights = [np.asarray(r.weights, dtype=float) for r in scenario.robots]
-        eq = scenario.played_equilibrium
+    transitions, probs, message = motion.build(setup, labels, options)
+    weights, eq = reward.build(setup, transitions, labels, trace)
     trace.converged = True
     return weights, transitions, probs, eq, message
 
 
 def _uncertainties(
-    setup: RoundSetup, row: Method, trace: LoopTrace, transitions, probs, policies
+    setup: RoundSetup, row: Method, trace: LoopTrace, probs, policies
 ) -> list[FeatureUncertainty | None]:
     """Per robot the intervals and verdict of its feature probabilities (None for a method
-    without them), from the labels they were learned from; a relabelling method's labels are
-    softened by its learned soft policies (:mod:`mirl.learning.verdicts`)."""
+    without them), from the labels they were learned from (:mod:`mirl.learning.verdicts`)."""
     if not row.has_feature_probabilities or not trace.labels:
         return [None] * len(setup.series)
     labels = trace.labels[-1]
     irl = trace.irl + [None] * (len(setup.series) - len(trace.irl))
     out: list[FeatureUncertainty | None] = []
     lateral = setup.lateral or [None] * len(setup.series)
-    # a robot reacts to another as far as it sees it: the patrollers' detection distance
-    reach = setup.scenario.detect_distance
-    for i, x in enumerate(setup.series):
-        company = None if lateral[i] is None else in_company(setup.domain, setup.series, i, reach)
-        held = None if lateral[i] is None else held_by_others(setup.domain, setup.series, i)
-        estimator = irl[i]
-        soft = estimator.soft_policy_ if row.relabels and estimator is not None else None
+    domain = setup.domain
+    soft = [e.soft_policy_ if row.relabels and e is not None else None for e in irl]
+    for i in range(len(setup.series)):
+        # a robot reacts to another as far as it sees it: the patrollers' detection distance
+        record = robot_record(
+            domain, setup.series, labels, i, lateral=lateral[i],
+            reach=setup.scenario.detect_distance,
+        )  # fmt: skip
         out.append(
             robot_uncertainty(
-                setup.domain, x, labels[i], transitions[i], probs[i], setup.scenario.faults,
-                soft_policy=soft, own_policy=policies[i] if soft is not None else None,
-                lateral=lateral[i], company=company, held=held, random_state=setup.robot_seed(i, 0),
+                domain, record, probs[i], setup.scenario.faults,
+                learned_with=setup.models[i] if setup.models else None,
+                soft_policy=soft[i], own_policy=policies[i] if soft[i] is not None else None,
+                models=candidate_models(setup.scenario.feature_map),
+                random_state=setup.robot_seed(i, 0),
             )
         )  # fmt: skip
     return out
 
 
-def _first_labels(setup: RoundSetup, row: Method) -> list[np.ndarray]:
-    """Per robot (horizon,) labels before anything is learned: by perception, or where the
-    reward is the truth, by the true policies and the played equilibrium."""
-    if row.reward != "true":
-        return perception(setup)
-    scenario = setup.scenario
-    policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
-    return policy_labels(setup.domain, setup.series, policies, scenario.played_equilibrium)
-
-
-def _transitions(setup: RoundSetup, source: str, labels, p: float):
-    """Each robot's T and feature probabilities from ``source`` (a method's ``transitions``),
-    and what the result's message says of them."""
-    if source == "features":
-        return (*learn_transitions(setup, labels), "")
-    n = len(setup.series)
-    with setup.clock("transitions"):
-        if source == "fixed-p":
-            T = transition_matrix_from_success(setup.domain, p, setup.scenario.error_model)
-            message = f"fixed success probability p={p:g} for every action"
-            return [T] * n, [{} for _ in range(n)], message
-        if source == "em":
-            fits = [em_transitions(setup.domain, [x], init=setup.em_init) for x in setup.series]
-            em = [sp.csr_array(T) for T, _ in fits]
-            dropped = sum(d for _, d in fits)
-            message = "tabular T from DBN-EM" + (
-                f" ({dropped} observations no sequence of moves reaches left out as unseen)"
-                if dropped
-                else ""
-            )
-            return em, [{} for _ in range(n)], message
-    raise ValueError(f"no models of transitions from '{source}'")
-
-
 def _check_arguments(
-    observations, scenario, method, p, em_init, max_iterations, label_tol, random_state
-) -> tuple[Scenario, Method]:
+    observations, scenario, method, options, random_state
+) -> tuple[Scenario, Method, LearnOptions]:
     """The arguments :func:`learn` cannot work with, refused before any work with a message
-    naming the argument; the scenario (one given by name, ``"boyd2"``, is loaded) and the
-    method's row."""
+    naming the argument; the scenario (one given by name, ``"boyd2"``, is loaded), the
+    method's row and the options."""
     scenario = as_scenario(scenario)
     if not isinstance(observations, Trajectories):
         raise TypeError(
             f"observations must be mirl.observations.Trajectories, got {type(observations)}"
         )
     row = get_method(method, LEARNING_METHODS)
-    if not 0.0 <= p <= 1.0:
-        raise ValueError(f"p must be in [0, 1], got {p}")
-    if em_init not in EM_INITS:
-        raise ValueError(f"unknown EM initialisation '{em_init}' (known: {', '.join(EM_INITS)})")
-    if max_iterations < 1:
-        raise ValueError(f"max_iterations must be at least 1, got {max_iterations}")
-    if not 0.0 <= label_tol <= 1.0:
-        raise ValueError(f"label_tol must be in [0, 1], got {label_tol}")
-    integer = isinstance(random_state, int | np.integer) and not isinstance(random_state, bool)
-    if random_state is not None and not (integer and random_state >= 0):
-        raise ValueError(f"random_state must be a non-negative int or None, got {random_state!r}")
+    opts = LearnOptions.of(options)
+    opts.check_method(row)
+    check_argument("random_state", random_state, SEED, None)
     if tuple(observations.robot_names) != tuple(scenario.robot_names):
         raise ValueError(
             f"observations are of robots {list(observations.robot_names)}, "
             f"the scenario has {list(scenario.robot_names)}"
         )
-    return scenario, row
+    return scenario, row, opts
 
 
 def _check_warm_start(warm: LearnResult, scenario: Scenario) -> None:
@@ -440,12 +424,35 @@ def _checked_visible(visible, n_states: int) -> np.ndarray:
 def relabel_loop(
     setup: RoundSetup, max_iterations: int, trace: LoopTrace, label_tol: float
 ) -> tuple[list[np.ndarray], list[sp.csr_array], list[dict[str, float]], Equilibrium]:
-    """The relabelling rounds (module docstring, steps 1–4); returns weights, T, feature
-    probabilities and the best equilibrium of the last round.
+    """The relabelling rounds (module docstring, steps 1–4).
 
     The loop ends when a relabelling changes at most ``label_tol`` of the labelled steps
     (converged), when it reproduces the labels of an earlier round (a cycle: the labels will
-    never fixate), or after ``max_iterations``."""
+    never fixate), or after ``max_iterations``.
+
+    Parameters
+    ----------
+    setup : RoundSetup
+        What every round reads: the scenario, the robots' series, L's view, the IRL's options.
+    max_iterations : int
+        Rounds at most.
+    trace : LoopTrace
+        Filled in with each round's labels and changes, the last round's estimators and
+        policies, and why the loop ended.
+    label_tol : float
+        The share of the labelled steps a relabelling may change and still count as settled.
+
+    Returns
+    -------
+    weights : list of ndarray
+        Per robot the reward weights θ, (K,).
+    transitions : list of sparse array
+        Per robot T, (S·A, S) CSR.
+    feature_probabilities : list of dict of str to float
+        Per robot, per feature, the learned success probability.
+    equilibrium : Equilibrium
+        The best equilibrium of the last round.
+    """
     clock = setup.clock
     with clock("labels"):
         labels = perception(setup) if setup.warm_start is None else warm_labels(setup)
@@ -509,9 +516,30 @@ class Clock:
 
 @dataclass
 class LoopTrace:
-    """What happened in the learning rounds: labels used per round and per robot ((horizon,)
-    arrays, -1 where unobserved or unlabelled), labels changed by each relabelling, and the
-    IRL estimators and equilibrium weights of the last round."""
+    """What happened in the learning rounds, filled in by :func:`learn` when given one.
+
+    Parameters
+    ----------
+    labels : list of list of ndarray, default []
+        Per round, per robot the action labels used, (horizon,) arrays of int, -1 where
+        unobserved or unlabelled.
+    label_changes : list of int, default []
+        Labels changed by each relabelling.
+    irl : list of OccludedMaxEntIRL or None, default []
+        The last round's IRL estimator per robot (None: a robot L never saw).
+    equilibria : EquilibriumWeights, optional
+        The last round's equilibrium weights.
+    team_equilibria : TeamEquilibria, optional
+        The last round's weights per pair L saw meet (N ≥ 2).
+    policies : list of ndarray, default []
+        The last round's policy per robot, (S,) arrays of int.
+    converged : bool, default False
+        Whether the labels settled.
+    message : str, default ""
+        Why the rounds ended.
+    notes : set of str, default set()
+        Remarks for the report (a robot never observed, …).
+    """
 
     labels: list[list[np.ndarray]] = field(default_factory=list)
     label_changes: list[int] = field(default_factory=list)
@@ -540,6 +568,7 @@ class RoundSetup:
     em_init: str = "intended"
     lateral: list[np.ndarray | None] | None = None  # per robot (horizon,) offsets, or None
     warm_start: LearnResult | None = None  # an earlier solution to start from
+    models: list[MotionModel] | None = None  # per robot, the motion model T is learned under
 
     @property
     def domain(self):
@@ -557,15 +586,76 @@ class RoundSetup:
         return int(ss.generate_state(1)[0])
 
 
+# ---- which motion model L learns with ------------------------------------------------------
+SWITCH_ODDS = 1000.0  # motion_models.motion_sentence says so in words
+"""L leaves the scenario's motion model for another when a robot's record makes that one this
+many times more probable: a bound on how often it leaves a true model (the data would make a
+wrong model this much more probable than the true one with probability at most 1/1000, by
+Markov's inequality on the Bayes factor; at 1/100, one of 40 grid runs of `mirl run` left it
+on one relearn of a healthy robot seen on 53 steps, and kept the wrong model after)."""
+
+
+def initial_models(scenario: Scenario, warm_start: LearnResult | None = None) -> list[MotionModel]:
+    """Per robot the motion model learning starts with: the warm start's, else the scenario's
+    ξ and error model."""
+    candidates = {m.name: m for m in candidate_models(scenario.feature_map)}
+    declared = declared_model(scenario)
+    if warm_start is None:
+        return [declared] * len(scenario.robots)
+    return [candidates.get(r.motion_model, declared) for r in warm_start.robots]
+
+
+def declared_model(scenario: Scenario) -> MotionModel:
+    """The scenario's own ξ and error model, as a candidate."""
+    candidates = {m.name: m for m in candidate_models(scenario.feature_map)}
+    return candidates[f"paper/{scenario.error_model}"]
+
+
+def switched_models(
+    models: list[MotionModel],
+    sure: list[FeatureUncertainty | None],
+    candidates: tuple[MotionModel, ...],
+    declared: MotionModel,
+) -> list[MotionModel] | None:
+    """Per robot the model to learn with again, or None when every robot keeps its own. A
+    record whose most probable model is :data:`SWITCH_ODDS` times as probable as the
+    scenario's (``declared``) takes that one, any other the scenario's — on the whole record,
+    so that a model a shorter record chose (a warm start's) is left when the grown one no
+    longer rejects the scenario's; a record whose moves L's policy does not explain (the
+    check's ``moves``) takes its most probable model, or, when that is the one it was learned
+    with, the most probable with the other error model, since the error model is what teaches
+    the IRL whether a robot that stood still meant to."""
+    out, changed = list(models), False
+    by_name = {m.name: m for m in candidates}
+    for i, (model, u) in enumerate(zip(models, sure, strict=True)):
+        if u is None or not u.motion_models:
+            continue
+        weights = u.motion_models
+        best = max(weights, key=weights.__getitem__)
+        fit = u.verdict.fit
+        target = declared
+        if weights[best] >= SWITCH_ODDS * weights.get(declared.name, 0.0):
+            target = by_name[best]
+        if fit is not None and any(c.name == "moves" and not c.ok for c in fit.checks):
+            others = [m for m in weights if by_name[m].errors != model.errors]
+            if best != model.name:
+                target = by_name[best]
+            elif others:
+                target = by_name[max(others, key=weights.__getitem__)]
+        if target.name != model.name:
+            out[i], changed = target, True
+    return out if changed else None
+
+
+def log_evidence(sure: list[FeatureUncertainty | None]) -> float:
+    """The records' log marginal likelihood under a learning's policies, averaged over the
+    motion models (the robots' records are independent given their policies)."""
+    return float(sum(u.log_evidence for u in sure if u is not None and u.motion_models))
+
+
 def perception(setup: RoundSetup) -> list[np.ndarray]:
     """Per robot (horizon,) perception labels of the steps with both ends observed, else -1."""
-    out = []
-    for x in setup.series:
-        lab = np.full(len(x), -1, dtype=int)
-        t, s, s_next = observed_steps(x)
-        lab[t] = perception_labels(setup.domain, s, s_next)
-        out.append(lab)
-    return out
+    return perceived_labels(setup.scenario, setup.series)
 
 
 def warm_labels(setup: RoundSetup) -> list[np.ndarray]:
@@ -601,13 +691,17 @@ def count_changes(series, old: list[np.ndarray], new: list[np.ndarray]) -> int:
 
 
 def learn_transitions(setup: RoundSetup, labels: list[np.ndarray]):
-    """Per robot T and feature probabilities learned from the labelled steps (mIRL*/T)."""
+    """Per robot T and feature probabilities learned from the labelled steps (mIRL*/T), under
+    the robot's motion model (``setup.models``). A step no action explains is no trial of any
+    feature (:mod:`mirl.learning.model_check`)."""
     out_T, out_p = [], []
     with setup.clock("transitions"):
-        for x, lab in zip(setup.series, labels, strict=True):
+        for i, (x, lab) in enumerate(zip(setup.series, labels, strict=True)):
             t, s, s_next = observed_steps(x)
-            m = TransitionFeatureLearner(setup.domain, setup.scenario.error_model).fit(
-                s, lab[t], s_next
+            lab = np.where(unexplained_steps(setup.domain, s, s_next), -1, lab[t])
+            model = setup.models[i] if setup.models else initial_models(setup.scenario)[i]
+            m = TransitionFeatureLearner(model_domain(setup.domain, model), model.errors).fit(
+                s, lab, s_next
             )
             out_T.append(m.transition_model_)
             out_p.append({k: float(v) for k, v in m.feature_probabilities_.items()})
@@ -629,14 +723,12 @@ def irl_round(setup, transitions, labels, previous, round_, trace) -> list[np.nd
             options = dict(setup.irl_options)
             if init is not None:
                 options["n_restarts"] = 1
-            irl = OccludedMaxEntIRL(
-                d.reward_features,
-                T,
-                discount=setup.scenario.discount,
-                visible=setup.visible,
-                random_state=setup.robot_seed(i, round_),
-                **options,
-            ).fit(x, labels[i], exclude=setup.exclude, initial_weights=init)
+            problem = IRLProblem(
+                d.reward_features, T, discount=setup.scenario.discount, visible=setup.visible
+            )
+            irl = OccludedMaxEntIRL(random_state=setup.robot_seed(i, round_), **options).fit(
+                problem, x, labels[i], exclude=setup.exclude, initial_weights=init
+            )
             weights.append(irl.weights_)
             estimators.append(irl)
     # A robot L never saw gets the mean reward of those it saw — the patrollers are robots of one
@@ -657,7 +749,7 @@ def policies_of(setup: RoundSetup, transitions, weights, trace: LoopTrace) -> li
     irl = trace.irl + [None] * (len(weights) - len(trace.irl))  # none before the first IRL
     return [
         e.policy_
-        if e is not None and e.weights_ is w and e.transitions_source is T
+        if e is not None and e.weights_ is w and e.problem_.transitions is T
         else value_iteration(TabularMDP(T, setup.domain.rewards(w), setup.scenario.discount)).policy
         for e, T, w in zip(irl, transitions, weights, strict=True)
     ]
@@ -676,3 +768,129 @@ def weigh(setup: RoundSetup, policies, transitions, trace: LoopTrace) -> Equilib
     )
     trace.team_equilibria = team
     return team.shared
+
+
+# ---- the sources of models ------------------------------------------------------------------
+# A method's row names where its reward and its T come from, rows of the tables of sources
+# (mirl.learning.methods); how learn() builds each is a row below, by the same name, so a new
+# source is its row there and a builder here (docs/design.md, "The table of methods").
+@dataclass(frozen=True)
+class RewardBuilder:
+    """How :func:`learn` builds a method's rewards and interaction equilibrium from the source
+    its ``reward`` names (a row of :data:`~mirl.learning.methods.REWARD_SOURCES`).
+
+    Parameters
+    ----------
+    name : str
+        The source's name.
+    labelled : bool
+        Whether the rewards are learned from labelled steps.
+    first_labels : callable
+        ``first_labels(setup)``: per robot the labels of the observed steps before anything is
+        learned.
+    build : callable
+        ``build(setup, transitions, labels, trace)``: per robot the reward weights, and the
+        equilibrium (None: to be weighed against the observations).
+    """
+
+    name: str
+    labelled: bool
+    first_labels: Callable[[RoundSetup], list[np.ndarray]]
+    build: Callable[..., tuple[list[np.ndarray], Equilibrium | None]]
+
+
+@dataclass(frozen=True)
+class TransitionBuilder:
+    """How :func:`learn` builds a method's transition models from the source its
+    ``transitions`` names (a row of :data:`~mirl.learning.methods.TRANSITION_SOURCES`).
+
+    Parameters
+    ----------
+    name : str
+        The source's name.
+    labelled : bool
+        Whether T is learned from labelled steps.
+    build : callable
+        ``build(setup, labels, options)``: per robot T and the feature probabilities, and what
+        the result's message says of them.
+    """
+
+    name: str
+    labelled: bool
+    build: Callable[..., tuple[list[sp.csr_array], list[dict[str, float]], str]]
+
+
+def _learned_rewards(setup: RoundSetup, transitions, labels, trace: LoopTrace):
+    """Occluded max-ent IRL once, against the T just found; the equilibrium is weighed."""
+    return irl_round(setup, transitions, labels, setup.initial_weights(), 1, trace), None
+
+
+def _true_rewards(setup: RoundSetup, transitions, labels, trace: LoopTrace):
+    """The scenario's reward weights and played equilibrium."""
+    weights = [np.asarray(r.weights, dtype=float) for r in setup.scenario.robots]
+    return weights, setup.scenario.played_equilibrium
+
+
+def _true_policy_labels(setup: RoundSetup) -> list[np.ndarray]:
+    """Per robot (horizon,) labels by the true policies and the played equilibrium."""
+    scenario = setup.scenario
+    policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
+    return policy_labels(setup.domain, setup.series, policies, scenario.played_equilibrium)
+
+
+def _feature_transitions(setup: RoundSetup, labels, options: LearnOptions):
+    """mIRL*/T: each robot's transition-feature probabilities from its labelled steps."""
+    return (*learn_transitions(setup, labels), "")
+
+
+def _fixed_p_transitions(setup: RoundSetup, labels, options: LearnOptions):
+    """One success probability ``p`` for every action and robot."""
+    n, p = len(setup.series), options.fixed_p
+    with setup.clock("transitions"):
+        T = transition_matrix_from_success(setup.domain, p, setup.scenario.error_model)
+    return [T] * n, [{} for _ in range(n)], f"fixed success probability p={p:g} for every action"
+
+
+def _em_transitions(setup: RoundSetup, labels, options: LearnOptions):
+    """A tabular T per robot by EM over a two-slice DBN."""
+    n = len(setup.series)
+    with setup.clock("transitions"):
+        fits = [em_transitions(setup.domain, [x], init=setup.em_init) for x in setup.series]
+    dropped = sum(d for _, d in fits)
+    message = "tabular T from DBN-EM" + (
+        f" ({dropped} observations no sequence of moves reaches left out as unseen)"
+        if dropped
+        else ""
+    )
+    return [sp.csr_array(T) for T, _ in fits], [{} for _ in range(n)], message
+
+
+def _builds_a_reward_source(row: RewardBuilder) -> None:
+    REWARD_SOURCES.lookup(row.name)  # a builder of no source: refused here, at import
+
+
+def _builds_a_transition_source(row: TransitionBuilder) -> None:
+    TRANSITION_SOURCES.lookup(row.name)
+
+
+REWARD_BUILDERS: Registry[RewardBuilder] = Registry(
+    "reward source",
+    (
+        RewardBuilder("learned", True, perception, _learned_rewards),
+        RewardBuilder("true", False, _true_policy_labels, _true_rewards),
+    ),
+    check=_builds_a_reward_source,
+)
+"""How :func:`learn` builds the rewards of each source a learning method may name."""
+
+TRANSITION_BUILDERS: Registry[TransitionBuilder] = Registry(
+    "transition source",
+    (
+        TransitionBuilder("features", True, _feature_transitions),
+        TransitionBuilder("fixed-p", False, _fixed_p_transitions),
+        TransitionBuilder("em", False, _em_transitions),
+    ),
+    check=_builds_a_transition_source,
+)
+"""How :func:`learn` builds the transition models of each source it builds (a source it does
+not build, the truth, gives the scenario's models whole: :func:`learn` returns them)."""

@@ -15,15 +15,78 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-__all__ = ["Method", "METHODS", "get_method", "LEARNING_METHODS"]
+from mirl._registry import Registry
+
+__all__ = [
+    "Method",
+    "METHODS",
+    "get_method",
+    "LEARNING_METHODS",
+    "ModelSource",
+    "REWARD_SOURCES",
+    "TRANSITION_SOURCES",
+]
 
 RewardSource = Literal["learned", "true", "none"]
 TransitionSource = Literal["features", "fixed-p", "em", "true", "none"]
 
 
 @dataclass(frozen=True)
+class ModelSource:
+    """Where one part of a method's models (its reward, or its transition model) comes from.
+
+    Parameters
+    ----------
+    name : str
+        The value a :class:`Method` row names it by.
+    description : str
+        What it is, in a few words.
+    built : bool
+        Whether :func:`~mirl.learning.learn.learn` builds it (from L's observations, or from
+        an option such as ``p``) rather than taking it as given: the scenario's truth, or
+        nothing.
+    feature_probabilities : bool, default False
+        Whether the models it gives carry per-feature success probabilities (a transition
+        model made of ξ's features).
+    option : str, optional
+        The one option of :func:`~mirl.learning.learn.learn` it alone reads (``"p"``,
+        ``"em_init"``), which the command line refuses for a method without it.
+    """
+
+    name: str
+    description: str
+    built: bool
+    feature_probabilities: bool = False
+    option: str | None = None
+
+
+REWARD_SOURCES: Registry[ModelSource] = Registry(
+    "reward source",
+    (
+        ModelSource("learned", "occluded max-ent IRL and the weighing of equilibria", True),
+        ModelSource("true", "the scenario's true rewards and played equilibrium", False),
+        ModelSource("none", "no reward: the method does not plan", False),
+    ),
+)
+"""Where a method's rewards and equilibrium come from (a :class:`Method`'s ``reward``)."""
+
+TRANSITION_SOURCES: Registry[ModelSource] = Registry(
+    "transition source",
+    (
+        ModelSource("features", "mIRL*/T's transition-feature probabilities", True, True),
+        ModelSource("fixed-p", "one success probability p for every action", True, option="p"),
+        ModelSource("em", "tabular EM over a two-slice DBN", True, option="em_init"),
+        ModelSource("true", "the scenario's true transition model", False, True),
+        ModelSource("none", "no transition model: the method does not plan", False),
+    ),
+)
+"""Where a method's transition models come from (a :class:`Method`'s ``transitions``)."""
+
+
+@dataclass(frozen=True)
 class Method:
-    """One row of the table.
+    """One row of the table. A row that could not run as written is refused where the table is
+    defined (:func:`check_method`).
 
     Parameters
     ----------
@@ -34,12 +97,13 @@ class Method:
     description : str
         What it does, in a sentence (reports and ``--help``).
     reward : {"learned", "true", "none"}
-        Where the patrollers' rewards and their interaction equilibrium come from: occluded
-        max-ent IRL and the weighing of equilibria, the scenario's truth, or nowhere.
+        Where the patrollers' rewards and their interaction equilibrium come from
+        (:data:`REWARD_SOURCES`): occluded max-ent IRL and the weighing of equilibria, the
+        scenario's truth, or nowhere.
     transitions : {"features", "fixed-p", "em", "true", "none"}
-        Where each patroller's transition model comes from: mIRL*/T's feature probabilities,
-        one success probability ``p`` for every action, tabular EM over a two-slice DBN, the
-        truth, or nowhere.
+        Where each patroller's transition model comes from (:data:`TRANSITION_SOURCES`):
+        mIRL*/T's feature probabilities, one success probability ``p`` for every action,
+        tabular EM over a two-slice DBN, the truth, or nowhere.
     relabels : bool
         Whether the observed steps are relabelled with the learned policies until the labels
         settle (mIRL*/T+Int's rounds).
@@ -58,22 +122,63 @@ class Method:
     @property
     def uses_p(self) -> bool:
         """Whether the fixed success probability ``p`` applies."""
-        return self.transitions == "fixed-p"
+        return TRANSITION_SOURCES[self.transitions].option == "p"
 
     @property
     def uses_em_init(self) -> bool:
         """Whether DBN-EM's initial transition model (``em_init``) applies."""
-        return self.transitions == "em"
+        return TRANSITION_SOURCES[self.transitions].option == "em_init"
 
     @property
     def learns(self) -> bool:
-        """Whether the method needs L's observations (the oracle and random do not)."""
-        return self.transitions not in ("true", "none")
+        """Whether :func:`~mirl.learning.learn.learn` builds its models from L's observations
+        (the oracle and random need none)."""
+        return TRANSITION_SOURCES[self.transitions].built
 
     @property
     def has_feature_probabilities(self) -> bool:
         """Whether its models carry per-feature success probabilities."""
-        return self.transitions in ("features", "true")
+        return TRANSITION_SOURCES[self.transitions].feature_probabilities
+
+
+def check_method(row: Method) -> None:
+    """Refuse a row that :func:`~mirl.learning.learn.learn` and ``run_episode`` could not run as
+    it reads; each rule is what they do with a row:
+
+    * its sources are rows of :data:`REWARD_SOURCES` and :data:`TRANSITION_SOURCES`;
+    * a method that plans needs a reward and a transition model, and one that does not plan
+      has neither (it would build models nothing uses);
+    * the relabelling rounds learn the reward by IRL and T from the features, so a method that
+      relabels has ``reward="learned", transitions="features"`` (anything else would run
+      without the rounds);
+    * the true transition model comes with the true reward: ``learn`` then returns the
+      scenario's truth whole (:func:`~mirl.learning.results.oracle_models`), and any other
+      reward would never be built.
+
+    Raises
+    ------
+    ValueError
+        One line naming the row and the rule it breaks.
+    """
+    where = f"method '{row.name}'"
+    for part, table, value in (
+        ("reward", REWARD_SOURCES, row.reward),
+        ("transitions", TRANSITION_SOURCES, row.transitions),
+    ):
+        if value not in table:
+            raise ValueError(f"{where}: {part}: {table.unknown(value)}")
+    absent = [part for part in (row.reward, row.transitions) if part == "none"]
+    if row.plans and absent:
+        raise ValueError(f"{where}: a method that plans needs a reward and a transition model")
+    if not row.plans and len(absent) < 2:
+        raise ValueError(f"{where}: a method that does not plan has no models to build")
+    if row.relabels and (row.reward, row.transitions) != ("learned", "features"):
+        raise ValueError(
+            f"{where}: relabelling learns the reward by IRL and T from the features "
+            "(reward='learned', transitions='features')"
+        )
+    if row.transitions == "true" and row.reward != "true":
+        raise ValueError(f"{where}: the true transition model comes with the true reward")
 
 
 _ROWS = (
@@ -115,23 +220,31 @@ _ROWS = (
     ),
 )  # fmt: skip
 
-METHODS: dict[str, Method] = {m.name: m for m in _ROWS}
+METHODS: Registry[Method] = Registry("method", _ROWS, check=check_method)
 """Every method by name, in the order of the paper's figures (the oracle last)."""
 
 LEARNING_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if m.plans)
 """The methods :func:`~mirl.learning.learn.learn` accepts: those with models to build."""
 
 
-def get_method(name: str, known: tuple[str, ...] = tuple(METHODS)) -> Method:
-    """The row of method ``name``; a ValueError naming the known ones otherwise.
+def get_method(name: str, known: tuple[str, ...] | None = None) -> Method:
+    """The row of method ``name`` (``METHODS.lookup``).
 
     Parameters
     ----------
     name : str
         A method's name.
-    known : tuple of str, default all methods
-        The names acceptable where the method is asked for.
+    known : tuple of str, optional
+        The names acceptable where the method is asked for (default: every method).
+
+    Returns
+    -------
+    Method
+        The row.
+
+    Raises
+    ------
+    UnknownNameError
+        A ValueError naming the nearest and the known methods.
     """
-    if name not in known:
-        raise ValueError(f"unknown method '{name}' (known: {', '.join(known)})")
-    return METHODS[name]
+    return METHODS.lookup(name, among=known)

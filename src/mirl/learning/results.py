@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from mirl.learning.verdicts import LateralDrift, Verdict, point_verdict
+from mirl.learning.verdicts import FeatureUncertainty, LateralDrift, Verdict, point_verdict
 from mirl.mdp import optimal_action_mask
 from mirl.world.game import Equilibrium
 from mirl.world.scenario import Scenario
@@ -56,6 +56,16 @@ class RobotModel:
     lateral_drift : LateralDrift or None
         The robot's mean lateral offset on its forward steps, from poses (None: grid states,
         or too few steps), which the verdict weighs.
+    uncertainty : FeatureUncertainty or None
+        Everything the verdict was drawn from: the posterior medians, the motion models'
+        weights, the parts the steps cannot tell apart (None where ``verdict`` is).
+    motion_model : str
+        The motion model ``transitions`` were learned under
+        (:class:`~mirl.learning.motion_models.MotionModel` names; ``""`` for a T not made of
+        features): the one L plans with.
+
+        .. versionchanged:: 0.2.0
+           ``uncertainty`` and ``motion_model`` are new.
     """
 
     name: str
@@ -67,6 +77,8 @@ class RobotModel:
     feature_intervals: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     verdict: Verdict | None = None
     lateral_drift: LateralDrift | None = None
+    uncertainty: FeatureUncertainty | None = None
+    motion_model: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,11 +127,38 @@ class LearnResult:
     horizon: int | None = None
 
     def pair_equilibrium(self, i: int, j: int) -> Equilibrium:
-        """The equilibrium robots ``i`` < ``j`` play."""
+        """The equilibrium robots ``i`` < ``j`` play.
+
+        Parameters
+        ----------
+        i, j : int
+            The robots' indices, ``i`` < ``j`` (``i`` the row player).
+
+        Returns
+        -------
+        Equilibrium
+            The pair's own, or the team's ``equilibrium``.
+        """
         return self.pair_equilibria.get((i, j), self.equilibrium)
 
     def robot(self, name: str) -> RobotModel:
-        """The model of the robot called ``name`` (KeyError if none is)."""
+        """The model of the robot called ``name``.
+
+        Parameters
+        ----------
+        name : str
+            The robot's name in the scenario.
+
+        Returns
+        -------
+        RobotModel
+            Its model.
+
+        Raises
+        ------
+        KeyError
+            If no robot has that name.
+        """
         for r in self.robots:
             if r.name == name:
                 return r
@@ -129,7 +168,22 @@ class LearnResult:
 def behavior_accuracy(scenario: Scenario, robot: int, policy: np.ndarray) -> float:
     """Share of the robot's states where ``policy`` takes an action optimal under the truth
     (docs/design.md, "Behaviour accuracy"); where the true policy has tied optimal actions, any of
-    them counts."""
+    them counts.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario whose truth scores the policy.
+    robot : int
+        The robot's index.
+    policy : ndarray of shape (S,) of int
+        The policy to score.
+
+    Returns
+    -------
+    float
+        The share, in [0, 1].
+    """
     optimal = optimal_action_mask(scenario.true_q(robot), rtol=1e-9, atol=1e-9)
     policy = np.asarray(policy, dtype=int)
     return float(optimal[np.arange(len(policy)), policy].mean())
@@ -139,7 +193,17 @@ def behavior_accuracy(scenario: Scenario, robot: int, policy: np.ndarray) -> flo
 class ObservedAgreement:
     """How a learned policy agrees with the moves L saw — the only score data without a truth
     supports (docs/design.md, "Reports on data without a truth"). A *move* is a pair of
-    consecutive steps at which the robot was seen at both."""
+    consecutive steps at which the robot was seen at both.
+
+    Parameters
+    ----------
+    moves : int
+        Observed moves.
+    followed : int
+        Moves to where the learned policy's action was meant to go.
+    unexplained : int
+        Moves to a state no action was meant to reach (explained by nothing).
+    """
 
     moves: int  # observed moves
     followed: int  # moves to where the learned policy's action was meant to go
@@ -147,13 +211,29 @@ class ObservedAgreement:
 
     @property
     def share(self) -> float | None:
+        """The share of the moves the policy followed (None: no move observed)."""
         return self.followed / self.moves if self.moves else None
 
 
 def observed_agreement(domain, series: np.ndarray, policy: np.ndarray) -> ObservedAgreement:
     """Score ``policy`` against one robot's observed moves (``series``: (T,) states, -1 where
     unseen): how many went where its action was meant to go, and how many went where no
-    action was meant to go."""
+    action was meant to go.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain (its intended next states).
+    series : ndarray of shape (horizon,) of int
+        The robot's observed states, -1 where unseen.
+    policy : ndarray of shape (S,) of int
+        The learned policy.
+
+    Returns
+    -------
+    ObservedAgreement
+        The counts.
+    """
     x = np.asarray(series, dtype=int)
     t = np.flatnonzero((x[:-1] >= 0) & (x[1:] >= 0))
     s, nxt = x[t], x[t + 1]
@@ -164,7 +244,21 @@ def observed_agreement(domain, series: np.ndarray, policy: np.ndarray) -> Observ
 
 
 def oracle_models(scenario: Scenario, method: str = "oracle") -> LearnResult:
-    """The truth as a LearnResult: true T, true reward, true policy and played equilibrium."""
+    """The truth as a LearnResult: true T, true reward, true policy and played equilibrium.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    method : str, default "oracle"
+        The method the result is recorded under (a method that learns nothing).
+
+    Returns
+    -------
+    LearnResult
+        Every robot's true model (behaviour accuracy 1, intervals of zero width, the verdict
+        of the true probabilities).
+    """
     robots = tuple(
         RobotModel(
             name=r.name,

@@ -40,8 +40,19 @@ __all__ = ["ObservedSequence", "BlockOperator"]
 
 
 class ObservedSequence:
-    """One robot's (horizon,) state series (-1 = occluded) prepared for :meth:`loglik`; ``own``
-    marks the steps that are the robot's own choice (steps leaving other times are skipped)."""
+    """One robot's state series (-1 = occluded) prepared for :meth:`loglik`.
+
+    Parameters
+    ----------
+    x : ndarray of int, shape (horizon,)
+        The state L saw the robot in at each step, -1 where occluded.
+    own : ndarray of bool, shape (horizon,)
+        The steps that are the robot's own choice (steps leaving other times are skipped).
+    dyn : _Dynamics
+        The robot's transition model, as the soft solvers hold it.
+    n_states : int
+        S.
+    """
 
     def __init__(self, x: np.ndarray, own: np.ndarray, dyn: _Dynamics, n_states: int) -> None:
         S = n_states
@@ -124,10 +135,27 @@ class ObservedSequence:
                 self._quiet_start[n] = self._quiet_start[n - 1] if quiet[n - 1] else n
 
     def loglik(self, pi, B, visible, dpi=None):
-        """log P(observed series | first observation, π, T), occlusion included; with ``dpi``
-        (S, A, K) = dπ/dθ also its gradient, in forward mode. ``B`` moves a distribution and its
-        derivatives one step on (P_πᵀ, or the :class:`BlockOperator`
-        block operator when ``dpi`` is given); ``visible``: the observable states."""
+        """log P(observed series | first observation, π, T), occlusion included; in forward mode.
+
+        Parameters
+        ----------
+        pi : ndarray of shape (S, A)
+            The policy π.
+        B : callable or BlockOperator
+            Moves a distribution (and its derivatives) one step on: P_πᵀ, or the
+            :class:`BlockOperator` when ``dpi`` is given.
+        visible : ndarray of bool, shape (S,)
+            The observable states.
+        dpi : ndarray of shape (S, A, K), optional
+            The derivatives dπ/dθ; with them the gradient is computed too.
+
+        Returns
+        -------
+        loglik : float
+            The log-likelihood.
+        grad : ndarray of shape (K,)
+            Its gradient in θ (zeros without ``dpi``).
+        """
         total, grad = self._pairs_loglik(pi, dpi)
         if self._gap_U0.shape[1]:
             K = len(grad)
@@ -136,7 +164,26 @@ class ObservedSequence:
         return total, grad
 
     def loglik_reverse(self, pi, PT, visible, dpi):
-        """:meth:`loglik` and its gradient in reverse mode: ``PT`` is P_πᵀ alone."""
+        """:meth:`loglik` and its gradient in reverse mode (an adjoint pass).
+
+        Parameters
+        ----------
+        pi : ndarray of shape (S, A)
+            The policy π.
+        PT : scipy.sparse.csr_array of shape (S, S)
+            P_πᵀ alone.
+        visible : ndarray of bool, shape (S,)
+            The observable states.
+        dpi : ndarray of shape (S, A, K)
+            The derivatives dπ/dθ.
+
+        Returns
+        -------
+        loglik : float
+            The log-likelihood.
+        grad : ndarray of shape (K,)
+            Its gradient in θ.
+        """
         total, grad = self._pairs_loglik(pi, dpi)
         if self._gap_U0.shape[1]:
             hidden = (~visible).astype(float)

@@ -236,7 +236,35 @@ def soft_policy_iteration(
     """Maximum-entropy values by soft policy iteration: evaluate π exactly, then π ∝ exp(Q/τ).
 
     This is Newton's method on the soft Bellman equation V = τ log Σ_a exp(Q/τ): it converges
-    quadratically, typically in 3–6 linear solves from a warm start. Returns (V, Q, π, iterations).
+    quadratically, typically in 3–6 linear solves from a warm start.
+
+    Parameters
+    ----------
+    transitions : scipy.sparse.csr_array of shape (S*A, S), or _Dynamics
+        T, or the solvers' prepared form of it.
+    rewards : ndarray of shape (S, A)
+        R(s, a).
+    discount : float
+        The discount γ, below 1.
+    temperature : float, default 1.0
+        The temperature τ.
+    initial_values : ndarray of shape (S,), optional
+        A warm start; zeros by default.
+    tol : float, default 1e-8
+        Stop when no value changes by this much in one iteration.
+    max_iter : int, default 100
+        At most this many policy evaluations.
+
+    Returns
+    -------
+    V : ndarray of shape (S,)
+        Soft values.
+    Q : ndarray of shape (S, A)
+        Soft Q-values.
+    pi : ndarray of shape (S, A)
+        π(a|s) = exp((Q − V)/τ).
+    iterations : int
+        The evaluations made.
     """
     S, A = rewards.shape
     dyn = transitions if isinstance(transitions, _Dynamics) else _Dynamics(transitions, A)

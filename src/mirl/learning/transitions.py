@@ -14,11 +14,14 @@ import numpy as np
 from mirl.world.domain import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, PatrolDomain
 from mirl.world.game import Equilibrium, game_action_to_action, meeting
 from mirl.world.motion import ERROR_MODELS, transition_matrix
+from mirl.world.scenario import Scenario
 
 __all__ = [
     "observed_steps",
     "perception_labels",
     "policy_labels",
+    "perceived_labels",
+    "true_policy_labels",
     "count_subsets",
     "SubsetCounts",
     "TransitionFeatureLearner",
@@ -27,8 +30,22 @@ __all__ = [
 
 # ---- counting and labelling --------------------------------------------------------------------
 def observed_steps(series: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(t, s_t, s_{t+1}) for every step whose both ends were observed (``series`` uses -1 for
-    occluded time steps)."""
+    """Every step whose both ends were observed.
+
+    Parameters
+    ----------
+    series : ndarray of int, shape (horizon,)
+        State indices, -1 for occluded time steps.
+
+    Returns
+    -------
+    t : ndarray of int
+        The steps' times.
+    s : ndarray of int
+        s_t.
+    s_next : ndarray of int
+        s_{t+1}.
+    """
     series = np.asarray(series)
     t = np.flatnonzero((series[:-1] >= 0) & (series[1:] >= 0))
     return t, series[t], series[t + 1]
@@ -40,8 +57,23 @@ _PERCEPTION_ORDER = (STOP, FORWARD, TURN_LEFT, TURN_RIGHT)
 
 
 def perception_labels(domain: PatrolDomain, s: np.ndarray, s_next: np.ndarray) -> np.ndarray:
-    """The action whose intended outcome ψ(s, a) is the observed next state (what L perceives),
-    -1 where no action explains the step (possible only with perception noise)."""
+    """The action whose intended outcome ψ(s, a) is the observed next state (what L perceives).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    s : ndarray of int
+        States.
+    s_next : ndarray of int
+        The observed next states.
+
+    Returns
+    -------
+    ndarray of int
+        An action per step; -1 where no action explains the step (possible only with perception
+        noise).
+    """
     s, s_next = np.asarray(s, dtype=int), np.asarray(s_next, dtype=int)
     labels = np.full(s.shape, -1, dtype=int)
     for a in reversed(_PERCEPTION_ORDER):  # earlier entries of the order overwrite later ones
@@ -55,14 +87,29 @@ def policy_labels(
     policies: Sequence[np.ndarray],
     equilibrium: Equilibrium,
 ) -> list[np.ndarray]:
-    """Label every observed time step of every robot with the action its (learned or true) policy
-    prescribes — or, where two robots are both observed and their intended moves meet
-    (docs/design.md, "The meeting rule"), with the action of the equilibrium's most likely game
-    action (Sec. 3.6).
+    """Label every observed time step of every robot with the action its policy prescribes.
 
-    A meeting with a robot L cannot see is invisible to L, so such steps keep the policy's
-    action; they may then count as failures, a bias confined to the edge of the visible region.
-    Returns per robot an (horizon,) array with -1 at unobserved steps.
+    Where two robots are both observed and their intended moves meet (docs/design.md, "The
+    meeting rule"), the label is the action of the equilibrium's most likely game action
+    (Sec. 3.6). A meeting with a robot L cannot see is invisible to L, so such steps keep the
+    policy's action; they may then count as failures, a bias confined to the edge of the visible
+    region.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    series_list : sequence of ndarray of int, shape (horizon,)
+        Each robot's observed states, -1 where occluded.
+    policies : sequence of ndarray of int, shape (S,)
+        Each robot's (learned or true) policy.
+    equilibrium : Equilibrium
+        The equilibrium the robots play when they meet.
+
+    Returns
+    -------
+    list of ndarray of int, shape (horizon,)
+        Per robot the labels, -1 at unobserved steps.
     """
     series = [np.asarray(x, dtype=int) for x in series_list]
     labels = []
@@ -87,14 +134,30 @@ def policy_labels(
 
 @dataclass(frozen=True)
 class SubsetCounts:
-    """Pooled successes and trials per distinct feature subset of the domain."""
+    """Pooled successes and trials per distinct feature subset of the domain.
+
+    Parameters
+    ----------
+    subsets : tuple of tuple of str
+        The domain's distinct subsets ξ(s, a).
+    successes : ndarray of int, shape (n_subsets,)
+        Steps that reached their intended state.
+    trials : ndarray of int, shape (n_subsets,)
+        Labelled steps.
+    """
 
     subsets: tuple[tuple[str, ...], ...]
     successes: np.ndarray
     trials: np.ndarray
 
     def observations(self) -> list[tuple[tuple[str, ...], int, int]]:
-        """The ``(subset, successes, trials)`` triples the solver takes (observed subsets only)."""
+        """The ``(subset, successes, trials)`` triples the solver takes (observed subsets only).
+
+        Returns
+        -------
+        list of (tuple of str, int, int)
+            One per subset with trials.
+        """
         return [
             (sub, int(k), int(n))
             for sub, k, n in zip(self.subsets, self.successes, self.trials, strict=True)
@@ -102,11 +165,76 @@ class SubsetCounts:
         ]
 
 
+def perceived_labels(scenario: Scenario, series_list: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Per robot, every step with both ends observed labelled by perception
+    (:func:`perception_labels`); a row of :data:`~mirl.learning.options.LABELLINGS`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (its domain).
+    series_list : sequence of ndarray of int, shape (horizon,)
+        Each robot's observed states, -1 where occluded.
+
+    Returns
+    -------
+    list of ndarray of int, shape (horizon,)
+        Per robot the labels, -1 where a step's two ends were not both observed.
+    """
+    out = []
+    for x in series_list:
+        lab = np.full(len(x), -1, dtype=int)
+        t, s, s_next = observed_steps(x)
+        lab[t] = perception_labels(scenario.domain, s, s_next)
+        out.append(lab)
+    return out
+
+
+def true_policy_labels(scenario: Scenario, series_list: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Per robot, every observed step labelled by the scenario's true policies and played
+    equilibrium (:func:`policy_labels`; the Known R/T setting); a row of
+    :data:`~mirl.learning.options.LABELLINGS`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario whose truth labels the steps.
+    series_list : sequence of ndarray of int, shape (horizon,)
+        Each robot's observed states, -1 where occluded.
+
+    Returns
+    -------
+    list of ndarray of int, shape (horizon,)
+        Per robot the labels, -1 at unobserved steps.
+    """
+    policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
+    return policy_labels(scenario.domain, series_list, policies, scenario.played_equilibrium)
+
+
 def count_subsets(
     domain: PatrolDomain, s: np.ndarray, a: np.ndarray, s_next: np.ndarray
 ) -> SubsetCounts:
-    """Pool labelled steps by ξ(s, a): success when s_{t+1} = ψ(s_t, a_t). Unlabelled steps
-    (a = -1) are left out. Counts are pooled, not probabilities (docs/design.md, "Counting")."""
+    """Pool labelled steps by ξ(s, a): success when s_{t+1} = ψ(s_t, a_t).
+
+    Unlabelled steps (a = -1) are left out. Counts are pooled, not probabilities (docs/design.md,
+    "Counting").
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    s : ndarray of int
+        States.
+    a : ndarray of int
+        Their labels, -1 for unlabelled.
+    s_next : ndarray of int
+        The next states.
+
+    Returns
+    -------
+    SubsetCounts
+        Successes and trials per subset.
+    """
     s, a, s_next = (np.asarray(v, dtype=int) for v in (s, a, s_next))
     keep = a >= 0
     s, a, s_next = s[keep], a[keep], s_next[keep]
@@ -121,11 +249,34 @@ def count_subsets(
 
 
 class TransitionFeatureLearner:
-    """mIRL*/T as an estimator: learn transition-feature probabilities from labelled observed
-    steps by maximum entropy (Eq. 4), then the full transition function (Eq. 5).
+    """mIRL*/T as an estimator: transition-feature probabilities from labelled observed steps.
 
-    After ``fit``: ``counts_`` (pooled counts), ``result_`` (the solver's result object),
-    ``feature_probabilities_`` (dict over *all* features) and ``transition_model_`` (CSR).
+    By maximum entropy (Eq. 4), then the full transition function (Eq. 5).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain: its features ξ and intended outcomes ψ.
+    error_model : {"uniform", "stop"}, default "uniform"
+        Where a failed step goes in the learned T.
+    method : {"maxent", "paper"}, default "maxent"
+        The Eq. 4 solver (:func:`~mirl.learning.feature_solver.solve_feature_probabilities`).
+
+    Attributes
+    ----------
+    counts_ : SubsetCounts
+        The pooled counts.
+    result_ : FeatureSolveResult
+        The solver's result.
+    feature_probabilities_ : dict of str to float
+        The learned probability of *every* feature.
+    transition_model_ : scipy.sparse.csr_array of shape (S*A, S)
+        The learned T.
+
+    Raises
+    ------
+    ValueError
+        An unknown error model.
     """
 
     def __init__(
@@ -138,6 +289,27 @@ class TransitionFeatureLearner:
         self.method = method
 
     def fit(self, s: np.ndarray, a: np.ndarray, s_next: np.ndarray) -> TransitionFeatureLearner:
+        """Learn the feature probabilities and T from labelled steps.
+
+        Parameters
+        ----------
+        s : ndarray of int
+            States, indices in [0, S).
+        a : ndarray of int
+            Their labels, -1 for unlabelled.
+        s_next : ndarray of int
+            The next states.
+
+        Returns
+        -------
+        TransitionFeatureLearner
+            ``self``, fitted.
+
+        Raises
+        ------
+        ValueError
+            Arrays of different lengths, or indices out of range.
+        """
         from mirl.learning.feature_solver import solve_feature_probabilities
 
         s, a, s_next = (np.asarray(v, dtype=int) for v in (s, a, s_next))

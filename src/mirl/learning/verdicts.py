@@ -1,48 +1,44 @@
 """How sure L is of each part: a 95 % interval per transition feature and a fault verdict per robot
 (docs/design.md, "Fault verdicts").
 
-The evidence is the same as the point estimate's — each observed step, labelled with an action,
-is a success or a failure of the feature subset ξ(s, a) the action relies on (Eq. 2–3) — with
-two corrections for what the point estimate takes as certain:
+The evidence is each observed step (s, s') of a robot, explained by L's policy and a model of
+motion: p(s' | s) = Σ_a π_ε(a | s) T_m(s, a, s'; p), the action integrated over L's policy
+(:mod:`mirl.learning.motion_models`), over every candidate model m of where failed steps end
+and whether a turn needs a wheel, the models weighed by their marginal likelihood and the
+verdict averaged over them. Around that:
 
-* **The labels.** mIRL*/T+Int labels a step with its learned policy's action; the policy may be
-  wrong there. Each step is spread over the actions by the posterior probability that the robot
-  meant each one, P(a | s, s') ∝ π(a | s) T(s, a, s'), with π the learned *soft* policy (the IRL's
-  maximum-entropy policy, whose temperature is learned) and T the learned model: the E-step of
-  EM over latent labels (Dempster, Laird & Rubin 1977). Steps labelled by the meeting rule and
-  labels from a known policy stay as they are, unless T says the label cannot have produced the
-  step (a wrong label, not a failure of its features). :func:`soft_counts`.
+* **The record checked first.** Steps no action explains, stalls, jams with another robot
+  and fits pinned by few trials (:mod:`mirl.learning.model_check`). Steps a failed check
+  points at are left out — never failures of a part — and the verdict says that the record
+  does not fit; it then gives L's models even odds (:data:`MODEL_TRUST`) and the prior the
+  rest, so it claims nothing at high confidence.
+* **Robots in the way.** A step that starts with another robot in the robot's cell or the cell
+  ahead is left out of the evidence and the drift: a physical robot there blocks or pushes it,
+  and on a grid such steps are few. :func:`held_by_others`.
 * **Clustered failures.** Failures come in runs (a robot on a wall, a robot queueing behind
   another), so steps are not independent trials. The lag-1 autocorrelation ρ of the
   standardised outcome residuals gives the variance inflation (1 + ρ)/(1 − ρ) of an AR(1)
-  process, and the counts are divided by it (a quasi-likelihood dispersion, McCullagh & Nelder
-  1989, Sec. 4.5). :func:`failure_dispersion`.
-* **Robots in the way.** In robot data (poses: physical robots) a step that starts with another
-  robot in the robot's cell or the cell ahead is left out of the counts, the dispersion and the
-  drift: a robot there blocks or pushes it, and what the step does is not its parts' doing.
-  Grid robots do not block each other. :func:`held_by_others`.
+  process, and the steps' log-likelihood is divided by it (a quasi-likelihood dispersion,
+  McCullagh & Nelder 1989, Sec. 4.5). :func:`failure_dispersion`.
 * **Drift.** Step outcomes cannot tell a differential drive's wheels apart when only forward
-  steps fail (they need both wheels): a weak motor that still pivots in time leaves the side
-  unknown. Poses can: a robot veers towards its weaker wheel, so robot data (poses, not grid
-  states) carry the mean lateral offset of its forward steps from the hallway's centre line
-  (:attr:`~mirl.observations.trajectories.Trajectories.lateral`), which enters as one more
-  likelihood term: offset ~ N(κ (p_right − p_left), se² + τ²), κ the drift of a unit wheel gap:
-  measured where the robots are known (the physical world's), else unknown with a half-normal
-  prior (:class:`~mirl.world.faults.DriftSpec`). :func:`lateral_drift`,
-  :func:`drift_log_likelihood`.
+  steps fail (they need both wheels). Poses can: a robot veers towards its weaker wheel, so
+  robot data (poses, not grid states) carry the mean lateral offset of its forward steps from
+  the hallway's centre line (:attr:`~mirl.observations.trajectories.Trajectories.lateral`),
+  which enters as one more likelihood term: offset ~ N(κ (p_right − p_left), se² + τ²), κ the
+  drift of a unit wheel gap: measured where the robots are known (the physical world's), else
+  unknown with a half-normal prior (:class:`~mirl.world.faults.DriftSpec`).
+  :func:`lateral_drift`, :func:`drift_log_likelihood`.
 
-The posterior over the features' success probabilities is then the product of the pooled
-binomial likelihood (Eq. 2: a subset succeeds with ∏_{τ∈ξ} p_τ) and a prior saying that most
-parts are healthy: for each feature, with probability 0.8 a Beta(50 h, 50 (1 − h)) around its
-healthy level h, else uniform on [0, 1]. It is sampled by population Monte Carlo in logit space
-(adaptive importance sampling with a defensive mixture component, Cappé, Guillin, Marin & Robert
-2004): draws from the prior, then two rounds from Gaussian kernels around resampled draws. The
-posterior can be multimodal ("the left wheel or the right wheel" when only forward steps were
-seen) and is never more than a handful of dimensions, which is what this sampler handles.
+The prior says that most parts are healthy: for each feature, with probability 0.8 a
+Beta(50 h, 50 (1 − h)) around its healthy level h, else uniform on [0, 1]. From the pooled
+draws: each feature's central 95 % interval and median, and the probability of every set of
+damaged parts (:class:`~mirl.world.faults.DamageDefinition`), from which
+:func:`verdict_from_draws` makes the verdict.
 
-From the draws: each feature's central 95 % interval, and the probability of every set of damaged
-parts (:class:`~mirl.world.faults.DamageDefinition`), from which :func:`verdict_from_draws` makes
-the verdict.
+.. versionchanged:: 0.2.0
+   The evidence is the per-step likelihood under every candidate motion model, averaged, in
+   place of soft-labelled success counts under the scenario's model; the record is checked
+   before a verdict; steps in another robot's way are left out whatever the source.
 """
 
 from __future__ import annotations
@@ -51,11 +47,36 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.special import betaln, expit, log_ndtr
+from scipy.special import expit, log_ndtr
 
-from mirl.world.domain import FORWARD, N_HEADINGS, PatrolDomain
-from mirl.world.faults import DamageDefinition, DriftSpec
+from mirl.learning.model_check import (
+    MOVE_KINDS,
+    Check,
+    ModelFit,
+    check_jams,
+    check_moves,
+    check_pinned,
+    check_stalls,
+    check_unexplained,
+    held_back,
+)
+from mirl.learning.motion_models import (
+    DEFAULT_PRIOR,
+    N_DRAWS,
+    MotionModel,
+    MotionPosterior,
+    PriorSpec,
+    candidate_models,
+    feature_log_prior,
+    model_domain,
+    motion_posterior,
+    sample_feature_prior,
+    unexplained_steps,
+    wheels_of,
+)
+from mirl.learning.smc import tempered_smc
+from mirl.world.domain import FORWARD, N_HEADINGS, TURN_LEFT, TURN_RIGHT, PatrolDomain
+from mirl.world.faults import WHEELS, DamageDefinition, DriftSpec
 from mirl.world.maps import HEADING_DELTAS
 
 __all__ = [
@@ -64,17 +85,23 @@ __all__ = [
     "PriorSpec",
     "LateralDrift",
     "WHEELS",
-    "soft_counts",
+    "MODEL_TRUST",
     "held_by_others",
+    "beside_others",
     "in_company",
     "lateral_drift",
     "drift_log_likelihood",
     "estimate_outside_interval",
-    "outside_interval_note",
+    "weakened_wheel",
+    "estimate_disagrees",
     "failure_dispersion",
+    "action_distribution",
+    "NEAR_TIE",
+    "indistinguishable",
     "posterior_draws",
     "feature_uncertainty",
     "robot_uncertainty",
+    "never_seen_moving",
     "verdict_from_draws",
     "point_verdict",
 ]
@@ -83,6 +110,10 @@ LEVEL = 0.95
 """The intervals' coverage."""
 COVERAGE_SLACK = 0.05
 """A verdict names the fewest parts that hold all but this much of the probability of damage."""
+MODEL_TRUST = 0.5
+"""The weight L gives its motion models for a record that fails a check
+(:mod:`mirl.learning.model_check`); the prior has the rest. A verdict on such a record then
+claims at most 1/2 + 1/2 × the prior's probability of the same statement — never 0.9."""
 
 
 @dataclass(frozen=True)
@@ -92,7 +123,8 @@ class Verdict:
     Parameters
     ----------
     part : str or None
-        The damaged part; None when no part is damaged or L cannot tell which.
+        The damaged part; None when no part is damaged, L cannot tell which, or L has no
+        verdict (it never saw the robot move).
     confidence : float
         The probability that the verdict is right: that ``part`` is damaged; that one of the
         ``candidates`` is; or, with neither, that no part is.
@@ -100,12 +132,27 @@ class Verdict:
         When L cannot tell which: the parts one (or more) of which is damaged.
     damage_probabilities : mapping of str to float
         Per feature, the probability that it is damaged.
+    fit : ModelFit or None
+        Whether the robot's record fits L's motion models (:mod:`mirl.learning.model_check`);
+        None for verdicts not drawn from a record (the truth).
+    seen_moving : bool, default True
+        False when L never saw the robot at two consecutive steps: then it has no verdict, and
+        ``confidence`` is the prior's probability that no part is damaged.
+    weakened : str or None
+        A wheel the robot's drift shows to be weaker than the other where the verdict does not
+        call it damaged: weakened, its moves unaffected (:func:`weakened_wheel`).
+
+        .. versionchanged:: 0.2.0
+           ``fit``, ``seen_moving`` and ``weakened`` are new.
     """
 
     part: str | None
     confidence: float
     candidates: tuple[str, ...] = ()
     damage_probabilities: Mapping[str, float] = field(default_factory=dict)
+    fit: ModelFit | None = None
+    seen_moving: bool = True
+    weakened: str | None = None
 
     @property
     def names_damage(self) -> bool:
@@ -124,7 +171,7 @@ class Verdict:
         return any(p in damaged for p in self.named)
 
     def to_dict(self) -> dict:
-        return {
+        out = {
             "part": self.part,
             "confidence": round(float(self.confidence), 4),
             "candidates": list(self.candidates),
@@ -132,21 +179,36 @@ class Verdict:
                 k: round(float(v), 4) for k, v in self.damage_probabilities.items()
             },
         }
+        if not self.seen_moving:
+            out["seen_moving"] = False
+        if self.weakened is not None:
+            out["weakened"] = self.weakened
+        if self.fit is not None:
+            out["fit"] = self.fit.to_dict()
+        return out
 
     def sentence(self, robot: str) -> str:
         """The verdict in words: "J's left wheel is damaged (confidence 0.97)"."""
+        if not self.seen_moving:
+            return f"L never saw {robot} move: no verdict on its parts"
         conf = f"(confidence {self.confidence:.2f})"
         if self.part is not None:
-            return f"{robot}'s {_words(self.part)} is damaged {conf}"
-        if not self.candidates:
-            return f"no part of {robot} is damaged {conf}"
-        wheels = all(c.endswith("_wheel") for c in self.candidates)
-        if wheels and len(self.candidates) == 2:
-            what = f"one of {robot}'s wheels is weak (or both)"
+            said = f"{robot}'s {_words(self.part)} is damaged {conf}"
+        elif not self.candidates:
+            said = f"no part of {robot} is damaged {conf}"
         else:
-            parts = ", ".join(map(_words, self.candidates))
-            what = f"one of {robot}'s parts ({parts}) is damaged"
-        return f"{what}; the observations cannot tell which {conf}"
+            wheels = all(c.endswith("_wheel") for c in self.candidates)
+            if wheels and len(self.candidates) == 2:
+                what = f"one of {robot}'s wheels is weak (or both)"
+            else:
+                parts = ", ".join(map(_words, self.candidates))
+                what = f"one of {robot}'s parts ({parts}) is damaged"
+            said = f"{what}; the observations cannot tell which {conf}"
+        if self.weakened is not None:
+            said += f"; its {_words(self.weakened)} is weakened, its moves unaffected"
+        if self.fit is not None and not self.fit.ok:
+            said += f"; but {robot}'s record does not fit L's motion models: {self.fit.reason}"
+        return said
 
 
 def _words(feature: str) -> str:
@@ -163,11 +225,30 @@ class FeatureUncertainty:
         Per feature, the central 95 % posterior interval of its success probability.
     verdict : Verdict
     dispersion : float
-        The variance inflation the counts were divided by (1: independent steps).
+        The variance inflation the steps' log-likelihood was divided by (1: independent steps).
     effective_draws : float
-        The importance sampler's effective sample size (Kish).
+        The effective sample size (Kish) of the pooled draws.
     drift : LateralDrift or None
         The lateral drift that entered the posterior (None: no poses, or too few steps).
+    medians : mapping of str to float
+        Per feature, the posterior median: the posterior's answer.
+    motion_models : mapping of str to float
+        Each candidate motion model's posterior probability
+        (:class:`~mirl.learning.motion_models.MotionModel` names); empty for a verdict not
+        drawn from a record.
+    indistinguishable : tuple of tuple of str
+        Groups of features the robot's steps cannot tell apart under the model Eq. 4 was
+        learned with: they enter the same observed feature subsets, so Eq. 4 gives them one
+        value (its maximisers are mirror images of each other).
+    sided_by_drift : bool
+        Whether the two wheels form such a group and the robot's drift tells them apart.
+    log_evidence : float
+        The log marginal likelihood of the robot's kept steps (and drift) under L's policy,
+        averaged over the motion models with equal prior odds.
+
+        .. versionchanged:: 0.2.0
+           ``medians``, ``motion_models``, ``indistinguishable``, ``sided_by_drift`` and
+           ``log_evidence`` are new.
     """
 
     intervals: Mapping[str, tuple[float, float]]
@@ -175,11 +256,11 @@ class FeatureUncertainty:
     dispersion: float = 1.0
     effective_draws: float = 0.0
     drift: LateralDrift | None = None
-
-
-WHEELS = ("left_wheel", "right_wheel")
-"""The features the lateral drift speaks of: a differential drive's left and right wheels (a
-robot veers towards the weaker one). A feature map without both has no drift term."""
+    medians: Mapping[str, float] = field(default_factory=dict)
+    motion_models: Mapping[str, float] = field(default_factory=dict)
+    indistinguishable: tuple[tuple[str, ...], ...] = ()
+    sided_by_drift: bool = False
+    log_evidence: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -212,74 +293,7 @@ class LateralDrift:
         )
 
 
-@dataclass(frozen=True)
-class PriorSpec:
-    """The prior of each success probability: with probability ``damaged_share`` uniform on
-    [0, 1], else Beta(``strength`` h, ``strength`` (1 − h)) around the healthy level h."""
-
-    damaged_share: float = 0.2
-    strength: float = 50.0
-
-
 # ---- the evidence -----------------------------------------------------------------------------
-def soft_counts(
-    domain: PatrolDomain,
-    s: np.ndarray,
-    labels: np.ndarray,
-    s_next: np.ndarray,
-    transitions: sp.csr_array | None = None,
-    soft_policy: np.ndarray | None = None,
-    own_policy: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Successes and trials per subset of ``domain.subsets`` (floats), each labelled step
-    spread over the actions by P(a | s, s') ∝ π(a | s) T(s, a, s').
-
-    Without ``soft_policy`` (labels from perception or a known policy) the labels count as
-    they are. Steps whose label is not ``own_policy``'s action (the meeting rule's) and
-    unlabelled steps (-1, left out) keep their labels too — unless T says the label cannot have
-    produced the step (T(s, a, s') = 0: under the ``stop`` error model, a "stop" after which
-    the robot moved): such a step is spread over the actions that can, by π(a | s) T(s, a, s'),
-    π the soft policy or, without one, uniform. A label T cannot explain is a wrong label, not
-    a failure of its features; a step no action explains keeps its label.
-
-    Parameters
-    ----------
-    domain : PatrolDomain
-    s, labels, s_next : ndarray of shape (n,)
-        Observed steps and their labels (-1: unlabelled).
-    transitions : sparse array of shape (S·A, S), optional
-        The learned T the labels were last learned with.
-    soft_policy : ndarray of shape (S, A), optional
-        The learned maximum-entropy policy.
-    own_policy : ndarray of shape (S,), optional
-        The greedy policy the labels came from.
-    """
-    s, labels, s_next = (np.asarray(v, dtype=int) for v in (s, labels, s_next))
-    keep = labels >= 0
-    s, labels, s_next = s[keep], labels[keep], s_next[keep]
-    A, n_sub = domain.n_actions, len(domain.subsets)
-    resp = np.zeros((len(s), A))
-    resp[np.arange(len(s)), labels] = 1.0
-    if transitions is not None and len(s):
-        rows = (s[:, None] * A + np.arange(A)[None, :]).ravel()
-        cols = np.repeat(s_next, A)
-        lik = np.asarray(sp.csr_array(transitions)[rows, cols]).reshape(len(s), A)
-        prior = np.full((len(s), A), 1.0 / A) if soft_policy is None else soft_policy[s]
-        joint = np.asarray(prior) * lik
-        total = joint.sum(axis=1)
-        soft = np.zeros(len(s), dtype=bool)
-        if soft_policy is not None:
-            soft[:] = True if own_policy is None else np.asarray(own_policy)[s] == labels
-        soft |= lik[np.arange(len(s)), labels] <= 0  # a label T cannot explain
-        soft &= total > 0
-        resp[soft] = joint[soft] / total[soft, None]
-    idx = domain.subset_index[s]  # (n, A)
-    hit = domain.intended[s] == s_next[:, None]  # (n, A)
-    trials = np.bincount(idx.ravel(), weights=resp.ravel(), minlength=n_sub)
-    successes = np.bincount(idx.ravel(), weights=(resp * hit).ravel(), minlength=n_sub)
-    return successes, trials
-
-
 def failure_dispersion(
     domain: PatrolDomain,
     t: np.ndarray,
@@ -366,6 +380,17 @@ def held_by_others(domain: PatrolDomain, series: Sequence[np.ndarray], robot: in
     return held
 
 
+def beside_others(domain: PatrolDomain, series: Sequence[np.ndarray], robot: int) -> np.ndarray:
+    """(horizon,) bool: the steps at which L saw another robot within one cell of robot
+    ``robot`` (its cell or any of the eight around it), both seen: where touching robots jam
+    (:func:`~mirl.learning.model_check.check_jams`)."""
+    own = np.asarray(series[robot])
+    near = np.zeros(len(own), dtype=bool)
+    for both, a, b in _seen_together(domain, series, robot):
+        near[both] |= (np.abs(b[:, :2] - a[:, :2]) <= 1).all(axis=1)
+    return near
+
+
 def lateral_drift(
     domain: PatrolDomain,
     t: np.ndarray,
@@ -435,6 +460,20 @@ def drift_log_likelihood(
     )  # fmt: skip
 
 
+def weakened_wheel(
+    drift: LateralDrift | None, spec: DriftSpec, named: Sequence[str], z: float = 2.0
+) -> str | None:
+    """The wheel a robot's drift shows weaker than the other — it veers towards it, more than
+    ``z`` standard deviations of a healthy robot's (its standard error and the tolerance τ) —
+    where the verdict is that no part is damaged (``named`` empty): a motor weaker than the
+    other that still drives the robot's steps. None otherwise."""
+    if drift is None or named:
+        return None
+    if abs(drift.mean) <= z * np.hypot(drift.se, spec.tolerance):
+        return None
+    return WHEELS[0] if drift.mean > 0 else WHEELS[1]
+
+
 def estimate_outside_interval(
     probabilities: Mapping[str, float],
     intervals: Mapping[str, tuple[float, float]],
@@ -449,41 +488,32 @@ def estimate_outside_interval(
     )
 
 
-def outside_interval_note(poses: bool) -> str:
-    """Why an estimate can lie well outside its interval, for the reports."""
-    veers = " and which way the robot veers" if poses else ""
-    return (
-        "(an estimate well outside its interval: the estimate is Eq. 4's fit of the step "
-        "outcomes alone, which L plans with; the interval and the verdict also weigh that most "
-        f"parts are healthy{veers})"
+def estimate_disagrees(
+    probabilities: Mapping[str, float],
+    intervals: Mapping[str, tuple[float, float]],
+    medians: Mapping[str, float],
+    definition: DamageDefinition,
+) -> bool:
+    """Whether Eq. 4's estimates and the posterior give two answers: an estimate well outside
+    its 95 % interval (:func:`estimate_outside_interval`), or one that reads a part as damaged
+    (or healthy) where the posterior's median does not — the verdict follows the posterior, so
+    the report then shows the posterior's medians as the answer (docs/design.md, "Fault
+    verdicts")."""
+    if estimate_outside_interval(probabilities, intervals):
+        return True
+    return any(
+        definition.damaged(f, probabilities[f]) != definition.damaged(f, m)
+        for f, m in medians.items()
+        if f in probabilities
     )
 
 
-# ---- the posterior ----------------------------------------------------------------------------
-def _log_prior(x: np.ndarray, healthy: np.ndarray, prior: PriorSpec) -> np.ndarray:
-    """Log density of logit-space draws ``x`` (n, F) under the prior, Jacobian included."""
-    a, b = prior.strength * healthy, prior.strength * (1 - healthy)
-    log_p, log_q = -np.logaddexp(0, -x), -np.logaddexp(0, x)  # log p, log (1 − p)
-    beta = (a - 1) * log_p + (b - 1) * log_q - betaln(a, b)
-    mix = np.logaddexp(np.log1p(-prior.damaged_share) + beta, np.log(prior.damaged_share))
-    return (mix + log_p + log_q).sum(axis=1)
-
-
-def _log_likelihood(x, incidence, successes, failures) -> np.ndarray:
+# ---- the posterior of pooled counts -----------------------------------------------------------
+def _pooled_log_likelihood(x, incidence, successes, failures) -> np.ndarray:
     """Pooled binomial log-likelihood of logit-space draws (n, F) (Eq. 2)."""
     z = (-np.logaddexp(0, -x)) @ incidence.T  # (n, m) log success of each subset
     log_fail = np.log(-np.expm1(np.minimum(z, -1e-12)))
     return z @ successes + log_fail @ failures
-
-
-def _sample_prior(rng, n: int, healthy: np.ndarray, prior: PriorSpec) -> np.ndarray:
-    F = len(healthy)
-    a, b = prior.strength * healthy, prior.strength * (1 - healthy)
-    p = rng.beta(np.broadcast_to(a, (n, F)), np.broadcast_to(b, (n, F)))
-    uniform = rng.random((n, F)) < prior.damaged_share
-    p[uniform] = rng.random(int(uniform.sum()))
-    p = np.clip(p, 1e-9, 1 - 1e-9)
-    return np.log(p) - np.log1p(-p)
 
 
 def posterior_draws(
@@ -491,21 +521,23 @@ def posterior_draws(
     observations: Sequence[tuple[Sequence[str], float, float]],
     healthy: Mapping[str, float],
     *,
-    prior: PriorSpec = PriorSpec(),
+    prior: PriorSpec = DEFAULT_PRIOR,
     drift: LateralDrift | None = None,
     drift_spec: DriftSpec = DriftSpec(),
     n_draws: int = 2000,
-    rounds: int = 2,
     random_state: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted draws of the features' success probabilities given pooled counts (and a
-    lateral drift, when the features include both :data:`WHEELS`).
+    """Weighted draws of the features' success probabilities given pooled counts — each
+    labelled step a success or failure of its subset, one model of motion — and a lateral
+    drift, when the features include both :data:`WHEELS`. The records' verdicts weigh each
+    step under every candidate model instead (:func:`robot_uncertainty`); this is the same
+    posterior for counts already pooled.
 
     Parameters
     ----------
     features : sequence of str
     observations : sequence of (subset, successes, trials)
-        Counts may be fractional (soft labels, a dispersion divided out).
+        Counts may be fractional (a dispersion divided out).
     healthy : mapping of str to float
         Each feature's healthy level (the prior's centre).
     prior : PriorSpec
@@ -513,9 +545,7 @@ def posterior_draws(
         The robot's lateral drift (:func:`drift_log_likelihood`).
     drift_spec : DriftSpec
     n_draws : int, default 2000
-        Draws per round of the sampler.
-    rounds : int, default 2
-        Adaptation rounds after the first, drawn from the prior.
+        The sampler's draws (:func:`~mirl.learning.smc.tempered_smc`).
     random_state : int, default 0
 
     Returns
@@ -523,7 +553,7 @@ def posterior_draws(
     p : ndarray of shape (n_draws, F)
         Success probabilities, one row per draw.
     weights : ndarray of shape (n_draws,)
-        Normalised importance weights.
+        Normalised weights (equal: the sampler's draws are unweighted).
     """
     features = tuple(features)
     F = len(features)
@@ -535,75 +565,34 @@ def posterior_draws(
         incidence[j, [pos[f] for f in subset]] = 1.0
         succ[j], fail[j] = float(k), float(n) - float(k)
     h = np.array([min(healthy.get(f, 0.95), 0.999) for f in features])
-    rng = np.random.default_rng(random_state)
-
-    wheels = (
-        (pos[WHEELS[0]], pos[WHEELS[1]]) if drift is not None and set(WHEELS) <= set(pos) else None
-    )
+    drift_term = _drift_term(features, drift, drift_spec)
 
     def log_lik(x):
-        out = _log_likelihood(x, incidence, succ, fail)
-        if wheels is not None:
-            gap = expit(x[:, wheels[1]]) - expit(x[:, wheels[0]])
-            out = out + drift_log_likelihood(gap, drift, drift_spec)
-        return out
+        out = _pooled_log_likelihood(x, incidence, succ, fail)
+        return out if drift_term is None else out + drift_term(expit(x))
 
-    def log_post(x):
-        return _log_prior(x, h, prior) + log_lik(x)
-
-    x = _sample_prior(rng, n_draws, h, prior)
-    log_w = log_lik(x)  # prior draws: weight = likelihood
-    defensive = 0.1
-    for _ in range(rounds):
-        w = _normalised(log_w)
-        n_centres = min(50, n_draws // 10)
-        centres = x[_systematic(rng, w, n_centres)]
-        mean = w @ x
-        cov = (x - mean).T @ ((x - mean) * w[:, None])
-        cov = 0.5 * cov + 1e-3 * np.eye(F)  # kernel bandwidth: half the posterior's spread
-        chol = np.linalg.cholesky(cov)
-        n_prior = int(defensive * n_draws)
-        kern = centres[rng.integers(0, n_centres, n_draws - n_prior)]
-        kern = kern + rng.standard_normal((len(kern), F)) @ chol.T
-        x = np.vstack([kern, _sample_prior(rng, n_prior, h, prior)])
-        inv = np.linalg.inv(chol)
-        y, c = x @ inv.T, centres @ inv.T
-        maha = (y**2).sum(axis=1)[:, None] + (c**2).sum(axis=1)[None, :] - 2 * y @ c.T
-        log_kernel = (
-            _logsumexp_rows(-0.5 * maha)
-            - np.log(n_centres)
-            - np.log(np.diag(chol)).sum()
-            - 0.5 * F * np.log(2 * np.pi)
-        )
-        log_q = np.logaddexp(
-            np.log1p(-defensive) + log_kernel, np.log(defensive) + _log_prior(x, h, prior)
-        )
-        log_w = log_post(x) - log_q
-    return expit(x), _normalised(log_w)
+    draws = tempered_smc(
+        lambda rng, n: sample_feature_prior(rng, n, h, prior),
+        lambda x: feature_log_prior(x, h, prior),
+        log_lik,
+        n_draws=n_draws,
+        random_state=random_state,
+    )
+    return expit(draws.x), draws.weights
 
 
-def _logsumexp_rows(a: np.ndarray) -> np.ndarray:
-    """log Σ_j exp(a[i, j]) per row (scipy's logsumexp costs more in checks than in sums)."""
-    top = a.max(axis=1)
-    return np.log(np.exp(a - top[:, None]).sum(axis=1)) + top
+def _drift_term(features: Sequence[str], drift: LateralDrift | None, spec: DriftSpec):
+    """The drift's log-likelihood as a function of success probabilities p (n, F), or None
+    without a drift or without both wheels."""
+    wheels = wheels_of(features)
+    if drift is None or wheels is None:
+        return None
+    left, right = wheels
 
+    def term(p: np.ndarray) -> np.ndarray:
+        return drift_log_likelihood(p[:, right] - p[:, left], drift, spec)
 
-def _normalised(log_w: np.ndarray) -> np.ndarray:
-    w = np.exp(log_w - log_w.max())
-    return w / w.sum()
-
-
-def _systematic(rng, w: np.ndarray, n: int) -> np.ndarray:
-    """Systematic resampling: ``n`` indices drawn in proportion to ``w``."""
-    u = (rng.random() + np.arange(n)) / n
-    return np.minimum(np.searchsorted(np.cumsum(w), u), len(w) - 1)
-
-
-def _quantile(values: np.ndarray, w: np.ndarray, q: float) -> float:
-    order = np.argsort(values)
-    cdf = np.cumsum(w[order])
-    k = min(int(np.searchsorted(cdf, q)), len(values) - 1)
-    return float(values[order[k]])
+    return term
 
 
 # ---- the verdict ------------------------------------------------------------------------------
@@ -657,12 +646,12 @@ def feature_uncertainty(
     *,
     dispersion: float = 1.0,
     drift: LateralDrift | None = None,
-    prior: PriorSpec = PriorSpec(),
+    prior: PriorSpec = DEFAULT_PRIOR,
     n_draws: int = 2000,
     random_state: int = 0,
 ) -> FeatureUncertainty:
-    """Intervals and verdict of one robot from its pooled (possibly soft) counts and, with
-    poses, its lateral drift.
+    """Intervals and verdict of one robot from its pooled counts (one model of motion) and,
+    with poses, its lateral drift.
 
     Parameters
     ----------
@@ -686,54 +675,45 @@ def feature_uncertainty(
         features, scaled, healthy, prior=prior, drift=drift, drift_spec=definition.drift,
         n_draws=n_draws, random_state=random_state,
     )  # fmt: skip
-    tail = (1 - LEVEL) / 2
-    intervals = {
-        f: (_quantile(p[:, i], w, tail), _quantile(p[:, i], w, 1 - tail))
-        for i, f in enumerate(features)
-    }
+    intervals, medians = _summaries(features, p, w)
     return FeatureUncertainty(
         intervals,
         verdict_from_draws(features, p, w, definition),
         dispersion=float(dispersion),
         effective_draws=float(1.0 / (w**2).sum()),
         drift=drift,
+        medians=medians,
     )
 
 
-def robot_uncertainty(
-    domain: PatrolDomain,
-    series: np.ndarray,
-    labels: np.ndarray,
-    transitions: sp.csr_array,
-    probabilities: Mapping[str, float],
-    definition: DamageDefinition,
-    *,
-    soft_policy: np.ndarray | None = None,
-    own_policy: np.ndarray | None = None,
-    lateral: np.ndarray | None = None,
-    company: np.ndarray | None = None,
-    held: np.ndarray | None = None,
-    random_state: int = 0,
-) -> FeatureUncertainty:
-    """Intervals and verdict of one robot from what L saw of it (module docstring).
+def _summaries(features, p: np.ndarray, w: np.ndarray):
+    """Each feature's central 95 % interval and median from weighted draws."""
+    tail = (1 - LEVEL) / 2
+    intervals, medians = {}, {}
+    for i, f in enumerate(features):
+        lo, mid, hi = _quantiles(p[:, i], w, (tail, 0.5, 1 - tail))
+        intervals[f], medians[f] = (lo, hi), mid
+    return intervals, medians
+
+
+def _quantiles(values: np.ndarray, w: np.ndarray, qs) -> list[float]:
+    order = np.argsort(values)
+    cdf = np.cumsum(w[order])
+    k = np.minimum(np.searchsorted(cdf, qs), len(values) - 1)
+    return [float(v) for v in values[order[k]]]
+
+
+# ---- one robot's record -------------------------------------------------------------------------
+@dataclass(frozen=True)
+class RobotRecord:
+    """What L saw of one robot, as its verdict reads it.
 
     Parameters
     ----------
-    domain : PatrolDomain
     series : ndarray of shape (horizon,)
         The robot's observed states, -1 where occluded.
     labels : ndarray of shape (horizon,)
         The labels its feature probabilities were learned from (-1: none).
-    transitions : sparse array of shape (S·A, S)
-        The T learned from them.
-    probabilities : mapping of str to float
-        The feature probabilities learned from them.
-    definition : DamageDefinition
-    soft_policy : ndarray of shape (S, A), optional
-        The learned maximum-entropy policy whose greedy actions gave the labels; without it
-        the labels are taken as they are.
-    own_policy : ndarray of shape (S,), optional
-        That greedy policy (labels that differ from it came from the meeting rule).
     lateral : ndarray of shape (horizon,), optional
         Its lateral offsets (NaN unknown), from poses; None from grid states.
     company : ndarray of shape (horizon,), optional
@@ -741,28 +721,324 @@ def robot_uncertainty(
         drift.
     held : ndarray of shape (horizon,), optional
         The steps that start with another robot in its cell or the cell ahead
-        (:func:`held_by_others`), left out of the counts, their dispersion and the drift: what
-        they do is the other robot's doing.
-    random_state : int, default 0
+        (:func:`held_by_others`), left out of the evidence and the drift.
+    beside : ndarray of shape (horizon,), optional
+        The steps with another robot within one cell (:func:`beside_others`), for the jam check.
     """
-    from mirl.learning.transitions import observed_steps
 
-    t, s, s_next = observed_steps(series)
-    if held is not None:
-        free = ~np.asarray(held, dtype=bool)[t]
-        t, s, s_next = t[free], s[free], s_next[free]
-    lab = np.asarray(labels)[t]
-    successes, trials = soft_counts(domain, s, lab, s_next, transitions, soft_policy, own_policy)
-    observations = [
-        (sub, k, n) for sub, k, n in zip(domain.subsets, successes, trials, strict=True) if n > 0
-    ]
-    dispersion = failure_dispersion(domain, t, s, lab, s_next, probabilities)
-    drift = None if lateral is None else lateral_drift(domain, t, s, lab, s_next, lateral, company)
-    return feature_uncertainty(
-        domain.feature_map.features,
-        observations,
-        definition,
+    series: np.ndarray
+    labels: np.ndarray
+    lateral: np.ndarray | None = None
+    company: np.ndarray | None = None
+    held: np.ndarray | None = None
+    beside: np.ndarray | None = None
+
+
+def robot_record(
+    domain: PatrolDomain,
+    series: Sequence[np.ndarray],
+    labels: Sequence[np.ndarray],
+    robot: int,
+    *,
+    lateral: np.ndarray | None = None,
+    reach: float = 6.0,
+) -> RobotRecord:
+    """Robot ``robot``'s :class:`RobotRecord` from every robot's series (-1 unseen) and
+    labels; ``reach`` is how far (cells) a robot reacts to another coming the other way (the
+    patrollers' detection distance), for the drift's company."""
+    return RobotRecord(
+        np.asarray(series[robot]),
+        np.asarray(labels[robot]),
+        lateral,
+        None if lateral is None else in_company(domain, series, robot, reach),
+        held_by_others(domain, series, robot),
+        beside_others(domain, series, robot),
+    )
+
+
+FITTED_SHARE = 0.1
+"""The moves check compares the record with the draws of the highest likelihood, this share of
+each model's: the fit its parameters can make, the prior left aside (a record of a healthy
+physical robot whose forward steps succeed more often than the prior's healthy levels is no
+misfit of its moves)."""
+
+CHECK_DRAWS = 100
+"""Posterior draws the model check compares the record with."""
+
+NEAR_TIE = 0.5
+"""An action L's soft policy finds at least this fraction as likely as its most likely one is
+one L cannot rule out (:func:`action_distribution`)."""
+
+
+def action_distribution(
+    s: np.ndarray,
+    labels: np.ndarray,
+    n_actions: int,
+    soft_policy: np.ndarray | None = None,
+    own_policy: np.ndarray | None = None,
+) -> np.ndarray:
+    """(n, A) L's policy at each step before its error ε is mixed in.
+
+    Where the label is L's greedy policy's action (``own_policy``; every label, without it)
+    and a soft policy is given: the actions the soft policy finds at least :data:`NEAR_TIE`
+    as likely as its most likely one, and the label, in the soft policy's proportions — near
+    ties L cannot break (a patrol's end turned by two left turns or two right ones). Not the
+    whole soft policy: its temperature is fitted to the IRL's objective, not to how often a
+    robot does something else, and on healthy physical robots it predicted three times the
+    stops they made; ε, learned from the record, takes the rest
+    (:mod:`mirl.learning.motion_models`). Elsewhere the label itself (the meeting rule's, a
+    known policy's), and uniform where a step has none."""
+    s, labels = np.asarray(s, dtype=int), np.asarray(labels, dtype=int)
+    out = np.zeros((len(s), n_actions))
+    out[np.arange(len(s)), np.maximum(labels, 0)] = 1.0
+    if soft_policy is not None:
+        own = np.ones(len(s), dtype=bool)
+        if own_policy is not None:
+            own = np.asarray(own_policy)[s] == labels
+        pi = np.asarray(soft_policy)[s[own]]
+        near = (pi >= NEAR_TIE * pi.max(axis=1, keepdims=True)) | (out[own] > 0)
+        kept = np.where(near, pi, 0.0)
+        out[own] = kept / kept.sum(axis=1, keepdims=True)
+    out[labels < 0] = 1.0 / n_actions
+    return out
+
+
+def indistinguishable(
+    domain: PatrolDomain, s: np.ndarray, labels: np.ndarray
+) -> tuple[tuple[str, ...], ...]:
+    """Groups of two or more features that enter exactly the same of the labelled steps'
+    feature subsets (ξ(s, a) of ``domain``): the steps fix only their product, and Eq. 4's
+    maximum-entropy solution gives them one value."""
+    s, labels = np.asarray(s, dtype=int), np.asarray(labels, dtype=int)
+    seen = labels >= 0
+    used = np.unique(domain.subset_index[s[seen], labels[seen]])
+    masks = domain.subset_masks[used]  # (subsets, F)
+    groups: dict[bytes, list[str]] = {}
+    for f, column in zip(domain.feature_map.features, masks.T, strict=True):
+        if column.any():
+            groups.setdefault(column.tobytes(), []).append(f)
+    return tuple(tuple(g) for g in groups.values() if len(g) > 1)
+
+
+def never_seen_moving(
+    features: Sequence[str],
+    definition: DamageDefinition,
+    prior: PriorSpec = DEFAULT_PRIOR,
+    n_draws: int = 4000,
+    random_state: int = 0,
+) -> FeatureUncertainty:
+    """A robot L never saw at two consecutive steps: the prior's intervals and no verdict
+    (its ``confidence`` is the prior's probability that no part is damaged)."""
+    features = tuple(features)
+    h = np.array([min(definition.healthy.get(f, 0.95), 0.999) for f in features])
+    p = expit(sample_feature_prior(np.random.default_rng(random_state), n_draws, h, prior))
+    w = np.full(n_draws, 1.0 / n_draws)
+    intervals, medians = _summaries(features, p, w)
+    prior_verdict = verdict_from_draws(features, p, w, definition)
+    p_none = float(w @ ~(p < [definition.threshold(f) for f in features]).any(axis=1))
+    fit = ModelFit((Check("moves", False, None, "L never saw it at two consecutive steps"),))
+    verdict = Verdict(None, p_none, (), prior_verdict.damage_probabilities, fit, False)
+    return FeatureUncertainty(intervals, verdict, medians=medians)
+
+
+def _check_record(
+    domain, t, s, s_next, lab, action, keep, unexplained, held, beside, post, posterior,
+    dispersion: float, random_state: int,
+):  # fmt: skip
+    """The model check of a robot's kept steps (:mod:`mirl.learning.model_check`): the checks,
+    the posterior refitted without the steps another robot held (where the record shows it),
+    and the misfit and held steps (bool, one per observed step)."""
+    cells = domain.states[:, :2]
+    long_moves = np.abs(cells[s_next] - cells[s]).sum(axis=1) >= 2
+    checks = [check_unexplained(unexplained, long_moves)]
+    misfit = np.zeros(len(t), dtype=bool)
+    in_the_way = np.zeros(len(t), dtype=bool)
+    kinds = _move_kinds(domain, s, s_next)
+    stayed = kinds == len(MOVE_KINDS) - 1
+    kept = np.flatnonzero(keep)
+    # a robot held by another stays put for the other's reason, if the record says so
+    way = held_back(stayed[kept], held[kept], lab[kept], dispersion)
+    if way.misfit.size:
+        in_the_way[kept[way.misfit]] = True
+        post = posterior(keep & ~in_the_way)
+        kept = np.flatnonzero(keep & ~in_the_way)
+    if len(kept):
+        q, fitted = _kind_probabilities(post, domain, s[kept], action[kept], random_state)
+        rho = (dispersion - 1) / (dispersion + 1)
+        stalls, _ = check_stalls(t[kept], stayed[kept], q[:, :, -1], rho)
+        jams = check_jams(stayed[kept], beside[kept], q[:, :, -1], dispersion)
+        checks += [check_moves(kinds[kept], fitted, dispersion), stalls, jams]
+        for c in (stalls, jams):
+            misfit[kept[c.misfit]] = True
+    return checks, post, misfit, in_the_way
+
+
+def _every_model_covered(
+    verdict: Verdict, post: MotionPosterior, features, p: np.ndarray, w: np.ndarray, definition
+) -> Verdict:
+    """A verdict naming damage widened to every part a plausible model of the robot's motion
+    names: the union of the parts the pooled draws name and those each model holding at least
+    :data:`COVERAGE_SLACK` of the weight names on its own draws, with the pooled probability
+    that one of them is damaged. Averaging blends two models that blame different parts (turns
+    that test a wheel blame the wheel driving the rarer turn; turns that test none, navigation)
+    into a claim neither makes with its own part; the verdict covers all but 0.05 of the
+    probability of damage under every model that holds more than 0.05 of the weight."""
+    if not verdict.names_damage:
+        return verdict
+    named = set(verdict.named)
+    for model_draws, weight in zip(post.draws, post.weights, strict=True):
+        if weight >= COVERAGE_SLACK:
+            own = expit(model_draws.x[:, : len(features)])
+            named |= set(verdict_from_draws(features, own, model_draws.weights, definition).named)
+    if named == set(verdict.named):
+        return verdict
+    chosen = [i for i, f in enumerate(features) if f in named]
+    thresholds = np.array([definition.threshold(f) for f in features])
+    confidence = float(w @ (p[:, chosen] < thresholds[chosen]).any(axis=1))
+    names = tuple(features[i] for i in chosen)
+    return Verdict(None, confidence, names, verdict.damage_probabilities)
+
+
+def _kind_probabilities(post: MotionPosterior, domain, s, action, random_state: int):
+    """(draws, steps, 3) probabilities of each kind of move
+    (:data:`~mirl.learning.model_check.MOVE_KINDS`) under posterior draws, and under the draws
+    of the highest likelihood (:data:`FITTED_SHARE`)."""
+    ahead = [domain.intended[s, a] for a in (FORWARD, TURN_LEFT, TURN_RIGHT)]
+    rng = np.random.default_rng(random_state)
+    out = []
+    for best in (1.0, FITTED_SHARE):
+        draws = post.resample(CHECK_DRAWS, rng, best)
+        q = post.outcome_probabilities(domain, s, (*ahead, s), action, draws)
+        q = np.stack([q[:, :, 0], q[:, :, 1] + q[:, :, 2], q[:, :, 3]], axis=2)
+        q[:, ahead[0] == s, 0] = 0.0  # a forward step into a wall stays put
+        out.append(q)
+    return out[0], out[1]
+
+
+def _move_kinds(domain: PatrolDomain, s: np.ndarray, s_next: np.ndarray) -> np.ndarray:
+    """Each step's kind of move, an index into
+    :data:`~mirl.learning.model_check.MOVE_KINDS` (staying put first: a forward step into a
+    wall stays put)."""
+    intended = domain.intended[s]
+    kinds = np.full(len(s), 2)
+    turned = (intended[:, TURN_LEFT] == s_next) | (intended[:, TURN_RIGHT] == s_next)
+    kinds[turned] = 1
+    kinds[(intended[:, FORWARD] == s_next) & (s_next != s)] = 0
+    return kinds
+
+
+def robot_uncertainty(
+    domain: PatrolDomain,
+    record: RobotRecord,
+    probabilities: Mapping[str, float],
+    definition: DamageDefinition,
+    *,
+    learned_with: MotionModel | None = None,
+    soft_policy: np.ndarray | None = None,
+    own_policy: np.ndarray | None = None,
+    models: Sequence[MotionModel] | None = None,
+    prior: PriorSpec = DEFAULT_PRIOR,
+    n_draws: int = N_DRAWS,
+    random_state: int = 0,
+) -> FeatureUncertainty:
+    """Intervals and verdict of one robot from what L saw of it (module docstring).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The scenario's domain (its ξ is the ``"paper"`` candidates').
+    record : RobotRecord
+        The robot's states, labels and the steps other robots were near it.
+    probabilities : mapping of str to float
+        Eq. 4's feature probabilities learned from the labels (under ``learned_with``).
+    definition : DamageDefinition
+    learned_with : MotionModel, optional
+        The model the labels and ``probabilities`` were learned under (default: the
+        first of ``models``, the scenario's ξ with Eq. 5).
+    soft_policy : ndarray of shape (S, A), optional
+        The learned maximum-entropy policy, whose near ties L cannot break
+        (:func:`action_distribution`).
+    own_policy : ndarray of shape (S,), optional
+        The greedy policy the labels came from (labels that differ came from the meeting rule).
+    models : sequence of MotionModel, optional
+        The candidates (default: :func:`~mirl.learning.motion_models.candidate_models`).
+    prior, n_draws, random_state
+        The features' prior; the sampler's draws per round and seed.
+    """
+    from mirl.learning.transitions import count_subsets, observed_steps
+
+    features = domain.feature_map.features
+    models = tuple(models or candidate_models(domain.feature_map))
+    learned_with = learned_with or models[0]
+    t, s, s_next = observed_steps(record.series)
+    if not len(t):
+        return never_seen_moving(features, definition, prior, random_state=random_state)
+    lab = np.asarray(record.labels)[t]
+    unexplained = unexplained_steps(domain, s, s_next)
+    held = np.zeros(len(t), dtype=bool) if record.held is None else np.asarray(record.held)[t]
+    beside = np.zeros(len(t), dtype=bool) if record.beside is None else np.asarray(record.beside)[t]
+    keep = ~unexplained
+    action = action_distribution(s, lab, domain.n_actions, soft_policy, own_policy)
+    plan_domain = model_domain(domain, learned_with)
+    dispersion = failure_dispersion(
+        plan_domain, t[keep], s[keep], lab[keep], s_next[keep], probabilities
+    )
+    drift = None
+    if record.lateral is not None:  # a robot beside another is off the centre line for it
+        alone = keep & ~held
+        drift = lateral_drift(
+            domain, t[alone], s[alone], lab[alone], s_next[alone], record.lateral, record.company
+        )
+    healthy = {f: definition.healthy.get(f, 0.95) for f in features}
+
+    def posterior(mask: np.ndarray) -> MotionPosterior:
+        return motion_posterior(
+            domain, s[mask], s_next[mask], action[mask], healthy, models=models, prior=prior,
+            extra_log_likelihood=_drift_term(features, drift, definition.drift),
+            dispersion=dispersion, n_draws=n_draws, random_state=random_state,
+        )  # fmt: skip
+
+    post = posterior(keep)
+    checks, post, misfit, in_the_way = _check_record(
+        domain, t, s, s_next, lab, action, keep, unexplained, held, beside, post, posterior,
+        dispersion, random_state,
+    )  # fmt: skip
+    counts = count_subsets(plan_domain, s[keep], lab[keep], s_next[keep]).observations()
+    checks.append(check_pinned(probabilities, counts))
+    if misfit.any():  # misfit steps are never failures of a part
+        post = posterior(keep & ~misfit & ~in_the_way)
+    left_out = {
+        "in another robot's way": int(in_the_way.sum()),
+        "explained by no action": int(unexplained.sum()),
+        "misfit (stalls, jams)": int(misfit.sum()),
+    }
+    fit = ModelFit(tuple(checks), left_out)
+    p, w = post.pooled()
+    if not fit.ok:  # L's models get even odds, the prior the rest
+        h = np.array([min(healthy[f], 0.999) for f in features])
+        rng = np.random.default_rng(random_state)
+        q = expit(sample_feature_prior(rng, len(p), h, prior))
+        p = np.vstack([p, q])
+        w = np.concatenate([MODEL_TRUST * w, np.full(len(q), (1 - MODEL_TRUST) / len(q))])
+    intervals, medians = _summaries(features, p, w)
+    verdict = _every_model_covered(
+        verdict_from_draws(features, p, w, definition), post, features, p, w, definition
+    )
+    used = keep & ~misfit & ~in_the_way
+    groups = indistinguishable(plan_domain, s[used], lab[used])
+    wheels_group = any(set(g) == set(WHEELS) for g in groups)
+    return FeatureUncertainty(
+        intervals,
+        Verdict(
+            verdict.part, verdict.confidence, verdict.candidates, verdict.damage_probabilities,
+            fit, weakened=weakened_wheel(drift, definition.drift, verdict.named),
+        ),  # fmt: skip
         dispersion=dispersion,
+        effective_draws=float(1.0 / (w**2).sum()),
         drift=drift,
-        random_state=random_state,
+        medians=medians,
+        motion_models=post.model_weights(),
+        indistinguishable=groups,
+        sided_by_drift=wheels_group and drift is not None,
+        log_evidence=post.mean_log_evidence,
     )

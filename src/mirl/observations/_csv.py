@@ -10,18 +10,42 @@ import numpy as np
 BLOCK_BYTES = 1 << 22
 
 
+HEADER_BYTES = 1 << 16  # a header is read up to this many characters
+
+
 def csv_header(path: Path, error) -> list[str]:
-    """The stripped, unquoted header names; ``error`` for a missing, unreadable or empty file."""
+    """The stripped, unquoted header names; ``error`` for a missing, unreadable or empty file,
+    or one that is not UTF-8 text."""
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:  # a UTF-8 BOM is accepted
-            first = fh.readline(1 << 16)
+            first = fh.readline(HEADER_BYTES)
     except FileNotFoundError:
         raise error(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise error(f"{path}: cannot read ({exc})") from None
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: line 1: {not_text(exc)}") from None
+    except OSError as exc:
+        raise error(f"{path}: cannot read ({exc.strerror or exc})") from None
     if not first.strip():
         raise error(f"{path}: file is empty")
     return [h.strip().strip('"') for h in first.strip("\r\n").split(",")]
+
+
+def not_text(exc: UnicodeDecodeError) -> str:
+    """Why a file that failed to decode is no CSV, in words rather than the codec's."""
+    return f"not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset {exc.start}), so no CSV"
+
+
+def is_text(path: Path) -> bool:
+    """Whether the start of ``path`` decodes as UTF-8 (an image or an archive does not). A file
+    that cannot be opened counts as text: :func:`csv_header` then says why it cannot be read."""
+    try:
+        with open(path, encoding="utf-8-sig") as fh:
+            fh.readline(HEADER_BYTES)
+    except UnicodeDecodeError:
+        return False
+    except OSError:
+        return True
+    return True
 
 
 def repeated_column(header: list[str]) -> str | None:

@@ -55,7 +55,18 @@ class BagError(PoseError):
 
 
 def is_bag(path: str | Path) -> bool:
-    """Whether ``path`` looks like a bag: ``.bag``, ``.mcap``, ``.db3`` or a ROS 2 bag dir."""
+    """Whether ``path`` looks like a bag: ``.bag``, ``.mcap``, ``.db3`` or a ROS 2 bag directory.
+
+    Parameters
+    ----------
+    path : str or Path
+        A file or directory.
+
+    Returns
+    -------
+    bool
+        True for those suffixes or a directory holding ``metadata.yaml``.
+    """
     path = Path(path)
     return path.suffix.lower() in (".bag", ".mcap", ".db3") or (path / "metadata.yaml").exists()
 
@@ -89,7 +100,23 @@ def _reader(path: Path):
 
 
 def bag_topics(path: str | Path) -> dict[str, tuple[str, int]]:
-    """topic -> (message type, message count) of a bag."""
+    """The topics of a bag.
+
+    Parameters
+    ----------
+    path : str or Path
+        The bag.
+
+    Returns
+    -------
+    dict of str to (str, int)
+        topic -> (message type, message count).
+
+    Raises
+    ------
+    BagError
+        A file that is not a readable bag.
+    """
     path = Path(path)
     reader, _ = _reader(path)
     try:
@@ -110,18 +137,42 @@ def read_bag(
     same_frames: Mapping[str, str] | None = None,
     map_frame: str = "map",
 ) -> PoseTracks:
-    """Poses of the ``topics`` (topic -> robot name) of a bag, sorted by (robot, t).
+    """Poses of the ``topics`` of a bag, sorted by (robot, t).
 
     A topic ``/tf:CHILD`` (a ``tf2_msgs/msg/TFMessage`` topic and a child frame) reads robot
     CHILD's pose from the bag's transforms (:mod:`mirl.observations.tf`, ``/tf_static``
     included), composed up to ``map_frame``. Pose topics must all be in one frame: topics in
-    different frames are refused unless ``same_frames`` (frame -> the frame it coincides with)
-    says how they relate.
+    different frames are refused unless ``same_frames`` says how they relate. Several topics may
+    feed one robot.
 
-    ``robot_names``, when given (the scenario's robots), is checked first: a topic mapped to a
-    robot not in it is an error naming the topic, and the result is indexed into it. Several
-    topics may feed one robot. ``decode``: ``"fast"`` (vectorised, checked against rosbags) or
-    ``"rosbags"`` (one ``deserialize`` call per message).
+    Parameters
+    ----------
+    path : str or Path
+        A ROS 1 ``.bag``, a ROS 2 bag directory or an ``.mcap`` file.
+    topics : mapping of str to str
+        Each topic's robot (topic -> robot name).
+    robot_names : sequence of str, optional
+        The scenario's robots, checked first: a topic mapped to a robot not in it is an error
+        naming the topic, and the result is indexed into it.
+    decode : {"fast", "rosbags"}, default "fast"
+        ``"fast"`` (vectorised, checked against rosbags) or ``"rosbags"`` (one ``deserialize``
+        call per message).
+    same_frames : mapping of str to str, optional
+        Frames that coincide (frame -> the frame it coincides with).
+    map_frame : str, default "map"
+        The frame TF chains are composed up to.
+
+    Returns
+    -------
+    PoseTracks
+        The poses, one row per message (TF: per stamp of the robot's own transform).
+
+    Raises
+    ------
+    BagError
+        Any problem, in one line naming the file and topic.
+    ValueError
+        An unknown ``decode``.
     """
     path = Path(path)
     if decode not in ("fast", "rosbags"):
@@ -441,10 +492,27 @@ def write_mcap(
     topic: str = "/{robot}/pose",
     frame_id: str = "map",
 ) -> None:
-    """Write a ROS 2 bag with MCAP storage, one ``PoseStamped`` topic per robot (``topic`` with
-    ``{robot}`` replaced by the name). ``path`` ending in ``.mcap`` gives a bare MCAP file
-    (readable by ``ros2 bag``, Foxglove and :func:`read_bag`), anything else a ROS 2 bag
-    directory with ``metadata.yaml``. Log time = header stamp; stamps must not be negative.
+    """Write a ROS 2 bag with MCAP storage, one ``PoseStamped`` topic per robot.
+
+    Log time = header stamp.
+
+    Parameters
+    ----------
+    tracks : PoseTracks
+        The poses; stamps must not be negative, poses must be finite.
+    path : str or Path
+        Ending in ``.mcap``: a bare MCAP file (readable by ``ros2 bag``, Foxglove and
+        :func:`read_bag`); anything else: a ROS 2 bag directory with ``metadata.yaml``. It must
+        not exist.
+    topic : str, default "/{robot}/pose"
+        The topic of each robot, ``{robot}`` replaced by its name.
+    frame_id : str, default "map"
+        The messages' ``header.frame_id``.
+
+    Raises
+    ------
+    BagError
+        Negative stamps, non-finite poses, or a path that exists already.
     """
     from rosbags.rosbag2 import StoragePlugin, Writer
 

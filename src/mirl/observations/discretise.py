@@ -1,5 +1,5 @@
-"""Pose tracks onto a scenario's grid: the :class:`~mirl.observations.Trajectories` every learner
-takes, plus a per-robot account of what happened to every pose.
+"""Pose tracks onto a scenario's grid: the :class:`~mirl.observations.trajectories.Trajectories`
+every learner takes, plus a per-robot account of what happened to every pose.
 
 - **Space.** The map frame (``MapFrame``: cell size, centre of cell (0, 0); x east with the
   column, y north with decreasing row) turns (x, y) into fractional (row, col); a pose belongs
@@ -13,6 +13,10 @@ takes, plus a per-robot account of what happened to every pose.
   (default half a step, so every pose is a candidate for exactly one step and none is used
   twice). A step with no pose within the tolerance is unobserved — never interpolated.
   ``n_steps`` defaults to the step nearest the last pose, plus one.
+- **The robots' pace.** ``step_seconds="auto"`` takes the longest step at which the robots'
+  moves stay within one cell (:func:`auto_step_seconds`): L's models move a robot at most one
+  cell a step, and a step longer than a robot's pace makes moves no action explains, while a
+  shorter one cuts moves in halves that look like failed steps.
 
 Problems are one-line :class:`DiscretisationError` messages naming the source and robot.
 """
@@ -35,6 +39,12 @@ __all__ = [
     "discretise",
     "heading_of_yaw",
     "lateral_offset",
+    "auto_step_seconds",
+    "AutoStep",
+    "AUTO_LONG_MOVES",
+    "AUTO_MIN_MOVES",
+    "AUTO_MIN_CHANGES",
+    "AUTO_SPARSE",
 ]
 
 # fraction of a cell a wall/off-map pose may be from a patroller cell and still snap to it
@@ -44,6 +54,20 @@ SNAP_CELLS = 0.5
 # no clock's; checked before arithmetic that would overflow on 1e300
 MAX_XY = 2 * MAX_FRAME_ORIGIN
 MAX_POSE_TIME = 1e11
+
+
+AUTO_LONG_MOVES = 0.01
+"""The share of a record's moves that may span more than one cell at the step
+:func:`auto_step_seconds` chooses: a third of the misreads the model check tolerates
+(:data:`mirl.learning.model_check.MISREAD_RATE`), which it must not use up."""
+AUTO_STEPS = np.round(np.arange(0.1, 10.0 + 1e-9, 0.05), 2)
+"""The steps (s) :func:`auto_step_seconds` tries."""
+AUTO_MIN_MOVES = 20
+"""A step at which fewer consecutive observed steps of a moving robot fall is not judged."""
+AUTO_SPARSE = 0.5
+"""A tracker that reports a robot this many seconds apart or more is read one pose a step."""
+AUTO_MIN_CHANGES = 10
+"""Fewer changes of cell than this do not tell a track's period."""
 
 
 class DiscretisationError(PoseError):
@@ -95,6 +119,51 @@ class RobotCounts:
 
 
 @dataclass(frozen=True)
+class AutoStep:
+    """How :func:`auto_step_seconds` chose a step.
+
+    Parameters
+    ----------
+    seconds : float
+        The step chosen.
+    long_moves : float
+        The share of consecutive observed steps, at that step, whose move spans more than one
+        cell.
+    why : {"pace", "poses", "few moves", "no fit"}
+        The robots' pace; the tracker's own interval, at most twice a second (one pose a step);
+        or the paper's 2 s because the robots were not seen moving on enough consecutive steps
+        to tell it, or because no step kept their moves within one cell.
+    """
+
+    seconds: float
+    long_moves: float
+    why: str = "pace"
+
+    @property
+    def found(self) -> bool:
+        """Whether the step is the robots' pace or the tracker's interval."""
+        return self.why in ("pace", "poses")
+
+    def sentence(self) -> str:
+        if self.why == "poses":
+            return (
+                f"chosen: the tracker's interval, one pose a step; {self.long_moves:.1%} of the "
+                "moves span more than one cell"
+            )
+        if self.why == "few moves":
+            return "the paper's 2 s: the robots were not seen moving enough to tell their pace"
+        if self.why == "no fit":
+            return (
+                f"the paper's 2 s: no step kept the robots' moves within one cell "
+                f"({self.long_moves:.1%} span more at 2 s)"
+            )
+        return (
+            f"chosen: the robots' pace, at which {self.long_moves:.1%} of their moves span "
+            "more than one cell"
+        )
+
+
+@dataclass(frozen=True)
 class Discretised:
     trajectories: Trajectories
     report: tuple[RobotCounts, ...]
@@ -102,6 +171,7 @@ class Discretised:
     step_seconds: float
     tolerance: float
     visible: np.ndarray  # (rows, cols) bool: the cells L could see (see ``discretise``)
+    auto_step: AutoStep | None = None  # how the step was chosen, when it was
 
     def visible_states(self, scenario: Scenario) -> np.ndarray:
         """(S,) bool states on visible cells, for :func:`mirl.learning.learn`'s ``visible``."""
@@ -110,9 +180,11 @@ class Discretised:
 
     def summary(self) -> str:
         tr = self.trajectories
+        chosen = f", {self.auto_step.sentence()}" if self.auto_step is not None else ""
         head = (
             f"{tr.horizon} steps of {self.step_seconds:g} s from t = {self.start_time:.3f} s "
-            f"(tolerance {self.tolerance:g} s); {int(self.visible.sum())} cells visible to L"
+            f"(tolerance {self.tolerance:g} s{chosen}); {int(self.visible.sum())} cells visible "
+            "to L"
         )
         return "\n".join([head, *("  " + c.line() for c in self.report)])
 
@@ -138,7 +210,7 @@ def discretise(
     tracks: PoseTracks,
     scenario: Scenario,
     *,
-    step_seconds: float = 2.0,
+    step_seconds: float | str = 2.0,
     start_time: float | None = None,
     n_steps: int | None = None,
     tolerance: float | None = None,
@@ -150,8 +222,24 @@ def discretise(
     ``visible`` says which cells L could see, handed on to the learner: ``None`` (default) the
     scenario's observability degree and visibility order; ``"observed"`` every cell a robot was
     observed on; or a (rows, cols) bool mask. Observed steps outside it are counted
-    (``outside_visible``), never dropped.
+    (``outside_visible``), never dropped. ``step_seconds="auto"``: the robots' own pace
+    (:func:`auto_step_seconds`).
+
+    .. versionchanged:: 0.2.0
+       ``step_seconds="auto"``.
     """
+    auto = None
+    if isinstance(step_seconds, str):
+        if step_seconds != "auto":
+            raise DiscretisationError(
+                f"{tracks.source}: `step_seconds` must be a number of seconds or 'auto', got "
+                f"{step_seconds!r}"
+            )
+        # the poses and the watch are checked as at the paper's 2 s before any step is tried
+        tracks, _ = _checked(tracks, scenario, 2.0, tolerance)
+        _watch(tracks, start_time, n_steps, 2.0)
+        auto = auto_step_seconds(tracks, scenario, start_time=start_time)
+        step_seconds = auto.seconds
     tracks, tol = _checked(tracks, scenario, step_seconds, tolerance)
     start_time, n_steps = _watch(tracks, start_time, n_steps, step_seconds)
 
@@ -207,7 +295,146 @@ def discretise(
         replace(RobotCounts(name, *(c[i] for c in columns)), unplaced=tracks.unplaced.get(name, 0))
         for i, name in enumerate(tracks.robot_names)
     )
-    return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis)
+    return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis, auto)
+
+
+def auto_step_seconds(
+    tracks: PoseTracks,
+    scenario: Scenario,
+    *,
+    start_time: float | None = None,
+    long_moves: float = AUTO_LONG_MOVES,
+) -> AutoStep:
+    """The robots' pace: the step at which a typical move of theirs is one cell.
+
+    A step longer than a robot's pace lets it cross two cells, which no action explains; a
+    shorter one cuts its moves into pieces that stay in one cell and read as failed steps.
+    A tracker that reports a robot :data:`AUTO_SPARSE` s apart or more (a camera once a
+    decision, an AMCL pose once a second) is read one pose a step: no shorter step has a pose at
+    both ends. Other tracks say their pace in two ways:
+
+    * **In jumps** — a tracker reporting at a robot's decisions, poses written from grid
+      states: the robot changes cells at multiples of one period (:func:`_jump_period`), its
+      pace.
+    * **Smoothly** — a robot tracked at 10–30 Hz: the longest of :data:`AUTO_STEPS` at which at
+      most ``long_moves`` of the consecutive observed steps move a robot more than one cell
+      (by the cells its nearest poses lie in, as :func:`discretise` reads them), of all the
+      robots' and of each robot's seen moving on enough steps: the fastest robot sets the
+      pace, so that a weak robot's failed moves are not read away by a step long enough for it
+      to complete them.
+
+    Steps at which the robots were seen moving on fewer than :data:`AUTO_MIN_MOVES`
+    consecutive steps are not judged. When no step fits (poses too noisy to keep a moving
+    robot in one cell at any step) or none is judged, the paper's 2 s, and the model check
+    will say whether the record fits (:mod:`mirl.learning.model_check`).
+    """
+    t = np.asarray(tracks.t, dtype=float)
+    if not len(t) or not np.isfinite(t).all():
+        return AutoStep(2.0, 0.0, "few moves")
+    rf, cf = scenario.map.frame.cell_coordinates(tracks.x, tracks.y)
+    row, col = np.floor(rf + 0.5).astype(np.int64), np.floor(cf + 0.5).astype(np.int64)
+    start = float(t.min()) if start_time is None else float(start_time)
+    robots = [np.flatnonzero(tracks.robot == i) for i in range(len(tracks.robot_names))]
+    robots = [idx[np.argsort(t[idx], kind="stable")] for idx in robots if len(idx)]
+
+    span = float(t.max()) - start
+
+    def judged(step: float) -> tuple[bool, bool, float]:
+        """Whether the robots were seen moving enough at ``step``; whether their moves stay
+        within one cell there — every robot's seen moving on enough steps, so that the
+        fastest robot sets the pace, and a weak robot's failed moves are not read away; and
+        the share of all moves that span more."""
+        pairs = long = moved = 0
+        each = True
+        if span / step + 1 >= MAX_TIME:  # more steps than any record may hold
+            return False, False, 0.0
+        for idx in robots:
+            cells = _cells_at_steps(t[idx], row[idx], col[idx], start, step)
+            both = (cells[:-1, 0] != _UNSEEN) & (cells[1:, 0] != _UNSEEN)
+            dist = np.abs(cells[1:] - cells[:-1]).sum(axis=1)[both]
+            own_long, own_moved = int((dist >= 2).sum()), int((dist >= 1).sum())
+            if own_moved >= AUTO_MIN_MOVES:
+                each &= own_long <= long_moves * len(dist)
+            pairs, long, moved = pairs + len(dist), long + own_long, moved + own_moved
+        enough = moved >= AUTO_MIN_MOVES
+        share = long / pairs if pairs else 0.0
+        return enough, enough and each and share <= long_moves, share
+
+    ticks = [np.diff(t[idx]) for idx in robots if len(idx) > 1]
+    pose_interval = float(np.median(np.concatenate(ticks))) if ticks else 0.0
+    if pose_interval >= AUTO_SPARSE:  # no step between two of its poses has one
+        enough, _, share = judged(round(pose_interval, 3))
+        if enough:
+            return AutoStep(round(pose_interval, 3), share, "poses")
+    period = _jump_period(t, row, col, robots)
+    if period is not None:
+        _, fits, share = judged(period)
+        if fits:
+            return AutoStep(period, share)
+    best: AutoStep | None = None
+    judged_any = False
+    for step in AUTO_STEPS:
+        enough, fits, share = judged(float(step))
+        judged_any |= enough
+        if fits:
+            best = AutoStep(float(step), share)
+    if best is not None:
+        return best
+    if not judged_any:
+        return AutoStep(2.0, 0.0, "few moves")
+    return AutoStep(2.0, judged(2.0)[2], "no fit")
+
+
+def _jump_period(t, row, col, robots: list[np.ndarray]) -> float | None:
+    """The period of a track whose robots change cells in jumps (class docstring of
+    :func:`auto_step_seconds`), or None for one that moves smoothly.
+
+    A track that changes cell between a quarter or more of its consecutive poses reports at the
+    robots' pace or slower: its pose interval. Otherwise the period is the longest of the lower
+    quartile of the times between changes of cell, and its halves, thirds, … down to two pose
+    intervals, of which at least 80 % of those times are multiples, within a pose interval or a
+    tenth of the period, whichever is less."""
+    gaps, tick, pairs, changed = [], [], 0, 0
+    for idx in robots:
+        ti = t[idx]
+        if len(ti) < 2:
+            continue
+        tick.append(np.diff(ti))
+        moved = (row[idx][1:] != row[idx][:-1]) | (col[idx][1:] != col[idx][:-1])
+        pairs, changed = pairs + len(moved), changed + int(moved.sum())
+        gaps.append(np.diff(0.5 * (ti[1:] + ti[:-1])[moved]))
+    if not gaps or sum(len(g) for g in gaps) < AUTO_MIN_CHANGES:
+        return None
+    pose_interval = float(np.median(np.concatenate(tick)))
+    if changed >= 0.25 * pairs:
+        return round(pose_interval, 3)
+    between = np.concatenate(gaps)
+    lower = float(np.quantile(between, 0.25))  # out-of-view spells make the longer ones
+    k = 1
+    while lower / k >= 2 * pose_interval:
+        period = lower / k
+        off = np.abs(between / period - np.rint(between / period)) * period
+        if np.mean(off <= min(pose_interval, 0.1 * period)) >= 0.8:
+            return round(period, 3)
+        k += 1
+    return None
+
+
+_UNSEEN = np.iinfo(np.int64).min
+
+
+def _cells_at_steps(t, row, col, start: float, step: float) -> np.ndarray:
+    """(steps, 2) the cell of the pose nearest each step time within half a step (ties: the
+    earlier pose), :data:`_UNSEEN` where there is none; ``t`` sorted."""
+    k = np.arange(int(np.floor((t[-1] - start) / step + 0.5)) + 1)
+    times = start + k * step
+    right = np.clip(np.searchsorted(t, times), 0, len(t) - 1)
+    left = np.clip(right - 1, 0, len(t) - 1)
+    nearest = np.where(np.abs(t[left] - times) <= np.abs(t[right] - times), left, right)
+    ok = np.abs(t[nearest] - times) <= step / 2 * (1 + 1e-12)
+    out = np.full((len(k), 2), _UNSEEN, dtype=np.int64)
+    out[ok] = np.column_stack([row[nearest[ok]], col[nearest[ok]]])
+    return out
 
 
 def _watch(

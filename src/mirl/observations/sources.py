@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mirl.observations._csv import csv_header
+from mirl._registry import Registry
+from mirl.observations._csv import csv_header, is_text
 from mirl.observations.bags import SUPPORTED_TYPES, BagError, bag_topics, is_bag, read_bag
 from mirl.observations.discretise import Discretised, discretise
 from mirl.observations.poses import PoseError, PoseTracks, read_pose_csv
@@ -35,12 +36,35 @@ __all__ = [
 
 @dataclass(frozen=True)
 class LoadedObservations:
+    """Observations read from a file, with what their format tells about them.
+
+    Parameters
+    ----------
+    trajectories : Trajectories
+        The observed grid states.
+    kind : str
+        The name of its format in :data:`FORMATS`: ``grid-csv``, ``pose-csv`` or ``bag``.
+    discretised : Discretised, optional
+        For pose data: the discretisation's counts and the cells L could see.
+    """
+
     trajectories: Trajectories
-    kind: str  # "grid-csv", "pose-csv" or "bag"
+    kind: str  # the name of its format in FORMATS: "grid-csv", "pose-csv" or "bag"
     discretised: Discretised | None = None  # for pose data: the counts and the visible cells
 
     def visible_states(self, scenario: Scenario) -> np.ndarray | None:
-        """(S,) visible states for the learner, or None for the scenario's degree."""
+        """The states L could see, for the learner.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario the observations are of.
+
+        Returns
+        -------
+        ndarray of bool, shape (S,), or None
+            The visible states of pose data; None for grid data (the scenario's degree holds).
+        """
         return None if self.discretised is None else self.discretised.visible_states(scenario)
 
 
@@ -117,7 +141,7 @@ def _read_grid_csv(path: Path, scenario: Scenario, options: _ReadOptions) -> Tra
     return read_csv(path, scenario.domain, options.robot_names)
 
 
-FORMATS: tuple[InputFormat, ...] = (
+FORMATS: Registry[InputFormat] = Registry("input format", (
     InputFormat(
         "bag", "a ROS 1 .bag, a ROS 2 bag directory or an .mcap file",
         lambda path, header: is_bag(path), robot_data=True, read=_read_bag,
@@ -132,31 +156,51 @@ FORMATS: tuple[InputFormat, ...] = (
         lambda path, header: "x" in header and "y" in header, robot_data=True,
         read=_read_pose_csv,
     ),
-)  # fmt: skip
-"""Every input format, tried in this order."""
+))  # fmt: skip
+"""Every input format by name, tried in this order."""
 
-ROBOT_DATA_KINDS = tuple(f.name for f in FORMATS if f.robot_data)
+ROBOT_DATA_KINDS = tuple(f.name for f in FORMATS.values() if f.robot_data)
 """The formats that hold robot data (measured poses), not a simulation of a scenario."""
 
 
 def input_format(path: str | Path) -> InputFormat:
     """The format of ``path`` (told by the file), or a one-line error."""
     path = Path(path)
+    where = f"{path}"  # a text file's refusal names its first line, the header it read
     if is_bag(path):
         header: tuple[str, ...] = ()
     elif path.is_dir():
         raise PoseError(f"{path}: a directory but not a ROS 2 bag (no metadata.yaml)")
+    elif not is_text(path):  # an image, say: no format below, which the message lists
+        header = ()
     else:
         header = tuple(csv_header(path, TrajectoryError))
-    for fmt in FORMATS:
+        where = f"{path}: line 1"
+    for fmt in FORMATS.values():
         if fmt.recognises(path, header):
             return fmt
-    known = "; ".join(f.description for f in FORMATS)
-    raise TrajectoryError(f"{path}: line 1: not a file of observations mirl reads ({known})")
+    known = "; ".join(f.description for f in FORMATS.values())
+    raise TrajectoryError(f"{where}: not a file of observations mirl reads ({known})")
 
 
 def observation_kind(path: str | Path) -> str:
-    """The name of ``path``'s input format (:func:`input_format`)."""
+    """The name of ``path``'s input format (:func:`input_format`).
+
+    Parameters
+    ----------
+    path : str or Path
+        An observations file or bag.
+
+    Returns
+    -------
+    str
+        A name in :data:`FORMATS`.
+
+    Raises
+    ------
+    PoseError
+        A file no format recognises (the message lists the formats).
+    """
     return input_format(path).name
 
 
@@ -165,7 +209,7 @@ def load_observations(
     scenario: Scenario,
     *,
     topics: Mapping[str, str] | Sequence[tuple[str, str]] | None = None,
-    step_seconds: float | None = None,
+    step_seconds: float | str | None = None,
     start_time: float | None = None,
     tolerance: float | None = None,
     drop_off_map: bool = False,
@@ -175,14 +219,52 @@ def load_observations(
 ) -> LoadedObservations:
     """Read observations of ``scenario``'s robots from ``path`` (kind told by the file).
 
-    ``topics``: for a bag, topic → robot (required); for a pose CSV, an optional renaming of
-    the file's robot names. The discretisation options apply to pose data only; giving one
-    for a grid CSV is an error rather than silently ignored. ``visible`` (pose data): the cells
-    L could see, handed to the learner — by default those of ``observability`` (default: the
-    scenario's degree) along the map's visibility order; ``"observed"``: every cell a robot was
-    observed on; or a (rows, cols) bool mask. ``same_frames`` (bags): frames that coincide
-    (frame -> frame), so that topics recorded in both may be mixed (:func:`~mirl.observations.
-    bags.read_bag`).
+    The discretisation options apply to pose data only; giving one for a grid CSV is an error
+    rather than silently ignored.
+
+    Parameters
+    ----------
+    path : str or Path
+        A grid CSV, a pose CSV or a bag.
+    scenario : Scenario
+        The scenario whose robots and map the observations are of.
+    topics : mapping of str to str, or sequence of (str, str), optional
+        For a bag, topic → robot (required); for a pose CSV, an optional renaming of the file's
+        robot names.
+    step_seconds : float or "auto", optional
+        Pose data: seconds a decision step, or ``"auto"`` (the default, None): the robots' own
+        pace (:func:`~mirl.observations.discretise.auto_step_seconds`).
+
+        .. versionchanged:: 0.2.0
+           Defaults to ``"auto"`` (it was 2 s).
+    start_time : float, optional
+        Pose data: the time of step 0; the first pose's if None.
+    tolerance : float, optional
+        Pose data: how far (seconds) from a step's time a pose may be and still count for it;
+        half a step if None.
+    drop_off_map : bool, default False
+        Pose data: drop poses off the hallway (counted) instead of refusing the file.
+    visible : str or ndarray of bool, optional
+        Pose data: the cells L could see, handed to the learner — by default those of
+        ``observability`` along the map's visibility order; ``"observed"``: every cell a robot
+        was observed on; or a (rows, cols) bool mask.
+    observability : float, optional
+        Pose data: the degree ``visible`` defaults to; the scenario's by default.
+    same_frames : mapping of str to str, optional
+        Bags: frames that coincide (frame -> frame), so that topics recorded in both may be
+        mixed (:func:`~mirl.observations.bags.read_bag`).
+
+    Returns
+    -------
+    LoadedObservations
+        The observations, their format's name and, for pose data, the discretisation.
+
+    Raises
+    ------
+    TrajectoryError, PoseError or BagError
+        A problem with the file, in one line naming it.
+    ValueError
+        An option that does not apply to the file's format.
     """
     path = Path(path)
     fmt = input_format(path)
@@ -214,7 +296,7 @@ def load_observations(
     d = discretise(
         tracks,
         scenario,
-        step_seconds=2.0 if step_seconds is None else step_seconds,
+        step_seconds="auto" if step_seconds is None else step_seconds,
         start_time=start_time,
         tolerance=tolerance,
         drop_off_map=drop_off_map,

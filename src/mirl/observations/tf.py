@@ -34,8 +34,20 @@ TF_TOLERANCE = 1.0
 
 
 def split_tf_topic(topic: str) -> tuple[str, str] | None:
-    """``/tf:base_footprint`` -> ("/tf", "base_footprint"); None for a plain topic (ROS topic
-    names have no colon, so the colon can only mean a child frame)."""
+    """``/tf:base_footprint`` -> ("/tf", "base_footprint").
+
+    ROS topic names have no colon, so the colon can only mean a child frame.
+
+    Parameters
+    ----------
+    topic : str
+        A topic as the user wrote it.
+
+    Returns
+    -------
+    (str, str) or None
+        The TF topic and the child frame; None for a plain topic.
+    """
     if ":" not in topic:
         return None
     name, _, child = topic.partition(":")
@@ -52,7 +64,14 @@ class _Link:
 
 
 class Transforms:
-    """Every transform of a bag's TF topics, per (parent, child) link, sorted by stamp."""
+    """Every transform of a bag's TF topics, per (parent, child) link, sorted by stamp.
+
+    Parameters
+    ----------
+    rows : list of tuple
+        (parent, child, stamp, x, y, yaw, static) of every transform; frames' leading slashes
+        are dropped.
+    """
 
     def __init__(self, rows: list[tuple[str, str, float, float, float, float, bool]]) -> None:
         by_link: dict[tuple[str, str], list[tuple[tuple[float, ...], bool]]] = {}
@@ -71,7 +90,18 @@ class Transforms:
 
     @classmethod
     def from_messages(cls, messages) -> Transforms:
-        """From (topic, deserialised TFMessage) pairs."""
+        """From (topic, deserialised TFMessage) pairs.
+
+        Parameters
+        ----------
+        messages : iterable of (str, object)
+            The topic (``/tf`` or ``/tf_static``) and the message.
+
+        Returns
+        -------
+        Transforms
+            Their transforms.
+        """
         rows = []
         for topic, msg in messages:
             for tr in msg.transforms:
@@ -93,8 +123,25 @@ class Transforms:
         return cls(rows)
 
     def chain(self, child: str, map_frame: str) -> list[tuple[str, str]]:
-        """The links from ``map_frame`` down to ``child``, top first; a ValueError naming the
-        frames reached when the map frame is not above the child."""
+        """The links from ``map_frame`` down to ``child``, top first.
+
+        Parameters
+        ----------
+        child : str
+            A robot's frame.
+        map_frame : str
+            The frame to reach.
+
+        Returns
+        -------
+        list of (str, str)
+            The (parent, child) links.
+
+        Raises
+        ------
+        ValueError
+            The map frame is not above the child (the message names the frames reached).
+        """
         links: list[tuple[str, str]] = []
         frame, seen = child, {child}
         while frame != map_frame:
@@ -119,10 +166,38 @@ def compose_track(
     map_frame: str = "map",
     same_frames: Mapping[str, str] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
-    """(t, x, y, yaw) of frame ``child`` in ``map_frame`` at the stamps of its own transform,
-    and how many of those stamps were dropped for a link with no transform within
-    :data:`TF_TOLERANCE` (module doc). ``same_frames`` names frames that coincide with the map
-    frame (frame -> map frame): the chain may stop at one of them."""
+    """The pose of frame ``child`` in ``map_frame`` at the stamps of its own transform.
+
+    Parameters
+    ----------
+    transforms : Transforms
+        The bag's transforms.
+    child : str
+        The robot's frame.
+    map_frame : str, default "map"
+        The frame the poses are in.
+    same_frames : mapping of str to str, optional
+        Frames that coincide with the map frame (frame -> map frame): the chain may stop at one
+        of them.
+
+    Returns
+    -------
+    t : ndarray of shape (n,)
+        Stamps, seconds.
+    x : ndarray of shape (n,)
+        Metres in the map frame.
+    y : ndarray of shape (n,)
+        Metres in the map frame.
+    yaw : ndarray of shape (n,)
+        Radians.
+    dropped : int
+        The stamps dropped for a link with no transform within :data:`TF_TOLERANCE` (module doc).
+
+    Raises
+    ------
+    ValueError
+        The child is the map frame, not below it, or never moves.
+    """
     stops = {map_frame, *(f for f, m in (same_frames or {}).items() if m == map_frame)}
     frame, links = child, list[tuple[str, str]]()
     while frame not in stops:

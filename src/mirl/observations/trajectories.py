@@ -31,13 +31,30 @@ class TrajectoryError(ValueError):
 class Trajectories:
     """Observed (or true) states of several robots: one row per (time, robot).
 
-    ``robot`` holds indices into ``robot_names``; rows are sorted by (t, robot).
+    Rows are sorted by (t, robot).
 
-    ``lateral`` (optional, robot data only) is what discretising a pose to its cell leaves
-    over across the heading: the signed distance (cells, left of the heading positive) of the
-    measured position from the centre line of its cell along its discretised heading; NaN
-    where unknown. It is the evidence of a robot that veers (a weak wheel) that the grid
-    state discards (docs/design.md, "Fault verdicts").
+    Parameters
+    ----------
+    robot_names : tuple of str
+        The robots' names.
+    t : ndarray of int, shape (n,)
+        Time steps.
+    robot : ndarray of int, shape (n,)
+        Indices into ``robot_names``.
+    row : ndarray of int, shape (n,)
+        Cells' rows.
+    col : ndarray of int, shape (n,)
+        Cells' columns.
+    heading : ndarray of int, shape (n,)
+        Headings (0 east, 1 north, 2 west, 3 south).
+    horizon : int
+        The steps the record spans (times are below it).
+    lateral : ndarray of shape (n,), optional
+        Robot data only: what discretising a pose to its cell leaves over across the heading —
+        the signed distance (cells, left of the heading positive) of the measured position from
+        the centre line of its cell along its discretised heading; NaN where unknown. It is the
+        evidence of a robot that veers (a weak wheel) that the grid state discards
+        (docs/design.md, "Fault verdicts").
     """
 
     robot_names: tuple[str, ...]
@@ -53,23 +70,71 @@ class Trajectories:
         return len(self.t)
 
     def states(self, domain: PatrolDomain) -> np.ndarray:
+        """The state index of every row.
+
+        Parameters
+        ----------
+        domain : PatrolDomain
+            The domain the cells are states of.
+
+        Returns
+        -------
+        ndarray of int, shape (n,)
+            State indices; -1 where a row is not a patroller state.
+        """
         return domain.state_index(self.row, self.col, self.heading)
 
     def for_robot(self, index: int) -> tuple[np.ndarray, np.ndarray]:
-        """(times, rows) of one robot, sorted by time."""
+        """One robot's rows, sorted by time.
+
+        Parameters
+        ----------
+        index : int
+            The robot's index.
+
+        Returns
+        -------
+        times : ndarray of int
+            Its time steps.
+        rows : ndarray of int
+            The indices of its rows.
+        """
         sel = self.robot == index
         return self.t[sel], np.flatnonzero(sel)
 
     def state_series(self, domain: PatrolDomain, index: int) -> np.ndarray:
-        """(horizon,) state index per time step for one robot; -1 where not observed."""
+        """One robot's state per time step.
+
+        Parameters
+        ----------
+        domain : PatrolDomain
+            The domain the cells are states of.
+        index : int
+            The robot's index.
+
+        Returns
+        -------
+        ndarray of int, shape (horizon,)
+            The state at every step; -1 where not observed.
+        """
         out = np.full(self.horizon, -1, dtype=int)
         t, rows = self.for_robot(index)
         out[t] = self.states(domain)[rows]
         return out
 
     def lateral_series(self, index: int) -> np.ndarray | None:
-        """(horizon,) lateral offset per time step for one robot (NaN where unknown), or None
-        when the record has none."""
+        """One robot's lateral offset per time step.
+
+        Parameters
+        ----------
+        index : int
+            The robot's index.
+
+        Returns
+        -------
+        ndarray of shape (horizon,), or None
+            The offset at every step (NaN where unknown), or None when the record has none.
+        """
         if self.lateral is None:
             return None
         out = np.full(self.horizon, np.nan)
@@ -78,6 +143,18 @@ class Trajectories:
         return out
 
     def select(self, mask: np.ndarray) -> Trajectories:
+        """The rows where ``mask`` holds.
+
+        Parameters
+        ----------
+        mask : ndarray of bool, shape (n,)
+            Which rows to keep.
+
+        Returns
+        -------
+        Trajectories
+            The same robots and horizon, fewer rows.
+        """
         return Trajectories(
             self.robot_names,
             self.t[mask],
@@ -90,6 +167,18 @@ class Trajectories:
         )
 
     def truncate(self, steps: int) -> Trajectories:
+        """The record's first ``steps`` time steps.
+
+        Parameters
+        ----------
+        steps : int
+            The new horizon.
+
+        Returns
+        -------
+        Trajectories
+            The rows before ``steps``, horizon ``steps``.
+        """
         out = self.select(self.t < steps)
         return replace(out, horizon=steps)
 
@@ -102,8 +191,26 @@ class Trajectories:
         t0: int = 0,
         lateral: np.ndarray | None = None,
     ) -> Trajectories:
-        """From a (T, N) array of state indices, -1 meaning unobserved, and optionally the
-        (T, N) lateral offsets that go with them."""
+        """From a (T, N) array of state indices, -1 meaning unobserved.
+
+        Parameters
+        ----------
+        domain : PatrolDomain
+            The domain the states are of.
+        robot_names : tuple of str
+            The N robots' names.
+        states : ndarray of int, shape (T, N)
+            A state per step and robot; -1 where unobserved.
+        t0 : int, default 0
+            The time of the first row of ``states``.
+        lateral : ndarray of shape (T, N), optional
+            The lateral offsets that go with the states.
+
+        Returns
+        -------
+        Trajectories
+            The observed rows, horizon ``T + t0``.
+        """
         states = np.asarray(states)
         tt, rr = np.nonzero(states >= 0)
         rch = domain.states[states[tt, rr]]
@@ -113,7 +220,13 @@ class Trajectories:
         )
 
     def to_csv(self, path: str | Path) -> None:
-        """Write ``t,robot,row,col,heading`` rows (pyarrow, vectorised)."""
+        """Write ``t,robot,row,col,heading`` rows (pyarrow, vectorised).
+
+        Parameters
+        ----------
+        path : str or Path
+            The CSV file to write.
+        """
         from mirl.observations._csv import write_columns
 
         columns = {h: getattr(self, h) for h in HEADER}
@@ -128,14 +241,32 @@ def read_csv(
 ) -> Trajectories:
     """Read and validate a ``t,robot,row,col,heading`` file.
 
-    Raises :class:`TrajectoryError` for a missing column, a non-integer cell, a negative time, a
-    state that is not a hallway cell with heading 0–3, an unknown robot or a duplicate (t, robot).
-    ``horizon`` defaults to the last time + 1.
-
     Vectorised: ``pyarrow.csv`` parses the columns (one thread) and the checks run on whole
     arrays; a file pyarrow will not parse as clean integers goes to the row-by-row reader, whose
     messages (file, line, problem) are the reference. Measured on a 50 MB file (3.9 M rows,
     ``benchmarks/bench_robot_data.py``): see docs/design.md, "Robot data in".
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+    domain : PatrolDomain
+        The domain every row must be a state of.
+    robot_names : tuple of str
+        The robots the file may name.
+    horizon : int, optional
+        The record's horizon; the last time + 1 by default.
+
+    Returns
+    -------
+    Trajectories
+        The rows, sorted by (t, robot).
+
+    Raises
+    ------
+    TrajectoryError
+        A missing column, a non-integer cell, a negative time, a state that is not a hallway
+        cell with heading 0–3, an unknown robot or a duplicate (t, robot).
     """
     import pyarrow as pa
     import pyarrow.compute as pc

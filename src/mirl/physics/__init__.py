@@ -13,8 +13,9 @@ What it holds:
 - :mod:`~mirl.physics.contacts` — contact events, robot–robot and robot–wall;
 - :mod:`~mirl.physics.records` — what a run recorded: grid states, actions, tick poses, L's
   camera measurements;
-- :mod:`~mirl.physics.patrol` — :class:`PhysicalWorld`: patrollers deciding on the grid from a
-  noisy pose estimate and driving in physics, composed of the objects above;
+- :mod:`~mirl.physics.patrol` — :class:`~mirl.physics.patrol.PhysicalWorld`: patrollers
+  deciding on the grid from a noisy pose estimate and driving in physics, composed of the
+  objects above;
 - :mod:`~mirl.physics.config` — the ``[physics]`` scenario table and its defaults;
 - :mod:`~mirl.physics.calibration` — effective per-action success rates of the physics.
 
@@ -56,9 +57,17 @@ def require_mujoco() -> None:
 
 
 def mujoco_version() -> str:
-    """The installed MuJoCo's version. Physics results depend on it — the same seed gives other
-    trajectories under another MuJoCo (3.17.0 against 4.0.0: 30 against 7 robot–robot contacts in
-    the same 25 minutes) — so runs record it beside mirl's own fingerprint."""
+    """The installed MuJoCo's version.
+
+    Physics results depend on it — the same seed gives other trajectories under another MuJoCo
+    (3.17.0 against 4.0.0: 30 against 7 robot–robot contacts in the same 25 minutes) — so runs
+    record it beside mirl's own fingerprint.
+
+    Returns
+    -------
+    str
+        ``mujoco.__version__``.
+    """
     import mujoco
 
     return str(mujoco.__version__)

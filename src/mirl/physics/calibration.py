@@ -22,7 +22,65 @@ from mirl.world.domain import ACTIONS
 
 MOVING = ("forward", "turn_left", "turn_right")
 
-__all__ = ["Calibration", "calibrate", "open_loop"]
+__all__ = [
+    "Calibration",
+    "Meeting",
+    "calibrate",
+    "head_on_meeting",
+    "open_loop",
+    "FORWARD_SUCCESS_RATIO",
+    "wheel_success",
+    "damaged_wheels",
+    "weakened_wheels",
+]
+
+FORWARD_SUCCESS_RATIO = {
+    0.5: 0.450, 0.6: 0.566, 0.7: 0.703, 0.75: 0.866, 0.8: 0.965, 0.85: 0.988, 0.9: 1.0, 0.95: 1.0,
+}  # fmt: skip
+"""Motor strength -> a robot's forward steps' success driving alone over a healthy robot's in the
+same runs: what the weak wheel's success probability is, in ξ's terms, over its healthy level
+(forward steps need both wheels). Measured with ``python benchmarks/calibrate_strength.py``
+(boyd2-healthy, each robot's either motor in turn, seeds 100–101, 300 steps; MuJoCo 3.17.0;
+docs/results.md, "Fault verdicts")."""
+
+
+def wheel_success(strength: float, healthy: float) -> float:
+    """The success probability, in ξ's terms, of a wheel whose motor has ``strength``:
+    ``healthy`` × the measured ratio (:data:`FORWARD_SUCCESS_RATIO`), interpolated linearly
+    between the strengths measured, 0 for a dead motor and ``healthy`` for a full one."""
+    known = sorted(FORWARD_SUCCESS_RATIO.items())
+    x = [0.0, *(k for k, _ in known), 1.0]
+    y = [0.0, *(v for _, v in known), 1.0]
+    return float(healthy * np.interp(float(strength), x, np.minimum(y, 1.0)))
+
+
+def damaged_wheels(scenario) -> dict[str, tuple[str, ...]]:
+    """Per robot, the wheels damaged by their effect: whose motor's strength makes the wheel's
+    success probability (:func:`wheel_success`) lie below its healthy level by more than the
+    scenario's margin (``scenario.faults``) — as on the grid, not whenever a motor is weaker
+    than a full one."""
+    from mirl.physics.config import WHEELS, scenario_physics
+
+    cfg, faults = scenario_physics(scenario), scenario.faults
+    return {
+        r: tuple(
+            w for w in WHEELS
+            if faults.damaged(w, wheel_success(cfg.strength(r, w), faults.healthy.get(w, 0.95)))
+        )
+        for r in scenario.robot_names
+    }  # fmt: skip
+
+
+def weakened_wheels(scenario) -> dict[str, tuple[str, ...]]:
+    """Per robot, the wheels whose motor is weaker than a full one yet not damaged by its effect
+    (:func:`damaged_wheels`): weakened, its moves unaffected."""
+    from mirl.physics.config import WHEELS, scenario_physics
+
+    cfg, damaged = scenario_physics(scenario), damaged_wheels(scenario)
+    return {
+        r: tuple(w for w in WHEELS if cfg.strength(r, w) < 1.0 and w not in damaged[r])
+        for r in scenario.robot_names
+    }
 
 
 @dataclass
@@ -154,3 +212,35 @@ def open_loop(scenario, robot: str, *, config=None) -> dict[str, float]:
         turn = "turn_right" if what == "left" else "turn_left"
         out[f"{turn}_rate"] = float(np.degrees(abs(yaw[-1] - yaw[0])))
     return out
+
+
+@dataclass(frozen=True)
+class Meeting:
+    """How a head-on meeting of two patrollers went (:func:`head_on_meeting`)."""
+
+    got_past: bool  # the robots ended past each other
+    contacts: int  # robot-robot contact events
+    wall_contacts: int
+
+    @property
+    def passed(self) -> bool:
+        """Past each other without touching."""
+        return self.got_past and self.contacts == 0
+
+
+HEAD_ON_STARTS = [(4, 1, 3), (12, 1, 1)]
+"""boyd2's long hallway: the first patroller at (4, 1) facing south, the second at (12, 1) facing
+north, eight cells apart."""
+
+
+def head_on_meeting(scenario, seed: int, *, config=None, steps: int = 10) -> Meeting:
+    """Two patrollers of a boyd2-map ``scenario`` driving at each other along the long hallway
+    (:data:`HEAD_ON_STARTS`) for ``steps`` decision steps: whether they got past each other, and
+    the contacts on the way. A meeting that has not got past within the steps (the robots still
+    facing each other) counts as not passed, like one that touched."""
+    w = PhysicalWorld(scenario, config=config, seed=seed, starts=HEAD_ON_STARTS, observer=False,
+                      record_ticks=False)  # fmt: skip
+    for _ in range(steps):
+        w.step()
+    ys = w.poses()[:2, 1]
+    return Meeting(bool(ys[0] < ys[1]), w.contacts, w.wall_contacts)

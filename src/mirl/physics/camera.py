@@ -39,18 +39,70 @@ _GROUPS[WALL_GROUP] = 1
 
 @dataclass(frozen=True)
 class Cone:
+    """A camera's view: a field of view and a range.
+
+    Parameters
+    ----------
+    fov_deg : float
+        The field of view, degrees, centred on the camera's yaw.
+    range : float
+        Metres.
+    """
+
     fov_deg: float
     range: float
 
     def inside(self, cx, cy, cyaw, px, py) -> np.ndarray:
-        """Whether points (px, py) lie inside cones at (cx, cy, cyaw) (broadcast)."""
+        """Whether points (px, py) lie inside cones at (cx, cy, cyaw) (broadcast).
+
+        Parameters
+        ----------
+        cx : float or ndarray
+            The cameras' x (m).
+        cy : float or ndarray
+            Their y (m).
+        cyaw : float or ndarray
+            Their yaw (rad).
+        px : float or ndarray
+            The points' x (m).
+        py : float or ndarray
+            Their y (m).
+
+        Returns
+        -------
+        ndarray of bool
+            Within range and within half the field of view of the yaw.
+        """
         dx, dy = np.asarray(px) - cx, np.asarray(py) - cy
         ang = np.abs(wrap(np.arctan2(dy, dx) - cyaw))
         return (np.hypot(dx, dy) <= self.range) & (ang <= np.radians(self.fov_deg) / 2)
 
 
 def line_of_sight(model, data, x0: float, y0: float, x1: float, y1: float) -> bool:
-    """No wall between (x0, y0) and (x1, y1)."""
+    """No wall between (x0, y0) and (x1, y1).
+
+    A ray cast with ``mujoco.mj_ray`` at :data:`RAY_HEIGHT` against the walls only.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        The world's model.
+    data : mujoco.MjData
+        Its state.
+    x0 : float
+        The viewer's x (m).
+    y0 : float
+        Its y (m).
+    x1 : float
+        The target's x (m).
+    y1 : float
+        Its y (m).
+
+    Returns
+    -------
+    bool
+        True when no wall lies between them.
+    """
     pnt = np.array([x0, y0, RAY_HEIGHT])
     vec = np.array([x1 - x0, y1 - y0, 0.0])
     if not vec.any():
@@ -62,7 +114,21 @@ def line_of_sight(model, data, x0: float, y0: float, x1: float, y1: float) -> bo
 
 @dataclass(frozen=True)
 class Sighting:
-    """A patroller seeing L: time (s), step, robot index, both true poses (x, y, yaw)."""
+    """A patroller seeing L.
+
+    Parameters
+    ----------
+    time : float
+        Seconds of simulated time.
+    step : int
+        The decision step.
+    robot : int
+        The patroller's index.
+    robot_pose : (float, float, float)
+        Its true pose (x, y, yaw).
+    observer_pose : (float, float, float)
+        L's true pose.
+    """
 
     time: float
     step: int
@@ -72,16 +138,46 @@ class Sighting:
 
 
 class ObserverCamera(NamedTuple):
-    """L's view: the door camera's pose (x, y, yaw) and cone (both None when everything L may
-    see is watched from overhead), and the cells watched from overhead ((rows, cols) bool)."""
+    """L's view: a door camera and the cells watched from overhead.
+
+    Parameters
+    ----------
+    pose : (float, float, float) or None
+        The door camera's pose (x, y, yaw); None when everything L may see is watched from
+        overhead.
+    cone : Cone or None
+        Its view; None with ``pose``.
+    overhead : ndarray of bool, shape (rows, cols)
+        The cells watched from overhead.
+    """
 
     pose: tuple[float, float, float] | None
     cone: Cone | None
     overhead: np.ndarray
 
     def sees(self, model, data, frame: MapFrame, px: np.ndarray, py: np.ndarray) -> np.ndarray:
-        """Which of the robots at (px, py) L sees now: those on an overhead cell, and those in
-        the cone with a line of sight."""
+        """Which of the robots at (px, py) L sees now.
+
+        Those on an overhead cell, and those in the cone with a line of sight.
+
+        Parameters
+        ----------
+        model : mujoco.MjModel
+            The world's model.
+        data : mujoco.MjData
+            Its state.
+        frame : MapFrame
+            The map's frame.
+        px : ndarray of shape (n,)
+            The robots' x (m).
+        py : ndarray of shape (n,)
+            Their y (m).
+
+        Returns
+        -------
+        ndarray of bool, shape (n,)
+            Whether L sees each.
+        """
         r, c = frame.cell_of(px, py)
         rows, cols = self.overhead.shape
         inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
@@ -105,6 +201,22 @@ def observer_camera(
     cell (the first round(degree·n) cells of the visibility order) that lies inside the cone,
     plus half a cell — on boyd2 at 0.14: cells (0,1)-(0,4), range 4.5 m. Visible cells outside
     the cone (around a corner) are watched by an overhead camera over just those cells.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario: its map and L's start.
+    config : PhysicsConfig
+        The camera's field of view, and its range and pose if set.
+    frame : MapFrame
+        The map's frame.
+    degree : float
+        The observability, in [0, 1].
+
+    Returns
+    -------
+    ObserverCamera
+        L's view.
     """
     gm = scenario.map
     mask = gm.visible_mask(degree)
@@ -157,8 +269,21 @@ class PatrollerCameras:
         self.observer_out = False  # L outside its room at the last look
 
     def look(self, model, data, p: np.ndarray, step: int) -> None:
-        """Look for L with true poses ``p`` (patrollers, then L) at decision step ``step``:
-        every patroller with L inside its cone and a line of sight adds a :class:`Sighting`."""
+        """Look for L with true poses ``p`` at decision step ``step``.
+
+        Every patroller with L inside its cone and a line of sight adds a :class:`Sighting`.
+
+        Parameters
+        ----------
+        model : mujoco.MjModel
+            The world's model.
+        data : mujoco.MjData
+            Its state.
+        p : ndarray of shape (n+1, 3)
+            True poses (x, y, yaw), the patrollers' then L's.
+        step : int
+            The decision step.
+        """
         L = p[self.n]
         r, c = self.map.frame.cell_of(L[0], L[1])
         rows, cols = self.map.shape

@@ -14,21 +14,26 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
 from typing import TYPE_CHECKING, Any
 
+from mirl.world.actions import STEP_SECONDS
+from mirl.world.faults import WHEELS
+from mirl.world.motion import PIVOTS, turns_without_wheels
+
 if TYPE_CHECKING:
     from mirl.world.domain import FeatureMap
 
 __all__ = [
     "PhysicsConfig",
+    "SECTION",
     "physics_config",
     "scenario_physics",
     "with_motor_strength",
     "physical_feature_map",
-    "WHEELS",
     "PIVOTS",
 ]
 
-WHEELS = ("left_wheel", "right_wheel")
-PIVOTS = ("turn_left", "turn_right")
+SECTION = "physics"
+"""The scenario table these parameters are read from (one of
+:data:`mirl.world.world_sections.WORLD_SECTIONS`)."""
 
 
 def physical_feature_map(feature_map: FeatureMap) -> FeatureMap:
@@ -44,9 +49,18 @@ def physical_feature_map(feature_map: FeatureMap) -> FeatureMap:
     charging the turns to a wheel would pin the wheel that drives the patrol's many left turns
     near 1 and blame the other one for every forward failure (docs/design.md, "Fault
     verdicts").
+
+    Parameters
+    ----------
+    feature_map : FeatureMap
+        The scenario's ξ.
+
+    Returns
+    -------
+    FeatureMap
+        ξ without the wheels in the subsets of turn_left and turn_right.
     """
-    wheels = [w for w in WHEELS if w in feature_map.features]
-    return feature_map.without(wheels, PIVOTS)
+    return turns_without_wheels(feature_map)
 
 
 PHYSICAL_ERROR_MODEL = "stop"
@@ -62,9 +76,70 @@ any 660 end in another action's state (docs/design.md, "The physical world")."""
 
 @dataclass(frozen=True)
 class PhysicsConfig:
+    """The physical world's parameters, the ``[physics]`` table of a scenario.
+
+    Read one with :func:`physics_config` (or :func:`scenario_physics`), which checks every field.
+
+    Parameters
+    ----------
+    timestep : float, default 0.01
+        Seconds, MuJoCo's integration step; at most a control tick.
+    control_hz : float, default 10.0
+        Controller, localisation and detection updates per second.
+    step_seconds : float, default STEP_SECONDS (2.0)
+        Seconds a decision step (:data:`~mirl.world.actions.STEP_SECONDS`, the grid's).
+    localisation_sigma : float, default 0.05
+        Cells (metres on a 1 m grid), the standard deviation of the AMCL-like pose error the
+        patrollers decide from (temporally correlated).
+    localisation_sigma_deg : float, default 3.0
+        Degrees, its heading error's standard deviation.
+    localisation_tau : float, default 1.0
+        Seconds, the correlation time of the localisation error.
+    measurement_sigma : float, default 0.05
+        Cells (metres on a 1 m grid), the standard deviation of the noise on the poses L's
+        camera reports.
+    measurement_sigma_deg : float, default 5.0
+        Degrees, that of the noise on their yaw.
+    camera_fov_deg : float, default 57.0
+        L's camera's field of view (a Kinect's).
+    camera_range : float, optional
+        Metres L's camera sees; None: far enough to reach the scenario's visible cells
+        (:func:`~mirl.physics.camera.observer_camera`).
+    camera_pose : (float, float, float), optional
+        L's camera's x, y (m) and yaw (degrees); None: at L's door, looking out.
+    patroller_fov_deg : float, default 57.0
+        The patrollers' cameras' field of view.
+    patroller_range : float, optional
+        Metres the patrollers' cameras see; None: the scenario's ``detect_distance`` cells.
+    max_speed : float, default 0.7
+        Cruise speed of the patrol controller, cells a second (m/s on a 1 m grid).
+    max_accel : float, default 1.0
+        The controller's acceleration limit, m/s².
+    turn_speed : float, default 1.2
+        The pivot turns' rate limit, rad/s.
+    lane_offset : float, default 0.23
+        Cells right of the hallway's centre line a robot keeps in company.
+    keep_right_within : float, default 6.0
+        Cells: a robot coming the other way this close makes a robot keep right.
+    pass_distance : float, default 1.2
+        Cells: another robot this close ahead makes a robot pass slowly.
+    pass_speed : float, default 0.2
+        Cells a second while passing.
+    drift_per_gap : float, default 0.25
+        The cells of lateral drift κ per unit gap between a robot's wheels' success
+        probabilities; measured (``python benchmarks/calibrate_drift.py``: 0.260 by least squares
+        on boyd2-healthy, 0.258 on boydright), not assumed.
+    drift_spread : float, default 0.3
+        The drift's relative spread, twice the measured (0.12–0.16), because other maps and
+        strengths were measured less (docs/design.md, "Which side").
+    motor_strength : mapping of str to mapping of str to float, default {}
+        Per robot, per wheel (``left_wheel``, ``right_wheel``), the motor's strength in [0, 1]
+        (1.0 healthy, 0.6 a motor with 60 % of a healthy one's gain and torque limit).
+    """
+
     timestep: float = 0.01  # s, MuJoCo integration step
     control_hz: float = 10.0  # controller, localisation and detection checks per second
-    step_seconds: float = 2.0  # one decision step
+    step_seconds: float = STEP_SECONDS  # one decision step, the grid's
     localisation_sigma: float = 0.05  # m, AMCL-like pose error (temporally correlated)
     localisation_sigma_deg: float = 3.0  # degrees
     localisation_tau: float = 1.0  # s, correlation time of the localisation error
@@ -92,9 +167,44 @@ class PhysicsConfig:
     motor_strength: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
 
     def strength(self, robot: str, wheel: str) -> float:
+        """A wheel motor's strength.
+
+        Parameters
+        ----------
+        robot : str
+            The robot's name.
+        wheel : str
+            ``left_wheel`` or ``right_wheel``.
+
+        Returns
+        -------
+        float
+            Its strength in [0, 1]; 1.0 (healthy) unless :attr:`motor_strength` says otherwise.
+        """
         return float(self.motor_strength.get(robot, {}).get(wheel, 1.0))
 
     def with_strength(self, robot: str, wheel: str, value: float) -> PhysicsConfig:
+        """A copy with one wheel motor's strength set.
+
+        Parameters
+        ----------
+        robot : str
+            The robot's name.
+        wheel : str
+            ``left_wheel`` or ``right_wheel``.
+        value : float
+            The strength, in [0, 1].
+
+        Returns
+        -------
+        PhysicsConfig
+            The copy.
+
+        Raises
+        ------
+        ValueError
+            Another part than a wheel, or a strength outside [0, 1].
+        """
         if wheel not in WHEELS:
             raise ValueError(
                 f"in the physics world damage is a wheel motor's strength: '{wheel}' is "
@@ -108,10 +218,12 @@ class PhysicsConfig:
 
     @property
     def ticks_per_step(self) -> int:
+        """Control ticks in a decision step."""
         return int(round(self.step_seconds * self.control_hz))
 
     @property
     def substeps(self) -> int:
+        """MuJoCo steps in a control tick (at least 1)."""
         return max(1, int(round(1.0 / (self.control_hz * self.timestep))))
 
 
@@ -121,7 +233,28 @@ _FIELDS = {f.name for f in fields(PhysicsConfig)}
 def physics_config(
     data: Mapping[str, Any] | None, source: str = "<memory>", robots: tuple[str, ...] = ()
 ) -> PhysicsConfig:
-    """Validate a ``[physics]`` table; errors name ``source`` and the field."""
+    """Validate a ``[physics]`` table.
+
+    Parameters
+    ----------
+    data : mapping, optional
+        The table as read from TOML; None or empty for the defaults.
+    source : str, default "<memory>"
+        The scenario file, named by every message.
+    robots : tuple of str, default ()
+        The scenario's robots, which ``motor_strength`` may name; any if empty.
+
+    Returns
+    -------
+    PhysicsConfig
+        The parameters.
+
+    Raises
+    ------
+    ValueError
+        An unknown field, a value of the wrong type or range, or a timestep or decision step
+        that does not fit the control tick; the message names ``source`` and the field.
+    """
     data = dict(data or {})
     for k in data:
         if k not in _FIELDS:
@@ -176,20 +309,54 @@ _POSITIVE = frozenset(
 
 
 def with_motor_strength(scenario, robot: str, wheel: str, strength: float):
-    """A copy of ``scenario`` whose ``[physics]`` table gives ``robot``'s ``wheel`` motor this
-    strength (what ``--damage ROBOT:WHEEL=S`` means in the physics world)."""
-    from dataclasses import replace as _replace
+    """A copy of ``scenario`` whose ``[physics]`` table sets one wheel motor's strength.
 
+    What ``--damage ROBOT:WHEEL=S`` means in the physics world.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    robot : str
+        The robot's name.
+    wheel : str
+        ``left_wheel`` or ``right_wheel``.
+    strength : float
+        The strength, in [0, 1].
+
+    Returns
+    -------
+    Scenario
+        The copy.
+
+    Raises
+    ------
+    ValueError
+        An unknown robot or wheel, or a strength outside [0, 1].
+    """
     scenario.robot_index(robot)  # unknown robot: ValueError naming the robots
-    cfg = physics_config(scenario.physics, scenario.source, scenario.robot_names)
-    cfg = cfg.with_strength(robot, wheel, strength)
-    table = dict(scenario.physics)
+    cfg = scenario_physics(scenario).with_strength(robot, wheel, strength)
+    table = dict(scenario.section(SECTION))
     table["motor_strength"] = {r: dict(w) for r, w in cfg.motor_strength.items()}
-    return _replace(scenario, physics=table)
+    return scenario.with_section(SECTION, table)
 
 
 def scenario_physics(scenario) -> PhysicsConfig:
-    """The scenario's ``[physics]`` table as a validated :class:`PhysicsConfig`."""
-    return physics_config(
-        getattr(scenario, "physics", None) or {}, scenario.source, scenario.robot_names
-    )
+    """The scenario's ``[physics]`` table as a validated :class:`PhysicsConfig`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+
+    Returns
+    -------
+    PhysicsConfig
+        Its parameters (the defaults where the table is silent).
+
+    Raises
+    ------
+    ValueError
+        A bad table (see :func:`physics_config`).
+    """
+    return physics_config(scenario.section(SECTION), scenario.source, scenario.robot_names)

@@ -33,7 +33,15 @@ class ContactLog:
         self._touching: set[tuple[int, int]] = set()  # (i, j), or (i, -1) for a wall
 
     def update(self, data: mujoco.MjData, step: int) -> None:
-        """Count the pairs touching in ``data`` now that were not at the last update."""
+        """Count the pairs touching in ``data`` now that were not at the last update.
+
+        Parameters
+        ----------
+        data : mujoco.MjData
+            The world's state after a MuJoCo step.
+        step : int
+            The decision step, recorded with each robot–robot event.
+        """
         if data.ncon == 0:
             self._touching = set()
             return

@@ -63,7 +63,37 @@ class PhysicalWorld:
     camera measurements), :attr:`contact_log` (contact events), :attr:`camera` (L's view) and
     :attr:`patroller_cameras` (the patrollers' sightings of L); the attributes and methods
     below that read them are views of those objects.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario: map, patrollers, game, L's start.
+    config : PhysicsConfig, optional
+        The physical parameters; the scenario's ``[physics]`` table by default.
+    observability : float, optional
+        The fraction of the hallway L sees; the scenario's by default.
+    seed : int, default 0
+        Seeds the localisation noise, L's measurement noise, the game draws and random starts
+        (four streams spawned from it).
+    starts : list of (int, int, int), optional
+        The patrollers' start states (row, col, heading); the scenario's by default.
+    random_starts : bool, default False
+        Start each patroller at a uniformly drawn state of its patrol cycle instead.
+    observer : bool, default True
+        Whether L (and its camera) is in the world.
+    policies : ndarray of int, shape (N, S), optional
+        The patrollers' policies; their true policies by default.
+    record_ticks : bool, default True
+        Whether the true poses of every control tick are kept (:meth:`tick_poses`).
+    observer_heading : int, optional
+        L's start heading; facing its camera's view by default.
     """
+
+    # set while the model is built (in ``__init__``), declared here so the class names them
+    contact_log: ContactLog
+    """Contact events, robot–robot and robot–wall."""
+    patroller_cameras: PatrollerCameras
+    """The patrollers' view cones and their sightings of L."""
 
     def __init__(
         self,
@@ -158,13 +188,11 @@ class PhysicalWorld:
         cfg, cs = self.cfg, self.frame.cell_size
         self.ctrl = Controller(
             self.m,
-            separation=KOBUKI.wheel_separation,
-            wheel_radius=KOBUKI.wheel_radius,
+            KOBUKI,
             max_speed=cfg.max_speed * cs,
             max_accel=cfg.max_accel,
             turn_speed=cfg.turn_speed,
             pass_speed=cfg.pass_speed * cs,
-            max_wheel_speed=KOBUKI.max_wheel_speed,
             dt=1.0 / cfg.control_hz,
         )
         sd_xy = cfg.localisation_sigma * cs
@@ -189,28 +217,80 @@ class PhysicalWorld:
         return self.records.seen
 
     def true_states(self) -> np.ndarray:
+        """The patrollers' true states at every decision time so far.
+
+        Returns
+        -------
+        ndarray of int, shape (t+1, N)
+            State indices (poses discretised, snapped onto the hallway).
+        """
         return self.records.true_states()
 
     def observations(self, until: int | None = None) -> Trajectories:
+        """What L's camera saw, discretised, as grid observations.
+
+        Parameters
+        ----------
+        until : int, optional
+            The last decision time included; all so far by default.
+
+        Returns
+        -------
+        Trajectories
+            The observed states, with their lateral offsets.
+        """
         return self.records.observations(until)
 
     def truth(self) -> Trajectories:
+        """The patrollers' true states as grid trajectories.
+
+        Returns
+        -------
+        Trajectories
+            Every patroller at every decision time so far.
+        """
         return self.records.truth()
 
     def tick_poses(self) -> tuple[np.ndarray, np.ndarray]:
-        """(k,) times and (k, m, 3) true poses at every control tick."""
+        """The true poses at every control tick.
+
+        Returns
+        -------
+        times : ndarray of shape (k,)
+            Seconds.
+        poses : ndarray of shape (k, m, 3)
+            x, y, yaw of every robot (patrollers first, L last).
+        """
         return self.records.tick_poses()
 
     def observed_rows(self) -> np.ndarray:
-        """(k, 5) rows t (s), robot, x, y, yaw of L's camera measurements."""
+        """L's camera measurements.
+
+        Returns
+        -------
+        ndarray of shape (k, 5)
+            Rows t (s), robot, x, y, yaw.
+        """
         return self.records.observed_rows()
 
     def observed_tracks(self) -> PoseTracks:
-        """What L's camera measured: one noisy pose per seen patroller per decision step."""
+        """What L's camera measured: one noisy pose per seen patroller per decision step.
+
+        Returns
+        -------
+        PoseTracks
+            The measurements.
+        """
         return self.records.observed_tracks()
 
     def true_tracks(self) -> PoseTracks:
-        """Every robot's true pose at every control tick (L, if present, is robot ``L``)."""
+        """Every robot's true pose at every control tick (L, if present, is robot ``L``).
+
+        Returns
+        -------
+        PoseTracks
+            The poses.
+        """
         return self.records.true_tracks()
 
     @property
@@ -261,7 +341,13 @@ class PhysicalWorld:
         return np.argmin(d, axis=1).reshape(rows, cols)
 
     def poses(self) -> np.ndarray:
-        """(m, 3) true x, y, yaw of every robot (patrollers first, L last)."""
+        """The true pose of every robot now.
+
+        Returns
+        -------
+        ndarray of shape (m, 3)
+            x, y (m), yaw (rad) of every robot, patrollers first, L last.
+        """
         q = self.data.qpos[self._pose_idx]  # (m, 6): x, y, qw, qx, qy, qz
         w, x, y, z = q[:, 2], q[:, 3], q[:, 4], q[:, 5]
         out = q[:, :3].copy()
@@ -269,14 +355,33 @@ class PhysicalWorld:
         return out
 
     def estimated_poses(self) -> np.ndarray:
+        """The poses the robots believe they have: the true ones with the localisation error.
+
+        Returns
+        -------
+        ndarray of shape (m, 3)
+            x, y (m), yaw (rad), patrollers first, L last.
+        """
         p = self.poses()
         p[:, :2] += self._noise[:, :2]
         p[:, 2] = wrap(p[:, 2] + self._noise[:, 2])
         return p
 
     def discretise(self, poses: np.ndarray, *, snap: bool = True) -> np.ndarray:
-        """Patroller states of poses: nearest cell and nearest heading. Off the hallway:
-        the nearest hallway cell if ``snap``, else -1."""
+        """Patroller states of poses: nearest cell and nearest heading.
+
+        Parameters
+        ----------
+        poses : ndarray of shape (k, 3)
+            The poses' x, y (m) and yaw (rad).
+        snap : bool, default True
+            Off the hallway, take the nearest hallway cell; else -1.
+
+        Returns
+        -------
+        ndarray of int, shape (k,)
+            State indices.
+        """
         rows, cols = self.map.shape
         r, c = self.frame.cell_of(poses[:, 0], poses[:, 1])
         h = _heading(poses[:, 2])
@@ -289,6 +394,18 @@ class PhysicalWorld:
         return s
 
     def observer_cell_heading(self, estimated: bool = True) -> tuple[int, int, int]:
+        """L's cell and nearest heading.
+
+        Parameters
+        ----------
+        estimated : bool, default True
+            From L's estimated pose (what L knows), else its true one.
+
+        Returns
+        -------
+        (int, int, int)
+            Row, column and heading.
+        """
         p = (self.estimated_poses() if estimated else self.poses())[self.n]
         r, c = self.frame.cell_of(p[0], p[1])
         h = int(_heading(p[2]))
@@ -340,7 +457,15 @@ class PhysicalWorld:
         return out, lateral
 
     def decide(self) -> tuple[np.ndarray, np.ndarray]:
-        """The patrollers' believed states and actions now (equilibrium at meetings)."""
+        """The patrollers' believed states and actions now (equilibrium at meetings).
+
+        Returns
+        -------
+        states : ndarray of int, shape (N,)
+            The states the patrollers believe they are in (from their estimated poses).
+        actions : ndarray of int, shape (N,)
+            Their policies' actions, replaced by game moves where two meet.
+        """
         est = self.estimated_poses()
         s = self.discretise(est[: self.n])
         own = self.policies[np.arange(self.n), s]
@@ -385,8 +510,19 @@ class PhysicalWorld:
         return np.array([[r, c, h]]), action
 
     def step(self, observer_action: int | None = None) -> np.ndarray:
-        """Advance one decision step; returns the patrollers' true states at the new time.
-        ``observer_action`` (an index into ACTIONS) drives L; None leaves it standing."""
+        """Advance one decision step.
+
+        Parameters
+        ----------
+        observer_action : int, optional
+            An index into :data:`~mirl.world.actions.ACTIONS` that drives L; None leaves it
+            standing.
+
+        Returns
+        -------
+        ndarray of int, shape (N,)
+            The patrollers' true states at the new time.
+        """
         s, acts = self.decide()
         self.records.believed.append(s)
         self.records.actions.append(acts)

@@ -53,46 +53,112 @@ class Records:
 
     # ---- appending ---------------------------------------------------------------------
     def tick(self, time: float, poses: np.ndarray) -> None:
-        """The (m, 3) true poses at a control tick ending at ``time`` (s), if ticks are kept."""
+        """The true poses at a control tick, if ticks are kept.
+
+        Parameters
+        ----------
+        time : float
+            Seconds at the tick's end.
+        poses : ndarray of shape (m, 3)
+            The x, y, yaw of every robot.
+        """
         if self.record_ticks:
             self._tick_t.append(time)
             self._tick_pose.append(poses)
 
     def measured(self, rows: list[tuple[float, int, float, float, float]]) -> None:
-        """L's camera measurements (t (s), robot, x, y, yaw) of one decision time."""
+        """L's camera measurements of one decision time.
+
+        Parameters
+        ----------
+        rows : list of (float, int, float, float, float)
+            The t (s), robot, x, y, yaw of each measurement.
+        """
         self._obs_rows.extend(rows)
 
     # ---- reading -----------------------------------------------------------------------
     def true_states(self) -> np.ndarray:
+        """The patrollers' true states at every decision time.
+
+        Returns
+        -------
+        ndarray of int, shape (T, N)
+            State indices.
+        """
         return np.asarray(self.true)
 
     def observations(self, until: int | None = None) -> Trajectories:
+        """What L saw, discretised, as grid observations.
+
+        Parameters
+        ----------
+        until : int, optional
+            The last decision time included; all by default.
+
+        Returns
+        -------
+        Trajectories
+            The observed states, with their lateral offsets.
+        """
         end = len(self.seen) if until is None else until + 1
         seen = np.asarray(self.seen[:end])
         lateral = np.asarray(self.seen_lateral[:end]).reshape(seen.shape)
         return Trajectories.from_states(self.domain, self.names, seen, lateral=lateral)
 
     def truth(self) -> Trajectories:
+        """The patrollers' true states as grid trajectories.
+
+        Returns
+        -------
+        Trajectories
+            Every patroller at every decision time.
+        """
         return Trajectories.from_states(self.domain, self.names, self.true_states())
 
     def tick_poses(self) -> tuple[np.ndarray, np.ndarray]:
-        """(k,) times and (k, m, 3) true poses at every control tick."""
+        """The true poses at every control tick.
+
+        Returns
+        -------
+        times : ndarray of shape (k,)
+            Seconds.
+        poses : ndarray of shape (k, m, 3)
+            x, y, yaw of every robot.
+        """
         if not self._tick_t:
             return np.zeros(0), np.zeros((0, self.m, 3))
         return np.asarray(self._tick_t), np.asarray(self._tick_pose)
 
     def observed_rows(self) -> np.ndarray:
-        """(k, 5) rows t (s), robot, x, y, yaw of L's camera measurements."""
+        """L's camera measurements.
+
+        Returns
+        -------
+        ndarray of shape (k, 5)
+            Rows t (s), robot, x, y, yaw.
+        """
         return np.asarray(self._obs_rows, dtype=float).reshape(-1, 5)
 
     def observed_tracks(self) -> PoseTracks:
-        """What L's camera measured: one noisy pose per seen patroller per decision step."""
+        """What L's camera measured: one noisy pose per seen patroller per decision step.
+
+        Returns
+        -------
+        PoseTracks
+            The measurements.
+        """
         r = self.observed_rows()
         return PoseTracks(self.names, r[:, 0], r[:, 1].astype(int), r[:, 2], r[:, 3], r[:, 4],
                           source="L's camera")  # fmt: skip
 
     def true_tracks(self) -> PoseTracks:
-        """Every robot's true pose at every control tick (L, if present, is robot ``L``)."""
+        """Every robot's true pose at every control tick (L, if present, is robot ``L``).
+
+        Returns
+        -------
+        PoseTracks
+            The poses.
+        """
         t, p = self.tick_poses()
         k, m = p.shape[:2]
         names = self.names + ((OBSERVER,) if self.has_observer else ())

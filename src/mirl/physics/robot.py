@@ -18,6 +18,36 @@ __all__ = ["Kobuki", "KOBUKI", "robot_mjcf", "actuator_mjcf"]
 
 @dataclass(frozen=True)
 class Kobuki:
+    """The robot's dimensions, masses and motors (module doc).
+
+    Parameters
+    ----------
+    wheel_radius : float, default 0.035
+        Metres.
+    wheel_separation : float, default 0.23
+        Metres between the wheels.
+    base_radius : float, default 0.177
+        Metres (Kobuki's 354 mm diameter).
+    base_height : float, default 0.10
+        Metres.
+    base_mass : float, default 2.2
+        Kilograms.
+    wheel_mass : float, default 0.1
+        Kilograms, each.
+    caster_radius : float, default 0.012
+        Metres.
+    motor_gain : float, default 0.3
+        A healthy motor's velocity servo gain at the wheel, N·m per rad/s.
+    torque_limit : float, default 0.12
+        A healthy motor's torque limit, N·m.
+    gear_damping : float, default 0.004
+        The gearbox's viscous damping, N·m per rad/s (the load a weak motor struggles against).
+    gear_friction : float, default 0.03
+        The gearbox's dry friction, N·m.
+    max_wheel_speed : float, default 20.0
+        The largest wheel speed commanded, rad/s (0.7 m/s, Kobuki's maximum).
+    """
+
     wheel_radius: float = 0.035  # m
     wheel_separation: float = 0.23  # m
     base_radius: float = 0.177  # m (354 mm diameter)
@@ -35,6 +65,7 @@ class Kobuki:
 
     @property
     def mass(self) -> float:
+        """Kilograms in all: the base and both wheels."""
         return self.base_mass + 2 * self.wheel_mass
 
 
@@ -42,7 +73,28 @@ KOBUKI = Kobuki()
 
 
 def robot_mjcf(name: str, x: float, y: float, yaw_deg: float, rgba: str, k: Kobuki = KOBUKI) -> str:
-    """The body of one robot (a free joint; wheels ``{name}_left``/``{name}_right``)."""
+    """The MJCF body of one robot (a free joint; wheels ``{name}_left``/``{name}_right``).
+
+    Parameters
+    ----------
+    name : str
+        The robot's name, prefixing its bodies, joints and geoms.
+    x : float
+        Its start x (m).
+    y : float
+        Its start y (m).
+    yaw_deg : float
+        Its start yaw, degrees.
+    rgba : str
+        Its base's colour, MJCF's "r g b a".
+    k : Kobuki, default KOBUKI
+        Its dimensions.
+
+    Returns
+    -------
+    str
+        The ``<body>`` element.
+    """
     r, h = k.wheel_radius, k.base_height
     half = k.wheel_separation / 2
     cz = k.caster_radius
@@ -75,7 +127,24 @@ def _wheel_mjcf(name: str, body: str, side: str, y: float, k: Kobuki) -> str:
 
 
 def actuator_mjcf(name: str, left: float = 1.0, right: float = 1.0, k: Kobuki = KOBUKI) -> str:
-    """Velocity servos of one robot's wheels; ``left``/``right`` are the motors' strengths."""
+    """Velocity servos of one robot's wheels.
+
+    Parameters
+    ----------
+    name : str
+        The robot's name.
+    left : float, default 1.0
+        The left motor's strength (scales its gain and torque limit); 0 is a dead motor.
+    right : float, default 1.0
+        The right motor's.
+    k : Kobuki, default KOBUKI
+        The healthy motor's gain and torque limit.
+
+    Returns
+    -------
+    str
+        Two ``<velocity>`` elements.
+    """
     out = []
     for side, s in (("left", left), ("right", right)):
         kv, tau = k.motor_gain * s, k.torque_limit * s

@@ -18,7 +18,19 @@ __all__ = ["wall_rectangles", "world_mjcf"]
 
 
 def wall_rectangles(wall: np.ndarray) -> list[tuple[int, int, int, int]]:
-    """Cover the True cells of ``wall`` with disjoint rectangles (r0, c0, r1, c1), inclusive."""
+    """Cover the True cells of ``wall`` with disjoint rectangles, inclusive.
+
+    Parameters
+    ----------
+    wall : ndarray of bool, shape (rows, cols)
+        The wall cells.
+
+    Returns
+    -------
+    list of (int, int, int, int)
+        (r0, c0, r1, c1) of each rectangle, corners inclusive; together they cover exactly the
+        wall cells.
+    """
     wall = np.asarray(wall, dtype=bool).copy()
     rows, cols = wall.shape
     out = []
@@ -56,8 +68,28 @@ def world_mjcf(
     kobuki: Kobuki = KOBUKI,
     wall_height: float = 0.5,
 ) -> str:
-    """MJCF of the map whose free cells are ``free``, with robots (name, x, y, yaw, left
-    strength, right strength)."""
+    """MJCF of the map whose free cells are ``free``, with robots.
+
+    Parameters
+    ----------
+    free : ndarray of bool, shape (rows, cols)
+        The free cells; every other cell, and a one-cell border, is wall.
+    frame : MapFrame
+        The map's frame (cell centres, cell size).
+    robots : list of (str, float, float, float, float, float)
+        (name, x, y, yaw, left strength, right strength) of each robot; yaw in radians.
+    timestep : float, default 0.01
+        MuJoCo's integration step, seconds.
+    kobuki : Kobuki, default KOBUKI
+        The robots' dimensions and motors.
+    wall_height : float, default 0.5
+        Metres.
+
+    Returns
+    -------
+    str
+        The ``<mujoco>`` model.
+    """
     free = np.asarray(free, dtype=bool)
     wall = np.pad(~free, 1, constant_values=True)  # border; padded index = cell + 1
     cs = frame.cell_size

@@ -18,7 +18,8 @@ the exact survival is ≈0.2). The MDP therefore uses the *first-order* hazard h
 P(seen on c at t | not seen on c' at t−1), computed per robot from its predicted marginal and
 one-step matrix and combined over robots as independent; it depends on L's move (c' → c), so the
 arrival term is evaluated per non-zero of L's transition matrix. hazard="independent" gives
-the naive d_t(c) for comparison.
+the naive d_t(c) for comparison. The two are the rows of :data:`HAZARDS`, each a function
+that fetches the rows the backward pass multiplies by.
 
 The continuation (1 − h) multiplies the next value, i.e. the dynamics are time-indexed, which
 :func:`mirl.mdp.backward_induction` (stationary transitions) cannot express; the loop below is
@@ -27,20 +28,73 @@ the same one-sparse-product-per-step recursion with that factor.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from mirl._registry import Registry
 from mirl.planning.belief import Prediction, StreamedPrediction
 from mirl.planning.observer import ObserverModel
 from mirl.world.domain import STOP
 
-__all__ = ["GO_RULES", "ObserverPlan", "TimedPolicy", "solve_observer_mdp", "waiting_value"]
+__all__ = [
+    "HAZARDS",
+    "HazardModel",
+    "ObserverPlan",
+    "TimedPolicy",
+    "solve_observer_mdp",
+    "waiting_value",
+]
 
-GO_RULES = ("adaptive", "value")
-"""How L decides to go (docs/design.md, "The go rule"): ``adaptive`` stops on its stated
-probability of success against the value of waiting; ``value`` is the published rule (the best
-go value in the window, if positive)."""
+# The go rules that call this planner are strategies of the run (mirl.experiments.go_rules),
+# in the table the command line reads, mirl.experiments.options.GO_RULES.
+
+Rows = Callable[[Prediction | StreamedPrediction, int, int], np.ndarray]
+
+
+@dataclass(frozen=True)
+class HazardModel:
+    """How the backward pass reads the chance of L being seen on a step (module doc).
+
+    Parameters
+    ----------
+    name : str
+        What ``solve_observer_mdp(hazard=...)`` takes.
+    description : str
+        What it assumes, in a few words.
+    rows : callable
+        ``rows(prediction, lo, hi)`` -> (hi − lo, n_pairs): steps lo … hi − 1 of the
+        probability that L is seen on the second cell of each of L's cell pairs
+        (``prediction.pairs``).
+    """
+
+    name: str
+    description: str
+    rows: Rows
+
+
+def _markov_rows(prediction: Prediction | StreamedPrediction, lo: int, hi: int) -> np.ndarray:
+    return prediction.hazard_rows(lo, hi)
+
+
+def _independent_rows(
+    prediction: Prediction | StreamedPrediction, lo: int, hi: int
+) -> np.ndarray:
+    return prediction.detection_rows(lo, hi)[:, prediction.pairs[:, 1]]
+
+
+HAZARDS: Registry[HazardModel] = Registry("hazard model", (
+    HazardModel(
+        "markov", "first order: P(seen at t | not seen a step before), per L's move",
+        _markov_rows,
+    ),
+    HazardModel(
+        "independent", "each step's detection probability taken as independent of the last",
+        _independent_rows,
+    ),
+))  # fmt: skip
+"""The hazard models of the backward pass, by name (the first-order one is the default)."""
 
 # hazard rows fetched from a prediction at once by the backward pass (a streamed prediction
 # computes them block by block from its checkpoints, so its blocks bound the memory)
@@ -48,10 +102,19 @@ _ROWS_AT_ONCE = 64
 
 
 class TimedPolicy:
-    """L's greedy action at each (step k, state s) of a plan, kept as the changes between
-    consecutive steps: the last step's row in full, then per earlier step only the states whose
-    action differs from the step after. Most states keep their action from one step to the next,
-    so this holds O(S + changes) instead of the K × S table; ``policy[k, s]`` is the action."""
+    """L's greedy action at each (step k, state s) of a plan, kept as the changes between steps.
+
+    The last step's row in full, then per earlier step only the states whose action differs from
+    the step after. Most states keep their action from one step to the next, so this holds
+    O(S + changes) instead of the K × S table; ``policy[k, s]`` is the action.
+
+    Parameters
+    ----------
+    K : int
+        The plan's steps.
+    S : int
+        L's states.
+    """
 
     def __init__(self, K: int, S: int) -> None:
         self.shape = (K, S)
@@ -94,7 +157,13 @@ class TimedPolicy:
         return int(self.actions[np.searchsorted(self._keys, s * K + k)])
 
     def to_array(self) -> np.ndarray:
-        """The (K, S) table (for small plans and tests)."""
+        """The (K, S) table (for small plans and tests).
+
+        Returns
+        -------
+        ndarray of int8, shape (K, S)
+            ``policy[k, s]`` for every step and state.
+        """
         K, S = self.shape
         return np.array([[self[k, s] for s in range(S)] for k in range(K)], dtype=np.int8)
 
@@ -104,8 +173,18 @@ class TimedPolicy:
 class ObserverPlan:
     """Solution of L's time-indexed MDP from time ``t0`` (index k ↔ time t0 + k).
 
-    ``go_values[k]`` is the value of leaving the start cell at t0 + k (k ≤ window); ``go_time``
-    is the k with the highest positive go value (None if none is positive).
+    Parameters
+    ----------
+    t0 : int
+        The time of step 0.
+    values : ndarray of shape (K+1, S_L), or None
+        V_k(s) when asked for (``keep_values``), else None.
+    policy : TimedPolicy
+        The greedy action at each step: ``policy[k, s]``.
+    go_values : ndarray of shape (window+1,)
+        ``go_values[k]`` is the value of leaving the start cell at t0 + k.
+    go_time : int or None
+        The k with the highest go value above the threshold (None if there is none).
     """
 
     t0: int
@@ -116,10 +195,12 @@ class ObserverPlan:
 
     @property
     def horizon(self) -> int:
+        """K, the plan's steps."""
         return self.policy.shape[0]
 
     @property
     def value(self) -> float:
+        """The go value at :attr:`go_time`, or the best go value when there is no go time."""
         return (
             float(self.go_values[self.go_time])
             if self.go_time is not None
@@ -140,18 +221,46 @@ def solve_observer_mdp(
 ) -> ObserverPlan:
     """Backward induction over K = ``prediction.steps`` steps (see the module doc).
 
-    ``window`` bounds the go times considered (default: all k < K); a go time needs a go value
-    above ``min_value``. ``hazard`` is ``"markov"`` (first-order hazard, default) or
-    ``"independent"`` (per-step detection probabilities taken as independent).
-    ``keep_values`` keeps the (K+1, S_L) values in the plan; without it the pass holds one
-    step's values at a time, the hazards a block of rows at a time, and the policy as its
-    changes (:class:`TimedPolicy`), so its memory does not grow with K × S_L.
+    Without ``keep_values`` the pass holds one step's values at a time, the hazards a block of rows
+    at a time, and the policy as its changes (:class:`TimedPolicy`), so its memory does not grow
+    with K × S_L.
+
+    Parameters
+    ----------
+    model : ObserverModel
+        L's MDP.
+    prediction : Prediction or StreamedPrediction
+        The patrollers' predicted detection and hazards, at least one step.
+    window : int, optional
+        The go times considered are k ≤ ``window``; all k < K by default.
+    goal_reward : float, default 1.0
+        Earned on reaching the goal (once: the goal is absorbing).
+    detection_penalty : float, default 1.0
+        Paid on being seen, which ends the run.
+    min_value : float, default 0.0
+        A go time needs a go value above this.
+    hazard : {"markov", "independent"}, default "markov"
+        A row of :data:`HAZARDS`: the first-order hazard, or per-step detection probabilities
+        taken as independent.
+    keep_values : bool, default False
+        Keep the (K+1, S_L) values in the plan.
+
+    Returns
+    -------
+    ObserverPlan
+        The go values of every go time in the window, the best one, and the policy.
+
+    Raises
+    ------
+    ValueError
+        A prediction of no step.
+    UnknownNameError
+        An unknown hazard model.
     """
     K = prediction.steps
     if K < 1:
         raise ValueError("the plan needs at least one step of prediction")
-    if hazard not in ("markov", "independent"):
-        raise ValueError(f"unknown hazard model '{hazard}' (known: markov, independent)")
+    hazard_rows = HAZARDS.lookup(hazard).rows
     window = K - 1 if window is None else min(int(window), K - 1)
     dom = model.domain
     S, A = dom.n_states, dom.n_actions
@@ -168,7 +277,7 @@ def solve_observer_mdp(
     for k in range(K - 1, -1, -1):
         if k + 1 < lo:  # the next block of rows, going back in time
             lo = max(1, k + 2 - _ROWS_AT_ONCE)
-            block = _hazard_rows(prediction, hazard, lo, k + 2)
+            block = hazard_rows(prediction, lo, k + 2)
         h = block[k + 1 - lo, pair]
         cont = V[cols]  # the goal is absorbing: V[goal] = goal_reward
         Q = np.bincount(
@@ -186,15 +295,6 @@ def solve_observer_mdp(
     best = int(np.argmax(go_values))
     go_time = best if go_values[best] > min_value else None
     return ObserverPlan(prediction.t0, values, policy, go_values, go_time)
-
-
-def _hazard_rows(
-    prediction: Prediction | StreamedPrediction, hazard: str, lo: int, hi: int
-) -> np.ndarray:
-    """Rows lo … hi − 1 of the hazard the pass uses, indexed by L's cell pairs."""
-    if hazard == "markov":
-        return prediction.hazard_rows(lo, hi)
-    return prediction.detection_rows(lo, hi)[:, prediction.pairs[:, 1]]
 
 
 _MASKS: dict[int, tuple[ObserverModel, np.ndarray]] = {}
@@ -226,12 +326,26 @@ def _build_start_cell_mask(model: ObserverModel) -> np.ndarray:
 
 # ---- the adaptive rule's value of waiting ----------------------------------------------------
 def waiting_value(chances, opportunities: int) -> float:
-    """The chance of success L can expect by waiting for ``opportunities`` more chances to go,
-    each drawn from the empirical distribution ``chances`` (the success probabilities it has
-    stated so far), taking the first one better than what waiting on would bring, and going
-    at the last one whatever it is — the finite-horizon optimal-stopping recursion
-    v₀ = 0, vⱼ = E[max(X, vⱼ₋₁)]. Zero when no opportunity is left (L goes now) or nothing
-    was stated yet."""
+    """The chance of success L can expect by waiting for ``opportunities`` more chances to go.
+
+    Each chance is drawn from the empirical distribution ``chances`` (the success probabilities
+    it has stated so far); L takes the first one better than what waiting on would bring, and
+    goes at the last one whatever it is — the finite-horizon optimal-stopping recursion
+    v₀ = 0, vⱼ = E[max(X, vⱼ₋₁)].
+
+    Parameters
+    ----------
+    chances : array_like of float
+        The success probabilities stated so far.
+    opportunities : int
+        The chances to go still to come.
+
+    Returns
+    -------
+    float
+        v at ``opportunities``; zero when no opportunity is left (L goes now) or nothing was
+        stated yet.
+    """
     x = np.asarray(chances, dtype=float)
     v = 0.0
     if x.size == 0:

@@ -30,7 +30,18 @@ OBSERVER_FAILURE = 0.025  # L's own action failure (the paper's 2.5 %): the robo
 
 
 def observer_domain(gridmap: GridMap) -> PatrolDomain:
-    """A :class:`PatrolDomain` whose cells are all of the map's free cells (L may enter rooms)."""
+    """A :class:`PatrolDomain` whose cells are all of the map's free cells (L may enter rooms).
+
+    Parameters
+    ----------
+    gridmap : GridMap
+        The map.
+
+    Returns
+    -------
+    PatrolDomain
+        L's domain.
+    """
     free = gridmap.free
     lmap = GridMap(
         name=f"{gridmap.name}-observer",
@@ -45,9 +56,28 @@ def observer_domain(gridmap: GridMap) -> PatrolDomain:
 
 
 def detection_matrix(patrol: PatrolDomain, observer: PatrolDomain, distance: int) -> sp.csr_array:
-    """Sparse (patroller states × L cells) 0/1 matrix: D[s, c] = 1 iff a patroller in state s
-    sees L on cell c (the rule of :func:`mirl.world.domain.detection_cells`, vectorised over
-    states).
+    """Which L cells a patroller in each state sees.
+
+    The rule of :func:`mirl.world.domain.detection_cells`, vectorised over states.
+
+    Parameters
+    ----------
+    patrol : PatrolDomain
+        The patrollers' domain.
+    observer : PatrolDomain
+        L's domain (:func:`observer_domain`).
+    distance : int
+        Cells a patroller sees straight ahead, at least 0.
+
+    Returns
+    -------
+    scipy.sparse.csr_array of shape (S_patroller, C)
+        D[s, c] = 1 iff a patroller in state s sees L on cell c; 0 elsewhere.
+
+    Raises
+    ------
+    ValueError
+        A negative distance.
     """
     if distance < 0:
         raise ValueError(f"detect_distance must be non-negative, got {distance}")
@@ -71,7 +101,23 @@ def detection_matrix(patrol: PatrolDomain, observer: PatrolDomain, distance: int
 
 @dataclass(frozen=True, eq=False)
 class ObserverModel:
-    """L's MDP without its rewards (those come from the prediction)."""
+    """L's MDP without its rewards (those come from the prediction).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        L's domain, over the map's free cells.
+    transitions : scipy.sparse.csr_array of shape (S_L*A, S_L)
+        L's motion; a failed step stays put.
+    goal : ndarray of bool, shape (S_L,)
+        The states on L's goal cell.
+    start_state : int
+        L's start cell, heading towards its door.
+    detection : scipy.sparse.csr_array of shape (S_patroller, C)
+        :func:`detection_matrix`.
+    failure : float, default OBSERVER_FAILURE
+        The probability that one of L's moves fails.
+    """
 
     domain: PatrolDomain  # over the map's free cells
     transitions: sp.csr_array  # (S_L·A, S_L); failure = stay put
@@ -82,21 +128,59 @@ class ObserverModel:
 
     @property
     def n_states(self) -> int:
+        """S_L, L's states."""
         return self.domain.n_states
 
     def cell_of(self, states) -> np.ndarray:
+        """The cell index (into L's domain's cells) of each L state.
+
+        Parameters
+        ----------
+        states : int or array_like of int
+            L's states.
+
+        Returns
+        -------
+        ndarray of int
+            Their cells.
+        """
         return self.domain.state_cell(states)
 
     def seen_by(self, patroller_states: np.ndarray, observer_state: int) -> np.ndarray:
-        """(N,) bool: which patrollers (true states) see L in ``observer_state`` — the true rule."""
+        """Which patrollers see L in ``observer_state``: the true rule.
+
+        Parameters
+        ----------
+        patroller_states : ndarray of int, shape (N,)
+            The patrollers' true states.
+        observer_state : int
+            L's state.
+
+        Returns
+        -------
+        ndarray of bool, shape (N,)
+            True for the patrollers that see it.
+        """
         cell = int(self.cell_of(observer_state))
         column = self.detection[:, [cell]].toarray().ravel()
         return column[np.asarray(patroller_states)] > 0
 
     def not_seeing(self, observer_state: int) -> np.ndarray:
-        """(S_patroller,) 1.0 where a patroller state does not see L's cell in
-        ``observer_state``, 0.0 where it does; kept per cell, since the stated probability of
-        success asks for the same few cells many times in a run."""
+        """Which patroller states do not see L's cell in ``observer_state``.
+
+        Kept per cell, since the stated probability of success asks for the same few cells many
+        times in a run.
+
+        Parameters
+        ----------
+        observer_state : int
+            L's state.
+
+        Returns
+        -------
+        ndarray of shape (S_patroller,)
+            1.0 where a patroller state does not see L's cell, 0.0 where it does.
+        """
         c = int(self.cell_of(observer_state))
         g = self._not_seeing_cells.get(c)
         if g is None:
@@ -136,8 +220,28 @@ class ObserverModel:
 
 
 def observer_model(scenario: Scenario, *, failure: float = OBSERVER_FAILURE) -> ObserverModel:
-    """Build L's MDP for ``scenario``: L starts in its start cell facing its first step towards
-    the goal (the door), and its goal is ``scenario.goal``."""
+    """Build L's MDP for ``scenario``.
+
+    L starts in its start cell facing its first step towards the goal (the door), and its goal is
+    ``scenario.goal``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario: map, L's start and goal, the patrollers' detection distance.
+    failure : float, default OBSERVER_FAILURE
+        The probability that one of L's moves fails (it stays put).
+
+    Returns
+    -------
+    ObserverModel
+        L's MDP.
+
+    Raises
+    ------
+    ValueError
+        L's goal is unreachable from its start.
+    """
     dom = observer_domain(scenario.map)
     T = transition_matrix_from_success(dom, 1.0 - failure, "stop")
     goal = np.zeros(dom.n_states, dtype=bool)
@@ -170,6 +274,19 @@ def _distance_to_goal(dom: PatrolDomain, goal: np.ndarray) -> np.ndarray:
 
 
 def shortest_path_policy(model: ObserverModel) -> np.ndarray:
-    """(S_L,) stationary action taking L along a shortest path to its goal (ignores patrollers).
-    A failed step leaves L where it was, so following it again retries."""
+    """A stationary action per L state taking L along a shortest path to its goal.
+
+    It ignores the patrollers. A failed step leaves L where it was, so following it again
+    retries.
+
+    Parameters
+    ----------
+    model : ObserverModel
+        L's MDP.
+
+    Returns
+    -------
+    ndarray of int, shape (S_L,)
+        An action per state.
+    """
     return np.argmin(model.distance_to_goal[model.domain.intended], axis=1)

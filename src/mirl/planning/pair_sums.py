@@ -17,12 +17,21 @@ __all__ = ["MeetingStep", "PairSightings"]
 
 
 class MeetingStep:
-    """M_Iᵀ (B∘m) M_J for the few (~400 of 15 376 on boyd2) meeting states of m, bit for bit as
-    the two sparse products compute it (as products, 30 % of a propagation step): each output
+    """M_Iᵀ (B∘m) M_J for the few meeting states of m, bit for bit as the sparse products give it.
+
+    On boyd2 ~400 of 15 376 states meet (as products, 30 % of a propagation step). Each output
     element adds the same non-zero terms in the same order — the CSR order of the row of M_Iᵀ,
     then of M_Jᵀ — starting from 0; the products' other terms are exact zeros. Each stage is a
     fixed CSR map whose rows list their terms in that order, which scipy's mat-vec kernel adds
-    left to right from 0 (``np.bincount`` gives the same sums at 1.7× the time)."""
+    left to right from 0 (``np.bincount`` gives the same sums at 1.7× the time).
+
+    Parameters
+    ----------
+    meet : ndarray of shape (S, S)
+        The meeting mask m of the pair's joint states (non-zero where they meet).
+    mixed_T : list of scipy.sparse.csr_array of shape (S, S)
+        M_Iᵀ and M_Jᵀ, each robot's equilibrium-mixed one-step matrix, transposed.
+    """
 
     def __init__(self, meet: np.ndarray, mixed_T: list[sp.csr_array]) -> None:
         S = meet.shape[0]
@@ -59,8 +68,15 @@ class MeetingStep:
         return src, A.data[nz], r[nz], outer[src]
 
     def add_to(self, out_t: np.ndarray, met: np.ndarray) -> None:
-        """``out_t`` (flat, transposed: [b·S + a]) += the meeting term for ``met`` = B at
-        :attr:`at`."""
+        """Add the meeting term into ``out_t``.
+
+        Parameters
+        ----------
+        out_t : ndarray of shape (S*S,)
+            The step's result, flat and transposed ([b·S + a]), added into in place.
+        met : ndarray
+            The belief B at the meeting states :attr:`at`.
+        """
         (n_x, n_met, ptr1, idx1, val1), (n_out, _, ptr2, idx2, val2) = self._maps
         x, y = np.zeros(n_x), np.zeros(n_out)
         csr_block_matvec(n_x, n_met, 1, ptr1, idx1, val1, met, x)
@@ -69,11 +85,19 @@ class MeetingStep:
 
 
 class PairSightings:
-    """P(both robots see cell c) = Σ_{s_I} Σ_{s_J} p[s_I, s_J]·D[s_I, c]·D[s_J, c] for a stack of
-    joint beliefs, summed as ``((B @ D) * D).sum(axis=1)`` summed it: over the states that see c
-    in ascending order, s_J inside, s_I outside. (OpenBLAS's kernel adds along the inner
-    dimension in order, so that product gave these very bits; with D 0/1 and 10 % full on
-    boyd2 the dense product was ~10× the work.)"""
+    """P(both robots see cell c), summed in the order a dense product summed it.
+
+    P = Σ_{s_I} Σ_{s_J} p[s_I, s_J]·D[s_I, c]·D[s_J, c] for a stack of joint beliefs, summed as
+    ``((B @ D) * D).sum(axis=1)`` summed it: over the states that see c in ascending order, s_J
+    inside, s_I outside. (OpenBLAS's kernel adds along the inner dimension in order, so that
+    product gave these very bits; with D 0/1 and 10 % full on boyd2 the dense product was ~10×
+    the work.)
+
+    Parameters
+    ----------
+    D : ndarray of shape (S, C)
+        The 0/1 detection matrix, dense.
+    """
 
     def __init__(self, D: np.ndarray) -> None:
         S, self.n_cells = D.shape
@@ -91,6 +115,17 @@ class PairSightings:
         self._n_inner = n_inner
 
     def both(self, belief: np.ndarray) -> np.ndarray:
-        """(C,) from a flat joint ``belief`` (S²,)."""
+        """P(both robots see cell c) for every cell.
+
+        Parameters
+        ----------
+        belief : ndarray of shape (S*S,)
+            A flat joint belief.
+
+        Returns
+        -------
+        ndarray of shape (C,)
+            The probability per L cell.
+        """
         inner = np.bincount(self._inner, belief[self._pos], self._n_inner)  # Σ over s_J
         return np.bincount(self._cell, inner, self.n_cells)  # Σ over s_I

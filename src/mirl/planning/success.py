@@ -34,9 +34,19 @@ __all__ = ["SuccessEstimate", "success_probability"]
 
 @dataclass(frozen=True)
 class SuccessEstimate:
-    """What going now along a plan leads to, under L's models: P(goal reached unseen),
-    P(seen first), the probability left on the way after the last step, and whether the
-    computation is exact (joint filter) or the factored approximation."""
+    """What going now along a plan leads to, under L's models.
+
+    Parameters
+    ----------
+    success : float
+        P(goal reached unseen).
+    detected : float
+        P(seen first).
+    unfinished : float
+        The probability left on the way after the last step (and pruned).
+    exact : bool
+        Whether the computation is exact (joint filter, per-state beliefs) or approximate.
+    """
 
     success: float
     detected: float
@@ -55,11 +65,41 @@ def success_probability(
     belief: np.ndarray | None = None,
     shared: bool | None = None,
 ) -> SuccessEstimate:
-    """P(L reaches its goal unseen) when it leaves its start cell now, at the plan's index
-    ``k0``, and follows ``plan.policy`` (module doc); the patrollers' belief is ``belief`` (in
-    the filter's form), by default the filter's current one. ``shared`` makes L's states share
-    one belief (default: only with the factored filter, where the result is approximate
-    anyway); ``exact`` in the result is False whenever either approximation is made."""
+    """P(L reaches its goal unseen) when it leaves its start cell now and follows its plan.
+
+    See the module doc for the computation.
+
+    Parameters
+    ----------
+    belief_filter : BeliefFilter
+        The patrollers' filter; its step propagates the belief.
+    model : ObserverModel
+        L's MDP.
+    plan : ObserverPlan
+        The plan whose ``policy`` L follows.
+    k0 : int, default 0
+        The plan's index at which L leaves.
+    extra : int, default 0
+        At most this many steps along a shortest path after the plan's last step.
+    prune : float, default 1e-6
+        L states carrying less probability are dropped (counted as failure).
+    belief : ndarray, optional
+        The patrollers' belief, in the filter's form; the filter's current one by default.
+    shared : bool, optional
+        Let L's states share one belief; by default only with the factored filter, where the
+        result is approximate anyway.
+
+    Returns
+    -------
+    SuccessEstimate
+        Success, detection and unfinished probabilities; ``exact`` is False whenever either
+        approximation is made.
+
+    Raises
+    ------
+    ValueError
+        The filter has no belief yet.
+    """
     if belief is None:
         belief = belief_filter.belief
     if belief is None:

@@ -40,8 +40,24 @@ __all__ = [
 
 
 def meeting_matrix(domain: PatrolDomain, pol_i: np.ndarray, pol_j: np.ndarray) -> sp.csr_array:
-    """Sparse (S, S) 0/1: robots i in s and j in s' meet under their policies' actions — the rule
-    of :func:`mirl.world.game.meeting`, without an S × S dense mask."""
+    """Which pairs of states meet under two robots' policies.
+
+    The rule of :func:`mirl.world.game.meeting`, without an S × S dense mask.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    pol_i : ndarray of int, shape (S,)
+        Robot i's policy.
+    pol_j : ndarray of int, shape (S,)
+        Robot j's policy.
+
+    Returns
+    -------
+    scipy.sparse.csr_array of shape (S, S)
+        1 where robot i in s and robot j in s' meet; 0 elsewhere.
+    """
     S = domain.n_states
     cells = np.arange(S) // 4
     nxt_i = domain.state_cell(domain.intended[np.arange(S), pol_i])
@@ -66,8 +82,27 @@ def meeting_matrix(domain: PatrolDomain, pol_i: np.ndarray, pol_j: np.ndarray) -
 def game_step_matrix(
     domain: PatrolDomain, transitions: sp.csr_array, policy: np.ndarray, side
 ) -> sp.csr_array:
-    """One-step matrix of a robot playing ``side`` (go/stop/turn probabilities): go → its own
-    action, stop → stop, turn → turn_left (:func:`mirl.world.game.game_action_to_action`)."""
+    """One-step matrix of a robot playing ``side`` of an equilibrium.
+
+    go → its own action, stop → stop, turn → turn_left
+    (:func:`mirl.world.game.game_action_to_action`).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    transitions : scipy.sparse.csr_array of shape (S*A, S)
+        The robot's T.
+    policy : ndarray of int, shape (S,)
+        Its policy.
+    side : sequence of float
+        Its go, stop and turn probabilities.
+
+    Returns
+    -------
+    scipy.sparse.csr_array of shape (S, S)
+        The state-to-state matrix of one game move.
+    """
     S = domain.n_states
     w = np.zeros((S, domain.n_actions))
     np.add.at(w, (np.arange(S), np.asarray(policy, dtype=int)), side[0])
@@ -77,8 +112,18 @@ def game_step_matrix(
 
 
 class TeamParts:
-    """Per robot the policy step Pᵢ and, per pair, meeting masks and the game steps of both
-    sides, transposed for propagation (column vectors b' = Pᵀ b)."""
+    """What the team filters propagate by.
+
+    Per robot the policy step Pᵢ and, per pair, meeting masks and the game steps of both sides,
+    transposed for propagation (column vectors b' = Pᵀ b).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain.
+    learned : LearnResult
+        The robots' learned T and policies, and the pairs' equilibria.
+    """
 
     def __init__(self, domain: PatrolDomain, learned: LearnResult) -> None:
         robots = learned.robots
@@ -96,7 +141,18 @@ class TeamParts:
             self.game_T.append((sp.csr_array(gi.T), sp.csr_array(gj.T)))
 
     def robot_pairs(self, i: int) -> list[tuple[int, int, int]]:
-        """(pair index, other robot, side 0 = row / 1 = col) of robot i's pairs in order."""
+        """Robot i's pairs, in order.
+
+        Parameters
+        ----------
+        i : int
+            The robot.
+
+        Returns
+        -------
+        list of (int, int, int)
+            (pair index, other robot, side: 0 row / 1 column).
+        """
         return [(k, b if a == i else a, 0 if a == i else 1)
                 for k, (a, b) in enumerate(self.pairs) if i in (a, b)]  # fmt: skip
 
@@ -110,7 +166,14 @@ class FactoredTeam:
     output entry adds the same products in the same order as the per-robot products did (a
     transposed mask is read as the CSR of its transpose: its entries in column order, as the CSC
     kernel adds them), and a game move with no meeting adds exact zeros, so the step is bit for
-    bit the per-robot loop's (``tests/test_team.py`` keeps that loop as the reference)."""
+    bit the per-robot loop's (``tests/experiments/test_teams.py`` keeps that loop as the
+    reference).
+
+    Parameters
+    ----------
+    parts : TeamParts
+        The team's steps, masks and game moves.
+    """
 
     def __init__(self, parts: TeamParts) -> None:
         self.parts = p = parts
@@ -130,7 +193,18 @@ class FactoredTeam:
         self._steps = _stacked([(m, i * S) for i, m in enumerate(p.step_T)], n * S, True)
 
     def propagate(self, belief: np.ndarray) -> np.ndarray:
-        """One step of every marginal (three kernel calls for the team, see the class doc)."""
+        """One step of every marginal (three kernel calls for the team, see the class doc).
+
+        Parameters
+        ----------
+        belief : ndarray of shape (N, S)
+            The marginals.
+
+        Returns
+        -------
+        ndarray of shape (N, S)
+            The marginals one step later.
+        """
         p = self.parts
         n, S = p.n, p.S
         q = _csr_product(self._masks, belief.reshape(-1)).reshape(n - 1, n, S)
@@ -174,11 +248,15 @@ class ExactTeam:
     """The joint belief over S^N states as an N-dimensional tensor (module doc).
 
     A step is the free part — the belief where nobody meets, pushed through the policies' steps
-    as dense mode products (:func:`_mode_products`) — plus the meeting assignments through one
-    precomputed sparse chain (:class:`_SparseChain`): meetings cover ~8 % of the joint states
-    on boyd2 with three robots, so pushing each assignment through dense mode products over the
-    whole tensor (as the first version did, ~0.3 s per step there) cost several times the
-    free part for nothing.
+    as dense mode products — plus the meeting assignments through one precomputed sparse chain:
+    meetings cover ~8 % of the joint states on boyd2 with three robots, so pushing each
+    assignment through dense mode products over the whole tensor (as the first version did,
+    ~0.3 s per step there) cost several times the free part for nothing.
+
+    Parameters
+    ----------
+    parts : TeamParts
+        The team's steps, masks and game moves.
     """
 
     def __init__(self, parts: TeamParts) -> None:
@@ -197,13 +275,36 @@ class ExactTeam:
         self.meetings = _SparseChain(groups, p.S, p.n)
 
     def propagate(self, belief: np.ndarray) -> np.ndarray:
+        """One step of the joint.
+
+        Parameters
+        ----------
+        belief : ndarray of shape (S,)*N
+            The joint belief.
+
+        Returns
+        -------
+        ndarray of shape (S,)*N
+            The joint one step later.
+        """
         out = np.ascontiguousarray(_mode_products(belief * self.free, self.parts.step_T))
         self.meetings.add_to(belief.reshape(-1), out.reshape(-1))  # a view: out is contiguous
         return out
 
     def marginals(self, belief: np.ndarray) -> np.ndarray:
-        """(N, S) per-robot marginals; summing out one axis at a time, so only the first two
-        sums read the whole tensor."""
+        """The per-robot marginals, summing out one axis at a time (only the first two sums read the
+        whole tensor).
+
+        Parameters
+        ----------
+        belief : ndarray of shape (S,)*N
+            The joint belief.
+
+        Returns
+        -------
+        ndarray of shape (N, S)
+            Each robot's state distribution.
+        """
         out = []
         x = belief
         while x.ndim > 1:
@@ -212,7 +313,20 @@ class ExactTeam:
         return np.stack([*out, x])
 
     def none_sees(self, belief: np.ndarray, G: np.ndarray) -> np.ndarray:
-        """(C,) P(no patroller sees cell c) = Σ_s B[s] ∏ᵢ G[sᵢ, c]."""
+        """P(no patroller sees cell c) = Σ_s B[s] ∏ᵢ G[sᵢ, c].
+
+        Parameters
+        ----------
+        belief : ndarray of shape (S,)*N
+            The joint belief.
+        G : ndarray of shape (S, C)
+            1 − D: a robot in state s does not see cell c.
+
+        Returns
+        -------
+        ndarray of shape (C,)
+            The probability per cell.
+        """
         x = np.tensordot(belief, G, axes=([belief.ndim - 1], [0]))  # (S, …, S, C)
         while x.ndim > 2:
             x = np.einsum("...sc,sc->...c", x, G)
@@ -308,16 +422,27 @@ def _mode_products(x: np.ndarray, mats_T: list[sp.csr_array]) -> np.ndarray:
 
 
 class FactoredDetection:
-    """Detection d_k(c) = 1 − ∏ᵢ (1 − P(i sees c)) and the first-order hazards of
-    :meth:`~mirl.planning.belief.BeliefFilter.predict` from per-robot occupancies, with the
-    detection matrix D kept sparse: with G = 1 − D and P G = 1 − P D,
+    """Detection and first-order hazards from per-robot occupancies, with D kept sparse.
+
+    Detection d_k(c) = 1 − ∏ᵢ (1 − P(i sees c)) and the first-order hazards of
+    :meth:`~mirl.planning.belief.BeliefFilter.predict`: with G = 1 − D and P G = 1 − P D,
     occ · (G[:, c'] ∘ (P G)[:, c]) = Σocc − occ·D[:, c'] − occ·(P D)[:, c] + occ·(D[:, c'] ∘
     (P D)[:, c]). The sparse matrices depend on the robots' steps and L's model only, so they
     are built once; :meth:`rows` then takes any run of consecutive steps, each step's numbers
     computed as if all steps were taken at once (the products add per column, the sums per row),
     so a prediction may be computed a block of steps at a time. On the 60 × 60 office (S =
     3 804, ~4 000 cell pairs, 390 steps) this takes well under a second where dense (S, pairs)
-    products took ~60 s."""
+    products took ~60 s.
+
+    Parameters
+    ----------
+    detection : scipy.sparse.csr_array of shape (S, C)
+        D, which patroller states see which L cells.
+    step_T : list of scipy.sparse.csr_array of shape (S, S)
+        Each robot's one-step matrix, transposed.
+    cell_pairs : ndarray of int, shape (n_pairs, 2)
+        L's moves: its cell before and after.
+    """
 
     def __init__(
         self, detection: sp.csr_array, step_T: list[sp.csr_array], cell_pairs: np.ndarray
@@ -334,8 +459,20 @@ class FactoredDetection:
             self.per_robot.append((sp.csr_array(PDn.T), sp.csr_array(both.T)))
 
     def rows(self, occ: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Detection (K1, C) and hazards (K1, pairs) of the steps whose per-robot occupancies
-        are ``occ`` (K1, N, S); hazard row 0 is the unconditional detection of its pairs."""
+        """Detection and hazards of the steps whose per-robot occupancies are ``occ``.
+
+        Parameters
+        ----------
+        occ : ndarray of shape (K1, N, S)
+            Per-robot occupancies of consecutive steps.
+
+        Returns
+        -------
+        detection : ndarray of shape (K1, C)
+            P(some patroller sees cell c).
+        hazard : ndarray of shape (K1, n_pairs)
+            The first-order hazards; row 0 is the unconditional detection of its pairs.
+        """
         K1, N, S = occ.shape
         seen = (self.DT @ occ.reshape(K1 * N, S).T).T.reshape(K1, N, -1)  # P(robot i sees c)
         det = 1.0 - np.prod(1.0 - seen, axis=1)
@@ -357,5 +494,24 @@ class FactoredDetection:
 def factored_detection(
     occ: np.ndarray, detection: sp.csr_array, step_T: list[sp.csr_array], cell_pairs: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:meth:`FactoredDetection.rows` of all of ``occ`` (K+1, N, S) at once."""
+    """:meth:`FactoredDetection.rows` of all of ``occ`` at once.
+
+    Parameters
+    ----------
+    occ : ndarray of shape (K+1, N, S)
+        Per-robot occupancies.
+    detection : scipy.sparse.csr_array of shape (S, C)
+        D.
+    step_T : list of scipy.sparse.csr_array of shape (S, S)
+        Each robot's one-step matrix, transposed.
+    cell_pairs : ndarray of int, shape (n_pairs, 2)
+        L's moves.
+
+    Returns
+    -------
+    detection : ndarray of shape (K+1, C)
+        P(some patroller sees cell c).
+    hazard : ndarray of shape (K+1, n_pairs)
+        The first-order hazards.
+    """
     return FactoredDetection(detection, step_T, cell_pairs).rows(occ)

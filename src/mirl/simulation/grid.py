@@ -20,7 +20,20 @@ __all__ = ["PatrolSimulator", "SimulationResult", "simulate", "patrol_cycle"]
 
 
 def patrol_cycle(scenario: Scenario, robot: int) -> np.ndarray:
-    """States of the cycle the robot's true policy settles into under intended outcomes."""
+    """States of the cycle the robot's true policy settles into under intended outcomes.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    robot : int
+        The patroller's index.
+
+    Returns
+    -------
+    ndarray of int, shape (k,)
+        The cycle's states, in the order the patroller visits them.
+    """
     d = scenario.domain
     pol = scenario.true_policy(robot)
     s = int(d.state_index(*scenario.robots[robot].start))
@@ -35,7 +48,25 @@ def patrol_cycle(scenario: Scenario, robot: int) -> np.ndarray:
 
 
 class PatrolSimulator:
-    """Patrollers following their true policies; L watching at an observability degree."""
+    """Patrollers following their true policies; L watching at an observability degree.
+
+    A Gymnasium-style loop (``reset``, ``step``) over the whole team.
+
+    Parameters
+    ----------
+    scenario : Scenario or str
+        The scenario, or a shipped name or path.
+    observability : float, optional
+        The fraction of the hallway L sees, in [0, 1]; the scenario's by default.
+    heading_noise : float, default 0.0
+        The probability, in [0, 1], that L misreads a seen robot's heading (as one of the other
+        three, uniformly); it never changes the world.
+
+    Raises
+    ------
+    ValueError
+        A heading noise outside [0, 1].
+    """
 
     def __init__(
         self,
@@ -68,8 +99,28 @@ class PatrolSimulator:
         self.t = 0
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        """Start a new episode. ``options={"random_starts": True}`` starts each robot at a
-        uniformly drawn state of its patrol cycle; ``{"starts": [(r, c, h), ...]}`` sets them."""
+        """Start a new episode.
+
+        Parameters
+        ----------
+        seed : int, optional
+            Seeds the world's random stream (and, spawned from it, the perception noise's).
+        options : dict, optional
+            ``{"random_starts": True}`` starts each robot at a uniformly drawn state of its patrol
+            cycle; ``{"starts": [(r, c, h), ...]}`` sets them.
+
+        Returns
+        -------
+        observation : ndarray of int, shape (k, 4)
+            (robot, row, col, heading) of the robots L sees.
+        info : dict
+            ``t``, the true ``states`` and ``interaction`` (False).
+
+        Raises
+        ------
+        ValueError
+            A start that is not a hallway state.
+        """
         seq = np.random.SeedSequence(seed)
         self.np_random = np.random.default_rng(seq)  # the same stream as default_rng(seed)
         # perception noise has its own stream: misreading a heading never changes the world, so
@@ -91,14 +142,23 @@ class PatrolSimulator:
         return self._observe(), {"t": 0, "states": self.states.copy(), "interaction": False}
 
     def intended_actions(self) -> tuple[np.ndarray, bool]:
-        """Each robot's action this step: its policy's, overridden by the pair's equilibrium
-        where two robots meet (:meth:`Scenario.pair_equilibrium`, the lower index the row player).
+        """Each robot's action this step.
 
-        Meetings are found on the policies' own actions for every pair at once. When a robot
-        meets two others in the same step (three in a corridor junction), the pairs are
-        resolved in robot order ((0, 1), (0, 2), (1, 2), …) and the robot plays the game of its
-        *first* meeting; every meeting pair still draws both of its game actions, so the random
-        stream does not depend on which draws were used."""
+        Its policy's, overridden by the pair's equilibrium where two robots meet
+        (:meth:`~mirl.world.scenario.Scenario.pair_equilibrium`, the lower index the row player).
+        Meetings are found on the policies' own actions for every pair at once. When a robot meets
+        two others in the same step (three in a corridor junction), the pairs are resolved in robot
+        order ((0, 1), (0, 2), (1, 2), …) and the robot plays the game of its *first* meeting; every
+        meeting pair still draws both of its game actions, so the random stream does not depend on
+        which draws were used.
+
+        Returns
+        -------
+        actions : ndarray of int, shape (N,)
+            An action per robot.
+        met : bool
+            Whether some pair met.
+        """
         idx = np.arange(self.n_robots)
         own = self.policies[idx, self.states]
         acts = own.copy()
@@ -120,6 +180,26 @@ class PatrolSimulator:
         return acts, bool(hits.size)
 
     def step(self, action=None):
+        """Advance one step: every robot takes :meth:`intended_actions` through its true T.
+
+        Parameters
+        ----------
+        action : None
+            Ignored (the patrollers choose their own actions); Gymnasium's signature.
+
+        Returns
+        -------
+        observation : ndarray of int, shape (k, 4)
+            (robot, row, col, heading) of the robots L sees.
+        reward : float
+            0.0 (the patrollers' rewards are not L's).
+        terminated : bool
+            False: a patrol does not end.
+        truncated : bool
+            False.
+        info : dict
+            ``t``, the true ``states``, ``interaction`` (whether a pair met) and ``actions``.
+        """
         acts, met = self.intended_actions()
         A = self.domain.n_actions
         for i in range(self.n_robots):
@@ -135,6 +215,46 @@ class PatrolSimulator:
         info = {"t": self.t, "states": self.states.copy(), "interaction": met, "actions": acts}
         return self._observe(), 0.0, False, False, info
 
+    def step_actions(self, actions: np.ndarray):
+        """Advance one step with each robot taking the given action.
+
+        The action goes through the robot's true transition function: no policy and no game at
+        meetings, since whoever gave the actions chose them (the agents of
+        :class:`mirl.envs.TeamEnv`).
+
+        Parameters
+        ----------
+        actions : ndarray of int, shape (N,)
+            An index into :data:`~mirl.world.domain.ACTIONS` per robot.
+
+        Returns
+        -------
+        tuple
+            As :meth:`step`.
+
+        Raises
+        ------
+        ValueError
+            Anything but one valid action per robot; nobody moves.
+        """
+        acts = np.asarray(actions)
+        A = self.domain.n_actions
+        if (
+            acts.shape != (self.n_robots,)
+            or not np.issubdtype(acts.dtype, np.integer)
+            or ((acts < 0) | (acts >= A)).any()
+        ):
+            raise ValueError(
+                f"`actions` must be {self.n_robots} integers in [0, {A}), one per robot, "
+                f"got {actions!r}"
+            )
+        for i, a in enumerate(acts.astype(int)):
+            row = self._T[i][[int(self.states[i]) * A + int(a)]].toarray().ravel()
+            self.states[i] = int(self.np_random.choice(len(row), p=row / row.sum()))
+        self.t += 1
+        info = {"t": self.t, "states": self.states.copy(), "interaction": False, "actions": acts}
+        return self._observe(), 0.0, False, False, info
+
     def _observe(self) -> np.ndarray:
         """(k, 4) rows (robot, row, col, heading) of the robots on visible cells."""
         seen = np.flatnonzero(self.visible[self.states])
@@ -148,6 +268,22 @@ class PatrolSimulator:
 
 @dataclass(frozen=True)
 class SimulationResult:
+    """What :func:`simulate` recorded.
+
+    Parameters
+    ----------
+    truth : Trajectories
+        Every robot's true state at every step.
+    observations : Trajectories
+        What L saw.
+    interactions : int
+        Steps at which some pair of robots met.
+    interactions_seen : int
+        Of those, steps at which both meeting robots were visible.
+    true_states : ndarray of int, shape (steps, N)
+        The true state indices.
+    """
+
     truth: Trajectories
     observations: Trajectories
     interactions: int  # steps at which some pair of robots met
@@ -155,7 +291,13 @@ class SimulationResult:
     true_states: np.ndarray  # (steps, N) state indices
 
     def observed_share(self) -> np.ndarray:
-        """Per robot, the share of time steps at which L saw it."""
+        """Per robot, the share of time steps at which L saw it.
+
+        Returns
+        -------
+        ndarray of shape (N,)
+            Shares in [0, 1].
+        """
         n = len(self.truth.robot_names)
         counts = np.bincount(self.observations.robot, minlength=n)
         return counts / max(self.truth.horizon, 1)
@@ -170,7 +312,33 @@ def simulate(
     heading_noise: float = 0.0,
     random_starts: bool = False,
 ) -> SimulationResult:
-    """Run ``steps`` time steps (t = 0 … steps−1) and record truth and L's observations."""
+    """Run ``steps`` time steps (t = 0 … steps−1) and record truth and L's observations.
+
+    Parameters
+    ----------
+    scenario : Scenario or str
+        The scenario, or a shipped name or path.
+    steps : int
+        Time steps to record, at least 1.
+    seed : int, optional
+        Seeds the run; a fresh stream if None.
+    observability : float, optional
+        The fraction of the hallway L sees; the scenario's by default.
+    heading_noise : float, default 0.0
+        The probability that L misreads a seen robot's heading.
+    random_starts : bool, default False
+        Start each robot at a uniformly drawn state of its patrol cycle.
+
+    Returns
+    -------
+    SimulationResult
+        The truth, the observations and the meetings.
+
+    Raises
+    ------
+    ValueError
+        Fewer than one step, or a heading noise outside [0, 1].
+    """
     if steps < 1:
         raise ValueError(f"steps must be at least 1, got {steps}")
     scenario = as_scenario(scenario)

@@ -57,6 +57,18 @@ FIG4A_PAPER = {
 
 
 def method_name(c: Condition) -> str:
+    """A condition's method as the paper names it, with its fixed p or EM initialisation.
+
+    Parameters
+    ----------
+    c : Condition
+        The condition.
+
+    Returns
+    -------
+    str
+        E.g. ``mIRL*+Int (p=0.9)``.
+    """
     name = PAPER_NAMES.get(c.method, c.method)
     name = name if c.p is None else f"{name} (p={c.p:g})"
     return name if c.em_init is None else f"{name} ({c.em_init} init)"

@@ -10,14 +10,17 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 from scipy import stats
 
-from mirl.experiments.conditions import Condition
+from mirl._registry import Registry
+from mirl.experiments.conditions import EXPERIMENTS, Condition
 from mirl.viz.aggregate import FIG4A_PAPER, PAPER_NAMES, TABLE1_PAPER, Group, method_name
+from mirl.viz.atlas import atlas_markdown
 from mirl.viz.verdicts import verdicts_markdown
 
 __all__ = [
@@ -28,6 +31,8 @@ __all__ = [
     "fig4bc_markdown",
     "table1_markdown",
     "outcomes_markdown",
+    "Section",
+    "SECTIONS",
 ]
 
 
@@ -54,6 +59,21 @@ FIG3_LEARNER = "mirl-t"
 
 
 def fig3(gs: list[Group], figdir: Path) -> str:
+    """Draw Fig. 3: behaviour accuracy and success rate against observability, per method and
+    record length.
+
+    Parameters
+    ----------
+    gs : list of Group
+        The finished runs of each condition of the experiment.
+    figdir : Path
+        The folder the figures are written into (created if missing).
+
+    Returns
+    -------
+    str
+        The figure's path as the report links it (``figures/fig3.png``; an SVG beside it).
+    """
     methods = [m for m in FIG3_STYLES if any(g.condition.method == m for g in gs)]
     steps = sorted({g.condition.obs_steps for g in gs})
     fig = Figure(figsize=(7.5, 8.5), layout="constrained")
@@ -113,6 +133,20 @@ def _accuracy_success(gs: list[Group]) -> tuple[np.ndarray, np.ndarray, str]:
 
 
 def fig3_markdown(gs: list[Group], figdir: Path) -> str:
+    """Fig. 3's section of the report: the figure, its table and the accuracy–success correlation.
+
+    Parameters
+    ----------
+    gs : list of Group
+        The finished runs of each condition of the experiment.
+    figdir : Path
+        The folder the figures are written into (created if missing).
+
+    Returns
+    -------
+    str
+        Markdown.
+    """
     png = fig3(gs, figdir)
     degrees = sorted({g.condition.observability for g in gs})
     head = "| method | steps | " + " | ".join(f"d = {d:g}" for d in degrees) + " |"
@@ -159,6 +193,21 @@ def fig3_markdown(gs: list[Group], figdir: Path) -> str:
 
 
 def fig4a_markdown(gs: list[Group], figdir: Path) -> str:
+    """Fig. 4a's section: outcome rates per method and observability, against mIRL*/T+Int and the
+    paper's ordering.
+
+    Parameters
+    ----------
+    gs : list of Group
+        The finished runs of each condition of the experiment.
+    figdir : Path
+        The folder the figures are written into (created if missing).
+
+    Returns
+    -------
+    str
+        Markdown with the figure and its table.
+    """
     degrees = sorted({g.condition.observability for g in gs})
     fig = Figure(figsize=(9, 3.6 * len(degrees)), layout="constrained")
     axes = np.atleast_1d(fig.subplots(len(degrees), 1))
@@ -256,7 +305,28 @@ def _true_probabilities(scenario: str) -> dict[str, dict[str, float]]:
 
 
 def ttest(g: Group, robot: str, a: str, b: str) -> tuple[float, float, int]:
-    """Two-tailed Student's t-test (the paper's) of ``robot``'s learned ``a`` vs ``b``."""
+    """Two-tailed Student's t-test (the paper's) of ``robot``'s learned ``a`` vs ``b``.
+
+    Parameters
+    ----------
+    g : Group
+        The runs.
+    robot : str
+        The robot's name.
+    a : str
+        A transition feature.
+    b : str
+        Another.
+
+    Returns
+    -------
+    t : float
+        The statistic; NaN with fewer than two values each or both samples constant.
+    p : float
+        Its two-tailed p-value (NaN likewise).
+    n : int
+        The smaller sample's size.
+    """
     x, y = g.values(f"fp.{robot}.{a}"), g.values(f"fp.{robot}.{b}")
     if min(len(x), len(y)) < 2 or (np.ptp(x) == 0 and np.ptp(y) == 0):
         return float("nan"), float("nan"), min(len(x), len(y))
@@ -267,6 +337,23 @@ def ttest(g: Group, robot: str, a: str, b: str) -> tuple[float, float, int]:
 
 
 def fig4bc_markdown(gs: list[Group], figdir: Path, stem: str) -> str:
+    """Fig. 4b's or 4c's section: the learned transition-feature probabilities per robot, their
+    t-tests and the fault verdicts' rates.
+
+    Parameters
+    ----------
+    gs : list of Group
+        The finished runs of each condition of the experiment.
+    figdir : Path
+        The folder the figures are written into (created if missing).
+    stem : {"fig4b", "fig4c"}
+        The figure's file name.
+
+    Returns
+    -------
+    str
+        Markdown.
+    """
     robots, feats = _features(gs)
     if not feats:
         return "No learned feature probabilities were stored for these runs."
@@ -426,6 +513,20 @@ def table1_figure(gs: list[Group], figdir: Path) -> str:
 
 
 def table1_markdown(gs: list[Group], figdir: Path) -> str:
+    """Table 1's section: success with and without J's damaged wheel, beside the paper's.
+
+    Parameters
+    ----------
+    gs : list of Group
+        The finished runs of each condition of the experiment.
+    figdir : Path
+        The folder the figures are written into (created if missing).
+
+    Returns
+    -------
+    str
+        Markdown with the figure and its table.
+    """
     png = table1_figure(gs, figdir)
     by = {(g.condition.method, g.condition.scenario): g for g in gs}
     lines = [
@@ -471,6 +572,18 @@ def _wilson(g: Group, z: float = 1.96) -> str:
 
 
 def outcomes_markdown(gs: list[Group]) -> str:
+    """The table of outcomes of every condition (the section of experiments without their own).
+
+    Parameters
+    ----------
+    gs : list of Group
+        The finished runs of each condition.
+
+    Returns
+    -------
+    str
+        A markdown table.
+    """
     lines = [
         "| condition | n | success | detected | timed out | accuracy | go time |",
         "| --- | --- | --- | --- | --- | --- | --- |",
@@ -486,11 +599,46 @@ def outcomes_markdown(gs: list[Group]) -> str:
     return "\n".join(lines)
 
 
-SECTIONS: dict[str, Callable[[list[Group], Path], str]] = {
-    "fig3": fig3_markdown,
-    "fig4a": fig4a_markdown,
-    "fig4b": lambda gs, d: fig4bc_markdown(gs, d, "fig4b"),
-    "fig4c": lambda gs, d: fig4bc_markdown(gs, d, "fig4c"),
-    "table1": table1_markdown,
-    "verdicts": verdicts_markdown,
-}
+@dataclass(frozen=True)
+class Section:
+    """The report's section of one experiment.
+
+    A section is called as its ``write``.
+
+    Parameters
+    ----------
+    name : str
+        The experiment's name, in :data:`~mirl.experiments.conditions.EXPERIMENTS`.
+    write : callable
+        ``write(groups, figdir)`` draws the section's figures into ``figdir`` and returns its
+        markdown.
+    """
+
+    name: str
+    write: Callable[[list[Group], Path], str]
+
+    def __call__(self, groups: list[Group], figdir: Path) -> str:
+        return self.write(groups, figdir)
+
+
+def _check_section(section: Section) -> None:
+    """A section belongs to an experiment of :data:`~mirl.experiments.conditions.EXPERIMENTS`."""
+    if section.name not in EXPERIMENTS:
+        raise ValueError(f"report section '{section.name}': {EXPERIMENTS.unknown(section.name)}")
+
+
+SECTIONS: Registry[Section] = Registry(
+    "report section",
+    (
+        Section("fig3", fig3_markdown),
+        Section("fig4a", fig4a_markdown),
+        Section("fig4b", lambda gs, d: fig4bc_markdown(gs, d, "fig4b")),
+        Section("fig4c", lambda gs, d: fig4bc_markdown(gs, d, "fig4c")),
+        Section("table1", table1_markdown),
+        Section("verdicts", verdicts_markdown),
+        Section("atlas", atlas_markdown),
+    ),
+    check=_check_section,
+)
+"""The report's own section of each experiment that has one, by the experiment's name (the
+others get the table of outcomes alone)."""

@@ -58,11 +58,32 @@ def _checked_mask(gridmap: GridMap, visible_mask: np.ndarray | None) -> np.ndarr
 
 
 def draw_map(ax, gridmap: GridMap, visible_mask: np.ndarray | None = None, *, legend: bool = True):
-    """Draw ``gridmap`` on matplotlib axes ``ax`` and return ``ax``.
+    """Draw ``gridmap`` on matplotlib axes ``ax``.
 
     Walls dark, hallway light, L-only rooms pale blue, cells in ``visible_mask`` amber; L's start
     is a blue triangle, goals green stars. Cell ``(r, c)`` is centred at ``x = c, y = r`` with
     row 0 at the top and square cells.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes.
+    gridmap : GridMap
+        The map.
+    visible_mask : ndarray of bool, shape (rows, cols), optional
+        Cells shaded as visible to L.
+    legend : bool, default True
+        Draw the legend beside the map.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
+
+    Raises
+    ------
+    ValueError
+        A mask of another shape than the map's.
     """
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
@@ -140,8 +161,16 @@ def draw_map(ax, gridmap: GridMap, visible_mask: np.ndarray | None = None, *, le
 
 
 def draw_metres(ax, gridmap: GridMap) -> None:
-    """Axes in metres of the map frame (top and right, beside the cells' own) and the frame's
-    origin as RViz draws it (x red, y green, 1 m) where it lies on the grid."""
+    """Axes in metres of the map frame (top and right, beside the cells' own) and the frame's origin
+    as RViz draws it (x red, y green, 1 m) where it lies on the grid.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        Axes the map is drawn on.
+    gridmap : GridMap
+        The map, whose frame places the metres.
+    """
     f = gridmap.frame
     top = ax.secondary_xaxis(
         "top",
@@ -169,7 +198,15 @@ def draw_metres(ax, gridmap: GridMap) -> None:
 
 
 def draw_routes(ax, routes: Mapping[str, np.ndarray]) -> None:
-    """Each patroller's route, (k, 2) cells, as a line with its name at the start."""
+    """Each patroller's route as a line with its name at the start.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        Axes the map is drawn on.
+    routes : mapping of str to ndarray of shape (k, 2)
+        Each patroller's cells, in order.
+    """
     for i, (name, cells) in enumerate(routes.items()):
         cells = np.asarray(cells, dtype=float)
         if len(cells) == 0:
@@ -195,10 +232,28 @@ def map_figure(
     routes: Mapping[str, np.ndarray] | None = None,
     metres: bool = False,
 ):
-    """A new ``Figure`` (no pyplot, no global backend) with the map drawn; returns ``(fig, ax)``.
+    """A new ``Figure`` (no pyplot, no global backend) with the map drawn.
 
-    ``routes`` (name -> (k, 2) cells) are drawn as lines; ``metres`` adds axes in metres of the
-    map frame and its origin (:func:`draw_metres`)."""
+    Parameters
+    ----------
+    gridmap : GridMap
+        The map.
+    visible_mask : ndarray of bool, shape (rows, cols), optional
+        Cells shaded as visible to L.
+    legend : bool, default True
+        Draw the legend beside the map.
+    routes : mapping of str to ndarray of shape (k, 2), optional
+        Patrollers' routes drawn as lines.
+    metres : bool, default False
+        Add axes in metres of the map frame and its origin (:func:`draw_metres`).
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+        The figure.
+    ax : matplotlib.axes.Axes
+        Its map axes.
+    """
     from matplotlib.figure import Figure
 
     rows, cols = gridmap.shape
@@ -242,11 +297,23 @@ def save_map_png(
     *,
     routes: Mapping[str, np.ndarray] | None = None,
 ) -> Path:
-    """Write the map as an image, with axes in metres of its frame; the format follows the
-    suffix (``.png`` default, ``.svg``…).
+    """Write the map as an image, with axes in metres of its frame.
 
-    ``observability`` (a degree in [0, 1]) shades the cells L sees at that degree; ``routes``
-    (name -> (k, 2) cells) are drawn as lines.
+    Parameters
+    ----------
+    gridmap : GridMap
+        The map.
+    path : str or Path
+        The file; the format follows the suffix (``.png`` default, ``.svg``…).
+    observability : float, optional
+        A degree in [0, 1]: shades the cells L sees at that degree.
+    routes : mapping of str to ndarray of shape (k, 2), optional
+        Patrollers' routes drawn as lines.
+
+    Returns
+    -------
+    Path
+        ``path``.
     """
     path = Path(path)
     mask = None if observability is None else gridmap.visible_mask(observability)
@@ -258,8 +325,22 @@ def save_map_png(
 
 
 def map_to_text(gridmap: GridMap, visible_mask: np.ndarray | None = None) -> str:
-    """Plain-text map (``.#LGg`` as in the map format) with visible cells as ``o`` (``O`` for a
-    visible hallway goal), followed by a ``;`` legend line (a comment in the map format)."""
+    """Plain-text map (``.#LGg`` as in the map format) with visible cells as ``o``.
+
+    A visible hallway goal is ``O``; a ``;`` legend line (a comment in the map format) follows.
+
+    Parameters
+    ----------
+    gridmap : GridMap
+        The map.
+    visible_mask : ndarray of bool, shape (rows, cols), optional
+        Cells shaded as visible to L.
+
+    Returns
+    -------
+    str
+        The map's lines and the legend.
+    """
     visible = _checked_mask(gridmap, visible_mask)
     chars = np.array([list(line) for line in gridmap.to_text().split("\n")])
     chars[visible & (chars == ".")] = "o"
@@ -268,5 +349,6 @@ def map_to_text(gridmap: GridMap, visible_mask: np.ndarray | None = None) -> str
     legend = TEXT_LEGEND
     if visible_mask is not None:
         n, total = int(visible.sum()), gridmap.n_patroller_cells
-        legend += f"\n; visible: {n} of {total} patroller cells ({n / max(total, 1):.2f})"
+        # a percentage: a share written as 0.13 read as a second, different observability
+        legend += f"\n; visible: {n} of {total} patroller cells ({100 * n / max(total, 1):.0f} %)"
     return "\n".join([*lines, legend])

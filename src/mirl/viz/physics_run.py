@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from mirl.viz.maps import draw_map
+from mirl.viz.runs import OBSERVER_COLOR, ROBOT_COLORS
 
 __all__ = ["draw_physical_run"]
 
@@ -33,10 +34,29 @@ def _cone(ax, frame, x, y, yaw, fov_deg, rng, color, label):
     return poly
 
 
-def draw_physical_run(ax, scenario, result, colors, observer_color, *, context: int = 10):
-    """Draw a physics-world run (its ``result.extras`` is a
-    :class:`~mirl.experiments.physics_world.PhysicsExtras`; ``colors``: one per patroller,
-    cycled; the caller's palette)."""
+def draw_physical_run(ax, scenario, result, *, context: int = 10):
+    """Draw a physics-world run on ``ax``; the physics row's drawing in :data:`mirl.worlds.WORLDS`.
+
+    The robots' true tracks, L's camera cone and the patrollers' sightings, from ``context``
+    steps before L left.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The map panel.
+    scenario : Scenario
+        The run's scenario.
+    result : RunResult
+        The run; its ``extras`` is a :class:`~mirl.worlds.physics.PhysicsExtras`.
+    context : int, default 10
+        Steps drawn before L left.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
+    """
+    colors, observer_color = ROBOT_COLORS, OBSERVER_COLOR
     world = result.extras.world
     gm = scenario.map
     frame = gm.frame

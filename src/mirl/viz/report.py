@@ -3,7 +3,8 @@ tables, and the sweep's throughput."""
 
 from __future__ import annotations
 
-from dataclasses import replace
+import re
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from mirl.experiments.conditions import (
@@ -14,12 +15,12 @@ from mirl.experiments.conditions import (
     experiment_names,
 )
 from mirl.experiments.store import load_results
-from mirl.experiments.worlds import DEFAULT_WORLD
 from mirl.learning.methods import METHODS
 from mirl.viz.aggregate import PAPER, Row, groups
 from mirl.viz.figures import SECTIONS, outcomes_markdown
+from mirl.worlds import DEFAULT_WORLD
 
-__all__ = ["write_report", "report_markdown"]
+__all__ = ["WrittenReport", "write_report", "write_report_and_figures", "report_markdown"]
 
 # ---------------------------------------------------------------------------------------------
 # Report
@@ -41,7 +42,24 @@ def _throughput(sessions: list[dict]) -> str:
 def report_markdown(
     meta: dict[str, str], rows: list[Row], sessions: list[dict], figdir: Path
 ) -> str:
-    """One experiment's section: header facts, its figure/table beside the paper, outcomes."""
+    """One experiment's section: header facts, its figure/table beside the paper, outcomes.
+
+    Parameters
+    ----------
+    meta : dict of str to str
+        The store's ``meta`` (its ``experiment`` and ``base_seed``).
+    rows : list of dict
+        The stored runs, flat (:func:`~mirl.experiments.store.load_results`).
+    sessions : list of dict
+        The sweep's invocations, for its throughput.
+    figdir : Path
+        Where the section's figures are drawn.
+
+    Returns
+    -------
+    str
+        The section, Markdown.
+    """
     name = meta.get("experiment", "?")
     gs = groups(rows)
     if name in EXPERIMENTS:  # the experiment's own order: methods as the paper lists them
@@ -95,8 +113,69 @@ def _databases(path: Path) -> list[Path]:
     return sorted(found, key=lambda p: (rank.get(p.parent.name, len(rank)), p.parent.name))
 
 
+@dataclass(frozen=True)
+class WrittenReport:
+    """What :func:`write_report_and_figures` wrote.
+
+    Parameters
+    ----------
+    report : Path
+        The ``report.md``.
+    figures : tuple of Path
+        Every figure file drawn (each figure as PNG and SVG), in the report's order.
+    """
+
+    report: Path
+    figures: tuple[Path, ...]
+
+
 def write_report(directory: str | Path) -> Path:
-    """Draw the figures of every experiment under ``directory`` and write its report.md."""
+    """Draw the figures of every experiment under ``directory`` and write its report.md; the
+    report's path (:func:`write_report_and_figures` also says which figures it drew).
+
+    Parameters
+    ----------
+    directory : str or Path
+        An experiment's results directory, or a directory whose sub-directories hold
+        experiments.
+
+    Returns
+    -------
+    Path
+        The ``report.md`` written.
+    """
+    return write_report_and_figures(directory).report
+
+
+# a figure a section shows: ![caption](figures/NAME.png)
+IMAGE = re.compile(r"!\[[^\]]*\]\(figures/([^)/]+)\.png\)")
+
+
+def _drawn(markdown: str, figdir: Path) -> list[Path]:
+    """The figure files a section drew: each figure it shows, in every format it was saved in
+    (the files of ``figdir`` that share the figure's name)."""
+    return [p for stem in IMAGE.findall(markdown) for p in sorted(figdir.glob(f"{stem}.*"))]
+
+
+def write_report_and_figures(directory: str | Path) -> WrittenReport:
+    """Draw the figures of every experiment under ``directory`` and write its report.md.
+
+    Parameters
+    ----------
+    directory : str or Path
+        An experiment's results directory (its ``results.sqlite``, or the database itself), or a
+        directory whose sub-directories hold experiments.
+
+    Returns
+    -------
+    WrittenReport
+        The report's path and the figure files drawn.
+
+    Raises
+    ------
+    StoreError
+        No ``results.sqlite`` there, or a file that is no experiment's results directory.
+    """
     root = Path(directory)
     if root.is_file() and root.name == "results.sqlite":
         root = root.parent  # the database itself names its directory
@@ -121,12 +200,15 @@ def write_report(directory: str | Path) -> Path:
         ),
         "",
     ]
+    drawn: list[Path] = []
     for db in dbs:
         meta, rows, sessions = load_results(db)
-        md = report_markdown(meta, rows, sessions, db.parent / "figures")
+        figdir = db.parent / "figures"
+        md = report_markdown(meta, rows, sessions, figdir)
+        drawn += _drawn(md, figdir)
         if db.parent != root:  # each experiment's figures stay beside its database
             md = md.replace("](figures/", f"]({db.parent.relative_to(root).as_posix()}/figures/")
         sections.append(md)
     out = root / "report.md"
     out.write_text("\n".join(sections), encoding="utf-8")
-    return out
+    return WrittenReport(out, tuple(drawn))

@@ -1,7 +1,10 @@
 """Drawing one penetration run: the map with the cells L sees, the patrollers' true paths while L
 was moving, L's path and the detection events; beside it the go values of the executed plan.
 
-Only matplotlib's object API is used (no pyplot), like :mod:`mirl.viz.maps`.
+The map panel is the run's world's drawing, named by its row of :data:`mirl.worlds.WORLDS`
+(:func:`draw_run`, the grid trace, unless the world draws itself, as the physics world does with
+:func:`mirl.viz.physics_run.draw_physical_run`). Only matplotlib's object API is used (no
+pyplot), like :mod:`mirl.viz.maps`.
 """
 
 from __future__ import annotations
@@ -10,9 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
+from mirl._registry import resolve
 from mirl.experiments.records import RunResult
 from mirl.viz.maps import MAP_COLORS, draw_map
 from mirl.world.scenario import Scenario
+from mirl.worlds.registry import get_world
 
 __all__ = ["ROBOT_COLORS", "draw_run", "run_figure", "save_run_png"]
 
@@ -29,7 +34,24 @@ def _span(result: RunResult, context: int) -> tuple[int, int]:
 
 
 def draw_run(ax, scenario: Scenario, result: RunResult, *, context: int = 0):
-    """Draw the run on ``ax`` (cell (r, c) at x = c, y = r) and return ``ax``."""
+    """Draw a grid run on ``ax`` (cell (r, c) at x = c, y = r).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The map panel.
+    scenario : Scenario
+        The run's scenario.
+    result : RunResult
+        The run.
+    context : int, default 0
+        Steps drawn before L left (at least 40 when L never left).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        ``ax``.
+    """
     gridmap = scenario.map
     draw_map(ax, gridmap, gridmap.visible_mask(result.observability), legend=False)
     dom = scenario.domain
@@ -106,8 +128,28 @@ def draw_go_values(ax, result: RunResult):
     return ax
 
 
-def run_figure(scenario: Scenario, result: RunResult, *, context: int = 0):
-    """A new ``Figure`` with the map panel and the go-value panel; returns ``(fig, axes)``."""
+def run_figure(scenario: Scenario, result: RunResult, *, context: int | None = None):
+    """A new ``Figure`` with the map panel and the go-value panel.
+
+    The map panel is the drawing of the run's world (its row's ``drawing`` in
+    :data:`mirl.worlds.WORLDS`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The run's scenario.
+    result : RunResult
+        The run.
+    context : int, optional
+        Steps drawn before L left; None: that drawing's default.
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+        The figure.
+    axes : (matplotlib.axes.Axes, matplotlib.axes.Axes)
+        The map and go-value panels.
+    """
     from matplotlib.figure import Figure
 
     rows, cols = scenario.map.shape
@@ -116,19 +158,30 @@ def run_figure(scenario: Scenario, result: RunResult, *, context: int = 0):
     grid = fig.add_gridspec(1, 2, width_ratios=[cols * scale + 1.0, 4.5])
     ax_map = fig.add_subplot(grid[0, 0])
     ax_val = fig.add_subplot(grid[0, 1])
-    if result.extras is not None:  # a world with continuous tracks (the physics world)
-        from mirl.viz.physics_run import draw_physical_run
-
-        draw_physical_run(ax_map, scenario, result, ROBOT_COLORS, OBSERVER_COLOR)
-    else:
-        draw_run(ax_map, scenario, result, context=context)
+    draw = resolve(get_world(result.world).drawing)
+    draw(ax_map, scenario, result, **({} if context is None else {"context": context}))
     draw_go_values(ax_val, result)
     fig.tight_layout()
     return fig, (ax_map, ax_val)
 
 
 def save_run_png(scenario: Scenario, result: RunResult, path: str | Path) -> Path:
-    """Write the run's figure; the format follows the suffix (``.png`` by default)."""
+    """Write the run's figure (:func:`run_figure`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The run's scenario.
+    result : RunResult
+        The run.
+    path : str or Path
+        The file; the format follows the suffix (``.png`` by default).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     fig, _ = run_figure(scenario, result)
     path.parent.mkdir(parents=True, exist_ok=True)

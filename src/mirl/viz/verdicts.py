@@ -5,8 +5,9 @@ error, the confident-and-wrong and false-alarm rates, and the verdict rates per 
 
 A verdict is right when the part it names is damaged; when one of its candidates is ("cannot
 tell which"); or, naming none, when no part is. The truth is the world's
-(:meth:`damaged_parts` of the world's class): on the grid a success probability below the
-scenario's damage threshold, in the physics world a motor weaker than a healthy one.
+(:meth:`~mirl.worlds.contract.World.damaged_parts` of the world's class): on the grid a success
+probability below the scenario's damage threshold, in the physics world a motor weaker than a
+healthy one.
 """
 
 from __future__ import annotations
@@ -53,6 +54,13 @@ class VerdictItem:
     def confident_wrong(self) -> bool:
         """A confident verdict naming damage that is not there."""
         return self.confidence >= CONFIDENT and bool(self.verdict) and not self.right
+
+    @property
+    def confident_false(self) -> bool:
+        """A confident statement naming no damaged part: a part that is not damaged, candidates
+        without a damaged one, or "no part" of a damaged robot (the calibration atlas's
+        measure; unlike :attr:`confident_wrong`, it counts a confident "no part" too)."""
+        return self.confidence >= CONFIDENT and not self.right
 
     @property
     def false_alarm(self) -> bool:

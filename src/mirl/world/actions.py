@@ -4,8 +4,21 @@ simulators, L's planner) reads them from here."""
 
 from __future__ import annotations
 
-__all__ = ["ACTIONS", "FORWARD", "TURN_LEFT", "TURN_RIGHT", "STOP", "N_HEADINGS"]
+__all__ = [
+    "ACTIONS",
+    "FORWARD",
+    "TURN_LEFT",
+    "TURN_RIGHT",
+    "STOP",
+    "HEADING_NAMES",
+    "N_HEADINGS",
+    "STEP_SECONDS",
+]
 
 ACTIONS: tuple[str, ...] = ("forward", "turn_left", "turn_right", "stop")
 FORWARD, TURN_LEFT, TURN_RIGHT, STOP = range(4)
-N_HEADINGS = 4  # east, north, west, south
+HEADING_NAMES: tuple[str, ...] = ("east", "north", "west", "south")
+"""Heading 0-3 in words: the map's x points east, its y north."""
+N_HEADINGS = len(HEADING_NAMES)
+STEP_SECONDS = 2.0
+"""Robot time an action takes, one step of the record: the paper's 2 s."""

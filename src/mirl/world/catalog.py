@@ -19,11 +19,30 @@ _YAML = (".yaml", ".yml")
 
 
 def shipped_maps() -> list[str]:
+    """The names of the maps shipped with mirl, text and ROS, sorted.
+
+    Returns
+    -------
+    list of str
+        Names :func:`load_map` accepts as they are.
+    """
     return sorted(shipped_names("maps", ".txt") + shipped_names("maps", ".yaml"))
 
 
 def is_ros_map(name_or_path: str | Path) -> bool:
-    """Whether ``name_or_path`` names a ROS map_server map: a shipped one or a YAML file."""
+    """Whether ``name_or_path`` names a ROS map_server map: a shipped one or a YAML file.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A shipped map's name or a file's path.
+
+    Returns
+    -------
+    bool
+        True for a shipped ROS map's name or a path ending in ``.yaml`` or ``.yml`` (that is not a
+        shipped map's name).
+    """
     name = str(name_or_path)
     if name in shipped_names("maps", ".yaml"):
         return True
@@ -32,8 +51,28 @@ def is_ros_map(name_or_path: str | Path) -> bool:
 
 def load_map(name_or_path: str | Path, *, cell_size: float | None = None) -> GridMap:
     """Load a generated office by name, a shipped map by name, a plain-text map file, or a ROS
-    map_server YAML file (``cell_size`` metres per cell for ROS maps; None: the default of
-    :func:`~mirl.world.ros_maps.load_ros_map`)."""
+    map_server YAML file.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        ``office-60x60`` (or ``office-40x30-s7``), a shipped map's name (:func:`shipped_maps`),
+        or the path of a text map or a ROS map's YAML file.
+    cell_size : float, optional
+        Metres per cell for a ROS map; by default that of
+        :func:`~mirl.world.ros_maps.load_ros_map`. Other maps ignore it.
+
+    Returns
+    -------
+    GridMap
+        The map.
+
+    Raises
+    ------
+    MapError
+        A name that is neither shipped nor a readable file, or a map that does not parse (the
+        message names the file and the problem).
+    """
     name = str(name_or_path)
     if name.startswith("office"):
         from mirl.world.office_maps import office_map_from_name

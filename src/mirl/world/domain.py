@@ -39,8 +39,19 @@ __all__ = [
 
 @dataclass(frozen=True)
 class FeatureOverride:
-    """A state-dependent change to ξ: on ``cells`` (all cells if None) and ``actions`` (all if
-    None), add and/or remove features — e.g. a ``carpet`` feature on some cells."""
+    """A state-dependent change to ξ, e.g. a ``carpet`` feature on some cells.
+
+    Parameters
+    ----------
+    cells : tuple of (int, int), optional
+        The (row, col) cells it applies on; all cells if None.
+    actions : tuple of str, optional
+        The actions it applies to; all if None.
+    add : tuple of str, default ()
+        Transition features added to ξ(s, a) there.
+    remove : tuple of str, default ()
+        Transition features removed from ξ(s, a) there.
+    """
 
     cells: tuple[tuple[int, int], ...] | None = None
     actions: tuple[str, ...] | None = None
@@ -50,7 +61,22 @@ class FeatureOverride:
 
 @dataclass(frozen=True)
 class FeatureMap:
-    """ξ as data: the transition features and the feature subset of every (state, action)."""
+    """ξ as data: the transition features and the feature subset of every (state, action).
+
+    Parameters
+    ----------
+    features : tuple of str
+        The transition features, in the order their probabilities are listed everywhere.
+    action_subsets : mapping of str to tuple of str
+        The features every action depends on, for each of :data:`~mirl.world.actions.ACTIONS`.
+    overrides : tuple of FeatureOverride, default ()
+        State-dependent changes, applied in order.
+
+    Raises
+    ------
+    ValueError
+        A duplicate feature, an action without a subset, or an unknown action or feature name.
+    """
 
     features: tuple[str, ...]
     action_subsets: Mapping[str, tuple[str, ...]]
@@ -83,7 +109,20 @@ class FeatureMap:
                 )
 
     def subset_table(self, domain: PatrolDomain) -> tuple[np.ndarray, tuple[tuple[str, ...], ...]]:
-        """(S, A) index into the tuple of distinct subsets (each sorted in feature order)."""
+        """ξ(s, a) of every state and action of ``domain``, as indices into its distinct subsets.
+
+        Parameters
+        ----------
+        domain : PatrolDomain
+            The domain whose states the overrides' cells select.
+
+        Returns
+        -------
+        table : ndarray of int, shape (S, A)
+            The index of ξ(s, a) in ``subsets``.
+        subsets : tuple of tuple of str
+            The distinct subsets, each in feature order.
+        """
         sets = [[set(self.action_subsets[a]) for a in ACTIONS] for _ in range(domain.n_states)]
         cells = domain.states[:, :2]
         for ov in self.overrides:
@@ -106,8 +145,27 @@ class FeatureMap:
         return table, tuple(distinct)
 
     def without(self, features: Iterable[str], actions: Iterable[str]) -> FeatureMap:
-        """This ξ with ``features`` removed from the subsets of ``actions`` (overrides kept):
-        what a world whose ``actions`` do not depend on those parts makes of it."""
+        """This ξ with ``features`` removed from the subsets of ``actions`` (overrides kept).
+
+        What a world whose ``actions`` do not depend on those parts makes of it.
+
+        Parameters
+        ----------
+        features : iterable of str
+            Transition features to drop.
+        actions : iterable of str
+            The actions whose subsets lose them.
+
+        Returns
+        -------
+        FeatureMap
+            The reduced map.
+
+        Raises
+        ------
+        ValueError
+            A feature this map does not have.
+        """
         drop, acts = set(features), set(actions)
         self._check(drop, set(self.features), "without")
         subsets = {
@@ -120,10 +178,32 @@ class FeatureMap:
     def from_dict(
         cls, data: Mapping, *, where: str = "transition_features", shape=None, frame=None
     ) -> FeatureMap:
-        """ξ from a ``[transition_features]`` table (``features``, ``actions``, optional
-        ``override`` list), every value type-checked (:mod:`mirl.world.schema`; override cells
-        on a map of ``shape`` if given, in metres of ``frame`` if given); problems are
-        ``FieldError`` naming the field path."""
+        """ξ from a ``[transition_features]`` table.
+
+        The table holds ``features``, ``actions`` and an optional ``override`` list; every value is
+        type-checked (:mod:`mirl.world.schema`).
+
+        Parameters
+        ----------
+        data : mapping
+            The table as read from TOML.
+        where : str, default "transition_features"
+            The table's field path, for messages.
+        shape : tuple of int, optional
+            The map's (rows, cols); override cells are checked to lie on it if given.
+        frame : MapFrame, optional
+            If given, override cells may be written in metres of this frame.
+
+        Returns
+        -------
+        FeatureMap
+            The map the table describes.
+
+        Raises
+        ------
+        FieldError
+            A problem, naming the field path.
+        """
         data = schema.table(
             data, where, ("features", "actions", "override"), ("features", "actions")
         )
@@ -177,7 +257,17 @@ REWARD_FEATURES: tuple[str, ...] = RewardSpec().names
 
 
 class PatrolDomain:
-    """States, actions, ψ, ξ and φ of one patroller on a map."""
+    """States, actions, ψ, ξ and φ of one patroller on a map.
+
+    Parameters
+    ----------
+    gridmap : GridMap
+        The map; its patroller cells are the states' cells.
+    feature_map : FeatureMap, default DEFAULT_FEATURE_MAP
+        The transition features ξ of every (state, action).
+    reward_spec : RewardSpec, optional
+        The reward features φ; the paper's four by default.
+    """
 
     actions = ACTIONS
 
@@ -202,7 +292,22 @@ class PatrolDomain:
 
     # ---- indexing -------------------------------------------------------------------------
     def state_index(self, row, col, heading) -> np.ndarray:
-        """Vectorised (row, col, heading) → state index; -1 where not a patroller state."""
+        """Vectorised (row, col, heading) → state index.
+
+        Parameters
+        ----------
+        row : int or array_like of int
+            Rows.
+        col : int or array_like of int
+            Columns, broadcast with ``row``.
+        heading : int or array_like of int
+            Headings (0 east, 1 north, 2 west, 3 south), broadcast with both.
+
+        Returns
+        -------
+        ndarray of int
+            The state indices; -1 where (row, col, heading) is not a patroller state.
+        """
         row, col, heading = (np.asarray(x, dtype=int) for x in (row, col, heading))
         rows, cols = self.map.shape
         inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
@@ -212,6 +317,18 @@ class PatrolDomain:
         return np.where(ok, cell * N_HEADINGS + heading, -1)
 
     def state_cell(self, states) -> np.ndarray:
+        """The cell index (into ``cells``) of each state.
+
+        Parameters
+        ----------
+        states : int or array_like of int
+            State indices.
+
+        Returns
+        -------
+        ndarray of int
+            Their cells' indices, of ``states``' shape.
+        """
         return np.asarray(states) // N_HEADINGS
 
     # ---- ψ ----------------------------------------------------------------------------------
@@ -241,6 +358,7 @@ class PatrolDomain:
 
     @property
     def subsets(self) -> tuple[tuple[str, ...], ...]:
+        """The distinct feature subsets ξ(s, a) takes, each in feature order."""
         return self._subsets[1]
 
     @cached_property
@@ -250,7 +368,23 @@ class PatrolDomain:
         return np.array([[f in sub for f in names] for sub in self.subsets], dtype=bool)
 
     def success_probabilities(self, feature_probabilities: Mapping[str, float]) -> np.ndarray:
-        """(S, A) product of feature probabilities over ξ(s, a) (Eq. 2)."""
+        """(S, A) product of feature probabilities over ξ(s, a) (Eq. 2).
+
+        Parameters
+        ----------
+        feature_probabilities : mapping of str to float
+            A probability in [0, 1] for every transition feature.
+
+        Returns
+        -------
+        ndarray of shape (S, A)
+            The probability that (s, a) reaches its intended state ψ(s, a).
+
+        Raises
+        ------
+        ValueError
+            An unknown or missing feature, or a probability outside [0, 1].
+        """
         names = self.feature_map.features
         unknown = set(feature_probabilities) - set(names)
         if unknown:
@@ -270,14 +404,26 @@ class PatrolDomain:
     @cached_property
     def turn_around_cells(self) -> tuple[tuple[int, int], ...]:
         """Cells of the (first) ``turn_around`` feature: its own, or the map's dead ends."""
-        for f in self.reward_spec.features:
-            if f.kind == "turn_around" and f.cells is not None:
-                return f.cells
-        return dead_ends(self.map)
+        return self.reward_spec.turn_around_cells(self.map)
 
     def cell_mask(self, cells: Sequence[tuple[int, int]]) -> np.ndarray:
-        """(S,) bool: the states on ``cells`` (every heading); a cell off the hallway is an
-        error."""
+        """The states on ``cells``, every heading.
+
+        Parameters
+        ----------
+        cells : sequence of (int, int)
+            (row, col) hallway cells.
+
+        Returns
+        -------
+        ndarray of bool, shape (S,)
+            True on the states of those cells.
+
+        Raises
+        ------
+        ValueError
+            A cell off the hallway.
+        """
         mask = np.zeros(self.n_states, dtype=bool)
         if len(cells):
             arr = np.asarray(cells, dtype=int)
@@ -299,9 +445,27 @@ class PatrolDomain:
 
     @property
     def reward_feature_names(self) -> tuple[str, ...]:
+        """The names of the reward features φ, in the order of their weights."""
         return self.reward_spec.names
 
     def rewards(self, weights: Sequence[float]) -> np.ndarray:
+        """R(s, a) = φ(s, a)·w.
+
+        Parameters
+        ----------
+        weights : sequence of float
+            One weight per reward feature (:attr:`reward_feature_names`).
+
+        Returns
+        -------
+        ndarray of shape (S, A)
+            The rewards.
+
+        Raises
+        ------
+        ValueError
+            Not one weight per reward feature.
+        """
         w = np.asarray(weights, dtype=float)
         k = len(self.reward_spec.features)
         if w.shape != (k,):
@@ -310,7 +474,18 @@ class PatrolDomain:
 
     # ---- visibility -------------------------------------------------------------------------
     def visible_states(self, degree: float) -> np.ndarray:
-        """(S,) bool: states whose cell is visible to L at observability ``degree``."""
+        """The states whose cell L sees at observability ``degree``.
+
+        Parameters
+        ----------
+        degree : float
+            The observability, the fraction of the hallway L sees, in [0, 1].
+
+        Returns
+        -------
+        ndarray of bool, shape (S,)
+            True on the visible states.
+        """
         mask = self.map.visible_mask(degree)
         return np.repeat(mask[self.cells[:, 0], self.cells[:, 1]], N_HEADINGS)
 
@@ -318,8 +493,29 @@ class PatrolDomain:
 def detection_cells(
     gridmap: GridMap, row: int, col: int, heading: int, distance: int
 ) -> list[tuple[int, int]]:
-    """Cells a patroller at (row, col, heading) sees: straight ahead, up to ``distance`` cells,
-    stopping at the first wall. L's room cells are never seen (docs/design.md, "Detection")."""
+    """Cells a patroller at (row, col, heading) sees.
+
+    Straight ahead, up to ``distance`` cells, stopping at the first wall. L's room cells are never
+    seen (docs/design.md, "Detection").
+
+    Parameters
+    ----------
+    gridmap : GridMap
+        The map.
+    row : int
+        The patroller's row.
+    col : int
+        Its column.
+    heading : int
+        Its heading (0 east, 1 north, 2 west, 3 south).
+    distance : int
+        How many cells ahead it sees.
+
+    Returns
+    -------
+    list of (int, int)
+        Its own cell, then the cells ahead in order.
+    """
     dr, dc = HEADING_DELTAS[heading]
     rows, cols = gridmap.shape
     out = [(row, col)]

@@ -1,16 +1,17 @@
 """What "damaged" means: a part whose success probability lies below its healthy level by more
 than a margin (docs/design.md, "Fault verdicts").
 
-A scenario may set both in its optional ``[faults]`` table::
+A scenario may set both in its optional ``[faults]`` table, e.g. for robots whose navigation
+fails more often when healthy::
 
     [faults]
-    healthy = { left_wheel = 0.95, right_wheel = 0.95, navigation = 0.97, floor = 0.99 }
-    margin = 0.15
+    healthy = { navigation = 0.9 }
+    margin = 0.1
 
-Without it, the healthy levels are those a scenario's robots get by default
-(:data:`~mirl.world.scenario_sections.HEALTHY_PROBABILITIES`; 0.95 for a feature those do not
-name) and the margin is 0.15: a wheel is damaged below 0.80. The grid world's damaged wheel
-(0.70) lies below that, a healthy one (0.95) well above it.
+Without it, the healthy levels are :data:`HEALTHY_PROBABILITIES` (the success probabilities a
+scenario's robots get by default; :data:`DEFAULT_HEALTHY` for a feature they do not name) and
+the margin is :data:`DEFAULT_MARGIN`: a wheel is damaged below 0.80. The grid world's damaged
+wheel (0.70) lies below that, a healthy one (0.95) well above it.
 
 The same table says how a weak wheel shows in a robot's poses (:class:`DriftSpec`), for the
 verdicts on robot data::
@@ -29,9 +30,25 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mirl.world import schema
-from mirl.world.scenario_sections import HEALTHY_PROBABILITIES
 
-__all__ = ["DamageDefinition", "DriftSpec", "DEFAULT_MARGIN", "DEFAULT_HEALTHY", "read_faults"]
+__all__ = [
+    "DamageDefinition",
+    "DriftSpec",
+    "DEFAULT_MARGIN",
+    "DEFAULT_HEALTHY",
+    "HEALTHY_PROBABILITIES",
+    "WHEELS",
+    "read_faults",
+]
+
+WHEELS = ("left_wheel", "right_wheel")
+"""A differential drive's two wheels, as ξ names them: the features a robot's lateral drift
+speaks of (a robot veers towards the weaker one) and those a motor's strength sets in the
+physical world. A feature map without both has no drift term."""
+
+HEALTHY_PROBABILITIES = {"left_wheel": 0.95, "right_wheel": 0.95, "navigation": 0.97, "floor": 0.99}
+"""Each default transition feature's success probability on a healthy robot: what a scenario's
+robots get for a feature they do not set, and the level damage is measured from."""
 
 DEFAULT_MARGIN = 0.15
 """How far below its healthy level a part's success probability must be to count as damaged."""

@@ -12,23 +12,52 @@ from numpy.typing import ArrayLike
 
 from mirl.world.domain import STOP, TURN_LEFT, PatrolDomain
 
-__all__ = ["GAME_ACTIONS", "Equilibrium", "InteractionGame", "meeting", "game_action_to_action"]
+__all__ = [
+    "GAME_ACTIONS",
+    "KEEP_RIGHT_BEARING",
+    "Equilibrium",
+    "InteractionGame",
+    "meeting",
+    "game_action_to_action",
+]
 
 GAME_ACTIONS: tuple[str, ...] = ("go", "stop", "turn")
+
+KEEP_RIGHT_BEARING = 110.0
+"""Degrees either side of a robot's heading within which another robot coming the other way
+is being passed: ahead of it or alongside, until they have passed. Physical robots passing so
+keep right (:func:`mirl.physics.control.in_company`), so their steps then are no evidence of a
+wheel's drift (:func:`mirl.learning.verdicts.in_company`)."""
 
 
 @dataclass(frozen=True)
 class Equilibrium:
-    """A (possibly mixed) Nash equilibrium: probabilities over :data:`GAME_ACTIONS`."""
+    """A (possibly mixed) Nash equilibrium: probabilities over :data:`GAME_ACTIONS`.
+
+    Parameters
+    ----------
+    row : tuple of float
+        The first (row) patroller's probabilities of go, stop and turn.
+    col : tuple of float
+        The second (column) patroller's.
+    """
 
     row: tuple[float, ...]
     col: tuple[float, ...]
 
     @property
     def is_pure(self) -> bool:
+        """Whether both players play one action with probability 1."""
         return max(self.row) > 1 - 1e-9 and max(self.col) > 1 - 1e-9
 
     def label(self) -> str:
+        """A short label, e.g. ``go/stop`` or ``(go:0.17, stop:0.83)/(go:0.17, stop:0.83)``.
+
+        Returns
+        -------
+        str
+            The row player's action (or mixture), a slash, the column player's.
+        """
         def one(p):
             if max(p) > 1 - 1e-9:
                 return GAME_ACTIONS[int(np.argmax(p))]
@@ -43,8 +72,9 @@ _PAPER_ROW = ((-10.0, 2.0, 2.0), (0.0, 0.0, 0.0), (-1.0, -1.0, -1.0))
 _PAPER_COL = ((-10.0, 0.0, -1.0), (2.0, 0.0, -1.0), (2.0, 0.0, -1.0))
 
 # Its equilibria as :func:`_nash_equilibria` enumerates them with nashpy (the same values and
-# order; tests/test_game.py re-enumerates and compares exactly), so learning on it never imports
-# nashpy, networkx and scipy.integrate (~0.2 s of a ~1.5 s `mirl run`). Other games enumerate.
+# order; tests/world/test_game.py re-enumerates and compares exactly), so learning on it never
+# imports nashpy, networkx and scipy.integrate (~0.2 s of a ~1.5 s `mirl run`). Other games
+# enumerate.
 _STORED_EQUILIBRIA: dict[tuple[bytes, bytes], tuple[tuple[float, ...], ...]] = {
     (np.array(_PAPER_ROW).tobytes(), np.array(_PAPER_COL).tobytes()): (
         (1.0, 0.0, 0.0, 0.0, 1.0, 0.0),  # go/stop: row strategy, then column strategy
@@ -95,7 +125,20 @@ def _nash_equilibria(row_bytes: bytes, col_bytes: bytes, shape: tuple[int, int])
 
 @dataclass(frozen=True)
 class InteractionGame:
-    """2-player game at a head-on meeting; rows are the first patroller's actions."""
+    """2-player game at a head-on meeting; rows are the first patroller's actions.
+
+    Parameters
+    ----------
+    row_payoffs : ndarray of shape (3, 3), default the paper's
+        The first patroller's payoffs over :data:`GAME_ACTIONS` × :data:`GAME_ACTIONS`.
+    col_payoffs : ndarray of shape (3, 3), default the paper's
+        The second patroller's payoffs, indexed the same way.
+
+    Raises
+    ------
+    ValueError
+        A payoff matrix that is not a finite 3×3 matrix.
+    """
 
     row_payoffs: np.ndarray = field(default_factory=lambda: np.array(_PAPER_ROW, dtype=float))
     col_payoffs: np.ndarray = field(default_factory=lambda: np.array(_PAPER_COL, dtype=float))
@@ -108,8 +151,15 @@ class InteractionGame:
             object.__setattr__(self, name, m)
 
     def equilibria(self) -> tuple[Equilibrium, ...]:
-        """All Nash equilibria (extreme points) by nashpy's vertex enumeration, cached; the
-        paper's game's are stored (no nashpy import)."""
+        """All Nash equilibria (extreme points) by nashpy's vertex enumeration, cached.
+
+        The paper's game's are stored (no nashpy import).
+
+        Returns
+        -------
+        tuple of Equilibrium
+            Pure equilibria first, then mixed, in a deterministic order.
+        """
         A = np.ascontiguousarray(self.row_payoffs, dtype=float)
         B = np.ascontiguousarray(self.col_payoffs, dtype=float)
         stored = _stored_equilibria(A.tobytes(), B.tobytes())
@@ -118,8 +168,26 @@ class InteractionGame:
     def pure(self, row_action: str, col_action: str) -> Equilibrium:
         """The pure profile (row_action, col_action), which must be an equilibrium.
 
-        Checked by best responses (no player gains by deviating alone), without enumerating
-        the game's equilibria, so loading a scenario never imports nashpy."""
+        Checked by best responses (no player gains by deviating alone), without enumerating the
+        game's equilibria, so loading a scenario never imports nashpy.
+
+        Parameters
+        ----------
+        row_action : str
+            The first patroller's action, one of :data:`GAME_ACTIONS`.
+        col_action : str
+            The second patroller's.
+
+        Returns
+        -------
+        Equilibrium
+            The profile as probabilities.
+
+        Raises
+        ------
+        ValueError
+            An unknown action, or a profile that is not a Nash equilibrium.
+        """
         for a in (row_action, col_action):
             if a not in GAME_ACTIONS:
                 raise ValueError(f"unknown game action '{a}' (known: {', '.join(GAME_ACTIONS)})")
@@ -134,14 +202,50 @@ class InteractionGame:
 
 
 def game_action_to_action(game_action: ArrayLike, own_action: ArrayLike) -> np.ndarray:
-    """go → the robot's own policy action; stop → stop; turn → turn_left (the first half of
-    turning back, which costs the yielding robot its direction)."""
+    """The domain action a game action takes.
+
+    go → the robot's own policy action; stop → stop; turn → turn_left (the first half of turning
+    back, which costs the yielding robot its direction).
+
+    Parameters
+    ----------
+    game_action : array_like of int
+        Indices into :data:`GAME_ACTIONS`.
+    own_action : array_like of int
+        The action the robot's policy would take, broadcast with ``game_action``.
+
+    Returns
+    -------
+    ndarray of int
+        Domain actions (:data:`~mirl.world.actions.ACTIONS` indices).
+    """
     return np.choose(np.asarray(game_action), [own_action, STOP, TURN_LEFT])
 
 
 def meeting(domain: PatrolDomain, s_row, s_col, a_row, a_col) -> np.ndarray:
-    """Vectorised meeting rule (docs/design.md, "The meeting rule"): the two robots' intended moves
-    would put them in the same cell (at least one of them entering it) or make them swap cells."""
+    """Vectorised meeting rule (docs/design.md, "The meeting rule").
+
+    The two robots' intended moves would put them in the same cell (at least one of them entering
+    it) or make them swap cells.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain whose intended outcomes ψ the rule reads.
+    s_row : int or ndarray of int
+        The first robot's states.
+    s_col : int or ndarray of int
+        The second robot's states, broadcast with ``s_row``.
+    a_row : int or ndarray of int
+        The first robot's actions.
+    a_col : int or ndarray of int
+        The second robot's actions.
+
+    Returns
+    -------
+    ndarray of bool
+        Whether they meet, of the broadcast shape.
+    """
     psi = domain.intended
     cell_r, cell_c = domain.state_cell(s_row), domain.state_cell(s_col)
     next_r = domain.state_cell(psi[s_row, a_row])

@@ -52,9 +52,22 @@ MAX_FRAME_ORIGIN = 1e7  # metres, |x| and |y|
 class MapFrame:
     """Where the grid lies in a metric map frame (x east, y north, as in ROS).
 
-    ``origin_x``, ``origin_y``: the map-frame position of the *centre* of cell (0, 0); x grows
-    with the column and y with decreasing row, so heading 0 (east) is yaw 0 and heading 1
+    x grows with the column and y with decreasing row, so heading 0 (east) is yaw 0 and heading 1
     (north) is yaw π/2.
+
+    Parameters
+    ----------
+    cell_size : float, default 1.0
+        Metres per cell, in [0.001, 1000].
+    origin_x : float, default 0.0
+        The map-frame x of the *centre* of cell (0, 0), within 10^7 m.
+    origin_y : float, default 0.0
+        Its y, within 10^7 m.
+
+    Raises
+    ------
+    MapError
+        A value that is not finite or out of its range.
     """
 
     cell_size: float = 1.0  # metres per cell
@@ -77,20 +90,66 @@ class MapFrame:
             )
 
     def cell_centre(self, row, col):
-        """Map-frame (x, y) of the centre of cell (row, col); arrays broadcast."""
+        """Map-frame (x, y) of the centre of cell (row, col); arrays broadcast.
+
+        Parameters
+        ----------
+        row : float or array_like
+            Rows (fractional rows allowed).
+        col : float or array_like
+            Columns.
+
+        Returns
+        -------
+        x : ndarray
+            Metres east.
+        y : ndarray
+            Metres north.
+        """
         x = self.origin_x + np.asarray(col, dtype=float) * self.cell_size
         y = self.origin_y - np.asarray(row, dtype=float) * self.cell_size
         return x, y
 
     def cell_coordinates(self, x, y):
-        """Fractional (row, col) of map-frame points: the inverse of :meth:`cell_centre`."""
+        """Fractional (row, col) of map-frame points: the inverse of :meth:`cell_centre`.
+
+        Parameters
+        ----------
+        x : float or array_like
+            Metres east.
+        y : float or array_like
+            Metres north, broadcast with ``x``.
+
+        Returns
+        -------
+        row : ndarray
+            Fractional rows.
+        col : ndarray
+            Fractional columns.
+        """
         col = (np.asarray(x, dtype=float) - self.origin_x) / self.cell_size
         row = (self.origin_y - np.asarray(y, dtype=float)) / self.cell_size
         return row, col
 
     def cell_of(self, x, y) -> tuple[np.ndarray, np.ndarray]:
-        """Integer (row, col) of the cell whose centre is nearest each map-frame point (which
-        may lie outside the grid); arrays broadcast."""
+        """Integer (row, col) of the cell whose centre is nearest each map-frame point.
+
+        The cell may lie outside the grid; arrays broadcast.
+
+        Parameters
+        ----------
+        x : float or array_like
+            Metres east.
+        y : float or array_like
+            Metres north.
+
+        Returns
+        -------
+        row : ndarray of int
+            Rows.
+        col : ndarray of int
+            Columns.
+        """
         row, col = self.cell_coordinates(x, y)
         return np.rint(row).astype(int), np.rint(col).astype(int)
 
@@ -116,8 +175,37 @@ class _LazyVisibilityOrder:
 
 @dataclass(frozen=True, eq=False)
 class GridMap:
-    """A grid of cells with L's start, goals, and the nested visibility order of docs/design.md,
-    "The visibility order"."""
+    """A grid of cells with L's start, goals, and the nested visibility order.
+
+    The order is that of docs/design.md, "The visibility order".
+
+    Parameters
+    ----------
+    name : str
+        The map's name.
+    patroller : ndarray of bool, shape (rows, cols)
+        The hallway: cells patrollers (and L) may occupy.
+    observer_only : ndarray of bool, shape (rows, cols)
+        Room cells only L may occupy.
+    observer_start : (int, int)
+        L's start cell.
+    goals : tuple of (int, int)
+        L's goal cells, the first the one a run aims for.
+    visibility_order : ndarray of int, shape (n, 2), optional
+        The patroller cells, most exposed first; computed from the map on first use if None.
+    source : str, default "<memory>"
+        Where the map came from, for messages.
+    frame : MapFrame, default MapFrame()
+        Its metric placement (poses, physics).
+    marked : bool, default True
+        Whether the map marks L's start and goal itself; a plain ROS map does not, and its
+        ``observer_start`` and ``goals`` are placeholders until a scenario gives them.
+
+    Raises
+    ------
+    MapError
+        A map larger than :data:`MAX_MAP_SIDE` on a side.
+    """
 
     name: str
     patroller: np.ndarray  # (rows, cols) bool: cells patrollers (and L) may occupy
@@ -142,6 +230,7 @@ class GridMap:
 
     @property
     def shape(self) -> tuple[int, int]:
+        """(rows, cols) of the grid."""
         return self.patroller.shape
 
     @property
@@ -156,10 +245,27 @@ class GridMap:
 
     @property
     def n_patroller_cells(self) -> int:
+        """The number of hallway (patroller) cells."""
         return int(self.patroller.sum())
 
     def visible_mask(self, degree: float) -> np.ndarray:
-        """(rows, cols) bool mask of the first round(degree·n) cells of the visibility order."""
+        """The first round(degree·n) cells of the visibility order.
+
+        Parameters
+        ----------
+        degree : float
+            The observability, in [0, 1].
+
+        Returns
+        -------
+        ndarray of bool, shape (rows, cols)
+            True on the cells L sees.
+
+        Raises
+        ------
+        ValueError
+            A degree outside [0, 1].
+        """
         if not 0.0 <= degree <= 1.0:
             raise ValueError(f"observability degree must be in [0, 1], got {degree}")
         n = int(round(degree * len(self.visibility_order)))
@@ -169,14 +275,33 @@ class GridMap:
         return mask
 
     def in_line_of_sight(self) -> np.ndarray:
-        """(rows, cols) bool: the patroller cells in line of sight of L's start
-        (:func:`line_of_sight` over the map's free cells)."""
+        """The patroller cells in line of sight of L's start.
+
+        Returns
+        -------
+        ndarray of bool, shape (rows, cols)
+            :func:`line_of_sight` over the map's free cells, on the hallway.
+        """
         return line_of_sight(self.free, self.observer_start) & self.patroller
 
     def with_observer(self, start: tuple[int, int], goal: tuple[int, int]) -> GridMap:
-        """The map with L's start at ``start`` and ``goal`` as its goal (the map's own marks are
-        only defaults); the visibility order is computed again from the new start. The map's
-        rooms stay L-only cells; ``self`` is returned when nothing changes."""
+        """The map with L's start at ``start`` and ``goal`` as its goal.
+
+        The map's own marks are only defaults; the visibility order is computed again from the new
+        start. The map's rooms stay L-only cells.
+
+        Parameters
+        ----------
+        start : (int, int)
+            L's start cell.
+        goal : (int, int)
+            L's goal cell.
+
+        Returns
+        -------
+        GridMap
+            The new map, or ``self`` when nothing changes.
+        """
         start, goal = (int(start[0]), int(start[1])), (int(goal[0]), int(goal[1]))
         if start == self.observer_start and goal == self.goals[0] and self.marked:
             return self
@@ -192,7 +317,13 @@ class GridMap:
         )
 
     def to_text(self) -> str:
-        """The map in the text format (an unmarked map without its placeholder L and G)."""
+        """The map in the text format (an unmarked map without its placeholder L and G).
+
+        Returns
+        -------
+        str
+            One line per row, in the legend of this module.
+        """
         chars = np.full(self.shape, "#")
         chars[self.patroller] = "."
         chars[self.observer_only] = "."
@@ -267,14 +398,28 @@ def _exposure_order(patroller: np.ndarray, start: tuple[int, int]) -> np.ndarray
 def line_of_sight(
     open_cells: np.ndarray, origin: tuple[int, int], max_range: float | None = None
 ) -> np.ndarray:
-    """(rows, cols) bool: the cells whose centre the straight segment from the centre of
-    ``origin`` reaches without passing through a closed cell (``~open_cells``).
+    """The cells whose centre the straight segment from the centre of ``origin`` reaches without
+    passing through a closed cell (``~open_cells``).
 
     The rule of the physics world's cameras, which cast rays against wall boxes of one cell
     each: the segment is blocked by a closed cell whose interior it crosses, and by two closed
     cells that touch diagonally at a corner it passes through; it is not blocked by a closed
-    cell it only touches at a corner. ``max_range`` (cells, centre to centre) bounds the view.
-    Closed cells are never in sight; ``origin`` always is (when it lies on the grid).
+    cell it only touches at a corner. Closed cells are never in sight; ``origin`` always is
+    (when it lies on the grid).
+
+    Parameters
+    ----------
+    open_cells : ndarray of bool, shape (rows, cols)
+        The cells a line of sight may cross.
+    origin : (int, int)
+        The viewer's cell.
+    max_range : float, optional
+        Cells, centre to centre, beyond which nothing is seen; unbounded if None.
+
+    Returns
+    -------
+    ndarray of bool, shape (rows, cols)
+        True on the cells in sight.
     """
     open_cells = np.asarray(open_cells, dtype=bool)
     rows, cols = open_cells.shape
@@ -345,7 +490,28 @@ def _rays_blocked(passable: np.ndarray, r0: int, c0: int, dr: np.ndarray, dc: np
 
 
 def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> GridMap:
-    """Parse the plain-text map format; raise :class:`MapError` naming ``source`` on problems."""
+    """Parse the plain-text map format.
+
+    Parameters
+    ----------
+    text : str
+        The map's text, in the legend of this module.
+    name : str, default "map"
+        The map's name.
+    source : str, default "<memory>"
+        Where the text came from; messages name it.
+
+    Returns
+    -------
+    GridMap
+        The map, its visibility order computed on first use.
+
+    Raises
+    ------
+    MapError
+        An empty or ragged map, an unknown character, not exactly one ``L``, no goal, fewer than
+        two hallway cells, or a map larger than :data:`MAX_MAP_SIDE` on a side.
+    """
     lines = [ln.rstrip("\r\n") for ln in text.splitlines() if not ln.startswith(";")]
     while lines and not lines[-1].strip():
         lines.pop()
@@ -384,7 +550,18 @@ def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> Grid
 
 
 def dead_ends(gridmap: GridMap) -> tuple[tuple[int, int], ...]:
-    """Patroller cells with exactly one patroller neighbour: where a patrol must turn around."""
+    """Patroller cells with exactly one patroller neighbour: where a patrol must turn around.
+
+    Parameters
+    ----------
+    gridmap : GridMap
+        The map.
+
+    Returns
+    -------
+    tuple of (int, int)
+        The dead ends' (row, col), row-major.
+    """
     P = np.pad(gridmap.patroller, 1)
     neighbours = P[:-2, 1:-1].astype(int) + P[2:, 1:-1] + P[1:-1, :-2] + P[1:-1, 2:]
     ends = np.argwhere(gridmap.patroller & (neighbours == 1))

@@ -92,8 +92,35 @@ def generate_office_map(
 ) -> GridMap:
     """Generate a deterministic office floor (see the module docstring for the design).
 
-    At the defaults (60 × 60, spacing 6, 20% of segments removed) the floor has about 950
-    hallway cells. Raises ``ValueError`` on impossible parameters.
+    At the defaults (60 × 60, spacing 6, 20% of segments removed) the floor has about 950 hallway
+    cells.
+
+    Parameters
+    ----------
+    rows : int, default 60
+        The grid's rows, at least 5.
+    cols : int, default 60
+        Its columns, at least 5.
+    seed : int, default 0
+        Seeds the corridor positions, the removed segments and the rooms.
+    corridor_spacing : int, default 6
+        About this many cells between parallel corridors, at least 3.
+    removal : float, default 0.2
+        The fraction of corridor segments removed (keeping the hallway connected), in [0, 1).
+    n_goals : int, default 2
+        Goal rooms placed, at least 1, in the farthest quarter of room sites from L's room.
+    name : str, optional
+        The map's name; ``office-{rows}x{cols}-s{seed}`` by default.
+
+    Returns
+    -------
+    GridMap
+        The floor, L's room its start.
+
+    Raises
+    ------
+    ValueError
+        Impossible parameters, or too few room sites for L and the goals.
     """
     if rows < 5 or cols < 5:
         raise ValueError(f"office map must be at least 5x5 cells, got {rows}x{cols}")
@@ -173,8 +200,20 @@ def generate_office_map(
 def office_map_from_name(name: str) -> GridMap | None:
     """The generated office map for a name like ``office``, ``office-60x60``, ``office-80x80-s3``.
 
-    Returns ``None`` if ``name`` is not an office-map name (so callers can try other loaders);
-    raises :class:`~mirl.world.maps.MapError` naming it if it is one but cannot be generated.
+    Parameters
+    ----------
+    name : str
+        The name; sizes default to 60 × 60 and the seed to 0.
+
+    Returns
+    -------
+    GridMap or None
+        The map, or None if ``name`` is not an office-map name (so callers can try other loaders).
+
+    Raises
+    ------
+    MapError
+        The name is an office map's but it cannot be generated (the message names it).
     """
     m = OFFICE_NAME_RE.match(str(name))
     if m is None:

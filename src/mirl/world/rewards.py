@@ -27,14 +27,14 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from mirl._registry import Registry
 from mirl.world import schema
-from mirl.world.actions import FORWARD, TURN_LEFT, TURN_RIGHT
+from mirl.world.actions import FORWARD, HEADING_NAMES, TURN_LEFT, TURN_RIGHT
 from mirl.world.maps import GridMap, dead_ends
 
 __all__ = [
     "KINDS",
     "FeatureKind",
-    "HEADING_NAMES",
     "RewardFeature",
     "RewardSpec",
     "hallway_features",
@@ -43,15 +43,26 @@ __all__ = [
     "read_weights",
 ]
 
-HEADING_NAMES = ("east", "north", "west", "south")
+FIELDS = ("cells", "headings")  # what a feature may have besides its name and kind
 LEGACY_KEYS = ("upper_hallway", "lower_hallway", "turn_around")
 Cells = tuple[tuple[int, int], ...]
 
 
 @dataclass(frozen=True)
 class RewardFeature:
-    """One reward feature: its name, kind (module doc), cells (None: the kind's default) and,
-    for ``heading_in_region``, headings."""
+    """One reward feature.
+
+    Parameters
+    ----------
+    name : str
+        Its name, the key of its weight.
+    kind : str
+        One of :data:`KINDS` (module doc).
+    cells : tuple of (int, int), optional
+        Its region; None for the kind's default.
+    headings : tuple of int, default ()
+        For ``heading_in_region``, the headings it rewards (0 east, 1 north, 2 west, 3 south).
+    """
 
     name: str
     kind: str
@@ -60,7 +71,7 @@ class RewardFeature:
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
-            raise ValueError(f"reward feature '{self.name}': unknown kind '{self.kind}'")
+            raise ValueError(f"reward feature '{self.name}': {KINDS.unknown(self.kind)}")
 
 
 class StateSpace(Protocol):
@@ -140,23 +151,44 @@ def _heading_in_region(domain: StateSpace, feature: RewardFeature) -> np.ndarray
     return np.repeat(mask[:, None].astype(float), domain.n_actions, axis=1)
 
 
-KINDS: dict[str, FeatureKind] = {
-    k.name: k
-    for k in (
-        FeatureKind("moved", (), (), _moved),
-        FeatureKind("region", ("cells",), ("cells",), _region),
-        FeatureKind("turn_around", ("cells",), (), _turn_around),
-        FeatureKind("heading_in_region", ("cells", "headings"), ("cells", "headings"),
-                    _heading_in_region),
-    )
-}  # fmt: skip
+def _check_kind(kind: FeatureKind) -> None:
+    """A kind needs only fields it takes, of those a scenario's feature may have."""
+    if not set(kind.needs) <= set(kind.takes) <= set(FIELDS):
+        raise ValueError(
+            f"reward-feature kind '{kind.name}': takes {kind.takes} and needs {kind.needs}; "
+            f"it may take only {FIELDS} and need only what it takes"
+        )
+
+
+KINDS: Registry[FeatureKind] = Registry("reward-feature kind", (
+    FeatureKind("moved", (), (), _moved),
+    FeatureKind("region", ("cells",), ("cells",), _region),
+    FeatureKind("turn_around", ("cells",), (), _turn_around),
+    FeatureKind("heading_in_region", ("cells", "headings"), ("cells", "headings"),
+                _heading_in_region),
+), check=_check_kind)  # fmt: skip
 """Every kind of reward feature by name."""
 
 
 def hallway_features(
     upper: Cells = (), lower: Cells = (), turn_around: Cells | None = None
 ) -> tuple[RewardFeature, ...]:
-    """The paper's four reward features (docs/design.md, "Reward features")."""
+    """The paper's four reward features (docs/design.md, "Reward features").
+
+    Parameters
+    ----------
+    upper : tuple of (int, int), default ()
+        The cells of ``upper_hallway``.
+    lower : tuple of (int, int), default ()
+        The cells of ``lower_hallway``.
+    turn_around : tuple of (int, int), optional
+        The cells of ``turn_around``; the map's dead ends if None.
+
+    Returns
+    -------
+    tuple of RewardFeature
+        ``moved``, ``upper_hallway``, ``lower_hallway`` and ``turn_around``.
+    """
     return (
         RewardFeature("moved", "moved"),
         RewardFeature("upper_hallway", "region", tuple(upper)),
@@ -167,7 +199,13 @@ def hallway_features(
 
 @dataclass(frozen=True)
 class RewardSpec:
-    """The reward features of a domain, in weight order."""
+    """The reward features of a domain, in weight order.
+
+    Parameters
+    ----------
+    features : tuple of RewardFeature, default the paper's four
+        The features (:func:`hallway_features` with no regions by default).
+    """
 
     features: tuple[RewardFeature, ...] = hallway_features()
 
@@ -180,18 +218,76 @@ class RewardSpec:
 
     @property
     def names(self) -> tuple[str, ...]:
+        """The features' names, in weight order."""
         return tuple(f.name for f in self.features)
 
     def feature(self, name: str) -> RewardFeature:
+        """The feature called ``name``.
+
+        Parameters
+        ----------
+        name : str
+            One of :attr:`names`.
+
+        Returns
+        -------
+        RewardFeature
+            The feature.
+
+        Raises
+        ------
+        ValueError
+            No feature has that name.
+        """
         return self.features[self.names.index(name)]
+
+    def turn_around_cells(self, gridmap: GridMap) -> Cells:
+        """The cells where a turn is rewarded.
+
+        Parameters
+        ----------
+        gridmap : GridMap
+            The map, whose dead ends are the default.
+
+        Returns
+        -------
+        tuple of (int, int)
+            The cells of the first ``turn_around`` feature that names its own, else the map's dead
+            ends (where that kind rewards a turn by default).
+        """
+        for f in self.features:
+            if f.kind == "turn_around" and f.cells is not None:
+                return f.cells
+        return dead_ends(gridmap)
 
 
 def read_region(
     value: Any, path: str, shape: tuple[int, int], gridmap: GridMap | None = None
 ) -> Cells:
-    """A region (module doc) as a tuple of cells, rectangles expanded row by row. With the
-    ``gridmap``, positions may be in metres of its frame, and a rectangle's corners must be
-    hallway cells and it covers the hallway cells inside it."""
+    """A region (module doc) as a tuple of cells, rectangles expanded row by row.
+
+    Parameters
+    ----------
+    value : object
+        The region as read from TOML: a list of cells and rectangles, or one rectangle or point.
+    path : str
+        Its field path, for messages.
+    shape : (int, int)
+        The map's (rows, cols); every cell must lie on it.
+    gridmap : GridMap, optional
+        With the map, positions may be in metres of its frame, a rectangle's corners must be
+        hallway cells, and it covers the hallway cells inside it.
+
+    Returns
+    -------
+    tuple of (int, int)
+        The cells.
+
+    Raises
+    ------
+    FieldError
+        A malformed entry or a cell off the map, naming its field path.
+    """
     frame = None if gridmap is None else gridmap.frame
     if isinstance(value, dict) and set(value) - {"x", "y"}:
         return _rectangle(value, path, shape, gridmap)
@@ -239,10 +335,10 @@ def _headings(value: Any, path: str) -> tuple[int, ...]:
 def _feature(
     value: Any, path: str, shape: tuple[int, int], gridmap: GridMap | None
 ) -> RewardFeature:
-    value = schema.table(value, path, ("name", "kind", "cells", "headings"), ("name", "kind"))
+    value = schema.table(value, path, ("name", "kind", *FIELDS), ("name", "kind"))
     name = schema.string(value["name"], f"{path}.name")
     kind = schema.string(value["kind"], f"{path}.kind", tuple(KINDS))
-    for key in ("cells", "headings"):
+    for key in FIELDS:
         if key in value and key not in KINDS[kind].takes:
             raise schema.FieldError(f"{path}.{key}", f"a '{kind}' feature takes no {key}")
     for key in KINDS[kind].needs:
@@ -260,9 +356,30 @@ def _feature(
 def read_reward_spec(
     reward: dict, shape: tuple[int, int], gridmap: GridMap | None = None
 ) -> tuple[RewardSpec, bool]:
-    """The ``[reward]`` table's features and whether they came in the older fixed form
-    (``upper_hallway`` / ``lower_hallway`` / ``turn_around`` keys); cells on ``gridmap`` if
-    given (:func:`read_region`)."""
+    """The ``[reward]`` table's features.
+
+    Parameters
+    ----------
+    reward : dict
+        The ``[reward]`` table as read from TOML.
+    shape : (int, int)
+        The map's (rows, cols).
+    gridmap : GridMap, optional
+        The map, for regions in metres and rectangles (:func:`read_region`).
+
+    Returns
+    -------
+    spec : RewardSpec
+        The features.
+    legacy : bool
+        Whether they came in the older fixed form (``upper_hallway`` / ``lower_hallway`` /
+        ``turn_around`` keys).
+
+    Raises
+    ------
+    FieldError
+        A problem, naming its field path.
+    """
     reward = schema.table(reward, "reward", ("features", "weights", *LEGACY_KEYS))
     legacy = [k for k in LEGACY_KEYS if k in reward]
     if "features" in reward:
@@ -296,7 +413,29 @@ MAX_WEIGHT = 1e6  # a reward weight's magnitude; values stay far from overflow a
 def read_weights(
     value: Any, path: str, names: tuple[str, ...], base: Mapping[str, float]
 ) -> dict[str, float]:
-    """``base`` updated by the table ``value`` of feature = weight (finite numbers)."""
+    """``base`` updated by the table ``value`` of feature = weight (finite numbers).
+
+    Parameters
+    ----------
+    value : object
+        The table as read from TOML.
+    path : str
+        Its field path, for messages.
+    names : tuple of str
+        The reward features' names; no other key is accepted.
+    base : mapping of str to float
+        The weights the table updates.
+
+    Returns
+    -------
+    dict of str to float
+        The updated weights.
+
+    Raises
+    ------
+    FieldError
+        An unknown feature, a value that is not a number, or one above the largest weight.
+    """
     value = schema.table(value, path, names)
     out = dict(base)
     for k, v in value.items():

@@ -74,8 +74,24 @@ def occupancy_free_mask(
 ) -> np.ndarray:
     """(H, W) bool mask of free pixels from map_server pixel values (see module docstring).
 
-    ``pixels`` are grey values 0–255 (colour images already averaged over channels); ``alpha``
-    is the optional alpha channel, used only in ``scale`` mode.
+    Parameters
+    ----------
+    pixels : ndarray of shape (H, W)
+        Grey values 0–255 (colour images already averaged over channels); occupancy in percent
+        in ``raw`` mode.
+    negate : bool, default False
+        The map_server key ``negate``: white is occupied.
+    free_thresh : float, default 0.196
+        A pixel is free when its occupancy probability is below this.
+    mode : {"trinary", "scale", "raw"}, default "trinary"
+        The map_server key ``mode``.
+    alpha : ndarray of shape (H, W), optional
+        The alpha channel, used only in ``scale`` mode (a pixel not fully opaque is unknown).
+
+    Returns
+    -------
+    ndarray of bool, shape (H, W)
+        True on free pixels.
     """
     x = np.asarray(pixels, dtype=float)
     if mode == "raw":
@@ -93,6 +109,20 @@ def discretise_free_mask(free_px: np.ndarray, resolution: float, cell_size: floa
     The pixel with centre at ``(i + 0.5) * resolution`` metres from the top belongs to cell row
     ``floor((i + 0.5) * resolution / cell_size)`` (same for columns). Partial cells at the bottom
     and right edges (not wholly inside the image) are walls.
+
+    Parameters
+    ----------
+    free_px : ndarray of bool, shape (H, W)
+        Free pixels (:func:`occupancy_free_mask`).
+    resolution : float
+        Metres a pixel.
+    cell_size : float
+        Metres a cell.
+
+    Returns
+    -------
+    ndarray of bool, shape (rows, cols)
+        True on the cells that are wholly free.
     """
     h, w = free_px.shape
     rows = max(1, math.ceil(h * resolution / cell_size - _EPS))
@@ -218,12 +248,31 @@ def load_ros_map(
 ) -> GridMap:
     """Load a ROS ``map_server`` map and discretise it into cells of ``cell_size`` metres.
 
-    ``cell_size`` defaults to :data:`DEFAULT_CELL_SIZE` (or the map resolution, if coarser) and
-    may not be smaller than the resolution; the grid may have at most
-    :data:`~mirl.world.maps.MAX_MAP_SIDE` cells a side. ``observer_start`` ``(row, col)`` and
-    ``goals`` ``[(row, col), ...]`` are cell coordinates and override the YAML keys
-    ``mirl_observer_start`` / ``mirl_goals``; without either, the map is unmarked (module doc).
-    Every problem raises a one-line :class:`MapError` starting with the YAML path.
+    Without ``observer_start`` and ``goals`` (here or as YAML keys) the map is unmarked (module
+    doc).
+
+    Parameters
+    ----------
+    yaml_path : str or Path
+        The map's YAML file; its ``image`` is read relative to it.
+    cell_size : float, optional
+        Metres a cell; :data:`DEFAULT_CELL_SIZE` (or the map resolution, if coarser) by default.
+        Not smaller than the resolution, and the grid may have at most
+        :data:`~mirl.world.maps.MAX_MAP_SIDE` cells a side.
+    observer_start : (int, int), optional
+        L's start (row, col) in cells; overrides the YAML key ``mirl_observer_start``.
+    goals : sequence of (int, int), optional
+        L's goals (row, col) in cells; override the YAML key ``mirl_goals``.
+
+    Returns
+    -------
+    GridMap
+        The map, its frame placed by the YAML's origin (:func:`ros_map_frame`).
+
+    Raises
+    ------
+    MapError
+        Every problem, in one line starting with the YAML path.
     """
     path = Path(yaml_path)
     data = _read_yaml(path)
@@ -384,10 +433,26 @@ def _check_grid_size(path: Path, shape_px: tuple[int, ...], resolution: float, c
 def ros_map_frame(origin, resolution: float, height_px: int, cell_size: float) -> MapFrame:
     """The map frame of a grid cut from a ``map_server`` image.
 
-    ``origin`` is the map-frame pose of the image's lower-left corner; grid row 0 is the top of
-    the image, so the centre of cell (0, 0) is ``cell_size / 2`` right of the left edge and
-    ``cell_size / 2`` below the top edge (``origin_y + height · resolution``). The origin's yaw
-    is ignored, as map_server's own consumers (costmaps, AMCL) ignore it.
+    Grid row 0 is the top of the image, so the centre of cell (0, 0) is ``cell_size / 2`` right
+    of the left edge and ``cell_size / 2`` below the top edge (``origin_y + height ·
+    resolution``). The origin's yaw is ignored, as map_server's own consumers (costmaps, AMCL)
+    ignore it.
+
+    Parameters
+    ----------
+    origin : sequence of float
+        The map-frame pose [x, y, yaw] of the image's lower-left corner.
+    resolution : float
+        Metres a pixel.
+    height_px : int
+        The image's height in pixels.
+    cell_size : float
+        Metres a cell.
+
+    Returns
+    -------
+    MapFrame
+        The grid's frame.
     """
     top = float(origin[1]) + height_px * resolution
     return MapFrame(

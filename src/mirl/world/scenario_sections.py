@@ -15,12 +15,13 @@ import numpy as np
 from mirl.world import schema
 from mirl.world.catalog import is_ros_map, load_map
 from mirl.world.domain import FeatureMap, PatrolDomain
+from mirl.world.faults import HEALTHY_PROBABILITIES
 from mirl.world.game import GAME_ACTIONS, InteractionGame
 from mirl.world.maps import GridMap, MapError, MapFrame
 from mirl.world.rewards import RewardSpec, read_weights
 
 __all__ = [
-    "HEALTHY_PROBABILITIES",
+    "PLAYED",
     "TRUE_WEIGHTS",
     "RobotSpec",
     "read_map",
@@ -30,14 +31,30 @@ __all__ = [
     "read_pairs",
 ]
 
-HEALTHY_PROBABILITIES = {"left_wheel": 0.95, "right_wheel": 0.95, "navigation": 0.97, "floor": 0.99}
+PLAYED = ("stop", "go")  # the equilibrium met robots play by default: the paper's (row stops)
 TRUE_WEIGHTS = {"moved": 1.0, "upper_hallway": 0.05, "lower_hallway": 0.05, "turn_around": 0.3}
 MAX_ROBOTS = 26  # a team, not a crowd: every pair is checked for meetings each step
 FieldError = schema.FieldError
 
 
+
+
 @dataclass(frozen=True)
 class RobotSpec:
+    """A patroller as the scenario gives it.
+
+    Parameters
+    ----------
+    name : str
+        Its name.
+    start : (int, int, int)
+        Its start state (row, col, heading).
+    feature_probabilities : mapping of str to float
+        Its true success probability of every transition feature.
+    weights : ndarray of shape (K,)
+        Its true reward weights, over the domain's reward feature names.
+    """
+
     name: str
     start: tuple[int, int, int]  # row, col, heading
     feature_probabilities: Mapping[str, float]
@@ -45,10 +62,29 @@ class RobotSpec:
 
 
 def read_map(data: dict, base: Path | None) -> GridMap:
-    """The scenario's map (relative paths are relative to the scenario file), placed in the
-    metric frame of the optional ``[frame]`` table: ``cell_size`` (metres) and, for a text map,
-    ``origin = [x, y]`` (the map-frame position of the centre of cell (0, 0)). A ROS map is
-    discretised at ``cell_size`` and keeps the origin of its YAML."""
+    """The scenario's map, placed in the metric frame of the optional ``[frame]`` table.
+
+    The table holds ``cell_size`` (metres) and, for a text map, ``origin = [x, y]`` (the map-frame
+    position of the centre of cell (0, 0)). A ROS map is discretised at ``cell_size`` and keeps the
+    origin of its YAML.
+
+    Parameters
+    ----------
+    data : dict
+        The whole scenario as read from TOML.
+    base : Path, optional
+        The scenario file's folder; a relative map path is read relative to it.
+
+    Returns
+    -------
+    GridMap
+        The map.
+
+    Raises
+    ------
+    FieldError
+        A missing or unloadable map, or a bad frame, naming the field.
+    """
     if "map" not in data:
         raise FieldError("map", "missing field")
     map_ref = schema.string(data["map"], "map")
@@ -90,9 +126,28 @@ def read_map(data: dict, base: Path | None) -> GridMap:
 
 
 def read_feature_map(data: Any, gridmap: GridMap) -> FeatureMap:
-    """The ``[transition_features]`` table (ξ as data, :class:`~mirl.world.domain.FeatureMap`);
-    an override's cells must be hallway cells (elsewhere no patroller acts, so it would be
-    silently without effect)."""
+    """The ``[transition_features]`` table (ξ as data, :class:`~mirl.world.domain.FeatureMap`).
+
+    An override's cells must be hallway cells (elsewhere no patroller acts, so it would be
+    silently without effect).
+
+    Parameters
+    ----------
+    data : object
+        The table as read from TOML.
+    gridmap : GridMap
+        The scenario's map.
+
+    Returns
+    -------
+    FeatureMap
+        ξ.
+
+    Raises
+    ------
+    FieldError
+        A problem, naming the field.
+    """
     feature_map = FeatureMap.from_dict(data, shape=gridmap.shape, frame=gridmap.frame)
     for i, override in enumerate(feature_map.overrides):
         for k, (r, c) in enumerate(override.cells or ()):
@@ -120,8 +175,29 @@ def read_robots(
     reward: RewardSpec,
     base_weights: Mapping[str, float],
 ) -> tuple[RobotSpec, ...]:
-    """``[[robots]]``: names, starts on hallway states, true feature probabilities and
-    per-robot reward weights (the ``[reward] weights`` table updated by the robot's own)."""
+    """``[[robots]]``: names, hallway starts, true feature probabilities and reward weights.
+
+    Parameters
+    ----------
+    data : object
+        The list as read from TOML (2 to 26 robots).
+    domain : PatrolDomain
+        The domain their starts must be states of.
+    reward : RewardSpec
+        The reward features their weights are over.
+    base_weights : mapping of str to float
+        The ``[reward] weights`` table, which each robot's own ``weights`` update.
+
+    Returns
+    -------
+    tuple of RobotSpec
+        The patrollers, in file order.
+
+    Raises
+    ------
+    FieldError
+        A problem, naming the field.
+    """
     items = schema.array(data, "robots", min_length=2)
     if len(items) > MAX_ROBOTS:
         raise FieldError("robots", f"at most {MAX_ROBOTS} patrollers, got {len(items)}")
@@ -181,20 +257,60 @@ def _played(value: Any, where: str) -> tuple[str, str]:
 
 
 def read_game(data: Any) -> tuple[InteractionGame, tuple[str, str], list]:
-    """``[game]``: payoffs, the played equilibrium and the raw per-pair list (``pairs``)."""
+    """``[game]``: payoffs, the played equilibrium and the raw per-pair list (``pairs``).
+
+    Parameters
+    ----------
+    data : object
+        The table as read from TOML.
+
+    Returns
+    -------
+    game : InteractionGame
+        The game.
+    played : (str, str)
+        The equilibrium met robots play.
+    pairs : list
+        The ``pairs`` entries as written, for :func:`read_pairs`.
+
+    Raises
+    ------
+    FieldError
+        A problem, naming the field.
+    """
     game = schema.table(data, "game", ("row_payoffs", "col_payoffs", "played", "pairs"))
     kwargs = {
         k: _payoffs(game[k], f"game.{k}") for k in ("row_payoffs", "col_payoffs") if k in game
     }
-    played = _played(game["played"], "game.played") if "played" in game else ("stop", "go")
+    played = _played(game["played"], "game.played") if "played" in game else PLAYED
     return InteractionGame(**kwargs), played, schema.array(game.get("pairs", []), "game.pairs")
 
 
 def read_pairs(
     items: list, names: tuple[str, ...], game: InteractionGame
 ) -> dict[tuple[int, int], tuple[str, str]]:
-    """``[[game.pairs]]``: ``robots = [A, B]`` and ``played = [a, b]`` (A plays a), stored with
-    the lower robot index as the game's row player."""
+    """``[[game.pairs]]``: ``robots = [A, B]`` and ``played = [a, b]`` (A plays a).
+
+    Parameters
+    ----------
+    items : list
+        The entries as written.
+    names : tuple of str
+        The robots' names.
+    game : InteractionGame
+        The game whose equilibria they must be.
+
+    Returns
+    -------
+    dict of (int, int) to (str, str)
+        Each pair's equilibrium, stored with the lower robot index as the game's row player.
+
+    Raises
+    ------
+    FieldError
+        An unknown robot, a robot paired with itself, a pair given twice, or a profile that is
+        not an equilibrium.
+    """
     out: dict[tuple[int, int], tuple[str, str]] = {}
     for k, item in enumerate(items):
         where = f"game.pairs[{k}]"

@@ -31,7 +31,15 @@ __all__ = [
 
 
 class FieldError(ValueError):
-    """One bad field: ``path`` and what is wrong with it."""
+    """One bad field: ``path`` and what is wrong with it.
+
+    Parameters
+    ----------
+    path : str
+        The field's dotted path in the file (``robots[1].start``).
+    problem : str
+        What is wrong with it.
+    """
 
     def __init__(self, path: str, problem: str) -> None:
         super().__init__(f"{path}: {problem}" if path else problem)
@@ -44,7 +52,29 @@ def _show(value: Any) -> str:
 
 
 def table(value: Any, path: str, keys: Iterable[str], required: Iterable[str] = ()) -> dict:
-    """A table with only known keys (a misspelt key must not be silently ignored)."""
+    """A table with only known keys (a misspelt key must not be silently ignored).
+
+    Parameters
+    ----------
+    value : object
+        The value read.
+    path : str
+        Its field path.
+    keys : iterable of str
+        The keys it may have.
+    required : iterable of str, default ()
+        The keys it must have.
+
+    Returns
+    -------
+    dict
+        ``value`` itself.
+
+    Raises
+    ------
+    FieldError
+        Not a table, an unknown key, or a missing one.
+    """
     known = set(keys)
     if not isinstance(value, dict):
         raise FieldError(path, f"expected a table, got {_show(value)}")
@@ -66,8 +96,31 @@ def number(
     high: float | None = None,
     high_open: bool = False,
 ) -> float:
-    """A finite real number (an integer or a float, never a boolean) in [low, high] (or
-    [low, high) with ``high_open``)."""
+    """A finite real number (an integer or a float, never a boolean) in [low, high].
+
+    Parameters
+    ----------
+    value : object
+        The value read.
+    path : str
+        Its field path.
+    low : float, optional
+        The least value allowed.
+    high : float, optional
+        The greatest value allowed.
+    high_open : bool, default False
+        Whether ``high`` itself is refused ([low, high)).
+
+    Returns
+    -------
+    float
+        The number.
+
+    Raises
+    ------
+    FieldError
+        Not a finite number, or out of range.
+    """
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise FieldError(path, f"expected a number, got {_show(value)}")
     x = float(value)
@@ -82,7 +135,29 @@ def number(
 
 
 def integer(value: Any, path: str, *, low: int | None = None, high: int | None = None) -> int:
-    """An integer (a float such as 2.5 or 2.0 is refused: a fraction is not a count)."""
+    """An integer (a float such as 2.5 or 2.0 is refused: a fraction is not a count).
+
+    Parameters
+    ----------
+    value : object
+        The value read.
+    path : str
+        Its field path.
+    low : int, optional
+        The least value allowed.
+    high : int, optional
+        The greatest value allowed.
+
+    Returns
+    -------
+    int
+        The integer.
+
+    Raises
+    ------
+    FieldError
+        Not an integer, or out of range.
+    """
     if isinstance(value, bool) or not isinstance(value, int):
         raise FieldError(path, f"expected an integer, got {_show(value)}")
     if low is not None and value < low:
@@ -93,6 +168,27 @@ def integer(value: Any, path: str, *, low: int | None = None, high: int | None =
 
 
 def string(value: Any, path: str, choices: Iterable[str] | None = None) -> str:
+    """A string, optionally one of ``choices``.
+
+    Parameters
+    ----------
+    value : object
+        The value read.
+    path : str
+        Its field path.
+    choices : iterable of str, optional
+        The strings allowed.
+
+    Returns
+    -------
+    str
+        The string.
+
+    Raises
+    ------
+    FieldError
+        Not a string, or not one of ``choices``.
+    """
     if not isinstance(value, str):
         raise FieldError(path, f"expected a string, got {_show(value)}")
     if choices is not None:
@@ -103,6 +199,29 @@ def string(value: Any, path: str, choices: Iterable[str] | None = None) -> str:
 
 
 def array(value: Any, path: str, *, length: int | None = None, min_length: int = 0) -> list:
+    """A list (or, from Python callers, a tuple).
+
+    Parameters
+    ----------
+    value : object
+        The value read.
+    path : str
+        Its field path.
+    length : int, optional
+        The exact number of entries required.
+    min_length : int, default 0
+        The least number of entries.
+
+    Returns
+    -------
+    list
+        The entries.
+
+    Raises
+    ------
+    FieldError
+        Not a list, or of the wrong length.
+    """
     if not isinstance(value, list | tuple):  # TOML gives lists; Python callers may pass tuples
         raise FieldError(path, f"expected a list, got {_show(value)}")
     value = list(value)
@@ -120,12 +239,36 @@ def cell(
     n: int = 2,
     frame: MapFrame | None = None,
 ) -> tuple:
-    """(row, col) — or (row, col, heading) with ``n = 3`` — of non-negative integers inside a
-    map of ``shape`` (a negative index must never wrap around to the other side).
+    """(row, col) — or (row, col, heading) with ``n = 3`` — of non-negative integers inside a map.
 
-    With a map ``frame``, a position may also be a point in metres: ``{x, y}`` for a cell,
-    ``{x, y, yaw}`` (yaw in degrees, rounded to the nearest heading) for a state; it is read as
-    the cell whose centre is nearest and must lie on the grid."""
+    A negative index must never wrap around to the other side. With a map ``frame``, a position
+    may also be a point in metres: ``{x, y}`` for a cell, ``{x, y, yaw}`` (yaw in degrees, rounded
+    to the nearest heading) for a state; it is read as the cell whose centre is nearest and must
+    lie on the grid.
+
+    Parameters
+    ----------
+    value : object
+        The value read.
+    path : str
+        Its field path.
+    shape : (int, int), optional
+        The map's (rows, cols); unchecked if None.
+    n : {2, 3}, default 2
+        2 for a cell, 3 for a state with its heading.
+    frame : MapFrame, optional
+        The map's frame, to accept points in metres.
+
+    Returns
+    -------
+    tuple of int
+        (row, col) or (row, col, heading).
+
+    Raises
+    ------
+    FieldError
+        Malformed, or off the map.
+    """
     if isinstance(value, dict) and frame is not None:
         return _metric_cell(value, path, shape, n, frame)
     if (

@@ -1,0 +1,188 @@
+"""The fault verdicts on the cases of issue 39, with the README's own commands, a few seeds each.
+
+    python benchmarks/bench_verdict_cases.py [--cases NAME ...] [--seeds 0-9] [--work DIR]
+
+Each case simulates with ``mirl simulate`` (in this process, through :func:`mirl.cli.main`) and
+learns with ``mirl learn --json``, as a user would, and scores each robot's verdict against
+the truth: a statement is *false* when it names no damaged part (a healthy part, candidates
+without a damaged one, or "no part" for a damaged robot), *confidently* false at confidence
+≥ 0.9. Simulations are kept in ``--work`` (default ``/tmp/mirl-verdict-cases``), so a second
+run only learns. Cases:
+
+=================  ===========================================================================
+``physics-right``  physics, boyd2-healthy, I's right motor at 0.6, full view, grid CSV
+``physics-poses``  the same runs read from L's pose CSV (``--poses``)
+``physics-two``    physics, boyd2 (J's left motor at 0.6) and I's right at 0.6, grid CSV
+``boydright``      physics, boydright, J's right motor at 0.5, full view, grid CSV
+``long-step``      physics, boyd2-healthy, no damage: the true 10 Hz poses at 3 s steps, so
+                   that some moves span two cells (a tracker read at too long a step)
+``grid``           grid, boyd2 (J's left wheel at 0.70), L's door (0.14), grid CSV
+=================  ===========================================================================
+
+Per case and robot it prints the verdict, its confidence, whether it is (confidently) false,
+the feature probabilities, the fit check and the motion-model weights where the JSON has them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mirl.cli import main as mirl
+from mirl.observations.poses import PoseTracks, read_pose_csv, write_pose_csv
+from mirl.world.scenario import load_scenario
+
+CONFIDENT = 0.9
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str
+    scenario: str
+    world: str  # "grid" or "physics"
+    damage: tuple[str, ...]  # --damage values
+    truth: dict[str, tuple[str, ...]]  # robot -> damaged parts
+    data: str  # "grid" (obs.csv), "poses" (L's pose CSV), "true-poses" (10 Hz true poses)
+    observability: float
+    learn_flags: tuple[str, ...] = ()
+
+
+CASES = {
+    c.name: c
+    for c in (
+        Case("physics-right", "boyd2-healthy", "physics", ("I:right_wheel=0.6",),
+             {"I": ("right_wheel",), "J": ()}, "grid", 1.0),
+        Case("physics-poses", "boyd2-healthy", "physics", ("I:right_wheel=0.6",),
+             {"I": ("right_wheel",), "J": ()}, "poses", 1.0),
+        Case("physics-two", "boyd2", "physics", ("I:right_wheel=0.6",),
+             {"I": ("right_wheel",), "J": ("left_wheel",)}, "grid", 1.0),
+        Case("boydright", "boydright", "physics", ("J:right_wheel=0.5",),
+             {"I": (), "J": ("right_wheel",)}, "grid", 1.0),
+        Case("long-step", "boyd2-healthy", "physics", (), {"I": (), "J": ()}, "true-poses", 1.0,
+             ("--step-seconds", "3")),
+        Case("grid", "boyd2", "grid", (), {"I": (), "J": ("left_wheel",)}, "grid", 0.14),
+    )
+}  # fmt: skip
+
+
+def run_cli(argv: list[str]) -> str:
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
+        code = mirl(argv)
+    if code != 0:
+        raise RuntimeError(f"mirl {' '.join(argv)} exited with {code}")
+    return out.getvalue()
+
+
+def simulated(case: Case, seed: int, work: Path) -> Path:
+    """The case's data file for ``seed``, simulated once."""
+    key = "-".join([case.scenario, case.world, *case.damage, f"o{case.observability:g}", str(seed)])
+    folder = work / key.replace(":", "_").replace("=", "_")
+    obs, poses = folder / "obs.csv", folder / "poses.csv"
+    if not obs.exists():
+        folder.mkdir(parents=True, exist_ok=True)
+        argv = ["simulate", "--scenario", case.scenario, "--world", case.world,
+                "--observability", f"{case.observability:g}", "--steps", "450",
+                "--seed", str(seed), "--observations", str(obs)]  # fmt: skip
+        for d in case.damage:
+            argv += ["--damage", d]
+        if case.world == "physics":
+            argv += ["--poses", str(poses)]
+        run_cli(argv)
+    if case.data != "true-poses":
+        return {"grid": obs, "poses": poses}[case.data]
+    robots = folder / "robots.true.csv"  # the patrollers' true poses, L's own left out
+    if not robots.exists():
+        tracks = read_pose_csv(folder / "poses.true.csv")
+        names = load_scenario(case.scenario).robot_names
+        index = np.array([names.index(n) if n in names else -1 for n in tracks.robot_names])
+        sel = tracks.select(index[tracks.robot] >= 0)
+        write_pose_csv(
+            PoseTracks(names, sel.t, index[sel.robot], sel.x, sel.y, sel.yaw, sel.source), robots
+        )
+    return robots
+
+
+def learned(case: Case, data: Path) -> dict:
+    argv = ["learn", "--scenario", case.scenario, "--observations", str(data),
+            "--observability", f"{case.observability:g}", "--json", *case.learn_flags]  # fmt: skip
+    for d in case.damage:
+        argv += ["--damage", d]
+    return json.loads(run_cli(argv))
+
+
+def false_statement(verdict: dict, damaged: tuple[str, ...]) -> bool:
+    """Whether the verdict names no damaged part (a robot L never saw move has no verdict)."""
+    if verdict.get("seen_moving") is False:
+        return False
+    named = [verdict["part"]] if verdict["part"] else list(verdict["candidates"])
+    if not named:
+        return bool(damaged)
+    return not any(p in damaged for p in named)
+
+
+def seeds_of(text: str) -> list[int]:
+    out: list[int] = []
+    for part in text.split(","):
+        lo, _, hi = part.partition("-")
+        out += list(range(int(lo), int(hi or lo) + 1))
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
+    ap.add_argument("--seeds", default="0-9", help="e.g. 0-9 or 0,3,5-7")
+    ap.add_argument("--work", type=Path, default=Path("/tmp/mirl-verdict-cases"))
+    args = ap.parse_args()
+    summary = []
+    for name in args.cases:
+        case = CASES[name]
+        n = wrong = alone = among = damaged = misfit = 0
+        print(f"== {name}: {case.scenario}, {case.world}, damage {case.damage or 'scenario'}, "
+              f"data {case.data}, view {case.observability:g}")  # fmt: skip
+        for seed in seeds_of(args.seeds):
+            out = learned(case, simulated(case, seed, args.work))
+            for robot, r in out["robots"].items():
+                v = r["verdict"]
+                false = false_statement(v, case.truth[robot])
+                confident = false and v["confidence"] >= CONFIDENT
+                n += 1
+                wrong += confident
+                misfit += not v.get("fit", {"ok": True})["ok"]
+                if case.truth[robot]:
+                    damaged += 1
+                    alone += v["part"] in case.truth[robot]
+                    among += any(c in case.truth[robot] for c in v["candidates"])
+                named = v["part"] or "|".join(v["candidates"]) or "none"
+                if v.get("seen_moving") is False:
+                    named = "(never seen moving)"
+                probs = " ".join(f"{k[:4]}={p:.2f}" for k, p in r["feature_probabilities"].items())
+                fit = r["verdict"].get("fit")
+                extra = "" if fit is None else f" fit={'ok' if fit['ok'] else 'FAIL'}"
+                models = r.get("motion_models")
+                if models:
+                    best = max(models, key=models.get)
+                    extra += f" model={best}:{models[best]:.2f}"
+                if fit is not None and not fit["ok"]:
+                    extra += f" ({fit['reason'][:70]})"
+                flag = "CONFIDENTLY FALSE" if confident else ("false" if false else "")
+                print(f"  seed {seed} {robot}: {named:<28} {v['confidence']:.2f} {flag:<17} "
+                      f"{probs}{extra}")  # fmt: skip
+        print(f"  -> confidently false: {wrong} of {n}")
+        summary.append(f"| {name} | {n} | {wrong} | {alone} / {damaged} | {among} / {damaged} | "
+                       f"{misfit} |")  # fmt: skip
+    print("| case | verdicts | confidently false | damaged part alone | among candidates | "
+          "record does not fit |")  # fmt: skip
+    print("| --- | --- | --- | --- | --- | --- |")
+    print("\n".join(summary))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,545 @@
+"""Does a robot's record fit L's motion models? A posterior-predictive check before a verdict
+(docs/design.md, "Fault verdicts").
+
+A verdict is a probability computed under L's models of motion
+(:mod:`mirl.learning.motion_models`); where the record shows what no model of them produces,
+that probability is not one of the world. Each check compares a statistic of the record with
+what the models, at their posterior, predict for it (a posterior-predictive check, Gelman, Meng
+& Stern 1996), or with a tolerance where the models predict none at all:
+
+* **Unexplained steps** — a next state that no action's intended state is (a move across two
+  cells, a jump sideways, a turn and a move in one step). No model produces one; a tracker's
+  misreads do, now and then. The check fails when they are more than a tolerated share of
+  misreads (:data:`MISREAD_RATE`) makes plausible (a binomial tail below :data:`ALPHA`); moves
+  longer than one cell say the record's time step is too long for the robot's pace.
+* **Stalls** — the longest run of consecutive steps on which the robot stayed put. Under the
+  models each step stays put with its own probability (a failed move, a stop), consecutive
+  steps correlated as far as the record's dispersion grants (a two-state Markov chain with the
+  lag-1 correlation of :func:`~mirl.learning.verdicts.failure_dispersion`); the chance of a run
+  this long somewhere in the record is the Poisson clumping approximation (Arratia, Goldstein
+  & Gordon 1990), averaged over the posterior. A robot jammed against an unseen robot or wedged
+  on a wall stalls longer than any failure rate explains.
+* **Jams** — steps on which the robot stayed put while another robot L saw was within one cell
+  (beside, behind, diagonally: the steps with one in the robot's cell or the cell ahead are no
+  evidence of its parts in the first place, :func:`~mirl.learning.verdicts.held_by_others`).
+  The models say a step stays put as often next to another robot as anywhere; physical robots
+  touching say otherwise.
+* **Moves** — how often the robot moved forward, turned and stayed put, against how often the
+  models with L's policy say it would (a χ² discrepancy averaged over the posterior; turns
+  left and right pooled, because which way a robot turns round at a patrol's end is a tie L
+  may break otherwise than the robot, which says nothing of its parts). L's policy is L's
+  estimate of what the robot meant to do; where it is wrong — a robot that stood in a queue
+  for half its record can teach the IRL that it likes to stop — every failure lands on the
+  wrong part.
+* **Few trials** — a feature whose Eq. 4 estimate is pinned at 0 by fewer than
+  :data:`PINNED_TRIALS` trials of the subsets that fix it: a part called dead on a handful of
+  failures, which a few misread steps make. (Pinned at 1 by few trials is a short record of a
+  healthy part, no claim: counted as a failure of the check, it failed 10 % of the grid's
+  records, which fit.)
+
+Steps a failed check points at (the unexplained steps, the stalled runs, the stays in a jam)
+are *misfit steps*: the verdict leaves them out, never counting them as failures of a part, and
+says what it left out and why. A failed check also tempers the verdict
+(:data:`~mirl.learning.verdicts.MODEL_TRUST`): a probability computed under models the record
+does not fit is not L's to state as high.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.special import bdtrc, chdtrc, ndtr
+
+__all__ = [
+    "ALPHA",
+    "MISREAD_RATE",
+    "PINNED_TRIALS",
+    "MOVES_SHARE",
+    "Check",
+    "ModelFit",
+    "check_unexplained",
+    "check_stalls",
+    "check_jams",
+    "held_back",
+    "check_moves",
+    "MOVE_KINDS",
+    "check_pinned",
+    "stay_runs",
+    "longest_run_tail",
+    "model_fit",
+]
+
+ALPHA = 1e-3
+"""A check fails when the record's statistic is this improbable under the models."""
+MISREAD_RATE = 0.03
+"""The share of steps a tracker may misread (a heading or a cell at a boundary) before
+unexplained steps count against the models."""
+PINNED_TRIALS = 10
+"""Fewer trials than this do not pin a feature at 0 or 1."""
+MOVES_SHARE = 0.05
+"""The share of steps by which the kinds of moves must be off for the moves check to fail: a
+third of the damage margin (0.15), so that what the check lets pass cannot move a part's
+success probability across the margin by itself."""
+
+
+@dataclass(frozen=True)
+class Check:
+    """One check's outcome.
+
+    Parameters
+    ----------
+    name : str
+        ``"unexplained"``, ``"stalls"``, ``"jams"``, ``"moves"``, ``"few trials"`` or ``"in the
+        way"``.
+    ok : bool
+        Whether the record passes it.
+    p_value : float or None
+        How probable a statistic this extreme is under the models (None: not a tail test).
+    reason : str
+        What the record shows, in words (empty when ok).
+    fix : str
+        What would make the record fit (empty when nothing in the user's hands would).
+    misfit : ndarray of int
+        Indices (into the steps checked) of the steps the failure points at.
+    """
+
+    name: str
+    ok: bool
+    p_value: float | None = None
+    reason: str = ""
+    fix: str = ""
+    misfit: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+
+    def to_dict(self) -> dict:
+        """The check's JSON record.
+
+        Returns
+        -------
+        dict
+            ``ok``, and ``p_value`` and ``reason`` where it has them.
+        """
+        out: dict = {"ok": self.ok}
+        if self.p_value is not None:
+            out["p_value"] = float(f"{self.p_value:.3g}")
+        if self.reason:
+            out["reason"] = self.reason
+        return out
+
+
+@dataclass(frozen=True)
+class ModelFit:
+    """Whether a robot's record fits L's motion models, and what was left out.
+
+    Parameters
+    ----------
+    checks : tuple of Check
+        The checks the record was put to.
+    left_out : mapping of str to int
+        Steps left out of the verdict's evidence, by reason (misfit steps, and steps in
+        another robot's way).
+    """
+
+    checks: tuple[Check, ...] = ()
+    left_out: Mapping[str, int] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """Whether the record passes every check."""
+        return all(c.ok for c in self.checks)
+
+    @property
+    def reason(self) -> str:
+        """The failed checks in words (empty when the record fits)."""
+        return "; ".join(c.reason for c in self.checks if not c.ok)
+
+    @property
+    def fix(self) -> str:
+        """What would make the record fit."""
+        return "; ".join(dict.fromkeys(c.fix for c in self.checks if not c.ok and c.fix))
+
+    def to_dict(self) -> dict:
+        """The fit's JSON record (``verdict.fit``).
+
+        Returns
+        -------
+        dict
+            ``ok``, ``reason``, ``fix`` (where there is one), ``checks`` (by name) and
+            ``left_out`` (by reason).
+        """
+        out: dict = {"ok": self.ok, "reason": self.reason}
+        if self.fix:
+            out["fix"] = self.fix
+        out["checks"] = {c.name: c.to_dict() for c in self.checks}
+        out["left_out"] = {k: int(v) for k, v in self.left_out.items() if v}
+        return out
+
+
+# ---- unexplained steps --------------------------------------------------------------------------
+def check_unexplained(
+    unexplained: np.ndarray, long_moves: np.ndarray, *, rate: float = MISREAD_RATE
+) -> Check:
+    """Unexplained steps against a tolerated misread rate.
+
+    Parameters
+    ----------
+    unexplained : ndarray of bool, shape (n,)
+        Per observed step, whether no action explains it.
+    long_moves : ndarray of bool, shape (n,)
+        Per observed step, whether it moved more than one cell.
+    rate : float, default :data:`MISREAD_RATE`
+        The share of steps a tracker may misread.
+
+    Returns
+    -------
+    Check
+        ``"unexplained"``; its misfit steps are the unexplained ones.
+    """
+    unexplained = np.asarray(unexplained, dtype=bool)
+    n, k = len(unexplained), int(unexplained.sum())
+    misfit = np.flatnonzero(unexplained)
+    if k == 0:
+        return Check("unexplained", True, 1.0, misfit=misfit)
+    p = float(bdtrc(k - 1, n, rate))  # P(at least k of n)
+    if p >= ALPHA:
+        return Check("unexplained", True, p, misfit=misfit)
+    n_long = int(np.asarray(long_moves, dtype=bool)[unexplained].sum())
+    reason = f"{k} of {n} observed steps are explained by no action"
+    fix = ""
+    if n_long:
+        reason += f" ({n_long} moved more than one cell in one step)"
+        fix = "a shorter time step (`step_seconds`), at which a move is one cell"
+    return Check("unexplained", False, p, reason, fix, misfit)
+
+
+# ---- stalls -------------------------------------------------------------------------------------
+def stay_runs(t: np.ndarray, stayed: np.ndarray) -> list[np.ndarray]:
+    """The runs of consecutive steps on which the robot stayed put.
+
+    Parameters
+    ----------
+    t : ndarray of int, shape (n,)
+        The steps' times (consecutive when one apart).
+    stayed : ndarray of bool, shape (n,)
+        Whether the robot stayed put.
+
+    Returns
+    -------
+    list of ndarray of int
+        Each run's indices into ``t``.
+    """
+    t, stayed = np.asarray(t, dtype=int), np.asarray(stayed, dtype=bool)
+    runs: list[np.ndarray] = []
+    start = None
+    for i in range(len(t) + 1):
+        going_on = i < len(t) and stayed[i] and start is not None and t[i] == t[i - 1] + 1
+        if going_on:
+            continue
+        if start is not None:
+            runs.append(np.arange(start, i))
+            start = None
+        if i < len(t) and stayed[i]:
+            start = i
+    return runs
+
+
+def longest_run_tail(q: np.ndarray, t: np.ndarray, length: int, rho: float = 0.0) -> np.ndarray:
+    """P(some run of at least ``length`` consecutive stays) under stay probabilities.
+
+    Consecutive steps follow a two-state Markov chain with lag-1 correlation ``rho``
+    (P(stay | stayed) = q + ρ (1 − q), P(stay | moved) = q (1 − ρ)), and the probability is the
+    Poisson clumping approximation 1 − exp(−E[runs of that length begun]).
+
+    Parameters
+    ----------
+    q : ndarray of shape (r, n)
+        Each step's probability of staying put under r posterior draws.
+    t : ndarray of int, shape (n,)
+        The steps' times (a gap breaks a run).
+    length : int
+        The run's length.
+    rho : float, default 0
+        The lag-1 correlation of consecutive steps.
+
+    Returns
+    -------
+    ndarray of shape (r,)
+        The probability under each draw.
+    """
+    q = np.clip(np.atleast_2d(np.asarray(q, dtype=float)), 1e-12, 1 - 1e-12)
+    t = np.asarray(t, dtype=int)
+    r, n = q.shape
+    if length < 1 or n < length:
+        return np.zeros(r) if length >= 1 else np.ones(r)
+    follows = np.zeros(n, dtype=bool)
+    follows[1:] = np.diff(t) == 1
+    stay_after_stay = q + rho * (1 - q)
+    stay_after_move = q * (1 - rho)
+    # log P(stays at i+1 … i+length-1 | stayed at i), 0 where a gap breaks the stretch
+    csum = np.concatenate([np.zeros((r, 1)), np.cumsum(np.log(stay_after_stay), axis=1)], axis=1)
+    breaks = np.concatenate([[0], np.cumsum(~follows)])
+    idx = np.arange(n - length + 1)
+    log_chain = csum[:, idx + length] - csum[:, idx + 1]
+    unbroken = breaks[idx + length] == breaks[idx + 1]
+    log_chain = np.where(unbroken[None, :], log_chain, -np.inf)
+    # a run begins at i: a stay after a move (or after a gap, or at the first step)
+    first = q.copy()
+    after = np.flatnonzero(follows)
+    first[:, after] = (1 - q[:, after - 1]) * stay_after_move[:, after]
+    expected = (first[:, idx] * np.exp(log_chain)).sum(axis=1)
+    return -np.expm1(-expected)
+
+
+def check_stalls(
+    t: np.ndarray, stayed: np.ndarray, q: np.ndarray, rho: float = 0.0
+) -> tuple[Check, int]:
+    """The record's longest stall against the posterior predictive.
+
+    Parameters
+    ----------
+    t : ndarray of int, shape (n,)
+        The steps' times.
+    stayed : ndarray of bool, shape (n,)
+        Whether the robot stayed put.
+    q : ndarray of shape (r, n)
+        Each step's probability of staying put under r posterior draws.
+    rho : float, default 0
+        The lag-1 correlation of consecutive steps the record's dispersion grants.
+
+    Returns
+    -------
+    check : Check
+        ``"stalls"``; its misfit steps are those of runs the models make improbable.
+    limit : int
+        The shortest stall the models make improbable (0 when the check passes).
+    """
+    runs = stay_runs(t, stayed)
+    longest = max((len(r) for r in runs), default=0)
+    if longest == 0:
+        return Check("stalls", True, 1.0), 0
+    p = float(longest_run_tail(q, t, longest, rho).mean())
+    if p >= ALPHA:
+        return Check("stalls", True, p), 0
+    limit = longest
+    while limit > 1 and float(longest_run_tail(q, t, limit - 1, rho).mean()) < ALPHA:
+        limit -= 1
+    misfit = np.concatenate([r for r in runs if len(r) >= limit])
+    n_runs = sum(len(r) >= limit for r in runs)
+    reason = (
+        f"stood still for {longest} steps in a row ({n_runs} stall"
+        f"{'s' if n_runs > 1 else ''} of {limit} or more), longer than its failures explain "
+        f"(p = {p:.1g}): jammed or wedged"
+    )
+    return Check("stalls", False, p, reason, "", misfit), limit
+
+
+# ---- jams ---------------------------------------------------------------------------------------
+def check_jams(
+    stayed: np.ndarray, near: np.ndarray, q: np.ndarray, dispersion: float = 1.0
+) -> Check:
+    """Stays beside another robot against the posterior predictive.
+
+    A normal tail of the stays on steps with another robot within one cell, its variance
+    inflated by the record's dispersion.
+
+    Parameters
+    ----------
+    stayed : ndarray of bool, shape (n,)
+        Whether the robot stayed put.
+    near : ndarray of bool, shape (n,)
+        Whether another robot was seen within one cell.
+    q : ndarray of shape (r, n)
+        Each step's probability of staying put under r posterior draws.
+    dispersion : float, default 1
+        The record's variance inflation.
+
+    Returns
+    -------
+    Check
+        ``"jams"``; its misfit steps are the stays beside another robot.
+    """
+    stayed, near = np.asarray(stayed, dtype=bool), np.asarray(near, dtype=bool)
+    k = int((stayed & near).sum())
+    if k == 0:
+        return Check("jams", True, 1.0)
+    qn = np.atleast_2d(q)[:, near]
+    mean, var = qn.sum(axis=1), (qn * (1 - qn)).sum(axis=1) * dispersion
+    p = float(ndtr(-(k - 0.5 - mean) / np.sqrt(np.maximum(var, 1e-12))).mean())
+    if p >= ALPHA:
+        return Check("jams", True, p)
+    reason = (
+        f"stood still on {k} of {int(near.sum())} steps beside another robot, where its "
+        f"failures explain about {float(mean.mean()):.0f} (p = {p:.1g}): robots jammed"
+    )
+    return Check("jams", False, p, reason, "", np.flatnonzero(stayed & near))
+
+
+def held_back(
+    stayed: np.ndarray, held: np.ndarray, labels: np.ndarray, dispersion: float = 1.0
+) -> Check:
+    """Whether a robot stays put more often with another robot in its way than without.
+
+    A one-sided Mantel–Haenszel test over the steps' labels (Mantel & Haenszel 1959), its
+    variance inflated by the record's dispersion: physical robots in each other's cell or cell
+    ahead block or push each other; on a grid they do not, and those steps are evidence like
+    any other.
+
+    Parameters
+    ----------
+    stayed : ndarray of bool, shape (n,)
+        Whether the robot stayed put.
+    held : ndarray of bool, shape (n,)
+        Whether another robot was seen in its cell or the cell ahead.
+    labels : ndarray of int, shape (n,)
+        The steps' labels (the strata).
+    dispersion : float, default 1
+        The record's variance inflation.
+
+    Returns
+    -------
+    Check
+        ``"in the way"``; when it fails, its misfit steps are the held steps.
+    """
+    stayed, held = np.asarray(stayed, dtype=bool), np.asarray(held, dtype=bool)
+    labels = np.asarray(labels, dtype=int)
+    if not held.any() or held.all():
+        return Check("in the way", True, 1.0)
+    observed = expected = variance = 0.0
+    for a in np.unique(labels):
+        m = labels == a
+        n, n_held, k = m.sum(), (m & held).sum(), (m & stayed).sum()
+        if n < 2 or n_held in (0, n):
+            continue
+        observed += (m & held & stayed).sum()
+        expected += n_held * k / n
+        variance += n_held * (n - n_held) * k * (n - k) / (n**2 * (n - 1))
+    if variance <= 0:
+        return Check("in the way", True, 1.0)
+    p = float(ndtr(-(observed - expected - 0.5) / np.sqrt(dispersion * variance)))
+    if p >= ALPHA:
+        return Check("in the way", True, p)
+    reason = (
+        f"stayed put on {observed:.0f} of {int(held.sum())} steps with another robot in its "
+        f"cell or the cell ahead, where {expected:.0f} were its own doing (p = {p:.1g})"
+    )
+    return Check("in the way", False, p, reason, "", np.flatnonzero(held))
+
+
+# ---- the kinds of moves -------------------------------------------------------------------------
+MOVE_KINDS = ("forward", "turn", "stay")
+"""The kinds of move the moves check counts: the intended states of forward, of either turn,
+and staying put (which a forward step into a wall is too)."""
+
+
+def check_moves(
+    observed: np.ndarray,
+    probabilities: np.ndarray,
+    dispersion: float = 1.0,
+    min_share: float = MOVES_SHARE,
+) -> Check:
+    """The record's counts of each kind of move against the posterior predictive.
+
+    For a draw, the counts of a record drawn from it have mean E = Σ_t q_t and covariance
+    φ Σ_t (diag q_t − q_t q_tᵀ), and the record's Mahalanobis distance from E is χ² with k − 1
+    degrees of freedom (the central limit theorem); p is its tail averaged over the draws. The
+    check fails when p is below :data:`ALPHA` and the counts are off by at least ``min_share`` of
+    the steps (half the sum of the kinds' differences): on a long record a few mislabelled steps
+    are significant and harmless.
+
+    Parameters
+    ----------
+    observed : ndarray of int, shape (n,)
+        Each step's kind, an index into :data:`MOVE_KINDS`.
+    probabilities : ndarray of shape (r, n, k)
+        The probability of each kind at each step under r posterior draws.
+    dispersion : float, default 1
+        The record's variance inflation φ.
+    min_share : float, default :data:`MOVES_SHARE`
+        How far off the counts must be, as a share of the steps.
+
+    Returns
+    -------
+    Check
+        ``"moves"``.
+    """
+    observed = np.asarray(observed, dtype=int)
+    q = np.asarray(probabilities, dtype=float)
+    r, n, k = q.shape
+    if n == 0 or r == 0:
+        return Check("moves", True, 1.0)
+    q = q / np.maximum(q.sum(axis=2, keepdims=True), 1e-300)
+    counts = np.bincount(observed, minlength=k)[:k].astype(float)
+    expected = q.sum(axis=1)  # (r, k)
+    cov = np.einsum("rnk,kl->rkl", q, np.eye(k)) - np.einsum("rnk,rnl->rkl", q, q)
+    cov = dispersion * cov + 1e-6 * np.eye(k)
+    diff = counts[None, :] - expected
+    d2 = np.einsum("rk,rk->r", diff, np.linalg.solve(cov, diff[:, :, None])[:, :, 0])
+    p = float(chdtrc(k - 1, d2).mean())
+    mean = expected.mean(axis=0)
+    if p >= ALPHA or 0.5 * np.abs(counts - mean).sum() < min_share * n:
+        return Check("moves", True, p)
+    far = int(np.argmax(np.abs(counts - mean) / np.sqrt(np.maximum(mean, 1))))
+    reason = (
+        f"{_kind_words(far)} on {counts[far]:.0f} of {n} steps where L's policy and models "
+        f"expect about {mean[far]:.0f} (p = {p:.1g}): L's policy does not say what the robot "
+        "meant to do"
+    )
+    return Check("moves", False, p, reason)
+
+
+def _kind_words(kind: int) -> str:
+    return ("moved forward", "turned", "stayed put")[kind]
+
+
+# ---- few trials ---------------------------------------------------------------------------------
+def check_pinned(
+    probabilities: Mapping[str, float],
+    counts: Sequence[tuple[Sequence[str], float, float]],
+    *,
+    min_trials: int = PINNED_TRIALS,
+) -> Check:
+    """Eq. 4's estimates pinned at 0 by few trials.
+
+    Parameters
+    ----------
+    probabilities : mapping of str to float
+        Eq. 4's feature probabilities.
+    counts : sequence of (subset, successes, trials)
+        The labelled steps' pooled counts.
+    min_trials : int, default :data:`PINNED_TRIALS`
+        Fewer trials than this of the subsets holding a feature do not pin it.
+
+    Returns
+    -------
+    Check
+        ``"few trials"``.
+    """
+    pinned = []
+    for f, p in probabilities.items():
+        if p > 0.005:
+            continue
+        trials = sum(n for sub, _, n in counts if f in sub)
+        if 0 < trials < min_trials:
+            pinned.append(f"{f.replace('_', ' ')} at {p:.0f} by {trials:g} trials")
+    if not pinned:
+        return Check("few trials", True)
+    return Check("few trials", False, None, "Eq. 4 pins " + ", ".join(pinned))
+
+
+def model_fit(checks: Sequence[Check], left_out: Mapping[str, int]) -> ModelFit:
+    """The record's fit from its checks and the steps left out of the evidence.
+
+    Parameters
+    ----------
+    checks : sequence of Check
+        The checks.
+    left_out : mapping of str to int
+        Steps left out, by reason.
+
+    Returns
+    -------
+    ModelFit
+        The fit.
+    """
+    return ModelFit(tuple(checks), dict(left_out))

@@ -1,0 +1,158 @@
+"""The parser built from the option types and tables: every flag's bound and choice is its
+option's, refused in one line that names the sub-command and the flag; an unknown flag, method,
+world, experiment or sub-command gets the nearest known one; help lists every experiment."""
+
+from __future__ import annotations
+
+import pytest
+
+from mirl.cli import main
+from mirl.cli.parser import build_parser
+from mirl.experiments.conditions import EXPERIMENTS, experiment_names
+from mirl.experiments.options import RunProtocol, SweepOptions
+from mirl.learning.options import LearnOptions
+
+LEARN = ["learn", "--scenario", "boyd2", "--observations", "o.csv"]
+EXPERIMENT = ["experiment", "selftest", "--out", "unused"]
+
+# (argv, the one line's text after "mirl COMMAND: error: ")
+FLAG_ERRORS = [
+    (["run", "--obs-steps", "0"], "argument --obs-steps: must be an integer in [1, 10000], got 0"),
+    (["run", "--obs-steps", "x"], "argument --obs-steps: 'x' is not an integer"),
+    (["run", "--watch-until-seen", "0"], "argument --watch-until-seen: must be an integer in [1, "),
+    (["run", "--max-wait", "-1"], "argument --max-wait: must be an integer in [0, 10000], got -1"),
+    (["run", "--p", "1.5"], "argument --p: must be a number in [0, 1], got 1.5"),
+    (["run", "--go-rule", "adaptiv"], "argument --go-rule: unknown go rule 'adaptiv' (did you "
+     "mean 'adaptive'? known: adaptive, value)"),
+    (["run", "--em-init", "zeros"], "argument --em-init: unknown EM initialisation 'zeros' "
+     "(known: intended, uniform)"),
+    (["run", "--seed", "-1"], "argument --seed: must be an integer in [0, 2^63 - 1], got -1"),
+    (["run", "--method", "mirl_t"], "argument --method: unknown method 'mirl_t' (did you mean "
+     "'mirl-t' or 'mirl'? known: mirl-t, mirl, known-r-t, known-r, dbn-em, random, oracle)"),
+    (["run", "--world", "phisics"], "argument --world: unknown world 'phisics' (did you mean "
+     "'physics'? known: grid, physics)"),
+    ([*LEARN, "--max-iterations", "101"], "argument --max-iterations: must be an integer in [1, "
+     "100], got 101"),
+    ([*LEARN, "--label-tol", "nan"], "argument --label-tol: must be a number in [0, 1], got nan"),
+    ([*LEARN, "--objective", "count"], "argument --objective: unknown objective 'count' (did you "
+     "mean 'counts'? known: counts, likelihood, both, sequence)"),
+    ([*LEARN, "--optimizer", "nelder_mead"], "argument --optimizer: unknown optimizer "
+     "'nelder_mead' (did you mean 'nelder-mead'? known: nelder-mead, lbfgs)"),
+    ([*LEARN, "--method", "random"], "argument --method: unknown method 'random' (known: mirl-t, "
+     "mirl, known-r-t, known-r, dbn-em)"),
+    ([*EXPERIMENT, "--runs", "0"], "argument --runs: must be an integer in [1, 100000], got 0"),
+    ([*EXPERIMENT, "--workers", "2000"], "argument --workers: must be an integer in [1, 1024]"),
+    ([*EXPERIMENT, "--seed", "2e3"], "argument --seed: '2e3' is not an integer"),
+    ([*EXPERIMENT, "--progress-every", "0"], "argument --progress-every: must be an integer in "
+     "[1, 100000], got 0"),
+    ([*EXPERIMENT, "--dask-scheduler", "h:99999"], "argument --dask-scheduler: must be an address "
+     "HOST:PORT (e.g. tcp://127.0.0.1:8786), got 'h:99999'"),
+    ([*EXPERIMENT, "--world", "phisics"], "argument --world: unknown world 'phisics' (did you "
+     "mean 'physics'? known: grid, physics)"),
+    ([*EXPERIMENT, "--go-rule", "values"], "argument --go-rule: unknown go rule 'values' (did "
+     "you mean 'value'?"),
+    (["experiment", "fig4"], "argument NAME: unknown experiment 'fig4' (did you mean 'fig4"),
+    (["experiment", "fig9"], "argument NAME: unknown experiment 'fig9' (did you mean 'fig3'"),
+    (["run", "--sead", "3"], "unrecognized argument --sead (did you mean --seed?)"),
+    (["run", "--obs-stesp=3"], "unrecognized argument --obs-stesp=3 (did you mean --obs-steps?)"),
+    ([*LEARN, "--max-iteratoins", "3"], "unrecognized argument --max-iteratoins (did you mean "
+     "--max-iterations?)"),
+    (["run", "extra"], "unrecognized argument extra (see mirl run --help)"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("argv", "text"), FLAG_ERRORS, ids=[" ".join(a) for a, _ in FLAG_ERRORS])
+def test_a_bad_flag_is_one_line_naming_the_command_and_the_flag(capsys, argv, text):
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert lines[0].startswith(f"mirl {argv[0]}: error: {text}"), lines[0]
+
+
+def test_every_option_flag_that_takes_a_value_has_its_refusal_above():
+    tested = {a for argv, _ in FLAG_ERRORS for a in argv if a.startswith("--")}
+    for options in (LearnOptions, RunProtocol, SweepOptions):
+        for spec in options.__options__.values():
+            switch = isinstance(spec.default, bool)
+            if spec.flag is not None and not switch:
+                assert spec.flag in tested, spec.flag
+
+
+def test_an_unknown_command_gets_the_nearest(capsys):
+    with pytest.raises(SystemExit):
+        main(["rn"])
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("mirl: error: argument COMMAND: unknown command 'rn' (did you mean "
+                          "'run'? known: show-map, simulate,")  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("argv", "text"),
+    [
+        (["run", "--p", "0.5"], "--p applies to the methods mirl and known-r"),
+        (["run", "--method", "random", "--em-init", "uniform"], "--em-init applies to the method"),
+        (["run", "--watch-until-seen", "1801"], "--watch-until-seen must be at most max_obs_steps"),
+        (["run", "--obs-steps", "5", "--watch-until-seen", "3"], "--obs-steps (a fixed time)"),
+        (["experiment", "fig4b", "--em-init", "uniform"], "--em-init: experiment fig4b has no"),
+        (["experiment", "selftest", "--go-rule", "value"], "--go-rule: experiment selftest has no"),
+    ],
+)
+def test_options_that_cannot_work_together_are_refused_by_flag(capsys, argv, text):
+    assert main(argv) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"mirl {argv[0]}: error: {text}"), lines
+
+
+def _flags(command: str) -> dict:
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command").choices[command]
+    return {s: a for a in sub._actions for s in a.option_strings}
+
+
+@pytest.mark.parametrize(
+    ("command", "options"),
+    [
+        ("learn", LearnOptions),
+        ("run", RunProtocol),
+        ("run", LearnOptions),
+        ("experiment", SweepOptions),
+    ],
+)
+def test_each_flag_is_its_options_declaration(command, options):
+    flags = _flags(command)
+    for name, spec in options.__options__.items():
+        if spec.flag is None or spec.flag not in flags:
+            continue
+        action = flags[spec.flag]
+        assert action.dest == name
+        if spec.choices is not None:
+            assert tuple(action.choices) == spec.choices
+        if action.type is not None and action.default is not None:
+            assert action.default == spec.default  # the declared default, written once
+
+
+def test_the_flags_each_command_takes_from_the_options():
+    assert {"--p", "--max-iterations", "--label-tol", "--objective", "--optimizer",
+            "--em-init"} <= set(_flags("learn"))  # fmt: skip
+    assert {"--obs-steps", "--watch-until-seen", "--max-wait", "--go-rule", "--learn-once", "--p",
+            "--em-init"} <= set(_flags("run"))  # fmt: skip
+    assert {spec.flag for spec in SweepOptions.__options__.values()} <= set(_flags("experiment"))
+    # every option of learning with a flag is one of learn's, a new one included
+    flagged = {spec.flag for spec in LearnOptions.__options__.values() if spec.flag is not None}
+    assert flagged <= set(_flags("learn"))
+
+
+def test_experiment_help_lists_every_experiment(capsys):
+    with pytest.raises(SystemExit):
+        main(["experiment", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for name in experiment_names():
+        assert f"{name}: {' '.join(EXPERIMENTS[name].description.split())}" in text
+    assert "verdicts" in text and "selftest" not in text
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    top = " ".join(capsys.readouterr().out.split())
+    assert "`mirl experiment --help` lists them" in top

@@ -1,0 +1,97 @@
+"""The go rules as strategies: every row of the table loads one, and each decides as its rule
+says, checked against the planner called directly."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from mirl.experiments.go_rules import AdaptiveRule, Planning, ValueRule, Waiting
+from mirl.experiments.options import GO_RULES
+from mirl.learning.results import oracle_models
+from mirl.planning.belief import BeliefFilter
+from mirl.planning.go import solve_observer_mdp
+from mirl.planning.observer import observer_model
+from mirl.world.scenario import load_scenario
+from mirl.worlds import make_world
+
+
+def test_every_row_loads_a_strategy():
+    for row in GO_RULES.values():
+        rule = row.load()()
+        assert callable(rule.decide) and callable(rule.replan_penalty)
+    assert GO_RULES["value"].load() is ValueRule and GO_RULES["adaptive"].load() is AdaptiveRule
+    assert GO_RULES.names == ("adaptive", "value") and all(
+        r.description for r in GO_RULES.values()
+    )
+
+
+@dataclass
+class _Watcher:
+    belief: BeliefFilter
+    moments: tuple = ()
+
+    def chances(self, chance_at):
+        return [chance_at(t, b) for t, b in self.moments]
+
+
+@pytest.fixture(scope="module")
+def waiting():
+    sc = load_scenario("boyd2")
+    model = observer_model(sc)
+    world = make_world(
+        "grid", sc, model, observability=1.0, seed=4, noise=np.random.SeedSequence(1)
+    )
+    belief = BeliefFilter(sc.domain, oracle_models(sc), visible=world.visible)
+    for _ in range(79):
+        world.step()
+    for now in world.seen:
+        belief.update(now)
+    planning = Planning(
+        window=20, deadline=world.t + 60, travel=40, replan_every=10, commit=False,
+        hazard="markov", goal_reward=1.0, detection_penalty=0.5, opportunity_steps=10,
+        moment_travel=30,
+    )  # fmt: skip
+    return Waiting(world, _Watcher(belief), model, planning)
+
+
+def test_the_value_rule_goes_at_the_best_positive_value(waiting):
+    p = waiting.planning
+    decision = ValueRule().decide(waiting)
+    plan = solve_observer_mdp(
+        waiting.model, waiting.watcher.belief.predict(p.window + p.travel, waiting.model),
+        window=p.window, detection_penalty=p.detection_penalty, hazard=p.hazard,
+    )  # fmt: skip
+    np.testing.assert_allclose(decision.plan.go_values, plan.go_values)
+    expected = None if plan.go_time is None else waiting.world.t + plan.go_time
+    assert decision.go_time == expected
+    assert decision.attempt.best_value == pytest.approx(float(plan.go_values.max()))
+    assert decision.attempt.predicted_success is None  # the value rule states no chance
+    assert ValueRule().replan_penalty(p) == 0.5 and AdaptiveRule().replan_penalty(p) == 0.0
+
+
+def test_the_adaptive_rule_goes_at_the_deadline_and_states_its_chance(waiting):
+    at_deadline = Waiting(
+        waiting.world, waiting.watcher, waiting.model,
+        Planning(**{**waiting.planning.__dict__, "deadline": waiting.world.t}),
+    )  # fmt: skip
+    decision = AdaptiveRule().decide(at_deadline)
+    assert decision.go_time == waiting.world.t  # the window is empty: go now
+    assert 0.0 <= decision.attempt.predicted_success <= 1.0
+
+
+def test_the_adaptive_rule_weighs_going_now_against_the_chances_to_come(waiting):
+    """Here the window's best go time is now, with a chance below 1: with no chance stated yet
+    waiting is worth nothing and L goes; with sure chances to come it waits."""
+    decision = AdaptiveRule().decide(waiting)
+    assert decision.plan.go_time == 0 and decision.plan.go_values[0] < 1.0
+    assert decision.go_time == waiting.world.t
+    assert decision.attempt.predicted_success is not None
+    sure = _Watcher(waiting.watcher.belief)
+    sure.chances = lambda chance_at: [1.0]  # type: ignore[method-assign]
+    patient = Waiting(waiting.world, sure, waiting.model, waiting.planning)
+    decision = AdaptiveRule().decide(patient)
+    assert decision.go_time is None and decision.attempt.predicted_success is None
+    assert decision.next_round == waiting.world.t + waiting.planning.replan_every

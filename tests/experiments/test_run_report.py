@@ -1,0 +1,60 @@
+"""`mirl run`'s readable report: what its sentences claim is what the run holds."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from mirl.cli import main
+from mirl.experiments.run_report import _equilibrium_text
+from mirl.world.game import GAME_ACTIONS, Equilibrium, InteractionGame
+
+
+def _named_actions(sentence: str, robot: str) -> set[str]:
+    """The game actions the sentence says ``robot`` plays."""
+    part = next(p for p in re.split(r"[;:] ", sentence) if p.startswith(f"{robot} "))
+    return {a for a in GAME_ACTIONS if re.search(rf"\b{a}\b", part)}
+
+
+@pytest.mark.parametrize(
+    "eq",
+    [
+        *InteractionGame().equilibria(),  # the paper's game: two pure, one mixed (go or stop)
+        Equilibrium((0.5, 0.0, 0.5), (0.0, 0.25, 0.75)),  # go or turn / stop or turn
+        Equilibrium((1.0, 0.0, 0.0), (0.2, 0.3, 0.5)),  # a pure side against a mixed one
+    ],
+    ids=lambda eq: eq.label(),
+)
+def test_a_mixed_equilibrium_names_exactly_the_actions_each_robot_plays(eq):
+    sentence = _equilibrium_text(eq, "I", "J")
+    if eq.is_pure:
+        assert "mixed" not in sentence and sentence.startswith("when I and J meet")
+        return
+    for robot, strategy in (("I", eq.row), ("J", eq.col)):
+        played = {a for a, p in zip(GAME_ACTIONS, strategy, strict=True) if p > 0}
+        assert _named_actions(sentence, robot) == played, sentence
+        for a, p in zip(GAME_ACTIONS, strategy, strict=True):
+            if 0 < p < 1:
+                assert f"{a} with probability {p:.2f}" in sentence
+
+
+def test_the_paper_games_mixed_equilibrium_never_says_turn():
+    mixed = next(e for e in InteractionGame().equilibria() if not e.is_pure)
+    assert "turn" not in _equilibrium_text(mixed, "I", "J")
+
+
+def _cells(text: str, pattern: str) -> int:
+    return int(re.search(pattern, text)[1])
+
+
+def test_the_office_runs_header_and_show_map_count_the_same_cells(capsys):
+    """`show-map office` shows the floor the office scenario runs on (not the generated map the
+    bare name would also name), so the two commands count the same patroller cells."""
+    assert main(["show-map", "office"]) == 0
+    shown = _cells(capsys.readouterr().out, r"(\d+) patroller cells,")
+    code = main(["run", "--scenario", "office", "--method", "random", "--obs-steps", "10",
+                 "--max-wait", "5"])  # fmt: skip
+    assert code == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert shown == _cells(header, r"\(\d+/(\d+) cells\)") == 951

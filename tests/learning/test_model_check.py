@@ -1,0 +1,219 @@
+"""The model check before a verdict (mirl.learning.model_check): each check on small hand-made
+records, the stall tail against simulation, and what a failed check does to the verdict."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mirl.learning.model_check import (
+    ALPHA,
+    check_jams,
+    check_moves,
+    check_pinned,
+    check_stalls,
+    check_unexplained,
+    longest_run_tail,
+    stay_runs,
+)
+from mirl.learning.verdicts import RobotRecord, robot_uncertainty
+from mirl.world.domain import ACTIONS
+from mirl.world.scenario import load_scenario
+
+FORWARD, TURN_LEFT, STOP = (ACTIONS.index(a) for a in ("forward", "turn_left", "stop"))
+
+
+# ---- unexplained steps --------------------------------------------------------------------------
+def test_a_few_misread_steps_are_tolerated():
+    unexplained = np.zeros(400, dtype=bool)
+    unexplained[[10, 200, 300]] = True
+    assert check_unexplained(unexplained, np.zeros(400, dtype=bool)).ok
+
+
+def test_moves_across_two_cells_fail_and_say_what_fixes_them():
+    """13 of 81 moves span two cells (a tracker read at too long a step)."""
+    unexplained = np.zeros(81, dtype=bool)
+    unexplained[:13] = True
+    check = check_unexplained(unexplained, unexplained)
+    assert not check.ok and check.p_value < ALPHA
+    assert "13 of 81" in check.reason and "13 moved more than one cell" in check.reason
+    assert "`step_seconds`" in check.fix
+    assert check.misfit.tolist() == list(range(13))
+
+
+def test_other_unexplained_steps_fail_without_a_step_to_blame():
+    unexplained = np.zeros(100, dtype=bool)
+    unexplained[::5] = True
+    check = check_unexplained(unexplained, np.zeros(100, dtype=bool))
+    assert not check.ok and check.fix == ""
+
+
+# ---- stalls -------------------------------------------------------------------------------------
+def test_stay_runs_follow_consecutive_times():
+    t = np.array([0, 1, 2, 3, 5, 6, 7])
+    stayed = np.array([1, 1, 0, 1, 1, 1, 0], dtype=bool)
+    runs = stay_runs(t, stayed)
+    assert [r.tolist() for r in runs] == [[0, 1], [3], [4, 5]]
+
+
+@pytest.mark.parametrize(("q", "rho", "length"), [(0.3, 0.0, 6), (0.3, 0.4, 8), (0.05, 0.0, 4)])
+def test_the_longest_run_tail_matches_simulation(q, rho, length):
+    """The Poisson clumping approximation of P(a run of at least ``length`` stays) against a
+    two-state Markov chain simulated 20 000 times, with a gap in the record."""
+    rng = np.random.default_rng(0)
+    n = 300
+    t = np.arange(n)
+    t[150:] += 5
+    hits, reps = 0, 20000
+    stays = np.zeros((reps, n), dtype=bool)
+    for i in range(n):
+        p = np.full(reps, q)
+        if i and t[i] == t[i - 1] + 1:
+            p = np.where(stays[:, i - 1], q + rho * (1 - q), q * (1 - rho))
+        stays[:, i] = rng.random(reps) < p
+    for row in stays:
+        hits += max((len(r) for r in stay_runs(t, row)), default=0) >= length
+    approx = longest_run_tail(np.full((1, n), q), t, length, rho)[0]
+    assert approx == pytest.approx(hits / reps, abs=0.01 + 0.05 * hits / reps)
+
+
+def test_a_stall_no_failure_rate_explains_fails_and_its_steps_are_misfit():
+    """A robot that stays put on 5 % of its steps, then stands still for 12 in a row."""
+    rng = np.random.default_rng(1)
+    n = 400
+    t = np.arange(n)
+    stayed = rng.random(n) < 0.05
+    stayed[200:212] = True
+    q = np.full((50, n), 0.05)
+    check, limit = check_stalls(t, stayed, q)
+    assert not check.ok and "12 steps in a row" in check.reason
+    assert set(range(200, 212)) <= set(check.misfit.tolist())
+    assert 2 <= limit <= 12
+    ok, _ = check_stalls(t, rng.random(n) < 0.05, q)
+    assert ok.ok
+
+
+def test_a_weak_robot_may_stall_a_while():
+    """Half its forward steps fail: a run of 8 stays in 400 steps is nothing unusual."""
+    t = np.arange(400)
+    stayed = np.zeros(400, dtype=bool)
+    stayed[::2] = True
+    stayed[100:108] = True
+    assert check_stalls(t, stayed, np.full((50, 400), 0.5))[0].ok
+
+
+# ---- jams ---------------------------------------------------------------------------------------
+def test_stays_beside_another_robot_are_a_jam():
+    n = 300
+    stayed = np.zeros(n, dtype=bool)
+    near = np.zeros(n, dtype=bool)
+    near[100:140] = True
+    stayed[100:130] = True  # 30 of 40 steps beside another robot
+    stayed[::50] = True
+    check = check_jams(stayed, near, np.full((50, n), 0.05))
+    assert not check.ok and "beside another robot" in check.reason
+    assert set(check.misfit.tolist()) == set(np.flatnonzero(stayed & near).tolist())
+
+
+def test_stays_as_frequent_beside_another_robot_are_no_jam():
+    rng = np.random.default_rng(2)
+    stayed = rng.random(300) < 0.1
+    near = rng.random(300) < 0.3
+    assert check_jams(stayed, near, np.full((50, 300), 0.1)).ok
+
+
+# ---- moves --------------------------------------------------------------------------------------
+def _kinds(rng, probs, n):
+    return rng.choice(len(probs), size=n, p=probs)
+
+
+def test_moves_the_policy_predicts_fit():
+    rng = np.random.default_rng(3)
+    probs = np.array([0.8, 0.1, 0.1])
+    q = np.broadcast_to(probs, (20, 400, 3))
+    assert check_moves(_kinds(rng, probs, 400), q).ok
+
+
+def test_moves_the_policy_does_not_predict_fail():
+    """L's policy says the robot stops on 60 % of its steps; it moves forward on 60 %."""
+    rng = np.random.default_rng(4)
+    observed = _kinds(rng, np.array([0.6, 0.1, 0.3]), 400)
+    q = np.broadcast_to(np.array([0.3, 0.1, 0.6]), (20, 400, 3))
+    check = check_moves(observed, q)
+    assert not check.ok and "L's policy does not say" in check.reason
+
+
+def test_a_significant_but_small_mismatch_passes():
+    """Off by 2 % of a long record's steps: significant, and too small to move a part across
+    the damage margin."""
+    observed = np.array([0] * 9300 + [1] * 500 + [2] * 200)
+    q = np.broadcast_to(np.array([0.91, 0.05, 0.04]), (20, 10000, 3))
+    check = check_moves(observed, q)
+    assert check.p_value < ALPHA and check.ok
+
+
+# ---- few trials ---------------------------------------------------------------------------------
+def test_a_feature_pinned_by_few_trials_fails():
+    counts = [(("navigation", "floor"), 0, 3), (("floor",), 40, 40)]
+    check = check_pinned({"navigation": 0.0, "floor": 1.0}, counts)
+    assert not check.ok and "navigation at 0 by 3 trials" in check.reason
+    assert check_pinned({"navigation": 0.0, "floor": 1.0}, [(("navigation",), 0, 30)]).ok
+    assert check_pinned({"navigation": 0.6}, [(("navigation",), 2, 3)]).ok
+    # a healthy part at 1 on a short record claims nothing
+    assert check_pinned({"floor": 1.0}, [(("floor",), 3, 3)]).ok
+
+
+# ---- what a failed check does to the verdict -----------------------------------------------------
+def _long_step_record():
+    """A robot read at twice its step: many of its moves span two cells."""
+    scenario = load_scenario("boyd2-healthy")
+    from mirl.simulation.grid import simulate
+
+    sim = simulate(scenario, 600, seed=0, observability=1.0, random_starts=True)
+    x = sim.observations.state_series(scenario.domain, 0)[::2]
+    labels = np.where(x >= 0, scenario.true_policy(0)[np.maximum(x, 0)], -1)
+    return scenario, x, labels
+
+
+def test_a_record_that_does_not_fit_gets_no_confident_verdict():
+    scenario, x, labels = _long_step_record()
+    d = scenario.domain
+    probs = scenario.robots[0].feature_probabilities
+    u = robot_uncertainty(d, RobotRecord(x, labels), probs, scenario.faults)
+    fit = u.verdict.fit
+    assert not fit.ok and "moved more than one cell" in fit.reason
+    assert "`step_seconds`" in fit.fix
+    assert u.verdict.confidence < 0.9
+    assert "does not fit L's motion models" in u.verdict.sentence("I")
+    # the unexplained steps are left out of the evidence, never counted as failures
+    assert fit.left_out["explained by no action"] == sum(
+        c.misfit.size for c in fit.checks if c.name == "unexplained"
+    )
+    record = fit.to_dict()
+    assert record["ok"] is False and record["reason"] == fit.reason
+
+
+def test_a_record_that_fits_passes_every_check():
+    scenario = load_scenario("boyd2")
+    from mirl.simulation.grid import simulate
+
+    sim = simulate(scenario, 450, seed=0, observability=1.0, random_starts=True)
+    d = scenario.domain
+    for i in range(2):
+        x = sim.observations.state_series(d, i)
+        labels = np.where(x >= 0, scenario.true_policy(i)[np.maximum(x, 0)], -1)
+        probs = scenario.robots[i].feature_probabilities
+        u = robot_uncertainty(d, RobotRecord(x, labels), probs, scenario.faults)
+        assert u.verdict.fit.ok, u.verdict.fit.reason
+
+
+def test_a_robot_never_seen_moving_gets_no_verdict():
+    scenario = load_scenario("boyd2")
+    d = scenario.domain
+    x = np.full(50, -1)
+    x[[3, 10, 20]] = d.state_index(0, 3, 0)  # seen, never at two consecutive steps
+    u = robot_uncertainty(d, RobotRecord(x, np.full(50, -1)), {}, scenario.faults)
+    v = u.verdict
+    assert not v.seen_moving and not v.names_damage
+    assert v.sentence("J") == "L never saw J move: no verdict on its parts"
+    assert v.to_dict()["seen_moving"] is False and v.to_dict()["fit"]["ok"] is False

@@ -1,0 +1,100 @@
+"""``step_seconds="auto"``: the robots' own pace (mirl.observations.discretise.auto_step_seconds)
+on tracks that move in jumps, tracks that move smoothly, and tracks too noisy to tell."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mirl.cli import main
+from mirl.observations.discretise import (
+    AUTO_LONG_MOVES,
+    auto_step_seconds,
+    discretise,
+    poses_from_trajectories,
+)
+from mirl.observations.poses import PoseTracks, write_pose_csv
+from mirl.observations.sources import load_observations
+from mirl.simulation.grid import simulate
+from mirl.world.scenario import load_scenario
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario("boyd2")
+
+
+@pytest.mark.parametrize("step", [2.0, 1.5, 3.0])
+@pytest.mark.parametrize("degree", [0.14, 1.0])
+def test_a_track_in_jumps_is_read_at_its_period(scenario, step, degree):
+    """Poses written from grid states (10 Hz, 5 cm / 3° noise) at ``step`` seconds a step: the
+    auto step is that step, and the record read at it is the grid record."""
+    obs = simulate(scenario, 300, seed=1, observability=degree, random_starts=True).observations
+    tracks = poses_from_trajectories(
+        obs, scenario, step_seconds=step, sigma_xy=0.05, sigma_yaw_degrees=3.0, seed=1
+    )
+    auto = auto_step_seconds(tracks, scenario, start_time=0.0)
+    assert auto.found and auto.seconds == pytest.approx(step)
+    d = discretise(tracks, scenario, step_seconds="auto", start_time=0.0, n_steps=obs.horizon)
+    assert d.step_seconds == pytest.approx(step) and d.auto_step == auto
+    back = d.trajectories
+    assert np.array_equal(back.t, obs.t) and np.array_equal(back.row, obs.row)
+    assert "the robots' pace" in d.summary()
+
+
+def _smooth_track(scenario, speed: float, seconds: float = 600.0) -> PoseTracks:
+    """One robot driving the top hallway of boyd2 back and forth at ``speed`` cells a second,
+    turning round in place at its ends, tracked at 20 Hz."""
+    frame = scenario.map.frame
+    cells = [c for c in range(scenario.map.shape[1]) if scenario.map.patroller[0, c]]
+    lo, hi = min(cells), max(cells)
+    t = np.arange(0.0, seconds, 0.05)
+    length = hi - lo
+    phase = np.mod(t * speed, 2 * length)
+    col = lo + np.where(phase < length, phase, 2 * length - phase)
+    yaw = np.where(phase < length, 0.0, np.pi)
+    x, y = frame.cell_centre(np.zeros_like(col), col)
+    return PoseTracks(("I",), t, np.zeros(len(t), dtype=int), x, y, yaw)
+
+
+@pytest.mark.parametrize(("speed", "pace"), [(0.5, 2.0), (0.25, 4.0), (1.0, 1.0)])
+def test_a_smooth_track_is_read_where_a_move_is_one_cell(scenario, speed, pace):
+    """A robot at ``speed`` cells a second: the longest step at which its moves stay within one
+    cell is one cell's time, 1 / speed (within the steps tried)."""
+    auto = auto_step_seconds(_smooth_track(scenario, speed), scenario)
+    assert auto.found and auto.long_moves <= AUTO_LONG_MOVES
+    assert auto.seconds == pytest.approx(pace, abs=0.051)
+
+
+def test_a_track_too_noisy_for_any_step_gets_the_papers(scenario):
+    obs = simulate(scenario, 300, seed=0, observability=1.0, random_starts=True).observations
+    tracks = poses_from_trajectories(obs, scenario, sigma_xy=0.6, sigma_yaw_degrees=30, seed=0)
+    auto = auto_step_seconds(tracks, scenario)
+    assert not auto.found and auto.seconds == 2.0
+    assert "the paper's 2 s" in auto.sentence()
+
+
+def test_robot_data_are_read_at_their_pace_by_default(scenario, tmp_path):
+    obs = simulate(scenario, 200, seed=2, observability=1.0, random_starts=True).observations
+    path = tmp_path / "poses.csv"
+    write_pose_csv(poses_from_trajectories(obs, scenario, step_seconds=1.5, seed=2), path)
+    loaded = load_observations(path, scenario, start_time=0.0)
+    assert loaded.discretised.step_seconds == pytest.approx(1.5)
+    fixed = load_observations(path, scenario, step_seconds=2.0, start_time=0.0)
+    assert fixed.discretised.step_seconds == 2.0 and fixed.discretised.auto_step is None
+
+
+def test_the_command_line_takes_auto_and_says_what_it_chose(scenario, tmp_path, capsys):
+    obs = simulate(scenario, 200, seed=2, observability=1.0, random_starts=True).observations
+    path = tmp_path / "poses.csv"
+    write_pose_csv(poses_from_trajectories(obs, scenario, step_seconds=1.5, seed=2), path)
+    for flags in ([], ["--step-seconds", "auto"]):
+        code = main(["convert", str(path), str(tmp_path / "grid.csv"), "--scenario", "boyd2",
+                     "--start-time", "0", *flags])  # fmt: skip
+        out = capsys.readouterr().out
+        assert code == 0 and "steps of 1.5 s" in out and "the robots' pace" in out
+    with pytest.raises(SystemExit) as refused:
+        main(["convert", str(path), str(tmp_path / "grid.csv"), "--scenario", "boyd2",
+              "--step-seconds", "fast"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and "--step-seconds" in err and "or auto" in err
