@@ -130,9 +130,14 @@ def test_feature_draws_match_the_exact_posterior_of_the_floor():
     cdf = np.cumsum(w)
     for q in (0.1, 0.5, 0.9):
         assert np.quantile(floor, q) == pytest.approx(p[np.searchsorted(cdf, q)], abs=0.03)
-    # a feature no step tells about keeps its prior: healthy (Beta around 0.95) w.p. 0.8
-    wheel = np.array([d["left_wheel"] for d in draws])
-    assert wheel.mean() == pytest.approx(0.8 * 0.95 + 0.2 * 0.5, abs=0.02)
+    # a feature no step tells about keeps its prior: healthy (Beta around 0.95) w.p. 0.8; the
+    # sampler's draws of it are correlated (its moves mix the prior's two parts slowly), so the
+    # mean is taken over several seeds' draws
+    wheel = [
+        np.mean([d["left_wheel"] for d in _feature_draws(sc, robot, 4000, seed, soften=False)])
+        for seed in range(1, 7)
+    ]
+    assert np.mean(wheel) == pytest.approx(0.8 * 0.95 + 0.2 * 0.5, abs=0.02)
 
 
 def test_the_averaged_chance_is_the_posterior_predictive_chance():

@@ -39,12 +39,12 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from mirl.learning.equilibria import potential_meetings
-from mirl.learning.irl import OccludedMaxEntIRL
+from mirl.learning.irl import IRLProblem, OccludedMaxEntIRL
 from mirl.learning.methods import get_method
 from mirl.learning.results import LearnResult, RobotModel
 from mirl.learning.soft_policy import soft_policy_iteration
 from mirl.learning.transitions import observed_steps, perception_labels, policy_labels
-from mirl.learning.verdicts import failure_dispersion, posterior_draws, soft_counts
+from mirl.learning.verdicts import failure_dispersion, posterior_draws
 from mirl.mdp import TabularMDP, value_iteration
 from mirl.world.motion import transition_matrix
 from mirl.world.scenario import Scenario
@@ -282,6 +282,68 @@ def _labels(
     return policy_labels(scenario.domain, series, policies, learned.equilibrium)
 
 
+# The pooled counts the feature posterior is drawn from: each labelled step spread over the
+# actions that could have produced it. The verdicts weigh steps under every candidate motion
+# model instead (mirl.learning.verdicts.robot_uncertainty); a draw of T here needs one T per
+# draw under the scenario's motion model, which the pooled counts under that model give.
+def _soft_counts(
+    domain,
+    s: np.ndarray,
+    labels: np.ndarray,
+    s_next: np.ndarray,
+    transitions: sp.csr_array | None = None,
+    soft_policy: np.ndarray | None = None,
+    own_policy: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Successes and trials per subset of ``domain.subsets`` (floats), each labelled step
+    spread over the actions by P(a | s, s') ∝ π(a | s) T(s, a, s').
+
+    Without ``soft_policy`` (labels from perception or a known policy) the labels count as
+    they are. Steps whose label is not ``own_policy``'s action (the meeting rule's) and
+    unlabelled steps (-1, left out) keep their labels too — unless T says the label cannot have
+    produced the step (T(s, a, s') = 0: under the ``stop`` error model, a "stop" after which
+    the robot moved): such a step is spread over the actions that can, by π(a | s) T(s, a, s'),
+    π the soft policy or, without one, uniform. A label T cannot explain is a wrong label, not
+    a failure of its features; a step no action explains keeps its label.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+    s, labels, s_next : ndarray of shape (n,)
+        Observed steps and their labels (-1: unlabelled).
+    transitions : sparse array of shape (S·A, S), optional
+        The learned T the labels were last learned with.
+    soft_policy : ndarray of shape (S, A), optional
+        The learned maximum-entropy policy.
+    own_policy : ndarray of shape (S,), optional
+        The greedy policy the labels came from.
+    """
+    s, labels, s_next = (np.asarray(v, dtype=int) for v in (s, labels, s_next))
+    keep = labels >= 0
+    s, labels, s_next = s[keep], labels[keep], s_next[keep]
+    A, n_sub = domain.n_actions, len(domain.subsets)
+    resp = np.zeros((len(s), A))
+    resp[np.arange(len(s)), labels] = 1.0
+    if transitions is not None and len(s):
+        rows = (s[:, None] * A + np.arange(A)[None, :]).ravel()
+        cols = np.repeat(s_next, A)
+        lik = np.asarray(sp.csr_array(transitions)[rows, cols]).reshape(len(s), A)
+        prior = np.full((len(s), A), 1.0 / A) if soft_policy is None else soft_policy[s]
+        joint = np.asarray(prior) * lik
+        total = joint.sum(axis=1)
+        soft = np.zeros(len(s), dtype=bool)
+        if soft_policy is not None:
+            soft[:] = True if own_policy is None else np.asarray(own_policy)[s] == labels
+        soft |= lik[np.arange(len(s)), labels] <= 0  # a label T cannot explain
+        soft &= total > 0
+        resp[soft] = joint[soft] / total[soft, None]
+    idx = domain.subset_index[s]  # (n, A)
+    hit = domain.intended[s] == s_next[:, None]  # (n, A)
+    trials = np.bincount(idx.ravel(), weights=resp.ravel(), minlength=n_sub)
+    successes = np.bincount(idx.ravel(), weights=(resp * hit).ravel(), minlength=n_sub)
+    return successes, trials
+
+
 def _feature_draws(
     scenario: Scenario, robot: _Robot, n_draws: int, seed: int, soften: bool
 ) -> list[dict[str, float]]:
@@ -298,7 +360,7 @@ def _feature_draws(
     if len(t) and soften:
         R = domain.rewards(np.asarray(m.weights, dtype=float).tolist())
         _, _, soft, _ = soft_policy_iteration(m.transitions, R, scenario.discount)
-    successes, trials = soft_counts(domain, s, lab, s_next, m.transitions, soft, m.policy)
+    successes, trials = _soft_counts(domain, s, lab, s_next, m.transitions, soft, m.policy)
     dispersion = (
         failure_dispersion(domain, t, s, lab, s_next, m.feature_probabilities)
         if m.feature_probabilities
@@ -371,11 +433,11 @@ def _bootstrap_rewards(scenario, robot: _Robot, Ts, exclude, visible, options, r
         if not (x >= 0).any():
             out.append(np.asarray(robot.model.weights, dtype=float))
             continue
-        irl = OccludedMaxEntIRL(
-            domain.reward_features, T, discount=scenario.discount, visible=visible,
-            **{**options, "n_restarts": 1},
-        )  # fmt: skip
-        irl.fit(x, exclude=ex, initial_weights=np.asarray(robot.model.weights, dtype=float))
+        problem = IRLProblem(domain.reward_features, T, scenario.discount, visible)
+        irl = OccludedMaxEntIRL(**{**options, "n_restarts": 1})
+        irl.fit(
+            problem, x, exclude=ex, initial_weights=np.asarray(robot.model.weights, dtype=float)
+        )
         out.append(irl.weights_)
     return out
 
@@ -384,11 +446,9 @@ def _total_loss(scenario, T, series, exclude, visible, options):
     """The IRL's negative log-posterior of one record as a function of θ, with its gradient
     (``loss(θ)``; ``loss(θ, False)``: the value alone): the estimator's loss times the steps it
     is averaged over (the loss is per step)."""
-    irl = OccludedMaxEntIRL(
-        scenario.domain.reward_features, T, discount=scenario.discount, visible=visible,
-        **{**options, "n_restarts": 1},
-    )  # fmt: skip
-    irl._prepare(series, None, exclude)
+    problem = IRLProblem(scenario.domain.reward_features, T, scenario.discount, visible)
+    irl = OccludedMaxEntIRL(**{**options, "n_restarts": 1})
+    irl._prepare(problem, series, None, exclude)
 
     def loss(theta, grad=True):
         if not grad:
