@@ -8,13 +8,18 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from mirl.experiments.go_rules import AdaptiveRule, Planning, ValueRule, Waiting
+from mirl.experiments.go_rules import (
+    AdaptiveRule,
+    Planning,
+    ValueRule,
+    Waiting,
+)
 from mirl.experiments.options import GO_RULES
-from mirl.learning.results import oracle_models
+from mirl.learning.results import LearnResult, oracle_models
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.go import solve_observer_mdp
 from mirl.planning.observer import observer_model
-from mirl.world.scenario import load_scenario
+from mirl.world.scenario import Scenario, load_scenario
 from mirl.worlds import make_world
 
 
@@ -31,6 +36,9 @@ def test_every_row_loads_a_strategy():
 @dataclass
 class _Watcher:
     belief: BeliefFilter
+    learned: LearnResult
+    scenario: Scenario
+    visible: np.ndarray | None = None
     moments: tuple = ()
 
     def chances(self, chance_at):
@@ -44,7 +52,8 @@ def waiting():
     world = make_world(
         "grid", sc, model, observability=1.0, seed=4, noise=np.random.SeedSequence(1)
     )
-    belief = BeliefFilter(sc.domain, oracle_models(sc), visible=world.visible)
+    truth = oracle_models(sc)
+    belief = BeliefFilter(sc.domain, truth, visible=world.visible)
     for _ in range(79):
         world.step()
     for now in world.seen:
@@ -54,7 +63,7 @@ def waiting():
         hazard="markov", goal_reward=1.0, detection_penalty=0.5, opportunity_steps=10,
         moment_travel=30,
     )  # fmt: skip
-    return Waiting(world, _Watcher(belief), model, planning)
+    return Waiting(world, _Watcher(belief, truth, sc, world.visible), model, planning)
 
 
 def test_the_value_rule_goes_at_the_best_positive_value(waiting):
@@ -89,9 +98,17 @@ def test_the_adaptive_rule_weighs_going_now_against_the_chances_to_come(waiting)
     assert decision.plan.go_time == 0 and decision.plan.go_values[0] < 1.0
     assert decision.go_time == waiting.world.t
     assert decision.attempt.predicted_success is not None
-    sure = _Watcher(waiting.watcher.belief)
+    sure = _Watcher(waiting.watcher.belief, waiting.watcher.learned, waiting.watcher.scenario)
     sure.chances = lambda chance_at: [1.0]  # type: ignore[method-assign]
     patient = Waiting(waiting.world, sure, waiting.model, waiting.planning)
     decision = AdaptiveRule().decide(patient)
     assert decision.go_time is None and decision.attempt.predicted_success is None
     assert decision.next_round == waiting.world.t + waiting.planning.replan_every
+
+
+def test_the_oracles_stated_chance_is_its_exact_chance_with_no_spread(waiting):
+    # true models have no posterior to draw from: the stated chance is the exact one
+    decision = AdaptiveRule().decide(waiting)
+    a = decision.attempt
+    assert a.predicted_success == a.predicted_success_point
+    assert a.predicted_success_interval == (a.predicted_success, a.predicted_success)

@@ -69,3 +69,54 @@ def test_the_averaged_prediction_is_the_rows_mean(record):
     assert mean.steps == 20 and mean.t0 == a.t0
     assert np.allclose(mean.hazard_rows(3, 9), (a.hazard[3:9] + b.hazard[3:9]) / 2)
     assert np.allclose(mean.detection_rows(0, 20), (a.detection[:20] + b.detection[:20]) / 2)
+
+
+def _team_with_floor(sc, models, floor: float):
+    """``models`` with every robot's T remade with its floor feature at ``floor``."""
+    from dataclasses import replace
+
+    from mirl.world.motion import transition_matrix
+
+    robots = []
+    for r in models.robots:
+        probs = {**r.feature_probabilities, "floor": floor}
+        robots.append(replace(r, transitions=transition_matrix(sc.domain, probs, sc.error_model),
+                              feature_probabilities=probs))  # fmt: skip
+    return replace(models, robots=tuple(robots))
+
+
+def test_the_stated_chance_is_the_point_chance_plus_each_draws_shift(record):
+    """Against the per-draw chances computed directly: each draw's factored chance less the
+    point models' factored chance, added to the point models' exact chance; mean and 5–95 %
+    quantiles of those."""
+    sc, seen, visible = record
+    truth = oracle_models(sc)
+    model = observer_model(sc)
+    draws = [_team_with_floor(sc, truth, f) for f in (0.6, 0.8, 0.95, 0.99)]
+    point = _filter(sc, truth, seen, visible, True)
+    plan = solve_observer_mdp(model, point.predict(40, model), window=0, detection_penalty=0.0)
+    exact = success_probability(point, model, plan, extra=10).success
+    beliefs = PosteriorBeliefs(sc.domain, draws, visible=visible, joint=False, reference=truth)
+    beliefs.run(seen)
+    stated = beliefs.stated(exact, model, plan, extra=10)
+    base = success_probability(_filter(sc, truth, seen, visible, False), model, plan, extra=10)
+    direct = np.clip(
+        [
+            exact + success_probability(_filter(sc, d, seen, visible, False), model, plan,
+                                        extra=10).success - base.success
+            for d in draws
+        ],
+        0.0, 1.0,
+    )  # fmt: skip
+    assert stated.draws == pytest.approx(direct, abs=1e-12)
+    assert stated.mean == pytest.approx(direct.mean(), abs=1e-12)
+    assert stated.interval == pytest.approx(np.quantile(direct, [0.05, 0.95]), abs=1e-12)
+    assert stated.interval[0] <= stated.mean <= stated.interval[1] and stated.point == exact
+    assert len(set(np.round(direct, 9))) > 1  # the floors move the chance: a real spread
+
+
+def test_true_models_have_no_posterior_to_draw(record):
+    from mirl.planning.posterior_chance import posterior_beliefs
+
+    sc, seen, visible = record
+    assert posterior_beliefs(oracle_models(sc), list(seen), sc, visible=visible) is None

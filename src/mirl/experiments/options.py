@@ -82,7 +82,7 @@ GO_RULES: Registry[GoRule] = Registry(
         GoRule(
             "adaptive",
             "go when the chance of going now beats the value of waiting until the deadline, "
-            "and state the exact P(success)",
+            "and state P(success) averaged over a posterior of L's models",
             "mirl.experiments.go_rules:AdaptiveRule",
         ),
         GoRule(

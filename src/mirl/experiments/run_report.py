@@ -313,12 +313,14 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
     elif result.predicted_success is not None:
         lines.append(
             f"went      at t = {result.go_time}, expecting to get through with probability "
-            f"{result.predicted_success:.2f} ({result.go_time - (result.obs_steps - 1)} steps "
-            f"after observing, {len(result.attempts)} planning rounds)"
+            f"{result.predicted_success:.2f}{_stated_spread(result)} "
+            f"({result.go_time - (result.obs_steps - 1)} steps after observing, "
+            f"{len(result.attempts)} planning rounds)"
         )
         lines.append(
-            "          (P(goal reached unseen) along its plan under its models and belief; L goes "
-            "when its chance now beats what it can expect by waiting until its deadline)"
+            "          (P(goal reached unseen) along its plan, averaged over model sets drawn "
+            "from the posterior of its models; L goes when its chance now beats what it can "
+            "expect by waiting until its deadline)"
         )
     else:
         lines.append(
@@ -347,3 +349,13 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         + f"; total {tm['total']:.2f} s"
     )
     return "\n".join(lines)
+
+
+def _stated_spread(result: RunResult) -> str:
+    """The stated chance's spread over the model draws, and the point models' chance."""
+    interval, point = result.predicted_success_interval, result.predicted_success_point
+    if interval is None or interval[0] == interval[1]:
+        return ""
+    lo, hi = interval
+    tail = "" if point is None else f"; its point models': {point:.2f}"
+    return f" (90 % of model draws: {lo:.2f}–{hi:.2f}{tail})"

@@ -10,18 +10,38 @@ uncertainty moves the chance.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import cast
 
 import numpy as np
 
+from mirl.learning.methods import get_method
+from mirl.learning.model_posterior import draw_models
 from mirl.learning.results import LearnResult
 from mirl.planning.belief import BeliefFilter, Prediction
 from mirl.planning.go import ObserverPlan, solve_observer_mdp
 from mirl.planning.observer import ObserverModel
 from mirl.planning.success import success_probability
 from mirl.world.domain import PatrolDomain
+from mirl.world.scenario import Scenario
 
-__all__ = ["PosteriorBeliefs", "AveragedPrediction"]
+__all__ = [
+    "PosteriorBeliefs",
+    "AveragedPrediction",
+    "StatedChance",
+    "posterior_beliefs",
+    "STATED_DRAWS",
+    "STATED_REWARD_DRAWS",
+    "STATED_QUANTILES",
+]
+
+STATED_DRAWS = 8
+"""Model sets the stated chance averages over (docs/design.md, "The stated chance")."""
+STATED_REWARD_DRAWS = "laplace-sir"
+"""How the stated chance's draws vary each robot's reward
+(:data:`~mirl.learning.model_posterior.REWARD_DRAWS`)."""
+STATED_QUANTILES = (0.05, 0.95)
+"""The quantiles of the per-draw chances that ``predicted_success_interval`` gives."""
 
 
 class AveragedPrediction:
@@ -117,6 +137,34 @@ class PosteriorBeliefs:
         base = success_probability(self.reference, model, plan, extra=extra).success
         return self.success(model, plan, extra=extra) - base
 
+    def stated(
+        self, point: float, model: ObserverModel, plan: ObserverPlan, *, extra: int = 0
+    ) -> StatedChance:
+        """The stated chance along ``plan``: each draw's chance the point models' exact
+        ``point`` plus its :meth:`shifts` (a control variate: the exact filter's accuracy at
+        the factored filter's cost), clipped to [0, 1]; their mean and quantiles.
+
+        Parameters
+        ----------
+        point : float
+            The point models' exact P(success) along ``plan``.
+        model : ObserverModel
+            L's model.
+        plan : ObserverPlan
+            The plan L goes along.
+        extra : int, default 0
+            The plan's steps after its go time.
+
+        Returns
+        -------
+        StatedChance
+            The mean of the per-draw chances, their :data:`STATED_QUANTILES`, ``point`` and the
+            per-draw chances.
+        """
+        chances = np.clip(point + self.shifts(model, plan, extra=extra), 0.0, 1.0)
+        lo, hi = np.quantile(chances, STATED_QUANTILES)
+        return StatedChance(float(chances.mean()), (float(lo), float(hi)), point, tuple(chances))
+
     def averaged_chance(
         self, model: ObserverModel, steps: int, window: int = 0, *, t: int | None = None
     ) -> float:
@@ -165,3 +213,84 @@ class PosteriorBeliefs:
             )  # fmt: skip
             out.append(float(plan.go_values[0]))
         return np.array(out)
+
+
+@dataclass(frozen=True)
+class StatedChance:
+    """The chance L states when it goes.
+
+    Parameters
+    ----------
+    mean : float
+        The chance averaged over the model draws (the posterior predictive P(success)); the
+        point models' chance when nothing is drawn.
+    interval : tuple of (float, float)
+        The :data:`STATED_QUANTILES` of the per-draw chances (linear interpolation).
+    point : float
+        The point models' exact chance along the same plan.
+    draws : tuple of float
+        The per-draw chances (empty when nothing is drawn).
+    """
+
+    mean: float
+    interval: tuple[float, float]
+    point: float
+    draws: tuple[float, ...] = ()
+
+
+def posterior_beliefs(
+    learned: LearnResult,
+    record: Sequence[np.ndarray],
+    scenario: Scenario,
+    *,
+    visible: np.ndarray,
+    filter_visible: np.ndarray | None = None,
+    n_draws: int = STATED_DRAWS,
+    random_state: int = 0,
+) -> PosteriorBeliefs | None:
+    """The filters of the stated chance (docs/design.md, "The stated chance"): ``n_draws``
+    model sets drawn from the posterior of ``learned``'s models and the point models, each
+    filtered factored; feed them the record with :meth:`PosteriorBeliefs.run` and read the
+    chance with :meth:`PosteriorBeliefs.stated`.
+
+    The draws (:func:`~mirl.learning.model_posterior.draw_models`) take T from the feature
+    posterior, each robot's reward from a Laplace approximation at the IRL optimum corrected by
+    importance resampling (:data:`STATED_REWARD_DRAWS`) and mixed with the team's shared-kind
+    hypothesis, and the equilibrium by its weights.
+
+    Parameters
+    ----------
+    learned : LearnResult
+        The point models L plans with.
+    record : sequence of ndarray of shape (N,)
+        What L saw at every step so far (-1: unseen), the world's ``seen``; the draws are
+        made from its first ``learned.horizon`` steps, the record the models were learned from.
+    scenario : Scenario
+        The scenario L models (its domain, discount, game and error model).
+    visible : ndarray of shape (S,) of bool
+        The states L sees (what the rewards were learned under).
+    filter_visible : ndarray of shape (S,) of bool, optional
+        The filters' negative evidence (as for :class:`BeliefFilter`; None: none).
+    n_draws : int, default :data:`STATED_DRAWS`
+        Model sets drawn.
+    random_state : int, default 0
+        Seeds the draws.
+
+    Returns
+    -------
+    PosteriorBeliefs or None
+        The filters (not yet fed), with the point models as their reference; None when the
+        method learns nothing (the oracle) or ``n_draws`` is 0: the point chance is then the
+        stated one.
+    """
+    if n_draws == 0 or not get_method(learned.method).learns:
+        return None
+    horizon = learned.horizon or len(record)
+    series = list(np.asarray(record[:horizon]).T)
+    draws = draw_models(
+        learned, series, scenario, visible=visible, n_draws=n_draws,
+        reward=STATED_REWARD_DRAWS, shared=True, random_state=random_state,
+    )  # fmt: skip
+    return PosteriorBeliefs(
+        scenario.domain, draws, visible=filter_visible, joint=False, reference=learned
+    )
