@@ -311,3 +311,11 @@ def test_the_stated_chance_is_a_function_of_the_seed(boyd2):
     a, b = (run_episode(boyd2, "mirl-t", seed=2, protocol=FAST) for _ in range(2))
     assert a.predicted_success == b.predicted_success
     assert a.predicted_success_interval == b.predicted_success_interval
+
+
+def test_the_posterior_go_rule_runs_and_states_its_chance(boyd2):
+    r = run_episode(boyd2, "mirl-t", seed=1, protocol=FAST.replace(go_rule="adaptive-posterior"))
+    assert r.protocol.go_rule == "adaptive-posterior"
+    if r.go_time is not None:
+        lo, hi = r.predicted_success_interval
+        assert lo <= r.predicted_success <= hi

@@ -11,6 +11,7 @@ import pytest
 from mirl.experiments.go_rules import (
     AdaptiveRule,
     Planning,
+    PosteriorAdaptiveRule,
     ValueRule,
     Waiting,
 )
@@ -19,6 +20,7 @@ from mirl.learning.results import LearnResult, oracle_models
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.go import solve_observer_mdp
 from mirl.planning.observer import observer_model
+from mirl.planning.posterior_chance import StatedChance
 from mirl.world.scenario import Scenario, load_scenario
 from mirl.worlds import make_world
 
@@ -28,7 +30,8 @@ def test_every_row_loads_a_strategy():
         rule = row.load()()
         assert callable(rule.decide) and callable(rule.replan_penalty)
     assert GO_RULES["value"].load() is ValueRule and GO_RULES["adaptive"].load() is AdaptiveRule
-    assert GO_RULES.names == ("adaptive", "value") and all(
+    assert GO_RULES["adaptive-posterior"].load() is PosteriorAdaptiveRule
+    assert GO_RULES.names == ("adaptive", "adaptive-posterior", "value") and all(
         r.description for r in GO_RULES.values()
     )
 
@@ -112,3 +115,33 @@ def test_the_oracles_stated_chance_is_its_exact_chance_with_no_spread(waiting):
     a = decision.attempt
     assert a.predicted_success == a.predicted_success_point
     assert a.predicted_success_interval == (a.predicted_success, a.predicted_success)
+
+
+def test_the_posterior_rule_acts_as_the_adaptive_rule_where_draws_agree(waiting):
+    # with the true models the posterior chance is the point chance: the two rules decide alike
+    for rule in (AdaptiveRule(), PosteriorAdaptiveRule()):
+        decision = rule.decide(waiting)
+        assert decision.go_time == waiting.world.t
+    sure = _Watcher(waiting.watcher.belief, waiting.watcher.learned, waiting.watcher.scenario)
+    sure.chances = lambda chance_at: [1.0]  # type: ignore[method-assign]
+    patient = Waiting(waiting.world, sure, waiting.model, waiting.planning)
+    assert PosteriorAdaptiveRule().decide(patient).go_time is None
+
+
+def test_the_posterior_rule_waits_when_the_posterior_chance_falls_short(waiting):
+    """Where the adaptive rule goes (its go-now chance beats waiting), the posterior rule scales
+    that chance by the posterior's over the point models' and waits if it then falls short."""
+    c = float(AdaptiveRule().decide(waiting).plan.go_values[0])
+    watcher = _Watcher(waiting.watcher.belief, waiting.watcher.learned, waiting.watcher.scenario)
+    watcher.chances = lambda chance_at: [0.8 * c]  # type: ignore[method-assign]
+    tempted = Waiting(waiting.world, watcher, waiting.model, waiting.planning)
+    assert AdaptiveRule().decide(tempted).go_time == waiting.world.t
+    for posterior, goes in ((0.5 * 0.6, False), (0.95 * 0.6, True)):
+        rule = PosteriorAdaptiveRule()
+        rule._posterior.stated = lambda w, plan, m=posterior: StatedChance(  # type: ignore
+            m, (m, m), 0.6
+        )
+        decision = rule.decide(tempted)
+        assert (decision.go_time is not None) == goes
+        if goes:  # it states the chance it acted on
+            assert decision.attempt.predicted_success == pytest.approx(posterior)

@@ -34,6 +34,7 @@ __all__ = [
     "GoRuleStrategy",
     "ValueRule",
     "AdaptiveRule",
+    "PosteriorAdaptiveRule",
 ]
 
 
@@ -254,6 +255,22 @@ class AdaptiveRule(GoRuleStrategy):
 
     def replan_penalty(self, planning: Planning) -> float:
         return 0.0
+
+
+class PosteriorAdaptiveRule(AdaptiveRule):
+    """The adaptive rule acting on the posterior chance: where the adaptive rule would go, the
+    planner's go-now chance is scaled by the stated (posterior-averaged) chance over the point
+    models' exact chance along the same plan, and L goes only if that still beats the value of
+    waiting (docs/design.md, "The go rule")."""
+
+    def _goes(
+        self, waiting: Waiting, plan: ObserverPlan, value: float
+    ) -> tuple[bool, StatedChance | None]:
+        now = float(plan.go_values[0])
+        if now < value:
+            return False, None
+        stated = self._posterior.stated(waiting, plan)
+        return now * stated.mean / max(stated.point, 1e-9) >= value, stated
 
 
 class _Posterior:

@@ -86,6 +86,12 @@ GO_RULES: Registry[GoRule] = Registry(
             "mirl.experiments.go_rules:AdaptiveRule",
         ),
         GoRule(
+            "adaptive-posterior",
+            "the adaptive rule, going only if the go-now chance scaled by the posterior-averaged "
+            "P(success) over the point models' still beats the value of waiting",
+            "mirl.experiments.go_rules:PosteriorAdaptiveRule",
+        ),
+        GoRule(
             "value",
             "the published rule (the best plan value in the window, if positive)",
             "mirl.experiments.go_rules:ValueRule",
