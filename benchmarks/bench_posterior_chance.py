@@ -37,12 +37,12 @@ import numpy as np  # noqa: E402
 import scipy.sparse as sp  # noqa: E402
 
 from mirl.experiments.conditions import Condition  # noqa: E402
-from mirl.experiments.worlds import get_world  # noqa: E402
 from mirl.learning.model_posterior import draw_models  # noqa: E402
 from mirl.learning.results import oracle_models  # noqa: E402
 from mirl.planning.belief import BeliefFilter  # noqa: E402
 from mirl.planning.observer import observer_model  # noqa: E402
 from mirl.planning.success import success_probability  # noqa: E402
+from mirl.worlds import get_world  # noqa: E402
 
 VARIANTS = {
     "T": dict(parts=("transitions",)),

@@ -8,8 +8,9 @@ it went; at the go, the chance L stated; per run, everything L saw and the outco
 Run i is ``run_episode(scenario, method, seed=run_seed(BASE, i))`` under the default protocol
 with 300 observed steps (the sweeps' protocol; ``--watch`` adds ``mirl run``'s watching until
 every patroller was seen on 40 steps). Each run is one pickle ``OUT/run_<i>.pkl`` (a second
-call skips the runs it holds). The decisions are read through the episode module's internals
-(its watcher, its planner, its value of waiting and its call of ``success_probability``),
+call skips the runs it holds). The decisions are read through the internals of the episode
+and go-rule modules (the watcher, the planner, the value of waiting and the call of
+``success_probability`` for the point models' chance at the go),
 which is why this is a benchmark and not a library function; ``bench_posterior_chance.py``
 reads what it writes.
 """
@@ -27,8 +28,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 import mirl.experiments.episode as episode  # noqa: E402
+import mirl.experiments.go_rules as go_rules  # noqa: E402
 from mirl.experiments.conditions import Condition, run_seed  # noqa: E402
-from mirl.experiments.records import WATCH_UNTIL_SEEN  # noqa: E402
+from mirl.experiments.options import RunProtocol  # noqa: E402
 
 
 def main() -> None:
@@ -51,9 +53,9 @@ def main() -> None:
     state: dict = {}
 
     watcher_init = episode._Watcher.__init__
-    solve = episode.solve_observer_mdp
-    waiting_value = episode.waiting_value
-    evaluate = episode.success_probability
+    solve = go_rules.solve_observer_mdp
+    waiting_value = go_rules.waiting_value
+    evaluate = go_rules.success_probability
 
     def keep_watcher(self, *a, **k):
         state["watcher"] = self
@@ -98,18 +100,21 @@ def main() -> None:
         return stated
 
     episode._Watcher.__init__ = keep_watcher
-    episode.solve_observer_mdp = keep_plan
-    episode.waiting_value = weigh
-    episode.success_probability = at_go
+    go_rules.solve_observer_mdp = keep_plan
+    go_rules.waiting_value = weigh
+    go_rules.success_probability = at_go
     for i in range(args.first, args.first + args.runs):
         path = out / f"run_{i}.pkl"
         if path.exists():
             continue
         state.update(decisions=[], models=[])
         seed = run_seed(args.base, i)
+        protocol = RunProtocol(obs_steps=300, watch_until_seen=None)
+        if args.watch:
+            protocol = RunProtocol()
         r = episode.run_episode(
-            scenario, args.method, observability=args.observability, obs_steps=300, seed=seed,
-            world=args.world, watch_until_seen=WATCH_UNTIL_SEEN if args.watch else None,
+            scenario, args.method, observability=args.observability, seed=seed,
+            world=args.world, protocol=protocol,
         )  # fmt: skip
         watcher = state["watcher"]
         go = r.go_time
@@ -117,7 +122,7 @@ def main() -> None:
         record = {
             "run": i, "seed": seed, "method": args.method, "scenario": args.scenario,
             "damage": args.damage, "observability": args.observability, "world": args.world,
-            "outcome": r.outcome, "go_time": go, "stated": r.predicted_success,
+            "outcome": r.outcome, "go_time": go, "stated": r.predicted_success_point,
             "seen": seen, "visible": watcher.visible, "joint": watcher.joint,
             "decisions": state["decisions"], "models": state["models"],
             "relearns": len(r.relearns or ()), "cpu": r.timings["cpu"],
@@ -125,7 +130,7 @@ def main() -> None:
         }  # fmt: skip
         with open(path, "wb") as f:
             pickle.dump(record, f)
-        print(i, r.outcome, go, f"{r.predicted_success:.3f}" if go is not None else "-",
+        print(i, r.outcome, go, f"{r.predicted_success_point:.3f}" if go is not None else "-",
               len(state["decisions"]), flush=True)  # fmt: skip
 
 
