@@ -162,7 +162,7 @@ def run_episode(
     degree = scenario.observability if observability is None else float(observability)
     # spawned streams are keyed by their index: a fifth leaves the first four as they were
     streams = np.random.SeedSequence(int(seed)).spawn(5)
-    sim_seed, noise_seed, learn_seed, random_seed, stated_seed = streams
+    sim_seed, noise_seed, learn_seed, random_seed, stated = streams
     timings = dict.fromkeys(("observe", "learn", "plan", "execute"), 0.0)
     t_start, cpu_start = time.perf_counter(), time.process_time()
 
@@ -206,10 +206,8 @@ def run_episode(
         assert learned is not None
         visible = run_world.visible if run.negative_evidence else None
         watcher = _Watcher(modelled, run_world, learned, learner, visible, run.joint, timings)
-        stated_state = int(stated_seed.generate_state(1)[0])
-        going = _planned_going(
-            Waiting(run_world, watcher, model, planning, stated_state), rule, timings
-        )
+        waiting = Waiting(run_world, watcher, model, planning, int(stated.generate_state(1)[0]))
+        going = _planned_going(waiting, rule, timings)
         learned = going.learned
 
     outcome, plan = "timeout", going.plan

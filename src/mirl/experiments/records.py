@@ -29,6 +29,10 @@ __all__ = [
 class PlanAttempt:
     """One planning round: when, the best go value in the window and the chosen go time.
 
+    .. versionchanged:: 0.2.0
+       ``predicted_success`` is the posterior-averaged chance; the point models' is
+       ``predicted_success_point``.
+
     Parameters
     ----------
     t : int
@@ -44,10 +48,6 @@ class PlanAttempt:
         The 5 % and 95 % quantiles of the per-draw chances.
     predicted_success_point : float, optional
         The point models' exact P(success) along the same plan.
-
-    .. versionchanged:: 0.2.0
-       ``predicted_success`` is the posterior-averaged chance; the point models' is
-       ``predicted_success_point``.
     """
 
     t: int

@@ -40,7 +40,7 @@ import scipy.sparse.linalg as spla
 
 from mirl.learning.equilibria import potential_meetings
 from mirl.learning.irl import IRLProblem, OccludedMaxEntIRL
-from mirl.learning.methods import get_method
+from mirl.learning.methods import REWARD_SOURCES, get_method
 from mirl.learning.results import LearnResult, RobotModel
 from mirl.learning.soft_policy import soft_policy_iteration
 from mirl.learning.transitions import observed_steps, perception_labels, policy_labels
@@ -102,6 +102,7 @@ def draw_models(
     visible : ndarray of shape (S,) of bool
         The states L sees.
     n_draws : int, default 8
+        Model sets drawn.
     parts : sequence of {"transitions", "rewards", "equilibrium"}
         What is drawn; a method's part that is not learned (a fixed p, a true reward) is never
         drawn.
@@ -117,6 +118,7 @@ def draw_models(
     irl_options : dict, optional
         The IRL's options for the refits (default: the estimator's).
     random_state : int, default 0
+        Seeds the draws.
     info : dict, optional
         Receives diagnostics: ``shared_kind``, per robot the weight of the shared hypothesis.
     motion : {"method", "posterior"}, default "method"
@@ -139,12 +141,13 @@ def draw_models(
     row = get_method(learned.method)
     domain = scenario.domain
     rng = np.random.default_rng(random_state)
-    n = len(learned.robots)
     series = [np.asarray(x, dtype=int) for x in series]
-    labels = _labels(learned, series, scenario, row.reward == "true", row.relabels)
+    true_reward = not REWARD_SOURCES[row.reward].built  # given: the true policies label
+    labels = _labels(learned, series, scenario, true_reward, row.relabels)
     robots = [_Robot(x, m, lab) for x, m, lab in zip(series, learned.robots, labels, strict=True)]
-    draw_T = "transitions" in parts and (row.transitions == "features" or motion == "posterior")
-    draw_R = "rewards" in parts and row.reward == "learned"
+    features = row.learns and row.has_feature_probabilities  # a T made of features, learned
+    draw_T = "transitions" in parts and (features or motion == "posterior")
+    draw_R = "rewards" in parts and REWARD_SOURCES[row.reward].built
     # T per robot per draw
     Ts: list[list[sp.csr_array]] = []
     probs: list[list[dict[str, float]]] = []
@@ -157,34 +160,9 @@ def draw_models(
             probs.append([dict(r.model.feature_probabilities)] * n_draws)
             Ts.append([r.model.transitions] * n_draws)
     # reward per robot per draw
-    W: list[list[np.ndarray | None]] = []
     if draw_R:
-        exclude = np.zeros(len(series[0]), dtype=bool)
-        for i in range(n):
-            for j in range(i + 1, n):
-                exclude |= potential_meetings(domain, series[i], series[j])
-        for i, r in enumerate(robots):
-            if not (r.series >= 0).any():
-                W.append([None] * n_draws)
-                continue
-            draws: dict[str, Callable[..., list[np.ndarray | None]]] = {
-                "bootstrap": _bootstrap_rewards, "newton": _newton_rewards,
-                "newton1": partial(_newton_rewards, steps=1),
-                "laplace": _laplace_rewards, "point": _point_rewards,
-                "laplace-sir": partial(_laplace_rewards, candidates=4),
-                "laplace-sir-prior": partial(_laplace_rewards, candidates=4, prior=1.0),
-            }  # fmt: skip
-            W.append(draws[reward](scenario, r, Ts[i], exclude, visible, irl_options or {}, rng))
-        if shared == "pooled":
-            W = _pooled_kind(scenario, robots, W, exclude, visible, irl_options or {}, rng, info)
-        elif shared:
-            W = _shared_kind(scenario, robots, W, exclude, visible, irl_options or {}, rng, info)
-        seen = [[v for v in w if v is not None] for w in W if w[0] is not None]
-        for i, r in enumerate(robots):
-            if W[i][0] is None and seen:  # never seen: the mean of the seen robots', per draw
-                W[i] = [np.mean([w[k] for w in seen], axis=0) for k in range(n_draws)]
-            elif W[i][0] is None:  # L saw no robot: the point weights (learn()'s zeros)
-                W[i] = [np.asarray(r.model.weights, dtype=float)] * n_draws
+        W = _reward_draws(scenario, robots, Ts, visible, reward, shared, irl_options or {}, rng,
+                          info)  # fmt: skip
     else:
         W = [[np.asarray(r.model.weights, dtype=float)] * n_draws for r in robots]
     # equilibrium per draw
@@ -225,6 +203,41 @@ def draw_models(
             )
         )  # fmt: skip
     return out
+
+
+def _reward_draws(scenario, robots, Ts, visible, reward, shared, options, rng, info):
+    """Each robot's reward weights per draw (:func:`draw_models`' ``reward`` and ``shared``),
+    the steps where two robots may meet left out of every likelihood, as the IRL leaves them."""
+    domain = scenario.domain
+    n, n_draws = len(robots), len(Ts[0])
+    exclude = np.zeros(len(robots[0].series), dtype=bool)
+    for i in range(n):
+        for j in range(i + 1, n):
+            exclude |= potential_meetings(domain, robots[i].series, robots[j].series)
+    draws: dict[str, Callable[..., list[np.ndarray | None]]] = {
+        "bootstrap": _bootstrap_rewards, "newton": _newton_rewards,
+        "newton1": partial(_newton_rewards, steps=1),
+        "laplace": _laplace_rewards, "point": _point_rewards,
+        "laplace-sir": partial(_laplace_rewards, candidates=4),
+        "laplace-sir-prior": partial(_laplace_rewards, candidates=4, prior=1.0),
+    }  # fmt: skip
+    W: list[list[np.ndarray | None]] = []
+    for i, r in enumerate(robots):
+        if not (r.series >= 0).any():
+            W.append([None] * n_draws)
+            continue
+        W.append(draws[reward](scenario, r, Ts[i], exclude, visible, options, rng))
+    if shared == "pooled":
+        W = _pooled_kind(scenario, robots, W, exclude, visible, options, rng, info)
+    elif shared:
+        W = _shared_kind(scenario, robots, W, exclude, visible, options, rng, info)
+    seen = [[v for v in w if v is not None] for w in W if w[0] is not None]
+    for i, r in enumerate(robots):
+        if W[i][0] is None and seen:  # never seen: the mean of the seen robots', per draw
+            W[i] = [np.mean([w[k] for w in seen], axis=0) for k in range(n_draws)]
+        elif W[i][0] is None:  # L saw no robot: the point weights (learn()'s zeros)
+            W[i] = [np.asarray(r.model.weights, dtype=float)] * n_draws
+    return W
 
 
 def greedy_policy_of(
@@ -382,7 +395,18 @@ def _feature_draws(
 def visits(series: np.ndarray) -> list[tuple[int, int]]:
     """The record of one robot cut into visits: (first, last) step indices, inclusive, of a run
     of observed steps and the occluded gap after it up to and including the next re-entry (the
-    record's last visit may end unseen)."""
+    record's last visit may end unseen).
+
+    Parameters
+    ----------
+    series : ndarray of shape (horizon,) of int
+        The states L saw the robot in, -1 where unseen.
+
+    Returns
+    -------
+    list of (int, int)
+        The visits' first and last steps, in order.
+    """
     x = np.asarray(series)
     seen = x >= 0
     entries = np.flatnonzero(seen & ~np.concatenate(([False], seen[:-1])))
@@ -399,8 +423,24 @@ def bootstrap_series(
 ) -> tuple[np.ndarray, np.ndarray]:
     """One bootstrap record: as many visits as the record has, drawn with replacement and
     joined; the step leaving each visit's last state is excluded (it is no move of the robot:
-    the next visit starts elsewhere), as are the steps the record excludes. Returns the joined
-    series and its ``exclude``."""
+    the next visit starts elsewhere), as are the steps the record excludes.
+
+    Parameters
+    ----------
+    series : ndarray of shape (horizon,) of int
+        The states L saw the robot in, -1 where unseen.
+    exclude : ndarray of shape (horizon,) of bool
+        The steps left out of the likelihood.
+    rng : numpy.random.Generator
+        The random stream.
+
+    Returns
+    -------
+    series : ndarray of int
+        The joined visits.
+    exclude : ndarray of bool
+        Their excluded steps.
+    """
     x = np.asarray(series)
     parts = visits(x)
     if not parts:

@@ -49,7 +49,13 @@ class AveragedPrediction:
     hazards), in the interface :func:`~mirl.planning.go.solve_observer_mdp` reads: one solve
     on the mixture's per-step hazards instead of one per draw. The planner's chance is itself
     the first-order hazard's approximation; averaging the hazards keeps each step's mixture
-    marginal and drops only the draws' correlation across steps."""
+    marginal and drops only the draws' correlation across steps.
+
+    Parameters
+    ----------
+    predictions : sequence of Prediction
+        The draws' predictions over the same steps.
+    """
 
     def __init__(self, predictions) -> None:
         self.predictions = list(predictions)
@@ -57,9 +63,33 @@ class AveragedPrediction:
         self.t0, self.steps, self.pairs = first.t0, first.steps, first.pairs
 
     def hazard_rows(self, lo: int, hi: int) -> np.ndarray:
+        """The draws' first-order hazards of steps ``lo`` … ``hi`` − 1, averaged.
+
+        Parameters
+        ----------
+        lo, hi : int
+            The steps.
+
+        Returns
+        -------
+        ndarray
+            The rows, as :class:`~mirl.planning.belief.Prediction` gives them.
+        """
         return np.mean([p.hazard_rows(lo, hi) for p in self.predictions], axis=0)
 
     def detection_rows(self, lo: int, hi: int) -> np.ndarray:
+        """The draws' detection probabilities of steps ``lo`` … ``hi`` − 1, averaged.
+
+        Parameters
+        ----------
+        lo, hi : int
+            The steps.
+
+        Returns
+        -------
+        ndarray
+            The rows, as :class:`~mirl.planning.belief.Prediction` gives them.
+        """
         return np.mean([p.detection_rows(lo, hi) for p in self.predictions], axis=0)
 
 
@@ -69,6 +99,7 @@ class PosteriorBeliefs:
     Parameters
     ----------
     domain : PatrolDomain
+        The patrollers' domain.
     draws : sequence of LearnResult
         Model sets drawn from the posterior (equally weighted).
     visible : ndarray of shape (S,) of bool, optional
@@ -103,17 +134,30 @@ class PosteriorBeliefs:
 
     @property
     def t(self) -> int:
+        """The filters' current step (-1 before the first)."""
         return self.filters[0].t
 
     def update(self, observed) -> None:
-        """One step of every filter (:meth:`BeliefFilter.update`)."""
+        """One step of every filter (:meth:`BeliefFilter.update`).
+
+        Parameters
+        ----------
+        observed : ndarray of shape (N,)
+            What L saw of each patroller at the step (-1: unseen).
+        """
         for f in self.filters:
             f.update(observed)
         if self.reference is not None:
             self.reference.update(observed)
 
     def run(self, record) -> None:
-        """Feed the steps of ``record`` after the filters' current step."""
+        """Feed the steps of ``record`` after the filters' current step.
+
+        Parameters
+        ----------
+        record : sequence of ndarray of shape (N,)
+            What L saw at every step from step 0.
+        """
         for now in record[self.t + 1 :]:
             self.update(now)
 
@@ -123,16 +167,46 @@ class PosteriorBeliefs:
         self.kept[self.t] = [f.belief for f in self.filters]  # type: ignore[misc]
 
     def success(self, model: ObserverModel, plan: ObserverPlan, *, extra: int = 0) -> np.ndarray:
-        """(K,) P(success) of going now along ``plan`` under each draw
-        (:func:`~mirl.planning.success.success_probability`)."""
+        """P(success) of going now along ``plan`` under each draw
+        (:func:`~mirl.planning.success.success_probability`).
+
+        Parameters
+        ----------
+        model : ObserverModel
+            L's model.
+        plan : ObserverPlan
+            The plan L goes along.
+        extra : int, default 0
+            The plan's steps after its go time.
+
+        Returns
+        -------
+        ndarray of shape (K,)
+            One chance per draw.
+        """
         return np.array(
             [success_probability(f, model, plan, extra=extra).success for f in self.filters]
         )
 
     def shifts(self, model: ObserverModel, plan: ObserverPlan, *, extra: int = 0) -> np.ndarray:
-        """(K,) each draw's P(success) along ``plan`` less the reference models' (both in this
+        """Each draw's P(success) along ``plan`` less the reference models' (both in this
         object's filter form): added to the reference's exact chance, a control-variate
-        estimate of each draw's exact chance."""
+        estimate of each draw's exact chance.
+
+        Parameters
+        ----------
+        model : ObserverModel
+            L's model.
+        plan : ObserverPlan
+            The plan L goes along.
+        extra : int, default 0
+            The plan's steps after its go time.
+
+        Returns
+        -------
+        ndarray of shape (K,)
+            One shift per draw.
+        """
         assert self.reference is not None, "shifts() needs the reference models"
         base = success_probability(self.reference, model, plan, extra=extra).success
         return self.success(model, plan, extra=extra) - base
@@ -169,7 +243,24 @@ class PosteriorBeliefs:
         self, model: ObserverModel, steps: int, window: int = 0, *, t: int | None = None
     ) -> float:
         """The planner's chance of going now (or at kept step ``t``) on the draws' averaged
-        prediction (:class:`AveragedPrediction`): one solve for all draws."""
+        prediction (:class:`AveragedPrediction`): one solve for all draws.
+
+        Parameters
+        ----------
+        model : ObserverModel
+            L's model.
+        steps : int
+            The prediction's steps.
+        window : int, default 0
+            Go times scored after now.
+        t : int, optional
+            A step kept by :meth:`keep` (default: now).
+
+        Returns
+        -------
+        float
+            The go-now value with the success objective.
+        """
         if t is None:
             preds = [f.predict(steps, model) for f in self.filters]
         else:
@@ -188,8 +279,25 @@ class PosteriorBeliefs:
     def chances_at(
         self, t: int, model: ObserverModel, steps: int, *, hazard: str = "markov"
     ) -> np.ndarray:
-        """(K,) the planner's chance of going at kept step ``t`` under each draw (its go-now
-        value with the success objective), as the go rule scores a moment."""
+        """The planner's chance of going at kept step ``t`` under each draw (its go-now value
+        with the success objective), as the go rule scores a moment.
+
+        Parameters
+        ----------
+        t : int
+            A step kept by :meth:`keep`.
+        model : ObserverModel
+            L's model.
+        steps : int
+            The prediction's steps.
+        hazard : str, default "markov"
+            The planner's detection hazard.
+
+        Returns
+        -------
+        ndarray of shape (K,)
+            One chance per draw.
+        """
         out = []
         for f, b in zip(self.filters, self.kept[t], strict=True):
             prediction = f.predict(steps, model, belief=b, t=t)
@@ -203,7 +311,24 @@ class PosteriorBeliefs:
     def planner_now(
         self, model: ObserverModel, steps: int, window: int, *, hazard: str = "markov"
     ) -> np.ndarray:
-        """(K,) the planner's chance of going now under each draw."""
+        """The planner's chance of going now under each draw.
+
+        Parameters
+        ----------
+        model : ObserverModel
+            L's model.
+        steps : int
+            The prediction's steps.
+        window : int
+            Go times scored after now.
+        hazard : str, default "markov"
+            The planner's detection hazard.
+
+        Returns
+        -------
+        ndarray of shape (K,)
+            One chance per draw.
+        """
         out = []
         for f in self.filters:
             prediction = f.predict(steps, model)
