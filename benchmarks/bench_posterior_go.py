@@ -2,7 +2,7 @@
 on the same seeds as today's rule.
 
     python benchmarks/bench_posterior_go.py --base 7000 --runs 100 --out odds.jsonl
-    python benchmarks/bench_posterior_go.py --out odds.jsonl --report
+    python benchmarks/bench_posterior_go.py --out odds.jsonl --report --plot reliability.png
 
 Run i is ``run_episode(scenario, method, seed=run_seed(BASE, i))`` under the default protocol
 (``mirl run``'s; ``--obs-steps 300`` observes a fixed 300 steps, as Fig. 4a does), once with the
@@ -48,11 +48,44 @@ def main() -> None:
     ap.add_argument("--first", type=int, default=0)
     ap.add_argument("--out", required=True)
     ap.add_argument("--report", action="store_true", help="only report what --out holds")
+    ap.add_argument("--plot", default=None, help="draw the reliability diagram to this file")
     args = ap.parse_args()
     if not args.report:
         measure(args)
     with open(args.out) as f:
-        report([json.loads(line) for line in f])
+        rows = [json.loads(line) for line in f]
+    report(rows)
+    if args.plot:
+        plot(rows, args.plot)
+
+
+def plot(rows: list[dict], path: str) -> None:
+    """The reliability diagram: per rule, the realised rate against the mean stated chance of
+    each decile (posterior and point models'), the marker's area its runs."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rules = sorted({r["rule"] for r in rows})
+    fig, axes = plt.subplots(1, len(rules), figsize=(4.2 * len(rules), 4.2), squeeze=False)
+    for ax, rule in zip(axes[0], rules, strict=True):
+        went = [r for r in rows if r["rule"] == rule and r["stated"] is not None]
+        y = np.array([r["outcome"] == "success" for r in went], dtype=float)
+        for key, name, colour in (("stated", "posterior", "C0"), ("point", "point models'", "C3")):
+            x = np.array([r[key] for r in went])
+            k = np.minimum((x * 10).astype(int), 9)
+            d = [j for j in range(10) if (k == j).any()]
+            ax.scatter([x[k == j].mean() for j in d], [y[k == j].mean() for j in d],
+                       s=[12 * (k == j).sum() for j in d], c=colour, alpha=0.7,
+                       label=f"{name}: {x.mean():.2f} stated")  # fmt: skip
+        ax.plot([0, 1], [0, 1], "k:", lw=1)
+        ax.set(xlim=(0, 1), ylim=(0, 1), xlabel="stated chance (decile mean)",
+               ylabel="realised success", title=f"{rule}: {len(went)} runs, {y.mean():.2f} "
+               "realised")  # fmt: skip
+        ax.legend(loc="upper left", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
 
 
 def measure(args) -> None:
