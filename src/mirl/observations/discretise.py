@@ -331,6 +331,9 @@ def discretise(
 ) -> Discretised:
     """Bin ``tracks`` into the scenario's grid and steps (see the module docstring).
 
+    .. versionchanged:: 0.2.0
+       ``step_seconds="auto"``.
+
     Parameters
     ----------
     tracks : PoseTracks
@@ -367,9 +370,6 @@ def discretise(
         ``drop_off_map``.
     ValueError
         A ``visible`` that is neither None, ``"observed"`` nor a mask of the map's shape.
-
-    .. versionchanged:: 0.2.0
-       ``step_seconds="auto"``.
     """
     auto = None
     if isinstance(step_seconds, str):
