@@ -453,8 +453,10 @@ def auto_step_seconds(
     A step longer than a robot's pace lets it cross two cells, which no action explains; a
     shorter one cuts its moves into pieces that stay in one cell and read as failed steps.
     A tracker that reports a robot :data:`AUTO_SPARSE` s apart or more (a camera once a
-    decision, an AMCL pose once a second) is read one pose a step: no shorter step has a pose at
-    both ends. Other tracks say their pace in two ways:
+    decision, an AMCL pose once a second, a publisher stamping in whole seconds; the interval is
+    that of its distinct stamps) is read at a multiple of its interval, for no shorter step has a
+    pose at both ends: the longest at which the moves stay within one cell, as below, or else
+    the interval itself, one pose a step. Other tracks say their pace in two ways:
 
     * **In jumps** — a tracker reporting at a robot's decisions, poses written from grid
       states: the robot changes cells at multiples of one period (:func:`_jump_period`), its
@@ -519,12 +521,18 @@ def auto_step_seconds(
         share = long / pairs if pairs else 0.0
         return enough, enough and each and share <= long_moves, share
 
-    ticks = [np.diff(t[idx]) for idx in robots if len(idx) > 1]
-    pose_interval = float(np.median(np.concatenate(ticks))) if ticks else 0.0
+    pose_interval = _pose_interval(t, robots)
     if pose_interval >= AUTO_SPARSE:  # no step between two of its poses has one
         enough, _, share = judged(round(pose_interval, 3))
         if enough:
-            return AutoStep(round(pose_interval, 3), share, "poses")
+            # a longer step needs a pose at both ends too: a multiple of the interval, the
+            # longest at which the moves stay within one cell (a robot slower than its tracker)
+            chosen = AutoStep(round(pose_interval, 3), share, "poses")
+            for k in range(2, int(AUTO_STEPS[-1] / pose_interval) + 1):
+                _, fits, share = judged(round(k * pose_interval, 3))
+                if fits:
+                    chosen = AutoStep(round(k * pose_interval, 3), share)
+            return chosen
     period = _jump_period(t, row, col, robots)
     if period is not None:
         _, fits, share = judged(period)
@@ -544,6 +552,16 @@ def auto_step_seconds(
     return AutoStep(2.0, judged(2.0)[2], "no fit")
 
 
+def _pose_interval(t: np.ndarray, robots: list[np.ndarray]) -> float:
+    """The median time between a robot's consecutive distinct stamps (0 if it has none).
+
+    Equal stamps are left out: a publisher that stamps in whole seconds gives many poses one
+    stamp, and their zero gaps would make the interval 0, a step no record can be read at."""
+    ticks = [np.diff(np.unique(t[idx])) for idx in robots if len(idx) > 1]
+    gaps = np.concatenate(ticks) if ticks else np.zeros(0)
+    return float(np.median(gaps)) if gaps.size else 0.0
+
+
 def _jump_period(t, row, col, robots: list[np.ndarray]) -> float | None:
     """The period of a track whose robots change cells in jumps (class docstring of
     :func:`auto_step_seconds`), or None for one that moves smoothly.
@@ -553,18 +571,17 @@ def _jump_period(t, row, col, robots: list[np.ndarray]) -> float | None:
     quartile of the times between changes of cell, and its halves, thirds, … down to two pose
     intervals, of which at least 80 % of those times are multiples, within a pose interval or a
     tenth of the period, whichever is less."""
-    gaps, tick, pairs, changed = [], [], 0, 0
+    gaps, pairs, changed = [], 0, 0
     for idx in robots:
         ti = t[idx]
         if len(ti) < 2:
             continue
-        tick.append(np.diff(ti))
         moved = (row[idx][1:] != row[idx][:-1]) | (col[idx][1:] != col[idx][:-1])
         pairs, changed = pairs + len(moved), changed + int(moved.sum())
         gaps.append(np.diff(0.5 * (ti[1:] + ti[:-1])[moved]))
-    if not gaps or sum(len(g) for g in gaps) < AUTO_MIN_CHANGES:
+    pose_interval = _pose_interval(t, robots)
+    if not gaps or sum(len(g) for g in gaps) < AUTO_MIN_CHANGES or pose_interval <= 0.0:
         return None
-    pose_interval = float(np.median(np.concatenate(tick)))
     if changed >= 0.25 * pairs:
         return round(pose_interval, 3)
     between = np.concatenate(gaps)
