@@ -195,3 +195,24 @@ def test_report_takes_the_database_file_and_names_any_other_file(tmp_path, capsy
     assert main(["report", str(other)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "a file, not an experiment's results directory" in err
+
+
+@pytest.mark.parametrize("world", ["grid", "physics"])
+def test_split_version_gives_back_the_code_fingerprint_and_the_worlds_part(world: str) -> None:
+    from mirl.experiments.conditions import code_version
+    from mirl.experiments.sweep import run_version, split_version
+    from mirl.worlds import get_world
+
+    cond = replace(next(iter(EXPERIMENTS["selftest"].conditions)), world=world)
+    code, extra = split_version(run_version(cond))
+    assert code == code_version()
+    assert extra == get_world(world).load().version()
+
+
+def test_split_version_leaves_a_version_of_another_form_whole() -> None:
+    from mirl.experiments.sweep import split_version
+
+    assert split_version("0.1.0") == ("0.1.0", "")
+    assert split_version("0.2.0+src.0123456789+mujoco.3.1.0") == (
+        "0.2.0+src.0123456789", "mujoco.3.1.0",
+    )  # fmt: skip

@@ -98,3 +98,44 @@ def test_the_command_line_takes_auto_and_says_what_it_chose(scenario, tmp_path, 
               "--step-seconds", "fast"])  # fmt: skip
     err = capsys.readouterr().err
     assert refused.value.code == 2 and "--step-seconds" in err and "or auto" in err
+
+
+def _whole_seconds(tracks: PoseTracks) -> PoseTracks:
+    """The track as a publisher stamping in whole seconds records it: many poses to a stamp."""
+    return PoseTracks(
+        tracks.robot_names, np.floor(tracks.t), tracks.robot, tracks.x, tracks.y, tracks.yaw
+    )
+
+
+@pytest.mark.parametrize(("speed", "pace"), [(0.5, 2.0), (0.25, 4.0), (1.0, 1.0)])
+def test_whole_second_stamps_are_read_at_a_multiple_of_a_second(scenario, speed, pace):
+    """20 Hz poses stamped in whole seconds: the stamps say a second, no finer, so the step is a
+    whole number of seconds, the longest at which a move stays within one cell."""
+    auto = auto_step_seconds(_whole_seconds(_smooth_track(scenario, speed)), scenario)
+    assert auto.found and auto.seconds == pytest.approx(pace)
+    assert auto.long_moves <= AUTO_LONG_MOVES
+
+
+def test_two_robots_on_one_topic_stamped_in_whole_seconds_do_not_break_the_auto_step(scenario):
+    """Two robots' 20 Hz tracks interleaved under one name and stamped in whole seconds (a real
+    bag's republished odometry): which robot's pose comes first in a second varies, so the
+    record jumps between them, and the zero time between poses of one stamp is no pose
+    interval. The step is a whole number of seconds; the jumps show, for the model check."""
+    one = _smooth_track(scenario, 0.5, seconds=120.0)
+    other = _smooth_track(scenario, 0.5, seconds=133.0)
+    keep = other.t >= 13.0  # the other robot is 13 s along the same hallway
+    # each a publisher of its own: which one's pose comes first in a second is chance
+    t = np.concatenate([one.t, other.t[keep] - 13.0])
+    t = t + np.random.default_rng(0).uniform(0.0, 0.05, len(t))
+    order = np.argsort(t, kind="stable")
+    both = PoseTracks(
+        ("I",),
+        t[order],
+        np.zeros(len(t), dtype=int),
+        np.concatenate([one.x, other.x[keep]])[order],
+        np.concatenate([one.y, other.y[keep]])[order],
+        np.concatenate([one.yaw, other.yaw[keep]])[order],
+    )
+    auto = auto_step_seconds(_whole_seconds(both), scenario)
+    assert auto.seconds == pytest.approx(1.0) and auto.why == "poses"
+    assert auto.long_moves > AUTO_LONG_MOVES  # the jumps between the two are not read away

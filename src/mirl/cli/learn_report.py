@@ -17,7 +17,22 @@ __all__ = [
 
 
 def verdict_sentence(robot: str, record: dict) -> str:
-    """A verdict's JSON record (:meth:`~mirl.learning.verdicts.Verdict.to_dict`) in words."""
+    """A verdict's JSON record (:meth:`~mirl.learning.verdicts.Verdict.to_dict`) in words.
+
+    Parameters
+    ----------
+    robot : str
+        The robot's name, as the sentence names it.
+    record : dict
+        The verdict's record: ``part``, ``confidence``, ``candidates`` and, where present,
+        ``fit`` (its ``ok`` and ``reason`` are read), ``seen_moving`` (default True) and
+        ``weakened``.
+
+    Returns
+    -------
+    str
+        :meth:`~mirl.learning.verdicts.Verdict.sentence` of the verdict the record describes.
+    """
     from mirl.learning.model_check import Check, ModelFit
     from mirl.learning.verdicts import Verdict
 
@@ -38,12 +53,33 @@ def verdict_sentence(robot: str, record: dict) -> str:
 def learn_record(
     result, scenario, observations: str, steps: int, degree: float, agreement=None
 ) -> dict:
-    """The JSON-ready record of ``result`` (a :class:`~mirl.learning.results.LearnResult`)
-    learned on ``scenario`` from ``observations`` (``steps`` long, at observability ``degree``).
+    """The JSON-ready record of a learned result (``mirl learn --json``).
 
-    ``agreement`` (robot name -> :class:`~mirl.learning.results.ObservedAgreement`) is given
-    when the data has no truth: each robot's record then scores its policy against the observed
-    moves only (``observed_moves``) and has no ``behavior_accuracy`` against the scenario.
+    Parameters
+    ----------
+    result : LearnResult
+        What was learned (:class:`~mirl.learning.results.LearnResult`).
+    scenario : Scenario
+        The scenario it was learned on.
+    observations : str
+        Where the observations came from, as the record names it (a path, say).
+    steps : int
+        The observations' length in steps.
+    degree : float
+        The observability they were taken at.
+    agreement : dict of str to ObservedAgreement or None, default None
+        Robot name -> :class:`~mirl.learning.results.ObservedAgreement`, given when the data
+        has no truth: each robot's record then scores its policy against the observed moves
+        only (``observed_moves``) and has no ``behavior_accuracy`` against the scenario.
+
+    Returns
+    -------
+    dict
+        ``method``, ``scenario``, ``observations``, ``steps``, ``observability``, ``robots``
+        (per robot its weights, feature probabilities, behaviour accuracy and, where learned,
+        intervals, medians, motion models and verdict), ``equilibrium`` (label, strategies and
+        each candidate's weight), ``iterations``, ``label_changes``, ``pair_equilibria`` (teams
+        of three or more), ``message`` and ``timings``; every value JSON-serialisable.
     """
     names = scenario.domain.reward_feature_names
     robots: dict[str, dict] = {
@@ -89,7 +125,20 @@ def learn_record(
 
 
 def pace_record(discretised) -> dict:
-    """The step pose data were read at, and how it was chosen (``{}`` for grid data)."""
+    """The step pose data were read at, and how it was chosen.
+
+    Parameters
+    ----------
+    discretised : Discretised or None
+        The discretised pose data (:class:`~mirl.observations.discretise.Discretised`); None
+        for grid data.
+
+    Returns
+    -------
+    dict
+        ``step_seconds`` and ``step_chosen`` (``"given"``, or the automatic choice in words);
+        ``{}`` for grid data.
+    """
     if discretised is None:
         return {}
     auto = discretised.auto_step
@@ -101,7 +150,18 @@ def pace_record(discretised) -> dict:
 
 def drift_line(record: dict) -> str:
     """A lateral drift's JSON record (:meth:`~mirl.learning.verdicts.LateralDrift.to_dict`)
-    in words."""
+    in words.
+
+    Parameters
+    ----------
+    record : dict
+        The drift's record: ``mean``, ``se`` and ``steps``.
+
+    Returns
+    -------
+    str
+        The ``drift`` line of ``mirl learn``'s text output.
+    """
     from mirl.learning.verdicts import LateralDrift
 
     drift = LateralDrift(record["mean"], record["se"], record["steps"])
@@ -138,10 +198,26 @@ def _uncertainty(robot) -> dict:
 
 
 def feature_lines(r: dict, definition) -> list[str]:
-    """A robot's features, intervals and, where Eq. 4's estimate and the posterior disagree
-    (:func:`~mirl.learning.verdicts.estimate_disagrees`; ``definition`` what "damaged" means),
-    the posterior's medians as the answer and Eq. 4's labelled as the paper's estimate — one
-    answer per question (docs/design.md, "Fault verdicts")."""
+    """A robot's features and their intervals, in words.
+
+    Where Eq. 4's estimate and the posterior disagree
+    (:func:`~mirl.learning.verdicts.estimate_disagrees`), the posterior's medians are given as
+    the answer and Eq. 4's labelled as the paper's estimate — one answer per question
+    (docs/design.md, "Fault verdicts").
+
+    Parameters
+    ----------
+    r : dict
+        The robot's record in :func:`learn_record`'s ``robots``.
+    definition : DamageDefinition
+        What "damaged" means (:class:`~mirl.world.faults.DamageDefinition`).
+
+    Returns
+    -------
+    list of str
+        The ``features`` line, and the ``95 % interval`` and ``Eq. 4`` lines where the
+        record has intervals and the estimates disagree.
+    """
     from mirl.learning.verdicts import estimate_disagrees
 
     probs = r["feature_probabilities"]
@@ -176,7 +252,18 @@ def _same_value_note(r: dict) -> str:
 
 
 def motion_line(r: dict) -> str | None:
-    """The motion models' weights and the one L plans with, in words."""
+    """The motion models' weights and the one L plans with, in words.
+
+    Parameters
+    ----------
+    r : dict
+        The robot's record in :func:`learn_record`'s ``robots``.
+
+    Returns
+    -------
+    str or None
+        The ``motion`` line; None when the record has no motion models.
+    """
     from mirl.learning.motion_models import motion_sentence
 
     weights = r.get("motion_models")
@@ -225,7 +312,17 @@ def _pair_labels(result, scenario) -> dict:
 
 
 def print_learn(out: dict, result, scenario) -> None:
-    """The text form of ``mirl learn``'s result."""
+    """Print the text form of ``mirl learn``'s result to standard output.
+
+    Parameters
+    ----------
+    out : dict
+        The result's record (:func:`learn_record`).
+    result : LearnResult
+        The result itself (its method, message, label changes, iterations and timings).
+    scenario : Scenario
+        The scenario it was learned on.
+    """
     robots = out["robots"]
     print(
         f"{result.method} on {scenario.name}: {out['observations']} ({out['steps']} steps, "

@@ -81,6 +81,29 @@ def run_version(cond: Condition) -> str:
     return code_version() + (f"+{world_version}" if world_version else "")
 
 
+def split_version(version: str) -> tuple[str, str]:
+    """A row's version (:func:`run_version`) as mirl's fingerprint and its world's part.
+
+    Parameters
+    ----------
+    version : str
+        ``"0.2.0+src.0123456789"`` or ``"0.2.0+src.0123456789+mujoco.3.17.0"``.
+
+    Returns
+    -------
+    tuple of str
+        The fingerprint (:func:`~mirl.experiments.conditions.code_version`'s form) and what
+        the world adds ("" for nothing, or a version not of that form).
+    """
+    head, sep, tail = version.partition("+src.")
+    if not sep or len(tail) < _HASH_CHARS:
+        return version, ""
+    return head + sep + tail[:_HASH_CHARS], tail[_HASH_CHARS:].removeprefix("+")
+
+
+_HASH_CHARS = 10  # code_version's hash
+
+
 @dataclass
 class Summary:
     """What one invocation of a sweep did; :meth:`line` says it in one line.

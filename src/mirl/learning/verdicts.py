@@ -165,12 +165,33 @@ class Verdict:
         return (self.part,) if self.part is not None else self.candidates
 
     def is_right(self, damaged: Sequence[str]) -> bool:
-        """Whether the verdict is right when ``damaged`` are the truly damaged parts."""
+        """Whether the verdict is right when ``damaged`` are the truly damaged parts.
+
+        Parameters
+        ----------
+        damaged : sequence of str
+            The truly damaged parts (empty for a healthy robot).
+
+        Returns
+        -------
+        bool
+            With a part or candidates named: whether one of them is damaged; naming none:
+            whether no part is.
+        """
         if not self.names_damage:
             return not damaged
         return any(p in damaged for p in self.named)
 
     def to_dict(self) -> dict:
+        """The verdict as a JSON-ready record (``mirl learn --json``).
+
+        Returns
+        -------
+        dict
+            ``part``, ``confidence`` and ``damage_probabilities`` (rounded to 4 decimals),
+            ``candidates``; ``seen_moving`` (only when False), ``weakened`` and ``fit`` only
+            when set.
+        """
         out = {
             "part": self.part,
             "confidence": round(float(self.confidence), 4),
@@ -188,7 +209,19 @@ class Verdict:
         return out
 
     def sentence(self, robot: str) -> str:
-        """The verdict in words: "J's left wheel is damaged (confidence 0.97)"."""
+        """The verdict in words: "J's left wheel is damaged (confidence 0.97)".
+
+        Parameters
+        ----------
+        robot : str
+            The robot's name.
+
+        Returns
+        -------
+        str
+            The sentence, with the weakened wheel and a record that does not fit where they
+            apply.
+        """
         if not self.seen_moving:
             return f"L never saw {robot} move: no verdict on its parts"
         conf = f"(confidence {self.confidence:.2f})"
@@ -224,6 +257,7 @@ class FeatureUncertainty:
     intervals : mapping of str to (float, float)
         Per feature, the central 95 % posterior interval of its success probability.
     verdict : Verdict
+        The robot's fault verdict.
     dispersion : float
         The variance inflation the steps' log-likelihood was divided by (1: independent steps).
     effective_draws : float
@@ -270,6 +304,7 @@ class LateralDrift:
     Parameters
     ----------
     mean : float
+        The mean offset (cells, left of the heading positive).
     se : float
         Its standard error, inflated for the correlation of consecutive steps.
     steps : int
@@ -281,11 +316,24 @@ class LateralDrift:
     steps: int
 
     def to_dict(self) -> dict:
+        """The drift as a JSON-ready record (``mirl learn --json``).
+
+        Returns
+        -------
+        dict
+            ``mean`` and ``se`` (rounded to 4 decimals) and ``steps``.
+        """
         return {"mean": round(self.mean, 4), "se": round(self.se, 4), "steps": self.steps}
 
     def sentence(self) -> str:
         """The drift in words: "0.125 cell to the right of the centre line (± 0.008) on 313
-        forward steps"."""
+        forward steps".
+
+        Returns
+        -------
+        str
+            The sentence.
+        """
         side = "left" if self.mean > 0 else "right"
         return (
             f"{abs(self.mean):.3f} cell to the {side} of the centre line (± {self.se:.3f}) on "
@@ -303,9 +351,35 @@ def failure_dispersion(
     probabilities: Mapping[str, float],
     cap: float = 4.0,
 ) -> float:
-    """The variance inflation (1 + ρ)/(1 − ρ) of the step outcomes, ρ the lag-1 autocorrelation
-    of their standardised residuals under ``probabilities`` over consecutive labelled steps
-    (``t`` the steps' times); 1 when ρ ≤ 0 or there are too few pairs, at most ``cap``."""
+    """The variance inflation (1 + ρ)/(1 − ρ) of the step outcomes.
+
+    ρ is the lag-1 autocorrelation of the outcomes' standardised residuals under
+    ``probabilities``, over pairs of consecutive labelled steps.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain the labels were learned under (its ξ and intended states).
+    t : ndarray of int, shape (n,)
+        The robot's observed steps' times: step k goes from state ``s[k]`` at ``t[k]`` to
+        ``s_next[k]`` at ``t[k] + 1``.
+    s : ndarray of int, shape (n,)
+        Their start states.
+    labels : ndarray of int, shape (n,)
+        Their action labels (-1: none; such steps are left out).
+    s_next : ndarray of int, shape (n,)
+        Their end states.
+    probabilities : mapping of str to float
+        Each feature's success probability.
+    cap : float, default 4.0
+        The largest inflation returned.
+
+    Returns
+    -------
+    float
+        The inflation, in [1, ``cap``]: 1 when ρ ≤ 0, or with fewer than 10 labelled steps or
+        10 consecutive pairs.
+    """
     t, s, labels, s_next = (np.asarray(v, dtype=int) for v in (t, s, labels, s_next))
     keep = labels >= 0
     t, s, labels, s_next = t[keep], s[keep], labels[keep], s_next[keep]
@@ -347,13 +421,28 @@ def _seen_together(
 def in_company(
     domain: PatrolDomain, series: Sequence[np.ndarray], robot: int, distance: float
 ) -> np.ndarray:
-    """(horizon,) bool: the steps at which L saw another robot coming the other way (the
-    opposite heading) within ``distance`` cells (centre to centre) of robot ``robot``, ahead of
-    it or alongside (within 110° of its heading, so until they have passed), both seen;
-    ``series`` holds every robot's observed states (-1 unseen).
+    """The steps at which L saw another robot coming the other way near a robot.
 
     Robots passing each other keep to one side; a robot following or leading another does not
     pass it and drives the middle, so those steps are not company.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The scenario's domain (its states' cells and headings).
+    series : sequence of ndarray of int, shape (horizon,)
+        Every robot's observed states, -1 where unseen.
+    robot : int
+        The robot's index in ``series``.
+    distance : float
+        How near (cells, centre to centre) the other robot must be.
+
+    Returns
+    -------
+    ndarray of bool, shape (horizon,)
+        Whether, both seen, another robot with the opposite heading was within ``distance``
+        cells of the robot, ahead of it or alongside (within 110° of its heading, so until
+        they have passed).
     """
     own = np.asarray(series[robot])
     near = np.zeros(len(own), dtype=bool)
@@ -367,9 +456,23 @@ def in_company(
 
 
 def held_by_others(domain: PatrolDomain, series: Sequence[np.ndarray], robot: int) -> np.ndarray:
-    """(horizon,) bool: the steps at which L saw another robot in robot ``robot``'s cell or in
-    the cell ahead of it, both seen; ``series`` holds every robot's observed states (-1
-    unseen). A physical robot there is in the way: what the step does is not its parts' doing.
+    """The steps at which L saw another robot in a robot's cell or in the cell ahead of it.
+
+    A physical robot there is in the way: what the step does is not its parts' doing.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The scenario's domain (its states' cells and headings).
+    series : sequence of ndarray of int, shape (horizon,)
+        Every robot's observed states, -1 where unseen.
+    robot : int
+        The robot's index in ``series``.
+
+    Returns
+    -------
+    ndarray of bool, shape (horizon,)
+        Whether, both seen, another robot was in the robot's cell or the cell ahead.
     """
     own = np.asarray(series[robot])
     held = np.zeros(len(own), dtype=bool)
@@ -381,9 +484,24 @@ def held_by_others(domain: PatrolDomain, series: Sequence[np.ndarray], robot: in
 
 
 def beside_others(domain: PatrolDomain, series: Sequence[np.ndarray], robot: int) -> np.ndarray:
-    """(horizon,) bool: the steps at which L saw another robot within one cell of robot
-    ``robot`` (its cell or any of the eight around it), both seen: where touching robots jam
-    (:func:`~mirl.learning.model_check.check_jams`)."""
+    """The steps at which L saw another robot within one cell of a robot: where touching robots
+    jam (:func:`~mirl.learning.model_check.check_jams`).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The scenario's domain (its states' cells and headings).
+    series : sequence of ndarray of int, shape (horizon,)
+        Every robot's observed states, -1 where unseen.
+    robot : int
+        The robot's index in ``series``.
+
+    Returns
+    -------
+    ndarray of bool, shape (horizon,)
+        Whether, both seen, another robot was in the robot's cell or any of the eight around
+        it.
+    """
     own = np.asarray(series[robot])
     near = np.zeros(len(own), dtype=bool)
     for both, a, b in _seen_together(domain, series, robot):
@@ -402,16 +520,40 @@ def lateral_drift(
     min_steps: int = 5,
 ) -> LateralDrift | None:
     """The mean lateral offset at the end of a robot's observed forward steps that arrived in
-    the cell ahead and drove alone, or None with fewer than ``min_steps`` of them.
+    the cell ahead and drove alone.
 
-    ``t, s, labels, s_next`` are its observed steps (as for :func:`failure_dispersion`),
-    ``lateral`` its (horizon,) offsets and ``company`` the (horizon,) steps at which another
-    robot was near it (:func:`in_company`): a step starting or ending in company is left out,
-    because robots passing each other keep to one side, which is no wheel's doing; so is a
-    forward step that failed (a robot stuck against a wall is off the centre line for the
-    wall's reason, step after step). Consecutive offsets of one robot are correlated (a robot
-    off the centre line stays off it for a while): the standard error is inflated by
-    (1 + ρ)/(1 − ρ), ρ their lag-1 autocorrelation.
+    A step starting or ending in company is left out, because robots passing each other keep
+    to one side, which is no wheel's doing; so is a forward step that failed (a robot stuck
+    against a wall is off the centre line for the wall's reason, step after step).
+    Consecutive offsets of one robot are correlated (a robot off the centre line stays off it
+    for a while): the standard error is inflated by (1 + ρ)/(1 − ρ), ρ their lag-1
+    autocorrelation clipped to [0, 0.95].
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The scenario's domain.
+    t : ndarray of int, shape (n,)
+        The robot's observed steps' times: step k goes from state ``s[k]`` at ``t[k]`` to
+        ``s_next[k]`` at ``t[k] + 1``.
+    s : ndarray of int, shape (n,)
+        Their start states.
+    labels : ndarray of int, shape (n,)
+        Their action labels (-1: none; such steps are left out).
+    s_next : ndarray of int, shape (n,)
+        Their end states.
+    lateral : ndarray of float, shape (horizon,)
+        The robot's lateral offset (cells, left of the heading positive) at each step; NaN
+        where unknown (such steps are left out).
+    company : ndarray of bool, shape (horizon,), optional
+        The steps at which another robot was near it (:func:`in_company`).
+    min_steps : int, default 5
+        The fewest forward steps a drift is the mean of.
+
+    Returns
+    -------
+    LateralDrift or None
+        The drift; None with fewer than ``min_steps`` steps kept.
     """
     t, s, labels, s_next = (np.asarray(v, dtype=int) for v in (t, s, labels, s_next))
     y = np.asarray(lateral, dtype=float)[t + 1]
@@ -445,6 +587,20 @@ def drift_log_likelihood(
       2 φ(x; 0, v) Φ(α x / √v), v = gap² scale² + s², α = gap · scale / s.
 
     A gap of 0 (both wheels alike) gives N(0, s²) either way: no drift expected.
+
+    Parameters
+    ----------
+    gap : array_like of float
+        Wheel gaps p_right − p_left, any shape.
+    drift : LateralDrift
+        The robot's drift: its mean is the offset x, its standard error enters s.
+    spec : DriftSpec, default DriftSpec()
+        The prior of κ and the tolerance τ.
+
+    Returns
+    -------
+    ndarray of float
+        log p(drift | gap), of ``gap``'s shape.
     """
     gap = np.asarray(gap, dtype=float)
     s2 = drift.se**2 + spec.tolerance**2
@@ -463,10 +619,27 @@ def drift_log_likelihood(
 def weakened_wheel(
     drift: LateralDrift | None, spec: DriftSpec, named: Sequence[str], z: float = 2.0
 ) -> str | None:
-    """The wheel a robot's drift shows weaker than the other — it veers towards it, more than
-    ``z`` standard deviations of a healthy robot's (its standard error and the tolerance τ) —
-    where the verdict is that no part is damaged (``named`` empty): a motor weaker than the
-    other that still drives the robot's steps. None otherwise."""
+    """The wheel a robot's drift shows weaker than the other where the verdict names no part:
+    a motor weaker than the other that still drives the robot's steps.
+
+    Parameters
+    ----------
+    drift : LateralDrift or None
+        The robot's drift (None: no poses, or too few steps).
+    spec : DriftSpec
+        The drift specification, whose tolerance τ a healthy robot's drift may have.
+    named : sequence of str
+        The parts the verdict names (:attr:`Verdict.named`).
+    z : float, default 2.0
+        How many standard deviations of a healthy robot's drift (its standard error and τ
+        combined) the drift must exceed.
+
+    Returns
+    -------
+    str or None
+        The wheel the robot veers towards (``"left_wheel"`` for a drift to the left), when
+        ``named`` is empty and the drift exceeds ``z`` standard deviations; None otherwise.
+    """
     if drift is None or named:
         return None
     if abs(drift.mean) <= z * np.hypot(drift.se, spec.tolerance):
@@ -480,7 +653,22 @@ def estimate_outside_interval(
     slack: float = 0.05,
 ) -> bool:
     """Whether some point estimate lies more than ``slack`` outside its 95 % interval (max
-    entropy's 1.000 against a posterior's 0.99 is not worth a word)."""
+    entropy's 1.000 against a posterior's 0.99 is not worth a word).
+
+    Parameters
+    ----------
+    probabilities : mapping of str to float
+        Eq. 4's estimate of each feature's success probability.
+    intervals : mapping of str to (float, float)
+        Each feature's 95 % interval; features without an estimate are passed over.
+    slack : float, default 0.05
+        How far outside its interval an estimate may lie.
+
+    Returns
+    -------
+    bool
+        Whether some estimate lies below ``lo - slack`` or above ``hi + slack``.
+    """
     return any(
         not lo - slack <= probabilities[f] <= hi + slack
         for f, (lo, hi) in intervals.items()
@@ -498,7 +686,24 @@ def estimate_disagrees(
     its 95 % interval (:func:`estimate_outside_interval`), or one that reads a part as damaged
     (or healthy) where the posterior's median does not — the verdict follows the posterior, so
     the report then shows the posterior's medians as the answer (docs/design.md, "Fault
-    verdicts")."""
+    verdicts").
+
+    Parameters
+    ----------
+    probabilities : mapping of str to float
+        Eq. 4's estimate of each feature's success probability.
+    intervals : mapping of str to (float, float)
+        Each feature's 95 % posterior interval.
+    medians : mapping of str to float
+        Each feature's posterior median.
+    definition : DamageDefinition
+        What "damaged" means.
+
+    Returns
+    -------
+    bool
+        Whether the two give different answers.
+    """
     if estimate_outside_interval(probabilities, intervals):
         return True
     return any(
@@ -536,17 +741,22 @@ def posterior_draws(
     Parameters
     ----------
     features : sequence of str
+        The features, in the order of the draws' columns.
     observations : sequence of (subset, successes, trials)
-        Counts may be fractional (a dispersion divided out).
+        Per feature subset (a sequence of feature names), the successes and trials of its
+        steps. Counts may be fractional (a dispersion divided out).
     healthy : mapping of str to float
-        Each feature's healthy level (the prior's centre).
-    prior : PriorSpec
+        Each feature's healthy level (the prior's centre; 0.95 for one it does not name).
+    prior : PriorSpec, default DEFAULT_PRIOR
+        The features' prior (:class:`~mirl.learning.motion_models.PriorSpec`).
     drift : LateralDrift, optional
         The robot's lateral drift (:func:`drift_log_likelihood`).
-    drift_spec : DriftSpec
+    drift_spec : DriftSpec, default DriftSpec()
+        How a weak wheel drifts the robot.
     n_draws : int, default 2000
         The sampler's draws (:func:`~mirl.learning.smc.tempered_smc`).
     random_state : int, default 0
+        The sampler's seed.
 
     Returns
     -------
@@ -607,6 +817,22 @@ def verdict_from_draws(
     probably damaged than not: one such part is the verdict, with the probability that it is
     damaged; several are "one of these, cannot tell which", with the probability that one of
     them is.
+
+    Parameters
+    ----------
+    features : sequence of str
+        The features, in the order of the draws' columns.
+    p : ndarray of float, shape (n, F)
+        Draws of the features' success probabilities.
+    weights : ndarray of float, shape (n,)
+        The draws' normalised weights.
+    definition : DamageDefinition
+        What "damaged" means.
+
+    Returns
+    -------
+    Verdict
+        The verdict, with each feature's probability of damage.
     """
     features = tuple(features)
     thresholds = np.array([definition.threshold(f) for f in features])
@@ -631,7 +857,21 @@ def verdict_from_draws(
 
 
 def point_verdict(probabilities: Mapping[str, float], definition: DamageDefinition) -> Verdict:
-    """The verdict of known probabilities (the truth): certain."""
+    """The verdict of known probabilities (the truth): certain.
+
+    Parameters
+    ----------
+    probabilities : mapping of str to float
+        Each feature's true success probability.
+    definition : DamageDefinition
+        What "damaged" means.
+
+    Returns
+    -------
+    Verdict
+        The damaged part (or, with several, all of them as candidates; with none, no part) at
+        confidence 1; damage probabilities 0 or 1.
+    """
     damaged = definition.damaged_parts(probabilities)
     probs = {f: float(f in damaged) for f in probabilities}
     if len(damaged) == 1:
@@ -656,7 +896,10 @@ def feature_uncertainty(
     Parameters
     ----------
     features : sequence of str
+        The robot's features.
     observations : sequence of (subset, successes, trials)
+        Per feature subset, the successes and trials of its steps (subsets without trials are
+        left out).
     definition : DamageDefinition
         What "damaged" means (and the prior's healthy levels, and how a weak wheel drifts the
         robot).
@@ -664,8 +907,23 @@ def feature_uncertainty(
         The counts are divided by it (:func:`failure_dispersion`).
     drift : LateralDrift, optional
         Its lateral drift (:func:`lateral_drift`).
-    prior, n_draws, random_state
-        Passed to :func:`posterior_draws`.
+    prior : PriorSpec, default DEFAULT_PRIOR
+        The features' prior (:class:`~mirl.learning.motion_models.PriorSpec`).
+    n_draws : int, default 2000
+        The sampler's draws, passed to :func:`posterior_draws`.
+    random_state : int, default 0
+        The sampler's seed.
+
+    Returns
+    -------
+    FeatureUncertainty
+        The intervals, medians and verdict, with the dispersion, the effective number of
+        draws and the drift.
+
+    Raises
+    ------
+    ValueError
+        A ``dispersion`` below 1.
     """
     if dispersion < 1:
         raise ValueError(f"`dispersion` must be at least 1, got {dispersion}")
@@ -787,7 +1045,26 @@ def action_distribution(
     robot does something else, and on healthy physical robots it predicted three times the
     stops they made; ε, learned from the record, takes the rest
     (:mod:`mirl.learning.motion_models`). Elsewhere the label itself (the meeting rule's, a
-    known policy's), and uniform where a step has none."""
+    known policy's), and uniform where a step has none.
+
+    Parameters
+    ----------
+    s : ndarray of int, shape (n,)
+        The steps' start states.
+    labels : ndarray of int, shape (n,)
+        Their action labels (-1: none).
+    n_actions : int
+        A, the number of actions.
+    soft_policy : ndarray of shape (S, A), optional
+        L's learned maximum-entropy policy; without it, every labelled step gets its label.
+    own_policy : ndarray of int, shape (S,), optional
+        L's greedy policy; steps whose label differs from it keep their label.
+
+    Returns
+    -------
+    ndarray of float, shape (n, A)
+        Each step's action distribution; rows sum to 1.
+    """
     s, labels = np.asarray(s, dtype=int), np.asarray(labels, dtype=int)
     out = np.zeros((len(s), n_actions))
     out[np.arange(len(s)), np.maximum(labels, 0)] = 1.0
@@ -808,7 +1085,22 @@ def indistinguishable(
 ) -> tuple[tuple[str, ...], ...]:
     """Groups of two or more features that enter exactly the same of the labelled steps'
     feature subsets (ξ(s, a) of ``domain``): the steps fix only their product, and Eq. 4's
-    maximum-entropy solution gives them one value."""
+    maximum-entropy solution gives them one value.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain whose ξ the steps are read under.
+    s : ndarray of int, shape (n,)
+        The steps' start states.
+    labels : ndarray of int, shape (n,)
+        Their action labels (-1: none; such steps are left out).
+
+    Returns
+    -------
+    tuple of tuple of str
+        The groups, features in ξ's order; features that enter no subset are in none.
+    """
     s, labels = np.asarray(s, dtype=int), np.asarray(labels, dtype=int)
     seen = labels >= 0
     used = np.unique(domain.subset_index[s[seen], labels[seen]])
@@ -827,8 +1119,28 @@ def never_seen_moving(
     n_draws: int = 4000,
     random_state: int = 0,
 ) -> FeatureUncertainty:
-    """A robot L never saw at two consecutive steps: the prior's intervals and no verdict
-    (its ``confidence`` is the prior's probability that no part is damaged)."""
+    """A robot L never saw at two consecutive steps: the prior's intervals and no verdict.
+
+    Parameters
+    ----------
+    features : sequence of str
+        The robot's features.
+    definition : DamageDefinition
+        What "damaged" means, and the prior's healthy levels.
+    prior : PriorSpec, default DEFAULT_PRIOR
+        The features' prior (:class:`~mirl.learning.motion_models.PriorSpec`).
+    n_draws : int, default 4000
+        The prior draws.
+    random_state : int, default 0
+        Their seed.
+
+    Returns
+    -------
+    FeatureUncertainty
+        The prior's intervals and medians, and a verdict that names no part, with
+        ``seen_moving`` False, a failed ``moves`` check and, as ``confidence``, the prior's
+        probability that no part is damaged.
+    """
     features = tuple(features)
     h = np.array([min(definition.healthy.get(f, 0.95), 0.999) for f in features])
     p = expit(sample_feature_prior(np.random.default_rng(random_state), n_draws, h, prior))
@@ -952,6 +1264,8 @@ def robot_uncertainty(
     probabilities : mapping of str to float
         Eq. 4's feature probabilities learned from the labels (under ``learned_with``).
     definition : DamageDefinition
+        What "damaged" means (and the prior's healthy levels, and how a weak wheel drifts the
+        robot).
     learned_with : MotionModel, optional
         The model the labels and ``probabilities`` were learned under (default: the
         first of ``models``, the scenario's ξ with Eq. 5).
@@ -962,8 +1276,21 @@ def robot_uncertainty(
         The greedy policy the labels came from (labels that differ came from the meeting rule).
     models : sequence of MotionModel, optional
         The candidates (default: :func:`~mirl.learning.motion_models.candidate_models`).
-    prior, n_draws, random_state
-        The features' prior; the sampler's draws per round and seed.
+    prior : PriorSpec, default DEFAULT_PRIOR
+        The features' prior (:class:`~mirl.learning.motion_models.PriorSpec`).
+    n_draws : int, default N_DRAWS
+        The sampler's draws per round
+        (:data:`~mirl.learning.motion_models.N_DRAWS`).
+    random_state : int, default 0
+        The sampler's seed.
+
+    Returns
+    -------
+    FeatureUncertainty
+        The intervals, medians and verdict (with the record's fit and any weakened wheel), the
+        motion models' weights, the features the steps cannot tell apart, the drift and the
+        log evidence; :func:`never_seen_moving`'s when L never saw the robot at two
+        consecutive steps.
     """
     from mirl.learning.transitions import count_subsets, observed_steps
 

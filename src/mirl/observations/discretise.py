@@ -76,7 +76,27 @@ class DiscretisationError(PoseError):
 
 @dataclass(frozen=True)
 class RobotCounts:
-    """What happened to one robot's poses."""
+    """What happened to one robot's poses.
+
+    Parameters
+    ----------
+    robot : str
+        The robot's name.
+    read : int
+        Poses read.
+    binned : int
+        Poses within the tolerance of a step of the watch (candidates for a step).
+    snapped : int
+        Binned poses on a wall or off the map moved to the nearest patroller cell.
+    dropped : int
+        Binned poses too far off the hallway, dropped (``drop_off_map=True`` only).
+    observed_steps : int
+        Steps with a pose: each takes its nearest binned pose.
+    outside_visible : int, default 0
+        Observed steps on cells outside L's visible cells.
+    unplaced : int, default 0
+        Stamps read but not placed in the map frame (no transform in time).
+    """
 
     robot: str
     read: int  # poses read
@@ -98,7 +118,14 @@ class RobotCounts:
         return self.binned - self.dropped - self.observed_steps
 
     def drops(self) -> dict[str, int]:
-        """Poses dropped, by reason (docs/design.md, "Frames and TF")."""
+        """Poses dropped, by reason (docs/design.md, "Frames and TF").
+
+        Returns
+        -------
+        dict of str to int
+            Reason -> poses: off the map, with no step within the tolerance, a duplicate of a
+            step's nearer pose, or with no transform to the map frame (zeros included).
+        """
         return {
             "off-map": self.dropped,
             "no step within the tolerance": self.no_step,
@@ -107,6 +134,14 @@ class RobotCounts:
         }
 
     def line(self) -> str:
+        """The robot's counts in words, one line of :meth:`Discretised.summary`.
+
+        Returns
+        -------
+        str
+            Poses read, binned, snapped, steps observed (and outside L's view) and the drops
+            by reason.
+        """
         extra = (
             f", {self.outside_visible} outside L's visible cells" if self.outside_visible else ""
         )
@@ -145,6 +180,13 @@ class AutoStep:
         return self.why in ("pace", "poses")
 
     def sentence(self) -> str:
+        """How the step was chosen, in words.
+
+        Returns
+        -------
+        str
+            The reason (:attr:`why`) and the share of moves spanning more than one cell.
+        """
         if self.why == "poses":
             return (
                 f"chosen: the tracker's interval, one pose a step; {self.long_moves:.1%} of the "
@@ -165,6 +207,26 @@ class AutoStep:
 
 @dataclass(frozen=True)
 class Discretised:
+    """Pose tracks on a scenario's grid (:func:`discretise`), and what happened to the poses.
+
+    Parameters
+    ----------
+    trajectories : Trajectories
+        The observed steps, as every learner takes them.
+    report : tuple of RobotCounts
+        What happened to each robot's poses, in the scenario's order.
+    start_time : float
+        The time (s) of step 0.
+    step_seconds : float
+        The step (s).
+    tolerance : float
+        How far (s) from a step's time a pose may lie and still be its candidate.
+    visible : ndarray of bool, shape (rows, cols)
+        The cells L could see (see :func:`discretise`).
+    auto_step : AutoStep or None, default None
+        How the step was chosen when ``step_seconds="auto"``; None when it was given.
+    """
+
     trajectories: Trajectories
     report: tuple[RobotCounts, ...]
     start_time: float
@@ -174,11 +236,29 @@ class Discretised:
     auto_step: AutoStep | None = None  # how the step was chosen, when it was
 
     def visible_states(self, scenario: Scenario) -> np.ndarray:
-        """(S,) bool states on visible cells, for :func:`mirl.learning.learn`'s ``visible``."""
+        """The states on visible cells, for :func:`mirl.learning.learn`'s ``visible``.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario the tracks were discretised on.
+
+        Returns
+        -------
+        ndarray of bool, shape (S,)
+            Whether each of the scenario's states lies on a cell of :attr:`visible`.
+        """
         cells = scenario.domain.states[:, :2]
         return self.visible[cells[:, 0], cells[:, 1]]
 
     def summary(self) -> str:
+        """The discretisation in words: the watch, the step and each robot's counts.
+
+        Returns
+        -------
+        str
+            A header line, then one indented line per robot (:meth:`RobotCounts.line`).
+        """
         tr = self.trajectories
         chosen = f", {self.auto_step.sentence()}" if self.auto_step is not None else ""
         head = (
@@ -190,9 +270,29 @@ class Discretised:
 
 
 def lateral_offset(rf, cf, row, col, heading, snapped=None) -> np.ndarray:
-    """Signed distance (cells, left of the heading positive) of fractional positions (rf, cf)
-    from the centre line of cell (row, col) along ``heading``; NaN for ``snapped`` positions
-    (off the hallway, moved onto it)."""
+    """Signed distance of fractional positions from the centre line of their cells.
+
+    Parameters
+    ----------
+    rf : array_like of float, shape (n,)
+        The positions' fractional rows.
+    cf : array_like of float, shape (n,)
+        Their fractional columns.
+    row : array_like of int, shape (n,)
+        The row of the cell each is on.
+    col : array_like of int, shape (n,)
+        Its column.
+    heading : array_like of int, shape (n,)
+        The heading (0 east, 1 north, 2 west, 3 south) whose centre line is measured from.
+    snapped : array_like of bool, shape (n,), optional
+        Positions off the hallway, moved onto it; their offset is NaN.
+
+    Returns
+    -------
+    ndarray of float, shape (n,)
+        The distance (cells) from the centre line of cell (row, col) along ``heading``, left of
+        the heading positive.
+    """
     left = HEADING_DELTAS[(np.asarray(heading) + 1) % 4]  # turn_left's heading: (drow, dcol)
     out = (np.asarray(rf) - row) * left[:, 0] + (np.asarray(cf) - col) * left[:, 1]
     out = np.asarray(out, dtype=float)
@@ -202,7 +302,19 @@ def lateral_offset(rf, cf, row, col, heading, snapped=None) -> np.ndarray:
 
 
 def heading_of_yaw(yaw: np.ndarray) -> np.ndarray:
-    """Nearest of the 4 headings (0 east, 1 north, 2 west, 3 south) of yaw angles in radians."""
+    """Nearest of the 4 headings (0 east, 1 north, 2 west, 3 south) of yaw angles.
+
+    Parameters
+    ----------
+    yaw : array_like of float
+        Angles in radians (any range).
+
+    Returns
+    -------
+    ndarray of int64
+        The headings, of ``yaw``'s shape; a yaw half-way between two headings takes the
+        even-numbered one (east or west), as :func:`numpy.rint` rounds.
+    """
     return np.mod(np.rint(np.asarray(yaw, dtype=float) / (np.pi / 2)), 4).astype(np.int64)
 
 
@@ -219,14 +331,45 @@ def discretise(
 ) -> Discretised:
     """Bin ``tracks`` into the scenario's grid and steps (see the module docstring).
 
-    ``visible`` says which cells L could see, handed on to the learner: ``None`` (default) the
-    scenario's observability degree and visibility order; ``"observed"`` every cell a robot was
-    observed on; or a (rows, cols) bool mask. Observed steps outside it are counted
-    (``outside_visible``), never dropped. ``step_seconds="auto"``: the robots' own pace
-    (:func:`auto_step_seconds`).
-
     .. versionchanged:: 0.2.0
        ``step_seconds="auto"``.
+
+    Parameters
+    ----------
+    tracks : PoseTracks
+        The poses; their robots must be among the scenario's.
+    scenario : Scenario
+        The scenario whose map, robots and observability the poses are read against.
+    step_seconds : float or "auto", default 2.0
+        The step (s); ``"auto"``: the robots' own pace (:func:`auto_step_seconds`).
+    start_time : float, optional
+        The time (s) of step 0; the earliest pose by default.
+    n_steps : int, optional
+        The steps of the watch; by default up to the step nearest the last pose.
+    tolerance : float, optional
+        How far (s) from a step's time a pose may lie and still be its candidate; half a step
+        by default.
+    drop_off_map : bool, default False
+        Drop (and count) poses more than half a cell from the hallway instead of refusing them.
+    visible : ndarray of bool of shape (rows, cols), "observed" or None, default None
+        Which cells L could see, handed on to the learner: None the scenario's observability
+        degree and visibility order; ``"observed"`` every cell a robot was observed on; or a
+        mask. Observed steps outside it are counted (``outside_visible``), never dropped.
+
+    Returns
+    -------
+    Discretised
+        The trajectories, each robot's counts, the watch and the visible cells.
+
+    Raises
+    ------
+    DiscretisationError
+        A robot the scenario does not have; a step that is not positive or ``"auto"``; a
+        negative tolerance; a NaN, infinite or far-off pose; a start time or number of steps
+        out of range; or a pose more than half a cell from the hallway without
+        ``drop_off_map``.
+    ValueError
+        A ``visible`` that is neither None, ``"observed"`` nor a mask of the map's shape.
     """
     auto = None
     if isinstance(step_seconds, str):
@@ -310,8 +453,10 @@ def auto_step_seconds(
     A step longer than a robot's pace lets it cross two cells, which no action explains; a
     shorter one cuts its moves into pieces that stay in one cell and read as failed steps.
     A tracker that reports a robot :data:`AUTO_SPARSE` s apart or more (a camera once a
-    decision, an AMCL pose once a second) is read one pose a step: no shorter step has a pose at
-    both ends. Other tracks say their pace in two ways:
+    decision, an AMCL pose once a second, a publisher stamping in whole seconds; the interval is
+    that of its distinct stamps) is read at a multiple of its interval, for no shorter step has a
+    pose at both ends: the longest at which the moves stay within one cell, as below, or else
+    the interval itself, one pose a step. Other tracks say their pace in two ways:
 
     * **In jumps** — a tracker reporting at a robot's decisions, poses written from grid
       states: the robot changes cells at multiples of one period (:func:`_jump_period`), its
@@ -327,6 +472,22 @@ def auto_step_seconds(
     consecutive steps are not judged. When no step fits (poses too noisy to keep a moving
     robot in one cell at any step) or none is judged, the paper's 2 s, and the model check
     will say whether the record fits (:mod:`mirl.learning.model_check`).
+
+    Parameters
+    ----------
+    tracks : PoseTracks
+        The poses, indexed by the scenario's robots.
+    scenario : Scenario
+        The scenario whose map frame turns positions into cells.
+    start_time : float, optional
+        The time (s) of step 0; the earliest pose by default.
+    long_moves : float, default AUTO_LONG_MOVES
+        The share of moves that may span more than one cell at the step chosen.
+
+    Returns
+    -------
+    AutoStep
+        The step, the share of its moves that span more than one cell, and why it was chosen.
     """
     t = np.asarray(tracks.t, dtype=float)
     if not len(t) or not np.isfinite(t).all():
@@ -360,12 +521,18 @@ def auto_step_seconds(
         share = long / pairs if pairs else 0.0
         return enough, enough and each and share <= long_moves, share
 
-    ticks = [np.diff(t[idx]) for idx in robots if len(idx) > 1]
-    pose_interval = float(np.median(np.concatenate(ticks))) if ticks else 0.0
+    pose_interval = _pose_interval(t, robots)
     if pose_interval >= AUTO_SPARSE:  # no step between two of its poses has one
         enough, _, share = judged(round(pose_interval, 3))
         if enough:
-            return AutoStep(round(pose_interval, 3), share, "poses")
+            # a longer step needs a pose at both ends too: a multiple of the interval, the
+            # longest at which the moves stay within one cell (a robot slower than its tracker)
+            chosen = AutoStep(round(pose_interval, 3), share, "poses")
+            for k in range(2, int(AUTO_STEPS[-1] / pose_interval) + 1):
+                _, fits, share = judged(round(k * pose_interval, 3))
+                if fits:
+                    chosen = AutoStep(round(k * pose_interval, 3), share)
+            return chosen
     period = _jump_period(t, row, col, robots)
     if period is not None:
         _, fits, share = judged(period)
@@ -385,6 +552,16 @@ def auto_step_seconds(
     return AutoStep(2.0, judged(2.0)[2], "no fit")
 
 
+def _pose_interval(t: np.ndarray, robots: list[np.ndarray]) -> float:
+    """The median time between a robot's consecutive distinct stamps (0 if it has none).
+
+    Equal stamps are left out: a publisher that stamps in whole seconds gives many poses one
+    stamp, and their zero gaps would make the interval 0, a step no record can be read at."""
+    ticks = [np.diff(np.unique(t[idx])) for idx in robots if len(idx) > 1]
+    gaps = np.concatenate(ticks) if ticks else np.zeros(0)
+    return float(np.median(gaps)) if gaps.size else 0.0
+
+
 def _jump_period(t, row, col, robots: list[np.ndarray]) -> float | None:
     """The period of a track whose robots change cells in jumps (class docstring of
     :func:`auto_step_seconds`), or None for one that moves smoothly.
@@ -394,18 +571,17 @@ def _jump_period(t, row, col, robots: list[np.ndarray]) -> float | None:
     quartile of the times between changes of cell, and its halves, thirds, … down to two pose
     intervals, of which at least 80 % of those times are multiples, within a pose interval or a
     tenth of the period, whichever is less."""
-    gaps, tick, pairs, changed = [], [], 0, 0
+    gaps, pairs, changed = [], 0, 0
     for idx in robots:
         ti = t[idx]
         if len(ti) < 2:
             continue
-        tick.append(np.diff(ti))
         moved = (row[idx][1:] != row[idx][:-1]) | (col[idx][1:] != col[idx][:-1])
         pairs, changed = pairs + len(moved), changed + int(moved.sum())
         gaps.append(np.diff(0.5 * (ti[1:] + ti[:-1])[moved]))
-    if not gaps or sum(len(g) for g in gaps) < AUTO_MIN_CHANGES:
+    pose_interval = _pose_interval(t, robots)
+    if not gaps or sum(len(g) for g in gaps) < AUTO_MIN_CHANGES or pose_interval <= 0.0:
         return None
-    pose_interval = float(np.median(np.concatenate(tick)))
     if changed >= 0.25 * pairs:
         return round(pose_interval, 3)
     between = np.concatenate(gaps)

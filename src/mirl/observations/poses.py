@@ -42,7 +42,36 @@ class PoseError(ValueError):
 @dataclass(frozen=True)
 class PoseTracks:
     """One row per pose message: ``robot`` indexes ``robot_names``; float64 seconds, metres and
-    radians in the map frame. Readers return rows sorted by (robot, t), stable."""
+    radians in the map frame. Readers return rows sorted by (robot, t), stable.
+
+    Parameters
+    ----------
+    robot_names : tuple of str
+        The robots' names; row ``i`` is of ``robot_names[robot[i]]``.
+    t : array_like of float, shape (n,)
+        Each pose's time (s).
+    robot : array_like of int, shape (n,)
+        Each pose's robot, an index into ``robot_names``.
+    x : array_like of float, shape (n,)
+        The map-frame x (m).
+    y : array_like of float, shape (n,)
+        The map-frame y (m).
+    yaw : array_like of float, shape (n,)
+        The heading (rad) about the map's z axis.
+    source : str, default "<memory>"
+        Where the poses came from, as messages name it (a file's path).
+    frames : mapping of str to str, default {}
+        Robot name -> the frame its poses were read in, as errors name it (``"map"``, or
+        ``"map via /tf from base_footprint"``); empty when the source says nothing (a pose CSV).
+    unplaced : mapping of str to int, default {}
+        Robot name -> stamps read but not placed in the map frame (a TF link with no
+        transform).
+
+    Raises
+    ------
+    PoseError
+        Columns of different lengths, or a robot index outside ``robot_names``.
+    """
 
     robot_names: tuple[str, ...]
     t: np.ndarray
@@ -58,7 +87,18 @@ class PoseTracks:
     unplaced: Mapping[str, int] = field(default_factory=dict)
 
     def frame_of(self, robot: str) -> str:
-        """`` in frame F`` for messages, or nothing when the frame is unknown."""
+        """`` in frame F`` for messages, or nothing when the frame is unknown.
+
+        Parameters
+        ----------
+        robot : str
+            The robot's name.
+
+        Returns
+        -------
+        str
+            `` in frame 'F'`` with the robot's frame; ``""`` when :attr:`frames` has none.
+        """
         frame = self.frames.get(robot)
         return f" in frame '{frame}'" if frame else ""
 
@@ -77,6 +117,18 @@ class PoseTracks:
         return len(self.t)
 
     def select(self, mask: np.ndarray) -> PoseTracks:
+        """The rows ``mask`` selects, with the same names, source, frames and unplaced counts.
+
+        Parameters
+        ----------
+        mask : ndarray of bool, shape (n,), or of int
+            A boolean mask of the rows, or their indices (in the order wanted).
+
+        Returns
+        -------
+        PoseTracks
+            The selected rows.
+        """
         return PoseTracks(
             self.robot_names,
             self.t[mask],
@@ -90,17 +142,43 @@ class PoseTracks:
         )
 
     def sorted(self) -> PoseTracks:
-        """Rows sorted by (robot, t); equal keys keep their order."""
+        """Rows sorted by (robot, t); equal keys keep their order.
+
+        Returns
+        -------
+        PoseTracks
+            The same rows, sorted (stable).
+        """
         return self.select(np.lexsort((self.t, self.robot)))
 
     def counts(self) -> np.ndarray:
-        """Poses per robot."""
+        """Poses per robot.
+
+        Returns
+        -------
+        ndarray of int, shape (len(robot_names),)
+            The number of rows of each robot, in :attr:`robot_names`' order.
+        """
         return np.bincount(self.robot, minlength=len(self.robot_names))
 
     def with_robot_names(self, names: Iterable[str]) -> PoseTracks:
         """The same poses indexed into ``names`` (e.g. the scenario's robots, in its order).
 
-        Raises :class:`PoseError` for a robot of the tracks that ``names`` does not have.
+        Parameters
+        ----------
+        names : iterable of str
+            The new robot names; every robot of the tracks must be among them (others may be
+            added, with no poses).
+
+        Returns
+        -------
+        PoseTracks
+            The poses with ``robot_names`` = ``names``, sorted by (robot, t).
+
+        Raises
+        ------
+        PoseError
+            A robot of the tracks that ``names`` does not have.
         """
         names = tuple(names)
         lut = np.empty(len(self.robot_names), dtype=np.int64)
@@ -123,12 +201,40 @@ class PoseTracks:
 
     @classmethod
     def empty(cls, names: Iterable[str] = (), source: str = "<memory>") -> PoseTracks:
+        """Tracks with no poses.
+
+        Parameters
+        ----------
+        names : iterable of str, default ()
+            The robots' names.
+        source : str, default "<memory>"
+            Where the (absent) poses came from.
+
+        Returns
+        -------
+        PoseTracks
+            Zero rows.
+        """
         z = np.zeros(0)
         return cls(tuple(names), z, np.zeros(0, dtype=np.int64), z, z, z, source)
 
     @classmethod
     def concat(cls, parts: list[PoseTracks], source: str | None = None) -> PoseTracks:
-        """Rows of all ``parts`` (robot names merged in order of first appearance), sorted."""
+        """Rows of all ``parts`` (robot names merged in order of first appearance), sorted.
+
+        Parameters
+        ----------
+        parts : list of PoseTracks
+            The tracks to join.
+        source : str or None, default None
+            The result's source; None: the first part's (``"<memory>"`` when there are none).
+
+        Returns
+        -------
+        PoseTracks
+            All rows, sorted by (robot, t); frames and unplaced counts merged (a later part's
+            entry for a robot replaces an earlier one's).
+        """
         if not parts:
             return cls.empty(source=source or "<memory>")
         names: list[str] = []
@@ -167,8 +273,18 @@ def far_quaternion(components: np.ndarray) -> np.ndarray:
 
 
 def yaw_from_quaternion(qx, qy, qz, qw) -> np.ndarray:
-    """Yaw (rotation about z) of quaternions, radians in (−π, π] (arrays ok); the same for any
-    non-zero scale of the quaternion."""
+    """Yaw (rotation about z) of quaternions; the same for any non-zero scale of the quaternion.
+
+    Parameters
+    ----------
+    qx, qy, qz, qw : array_like of float
+        The quaternions' components (scalars or arrays of one shape, or shapes that broadcast).
+
+    Returns
+    -------
+    ndarray of float
+        The yaw, radians in (−π, π], of the broadcast shape.
+    """
     qx, qy, qz, qw = (np.asarray(v, dtype=np.float64) for v in (qx, qy, qz, qw))
     return np.arctan2(2.0 * (qw * qz + qx * qy), qw * qw + qx * qx - qy * qy - qz * qz)
 
@@ -218,8 +334,23 @@ def _read_arrow_csv(path: Path, header: list[str], columns: dict, numeric: set[s
 def read_pose_csv(path: str | Path) -> PoseTracks:
     """Read a ``t,robot,x,y,yaw`` (or ``t,robot,x,y,qz,qw``) file; rows sorted by (robot, t).
 
-    Raises :class:`PoseError` naming the file and line for a missing column, a non-number, or a
-    missing or NaN value.
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The CSV file.
+
+    Returns
+    -------
+    PoseTracks
+        Its poses, robots in order of first appearance, ``source`` the path.
+
+    Raises
+    ------
+    PoseError
+        Naming the file and line: a missing or repeated column, both ``yaw`` and ``qz``/``qw``
+        or neither, a non-number, a missing, NaN or infinite value, an empty robot name, or a
+        quaternion with qz = qw = 0 or a component beyond :data:`MAX_QUATERNION`; or a file
+        that does not exist or cannot be read.
     """
     import pyarrow as pa
     import pyarrow.compute as pc
@@ -285,7 +416,20 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
 
 
 def write_pose_csv(tracks: PoseTracks, path: str | Path) -> None:
-    """Write ``t,robot,x,y,yaw`` rows (floats at full precision: reading back is exact)."""
+    """Write ``t,robot,x,y,yaw`` rows (floats at full precision: reading back is exact).
+
+    Parameters
+    ----------
+    tracks : PoseTracks
+        The poses to write.
+    path : str or pathlib.Path
+        The CSV file to write (replaced if it exists).
+
+    Raises
+    ------
+    PoseError
+        The file cannot be written.
+    """
     tr = tracks
     columns = {"t": tr.t, "robot": tr.robot, "x": tr.x, "y": tr.y, "yaw": tr.yaw}
     try:

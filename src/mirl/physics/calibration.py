@@ -45,9 +45,22 @@ docs/results.md, "Fault verdicts")."""
 
 
 def wheel_success(strength: float, healthy: float) -> float:
-    """The success probability, in ξ's terms, of a wheel whose motor has ``strength``:
-    ``healthy`` × the measured ratio (:data:`FORWARD_SUCCESS_RATIO`), interpolated linearly
-    between the strengths measured, 0 for a dead motor and ``healthy`` for a full one."""
+    """The success probability, in ξ's terms, of a wheel whose motor has ``strength``.
+
+    Parameters
+    ----------
+    strength : float
+        The motor's strength, a fraction of a full motor's torque in [0, 1] (values outside
+        are clamped to the ends by the interpolation).
+    healthy : float
+        The wheel's healthy success probability.
+
+    Returns
+    -------
+    float
+        ``healthy`` × the measured ratio (:data:`FORWARD_SUCCESS_RATIO`), interpolated linearly
+        between the strengths measured: 0 for a dead motor and ``healthy`` for a full one.
+    """
     known = sorted(FORWARD_SUCCESS_RATIO.items())
     x = [0.0, *(k for k, _ in known), 1.0]
     y = [0.0, *(v for _, v in known), 1.0]
@@ -55,10 +68,24 @@ def wheel_success(strength: float, healthy: float) -> float:
 
 
 def damaged_wheels(scenario) -> dict[str, tuple[str, ...]]:
-    """Per robot, the wheels damaged by their effect: whose motor's strength makes the wheel's
-    success probability (:func:`wheel_success`) lie below its healthy level by more than the
-    scenario's margin (``scenario.faults``) — as on the grid, not whenever a motor is weaker
-    than a full one."""
+    """Per robot, the wheels damaged by their effect.
+
+    A wheel is damaged when its motor's strength makes its success probability
+    (:func:`wheel_success`) lie below its healthy level by more than the scenario's margin
+    (``scenario.faults``) — as on the grid, not whenever a motor is weaker than a full one.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A scenario of the physical world (its ``[physics]`` section sets the motors'
+        strengths; its ``[faults]`` the healthy levels and margin).
+
+    Returns
+    -------
+    dict of str to tuple of str
+        Each robot's name -> its damaged wheels, of :data:`~mirl.world.faults.WHEELS`, in that
+        order (empty for a healthy robot).
+    """
     from mirl.physics.config import WHEELS, scenario_physics
 
     cfg, faults = scenario_physics(scenario), scenario.faults
@@ -72,8 +99,19 @@ def damaged_wheels(scenario) -> dict[str, tuple[str, ...]]:
 
 
 def weakened_wheels(scenario) -> dict[str, tuple[str, ...]]:
-    """Per robot, the wheels whose motor is weaker than a full one yet not damaged by its effect
-    (:func:`damaged_wheels`): weakened, its moves unaffected."""
+    """Per robot, the wheels whose motor is weaker than a full one yet not damaged by its effect.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A scenario of the physical world.
+
+    Returns
+    -------
+    dict of str to tuple of str
+        Each robot's name -> its wheels whose strength is below 1 but which
+        :func:`damaged_wheels` does not count as damaged: weakened, their moves unaffected.
+    """
     from mirl.physics.config import WHEELS, scenario_physics
 
     cfg, damaged = scenario_physics(scenario), damaged_wheels(scenario)
@@ -85,6 +123,42 @@ def weakened_wheels(scenario) -> dict[str, tuple[str, ...]]:
 
 @dataclass
 class Calibration:
+    """What :func:`calibrate` counted over its patrols.
+
+    Parameters
+    ----------
+    robot_names : tuple of str
+        The scenario's robots, in its order (the first axis of the arrays below).
+    counts : ndarray of int, shape (n_robots, n_actions, 2)
+        Per robot and action (in :data:`~mirl.world.actions.ACTIONS`' order), the steps taken
+        and those that succeeded.
+    counts_alone : ndarray of int, shape (n_robots, n_actions, 2)
+        The same over the steps with no other robot within ``alone`` cells at either end.
+    failure_ends : ndarray of int, shape (n_robots, n_actions, 3)
+        Per robot and action, the failed steps that stayed put, that reached another action's
+        intended state, and that ended elsewhere.
+    forward_speed : list of list of float
+        Per robot, the true speed (m/s) of each forward step taken alone.
+    turn_rate : list of dict of str to list of float
+        Per robot and turn (``"turn_left"``, ``"turn_right"``), the peak yaw rate (deg/s) of
+        each turn step taken alone.
+    contacts : int, default 0
+        Robot-robot contact events over all patrols.
+    wall_contacts : int, default 0
+        Robot-wall contact events over all patrols.
+    steps : int, default 0
+        Decision steps simulated, summed over patrols.
+    sim_seconds : float, default 0.0
+        Simulated time (s), summed over patrols.
+    cpu_seconds : float, default 0.0
+        Process CPU time (s) the patrols took.
+    transitions : list of ndarray of int, shape (steps - 1, 3)
+        What a learner with the true actions gets: per patrol and robot, (s, a, s') of every
+        step, in true discretised states.
+    records : list of Records
+        Each patrol's record (true and believed states, actions, what L's camera saw).
+    """
+
     robot_names: tuple[str, ...]
     # [robot][action] -> [trials, successes] (all steps) and (steps alone)
     counts: np.ndarray = field(default_factory=lambda: np.zeros((0, 4, 2), dtype=int))
@@ -105,12 +179,48 @@ class Calibration:
     records: list[Records] = field(default_factory=list)
 
     def rate(self, robot: int, action: str, *, alone: bool = False) -> tuple[float, int]:
+        """A robot's success rate at an action, and the number of steps it is of.
+
+        Parameters
+        ----------
+        robot : int
+            The robot's index in :attr:`robot_names`.
+        action : str
+            An action's name, one of :data:`~mirl.world.actions.ACTIONS`.
+        alone : bool, default False
+            Count only the steps the robot took alone (:attr:`counts_alone`).
+
+        Returns
+        -------
+        rate : float
+            Successes over steps; NaN when there were no such steps.
+        steps : int
+            The number of such steps.
+
+        Raises
+        ------
+        ValueError
+            ``action`` is not an action's name.
+        """
         c = (self.counts_alone if alone else self.counts)[robot, ACTIONS.index(action)]
         return (c[1] / c[0] if c[0] else float("nan")), int(c[0])
 
     def stayed(self, action: str | None = None) -> tuple[float, int]:
-        """The share of failed steps (of ``action``, or of every moving action) whose robot
-        stayed put, and how many failed steps that is of."""
+        """The share of failed steps whose robot stayed put, and how many failed steps it is of.
+
+        Parameters
+        ----------
+        action : str or None, default None
+            Count the failed steps of this action; None: of every moving action (forward and
+            the two turns), over every robot.
+
+        Returns
+        -------
+        share : float
+            The failed steps that stayed put over all failed steps; NaN when none failed.
+        failed : int
+            The number of failed steps.
+        """
         moving = [ACTIONS.index(action)] if action else [ACTIONS.index(a) for a in MOVING]
         ends = self.failure_ends[:, moving].sum(axis=(0, 1))
         return (ends[0] / ends.sum() if ends.sum() else float("nan")), int(ends.sum())
@@ -118,7 +228,29 @@ class Calibration:
 
 def calibrate(scenario, *, steps: int = 750, seeds=range(4), alone: int = 2, config=None,
               observability: float = 1.0) -> Calibration:  # fmt: skip
-    """Run ``len(seeds)`` patrols of ``steps`` steps (random starts) and count."""
+    """Run ``len(seeds)`` patrols of ``steps`` steps (random starts) and count.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A scenario to patrol in the physical world.
+    steps : int, default 750
+        The length of each patrol in states (``steps - 1`` decision steps are taken).
+    seeds : sequence of int, default range(4)
+        One patrol per seed.
+    alone : int, default 2
+        A step counts as alone when every other robot is more than this many cells away
+        (Manhattan distance) at both its ends.
+    config : PhysicsConfig or None, default None
+        The physics; None: the scenario's own.
+    observability : float, default 1.0
+        The share of the map the observer sees, passed to the world.
+
+    Returns
+    -------
+    Calibration
+        The counts, speeds, turn rates, contacts, transitions and records of all patrols.
+    """
     import time
 
     n = len(scenario.robots)
@@ -177,9 +309,28 @@ def calibrate(scenario, *, steps: int = 750, seeds=range(4), alone: int = 2, con
 
 
 def open_loop(scenario, robot: str, *, config=None) -> dict[str, float]:
-    """A robot's physical abilities at full command (20 rad/s), after 1 s: pivoting with only
-    the left wheel driving (a right turn) and only the right one (a left turn), the driving
-    wheel's rim speed (m/s) and the turn rate (deg/s)."""
+    """A robot's physical abilities at full command (20 rad/s), after 1 s.
+
+    The robot pivots on a clear stretch of the long hallway, first with only the left wheel
+    driving (a right turn), then with only the right one (a left turn); the other robots are
+    moved out of the way.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A scenario on the boyd2 map (the clear stretch is placed in its long hallway).
+    robot : str
+        The robot's name.
+    config : PhysicsConfig or None, default None
+        The physics; None: the scenario's own.
+
+    Returns
+    -------
+    dict of str to float
+        ``left_wheel_speed`` and ``right_wheel_speed``: the driving wheel's rim speed (m/s);
+        ``turn_right_rate`` and ``turn_left_rate``: the turn rate (deg/s) over the second
+        second.
+    """
     import mujoco
 
     from mirl.physics.robot import KOBUKI
@@ -216,7 +367,17 @@ def open_loop(scenario, robot: str, *, config=None) -> dict[str, float]:
 
 @dataclass(frozen=True)
 class Meeting:
-    """How a head-on meeting of two patrollers went (:func:`head_on_meeting`)."""
+    """How a head-on meeting of two patrollers went (:func:`head_on_meeting`).
+
+    Parameters
+    ----------
+    got_past : bool
+        Whether the robots ended past each other.
+    contacts : int
+        Robot-robot contact events.
+    wall_contacts : int
+        Robot-wall contact events.
+    """
 
     got_past: bool  # the robots ended past each other
     contacts: int  # robot-robot contact events
@@ -224,7 +385,13 @@ class Meeting:
 
     @property
     def passed(self) -> bool:
-        """Past each other without touching."""
+        """Past each other without touching.
+
+        Returns
+        -------
+        bool
+            ``got_past`` and no robot-robot contact.
+        """
         return self.got_past and self.contacts == 0
 
 
@@ -236,8 +403,26 @@ north, eight cells apart."""
 def head_on_meeting(scenario, seed: int, *, config=None, steps: int = 10) -> Meeting:
     """Two patrollers of a boyd2-map ``scenario`` driving at each other along the long hallway
     (:data:`HEAD_ON_STARTS`) for ``steps`` decision steps: whether they got past each other, and
-    the contacts on the way. A meeting that has not got past within the steps (the robots still
-    facing each other) counts as not passed, like one that touched."""
+    the contacts on the way.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A scenario on the boyd2 map with at least two robots; its first two meet.
+    seed : int
+        The world's seed.
+    config : PhysicsConfig or None, default None
+        The physics; None: the scenario's own.
+    steps : int, default 10
+        The decision steps to drive.
+
+    Returns
+    -------
+    Meeting
+        Whether they got past each other and the contacts. A meeting that has not got past
+        within the steps (the robots still facing each other) counts as not passed, like one
+        that touched.
+    """
     w = PhysicalWorld(scenario, config=config, seed=seed, starts=HEAD_ON_STARTS, observer=False,
                       record_ticks=False)  # fmt: skip
     for _ in range(steps):

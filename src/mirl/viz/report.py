@@ -15,6 +15,7 @@ from mirl.experiments.conditions import (
     experiment_names,
 )
 from mirl.experiments.store import load_results
+from mirl.experiments.sweep import split_version
 from mirl.learning.methods import METHODS
 from mirl.viz.aggregate import PAPER, Row, groups
 from mirl.viz.figures import SECTIONS, outcomes_markdown
@@ -24,6 +25,18 @@ __all__ = ["WrittenReport", "write_report", "write_report_and_figures", "report_
 
 # ---------------------------------------------------------------------------------------------
 # Report
+
+
+def _versions(rows: list[Row]) -> tuple[list[str], list[str]]:
+    """mirl's fingerprints of the rows, and what else some rows depend on (a world's release:
+    :func:`mirl.experiments.sweep.split_version`), so a store holding both worlds is not one of
+    mixed code."""
+    code, extras = set(), set()
+    for r in rows:
+        version, extra = split_version(str(r["version"]))
+        code.add(version)
+        extras.add(extra)
+    return sorted(code), sorted(extras - {""})
 
 
 def _throughput(sessions: list[dict]) -> str:
@@ -72,7 +85,7 @@ def report_markdown(
         gs.sort(key=lambda g: rank.get(listed(g.condition), len(rank)))
     errors = sum(r["outcome"] == "error" for r in rows)
     ns = [g.n for g in gs] or [0]
-    versions = sorted({str(r["version"]) for r in rows})
+    versions, depends = _versions(rows)
     head = [
         f"## {name}",
         "",
@@ -80,6 +93,7 @@ def report_markdown(
         f"condition ({errors} failed runs excluded); base seed {meta.get('base_seed')}; mirl "
         f"{', '.join(versions)}"
         + (" (**rows from different code versions**)" if len(versions) > 1 else "")
+        + (f" and {', '.join(depends)} (the rows of a world that depends on it)" if depends else "")
         + f". Throughput: {_throughput(sessions)}.",
         "",
     ]

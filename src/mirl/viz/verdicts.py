@@ -38,7 +38,30 @@ CONFIDENT = 0.9
 
 @dataclass(frozen=True)
 class VerdictItem:
-    """One robot's verdict in one run."""
+    """One robot's verdict in one run.
+
+    Parameters
+    ----------
+    world : str
+        The world the run ran in (``"grid"``, ``"physics"``).
+    observability : float
+        The run's observability d, the share of the map the observer sees.
+    damage : str or None
+        The condition's damaged part as ``"ROBOT:FEATURE"``; None for a healthy condition.
+    robot : str
+        The robot the verdict is about.
+    run : int
+        The run's index within its condition.
+    verdict : tuple of str
+        The parts the verdict names: one part, several candidates ("cannot tell which"), or
+        none ("no part is damaged").
+    confidence : float
+        The verdict's confidence, in [0, 1].
+    truth : tuple of str
+        The robot's truly damaged parts (empty for a healthy robot).
+    right : bool
+        Whether the verdict is right (see the module's docstring).
+    """
 
     world: str
     observability: float
@@ -69,7 +92,21 @@ class VerdictItem:
 
 
 def verdict_items(gs: Sequence[Group]) -> list[VerdictItem]:
-    """Every stored verdict of every run of ``gs``."""
+    """Every stored verdict of every run of ``gs``.
+
+    Parameters
+    ----------
+    gs : sequence of Group
+        The experiment's conditions and their stored rows; a row holds
+        ``confidence.ROBOT``, ``verdict.ROBOT``, ``truth.ROBOT`` and ``right.ROBOT`` for each
+        robot with a verdict.
+
+    Returns
+    -------
+    list of VerdictItem
+        One item per robot with a verdict per row, in the groups' and rows' order, robots by
+        name.
+    """
     out = []
     for g in gs:
         c = g.condition
@@ -93,7 +130,21 @@ def verdict_items(gs: Sequence[Group]) -> list[VerdictItem]:
 def reliability_table(
     items: Sequence[VerdictItem], edges: Sequence[float] = EDGES
 ) -> list[tuple[float, float, int, float, float]]:
-    """Per confidence bin with verdicts: (low, high, n, mean confidence, share right)."""
+    """Per confidence bin with verdicts: (low, high, n, mean confidence, share right).
+
+    Parameters
+    ----------
+    items : sequence of VerdictItem
+        The verdicts.
+    edges : sequence of float, default EDGES
+        The bins' edges, increasing; a bin holds [low, high), the last [low, high].
+
+    Returns
+    -------
+    list of tuple of (float, float, int, float, float)
+        One row per bin holding at least one verdict, in the edges' order: its edges, the
+        number of verdicts, their mean confidence and the share of them that is right.
+    """
     conf = np.array([i.confidence for i in items])
     right = np.array([i.right for i in items], dtype=float)
     rows = []
@@ -108,7 +159,20 @@ def reliability_table(
 def expected_calibration_error(
     items: Sequence[VerdictItem], edges: Sequence[float] = EDGES
 ) -> float:
-    """Σ_b (n_b / n) |share right_b − mean confidence_b| over the bins (Naeini et al. 2015)."""
+    """Σ_b (n_b / n) |share right_b − mean confidence_b| over the bins (Naeini et al. 2015).
+
+    Parameters
+    ----------
+    items : sequence of VerdictItem
+        The verdicts.
+    edges : sequence of float, default EDGES
+        The bins' edges, as for :func:`reliability_table`.
+
+    Returns
+    -------
+    float
+        The expected calibration error, in [0, 1]; NaN when no verdict falls in a bin.
+    """
     rows = reliability_table(items, edges)
     n = sum(r[2] for r in rows)
     return float(sum(r[2] * abs(r[4] - r[3]) for r in rows) / n) if n else float("nan")
@@ -190,7 +254,24 @@ def rates_markdown(items: Sequence[VerdictItem]) -> str:
 
 
 def verdicts_markdown(gs: list[Group], figdir: Path) -> str:
-    """The experiment's section of ``report.md``."""
+    """The experiment's section of ``report.md``.
+
+    Writes the reliability diagram as ``verdicts.png`` and ``verdicts.svg`` into ``figdir``
+    when there are verdicts.
+
+    Parameters
+    ----------
+    gs : list of Group
+        The experiment's conditions and their stored rows.
+    figdir : pathlib.Path
+        The directory the figures go to (created if missing).
+
+    Returns
+    -------
+    str
+        The section's Markdown: the diagram, its table, the calibration measures per world and
+        the verdict rates per damaged part; a one-line note when no verdicts were stored.
+    """
     items = verdict_items(gs)
     if not items:
         return "No verdicts were stored for these runs."

@@ -64,17 +64,22 @@ class DriftSpec:
     Parameters
     ----------
     per_gap : float or None, default None
-        κ where it is known (measured for the robots and their controller): κ ~ N(per_gap,
+        The κ where it is known (measured for the robots and their controller): κ ~ N(per_gap,
         (spread · per_gap)²). None: κ is unknown, with a half-normal prior of scale ``scale``.
     spread : float, default 0.3
-        κ's relative standard deviation when ``per_gap`` is given.
+        The κ's relative standard deviation when ``per_gap`` is given.
     scale : float, default 0.5
         The scale (cells) of κ's half-normal prior when ``per_gap`` is None: a wheel-probability
         gap of 1 drifts a robot by up to about half a cell — across a one-cell hallway to the
         wall.
     tolerance : float, default 0.02
-        τ (cells): how far from the centre line a healthy robot's mean path driving alone may
+        The τ (cells): how far from the centre line a healthy robot's mean path driving alone may
         lie beyond its standard error (localisation error, the controller's own bias).
+
+    Raises
+    ------
+    ValueError
+        A ``per_gap``, ``spread``, ``scale`` or ``tolerance`` that is not positive.
     """
 
     per_gap: float | None = None
@@ -103,6 +108,11 @@ class DamageDefinition:
         How far below the healthy level damage starts, in (0, 1).
     drift : DriftSpec, default DriftSpec()
         How a weak wheel shows in the robot's lateral drift (robot data with poses).
+
+    Raises
+    ------
+    ValueError
+        A ``margin`` outside (0, 1) or a healthy level outside (0, 1].
     """
 
     healthy: Mapping[str, float] = field(default_factory=lambda: dict(HEALTHY_PROBABILITIES))
@@ -117,20 +127,79 @@ class DamageDefinition:
                 raise ValueError(f"`healthy` level of '{name}' must be in (0, 1], got {level}")
 
     def threshold(self, feature: str) -> float:
-        """The success probability below which ``feature`` counts as damaged."""
+        """The success probability below which ``feature`` counts as damaged.
+
+        Parameters
+        ----------
+        feature : str
+            A transition feature's name (``"left_wheel"``, say).
+
+        Returns
+        -------
+        float
+            Its healthy level (:data:`DEFAULT_HEALTHY` if ``healthy`` does not name it) less
+            ``margin``.
+        """
         return self.healthy.get(feature, DEFAULT_HEALTHY) - self.margin
 
     def damaged(self, feature: str, probability: float) -> bool:
-        """Whether a part with success ``probability`` is damaged."""
+        """Whether a part with success ``probability`` is damaged.
+
+        Parameters
+        ----------
+        feature : str
+            The part's feature name.
+        probability : float
+            Its success probability.
+
+        Returns
+        -------
+        bool
+            True when ``probability`` lies strictly below :meth:`threshold` of ``feature``.
+        """
         return probability < self.threshold(feature)
 
     def damaged_parts(self, probabilities: Mapping[str, float]) -> tuple[str, ...]:
-        """The damaged features of a robot with these success probabilities, in their order."""
+        """The damaged features of a robot with these success probabilities, in their order.
+
+        Parameters
+        ----------
+        probabilities : mapping of str to float
+            Each feature's success probability.
+
+        Returns
+        -------
+        tuple of str
+            The features that are :meth:`damaged`, in the mapping's order (empty if none).
+        """
         return tuple(f for f, p in probabilities.items() if self.damaged(f, p))
 
 
 def read_faults(data: Any, features: tuple[str, ...]) -> DamageDefinition:
-    """The ``[faults]`` table (``healthy`` levels per feature, ``margin``, ``drift``), checked."""
+    """The ``[faults]`` table (``healthy`` levels per feature, ``margin``, ``drift``), checked.
+
+    Parameters
+    ----------
+    data : dict
+        The parsed ``[faults]`` table of a scenario file (``{}`` when the file has none).
+    features : tuple of str
+        The scenario's transition features: the names ``healthy`` may set, and those the
+        returned definition gives a healthy level.
+
+    Returns
+    -------
+    DamageDefinition
+        The healthy level of every feature in ``features`` (the table's, else
+        :data:`HEALTHY_PROBABILITIES`, else :data:`DEFAULT_HEALTHY`), the margin (else
+        :data:`DEFAULT_MARGIN`) and the drift specification (else ``DriftSpec()``'s defaults).
+
+    Raises
+    ------
+    mirl.world.schema.FieldError
+        An unknown key or feature, a value that is not a number or lies out of range (levels
+        and margin in [0, 1], drift fields positive and at most 10), or a combination
+        :class:`DamageDefinition` refuses; the message names the field.
+    """
     faults = schema.table(data, "faults", ("healthy", "margin", "drift"))
     default = DamageDefinition()
     healthy = {f: default.healthy.get(f, DEFAULT_HEALTHY) for f in features}
