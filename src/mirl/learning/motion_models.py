@@ -52,7 +52,7 @@ from scipy.special import betaln, expit
 
 from mirl.learning.smc import WeightedDraws, tempered_smc
 from mirl.world.domain import FeatureMap, PatrolDomain
-from mirl.world.faults import WHEELS
+from mirl.world.faults import DEFAULT_HEALTHY, WHEELS
 from mirl.world.motion import ERROR_MODELS, turns_without_wheels
 
 __all__ = [
@@ -524,7 +524,7 @@ def model_posterior(
     """
     features = tuple(features)
     F = len(features)
-    h = np.array([min(healthy.get(f, 0.95), 0.999) for f in features])
+    h = np.array([min(healthy.get(f, DEFAULT_HEALTHY), 0.999) for f in features])
     weight = design.counts / dispersion
     coefficients = _mixed(design.coefficients, len(design.subsets))
     incidence = _incidence(features, design.subsets)

@@ -76,7 +76,7 @@ from mirl.learning.motion_models import (
 )
 from mirl.learning.smc import tempered_smc
 from mirl.world.domain import FORWARD, N_HEADINGS, TURN_LEFT, TURN_RIGHT, PatrolDomain
-from mirl.world.faults import WHEELS, DamageDefinition, DriftSpec
+from mirl.world.faults import DEFAULT_HEALTHY, WHEELS, DamageDefinition, DriftSpec
 from mirl.world.maps import HEADING_DELTAS
 
 __all__ = [
@@ -114,6 +114,9 @@ MODEL_TRUST = 0.5
 """The weight L gives its motion models for a record that fails a check
 (:mod:`mirl.learning.model_check`); the prior has the rest. A verdict on such a record then
 claims at most 1/2 + 1/2 × the prior's probability of the same statement — never 0.9."""
+MAX_AUTOCORRELATION = 0.95
+"""The drift's lag-1 autocorrelation is clipped here: nearer 1, its variance inflation
+(1 + ρ)/(1 − ρ) would grow without bound on a record of a robot standing still."""
 
 
 @dataclass(frozen=True)
@@ -527,7 +530,7 @@ def lateral_drift(
     against a wall is off the centre line for the wall's reason, step after step).
     Consecutive offsets of one robot are correlated (a robot off the centre line stays off it
     for a while): the standard error is inflated by (1 + ρ)/(1 − ρ), ρ their lag-1
-    autocorrelation clipped to [0, 0.95].
+    autocorrelation clipped to [0, :data:`MAX_AUTOCORRELATION`].
 
     Parameters
     ----------
@@ -568,7 +571,7 @@ def lateral_drift(
         return None
     mean = float(y.mean())
     rho = _lag1_autocorrelation(y - mean, times, min_pairs=min_steps)
-    rho = 0.0 if rho is None else float(np.clip(rho, 0.0, 0.95))
+    rho = 0.0 if rho is None else float(np.clip(rho, 0.0, MAX_AUTOCORRELATION))
     se = float(y.std(ddof=1) * np.sqrt((1 + rho) / (1 - rho) / n))
     return LateralDrift(mean, se, n)
 
@@ -746,7 +749,8 @@ def posterior_draws(
         Per feature subset (a sequence of feature names), the successes and trials of its
         steps. Counts may be fractional (a dispersion divided out).
     healthy : mapping of str to float
-        Each feature's healthy level (the prior's centre; 0.95 for one it does not name).
+        Each feature's healthy level (the prior's centre;
+        :data:`~mirl.world.faults.DEFAULT_HEALTHY` for one it does not name).
     prior : PriorSpec, default DEFAULT_PRIOR
         The features' prior (:class:`~mirl.learning.motion_models.PriorSpec`).
     drift : LateralDrift, optional
@@ -774,7 +778,7 @@ def posterior_draws(
     for j, (subset, k, n) in enumerate(observations):
         incidence[j, [pos[f] for f in subset]] = 1.0
         succ[j], fail[j] = float(k), float(n) - float(k)
-    h = np.array([min(healthy.get(f, 0.95), 0.999) for f in features])
+    h = np.array([min(healthy.get(f, DEFAULT_HEALTHY), 0.999) for f in features])
     drift_term = _drift_term(features, drift, drift_spec)
 
     def log_lik(x):
@@ -928,7 +932,7 @@ def feature_uncertainty(
     if dispersion < 1:
         raise ValueError(f"`dispersion` must be at least 1, got {dispersion}")
     scaled = [(sub, k / dispersion, n / dispersion) for sub, k, n in observations if n > 0]
-    healthy = {f: definition.healthy.get(f, 0.95) for f in features}
+    healthy = {f: definition.healthy_level(f) for f in features}
     p, w = posterior_draws(
         features, scaled, healthy, prior=prior, drift=drift, drift_spec=definition.drift,
         n_draws=n_draws, random_state=random_state,
@@ -1142,7 +1146,7 @@ def never_seen_moving(
         probability that no part is damaged.
     """
     features = tuple(features)
-    h = np.array([min(definition.healthy.get(f, 0.95), 0.999) for f in features])
+    h = np.array([min(definition.healthy_level(f), 0.999) for f in features])
     p = expit(sample_feature_prior(np.random.default_rng(random_state), n_draws, h, prior))
     w = np.full(n_draws, 1.0 / n_draws)
     intervals, medians = _summaries(features, p, w)
@@ -1316,7 +1320,7 @@ def robot_uncertainty(
         drift = lateral_drift(
             domain, t[alone], s[alone], lab[alone], s_next[alone], record.lateral, record.company
         )
-    healthy = {f: definition.healthy.get(f, 0.95) for f in features}
+    healthy = {f: definition.healthy_level(f) for f in features}
 
     def posterior(mask: np.ndarray) -> MotionPosterior:
         return motion_posterior(

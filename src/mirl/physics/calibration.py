@@ -92,7 +92,7 @@ def damaged_wheels(scenario) -> dict[str, tuple[str, ...]]:
     return {
         r: tuple(
             w for w in WHEELS
-            if faults.damaged(w, wheel_success(cfg.strength(r, w), faults.healthy.get(w, 0.95)))
+            if faults.damaged(w, wheel_success(cfg.strength(r, w), faults.healthy_level(w)))
         )
         for r in scenario.robot_names
     }  # fmt: skip

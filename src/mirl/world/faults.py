@@ -126,6 +126,21 @@ class DamageDefinition:
             if not 0.0 < level <= 1.0:
                 raise ValueError(f"`healthy` level of '{name}' must be in (0, 1], got {level}")
 
+    def healthy_level(self, feature: str) -> float:
+        """A part's success probability on a healthy robot.
+
+        Parameters
+        ----------
+        feature : str
+            A transition feature's name (``"left_wheel"``, say).
+
+        Returns
+        -------
+        float
+            Its level in ``healthy``, or :data:`DEFAULT_HEALTHY` if ``healthy`` does not name it.
+        """
+        return self.healthy.get(feature, DEFAULT_HEALTHY)
+
     def threshold(self, feature: str) -> float:
         """The success probability below which ``feature`` counts as damaged.
 
@@ -140,7 +155,7 @@ class DamageDefinition:
             Its healthy level (:data:`DEFAULT_HEALTHY` if ``healthy`` does not name it) less
             ``margin``.
         """
-        return self.healthy.get(feature, DEFAULT_HEALTHY) - self.margin
+        return self.healthy_level(feature) - self.margin
 
     def damaged(self, feature: str, probability: float) -> bool:
         """Whether a part with success ``probability`` is damaged.
