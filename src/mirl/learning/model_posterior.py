@@ -385,7 +385,7 @@ def _feature_draws(
         if c > 0
     ]
     definition = scenario.faults
-    healthy = {f: definition.healthy.get(f, 0.95) for f in features}
+    healthy = {f: definition.healthy_level(f) for f in features}
     p, w = posterior_draws(features, observations, healthy, random_state=seed)
     rng = np.random.default_rng(seed)
     pick = rng.choice(len(w), size=n_draws, p=w)
