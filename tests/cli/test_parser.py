@@ -23,7 +23,7 @@ FLAG_ERRORS = [
     (["run", "--max-wait", "-1"], "argument --max-wait: must be an integer in [0, 10000], got -1"),
     (["run", "--p", "1.5"], "argument --p: must be a number in [0, 1], got 1.5"),
     (["run", "--go-rule", "adaptiv"], "argument --go-rule: unknown go rule 'adaptiv' (did you "
-     "mean 'adaptive'? known: adaptive, value)"),
+     "mean 'adaptive' or 'adaptive-posterior'? known: adaptive, adaptive-posterior, value)"),
     (["run", "--em-init", "zeros"], "argument --em-init: unknown EM initialisation 'zeros' "
      "(known: intended, uniform)"),
     (["run", "--seed", "-1"], "argument --seed: must be an integer in [0, 2^63 - 1], got -1"),

@@ -260,6 +260,8 @@ def test_cli_states_the_chance_by_default_and_runs_the_papers_protocol_on_reques
     assert main([*argv, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert 0.0 <= out["predicted_success"] <= 1.0 and isinstance(out["relearns"], list)
+    lo, hi = out["predicted_success_interval"]
+    assert lo <= out["predicted_success"] <= hi
     assert main(argv) == 0
     text = capsys.readouterr().out
     assert "expecting to get through with probability" in text and "relearned" in text
@@ -286,3 +288,34 @@ def test_the_report_gives_one_answer_per_question(capsys):
     assert confidence < 0.9
     i = next(k for k, x in enumerate(lines) if x.split()[:1] == ["I"])
     assert lines[i + 1].split()[0] == "95" and lines[i + 2].split()[0] == "J"
+
+
+# ---- the stated chance over a posterior of L's models -------------------------------------------
+def test_the_stated_chance_is_averaged_over_model_draws_with_its_interval(boyd2):
+    runs = [run_episode(boyd2, "mirl-t", seed=seed, protocol=FAST) for seed in range(3)]
+    went = [r for r in runs if r.go_time is not None]
+    assert went
+    for r in went:
+        lo, hi = r.predicted_success_interval
+        assert 0.0 <= lo <= r.predicted_success <= hi <= 1.0
+        assert 0.0 <= r.predicted_success_point <= 1.0
+        d = r.to_dict()
+        assert d["predicted_success_interval"] == [lo, hi]
+        assert d["predicted_success_point"] == r.predicted_success_point
+    # learned models are uncertain: the draws spread and move the chance off the point models'
+    assert any(r.predicted_success_interval[1] > r.predicted_success_interval[0] for r in went)
+    assert any(r.predicted_success != r.predicted_success_point for r in went)
+
+
+def test_the_stated_chance_is_a_function_of_the_seed(boyd2):
+    a, b = (run_episode(boyd2, "mirl-t", seed=2, protocol=FAST) for _ in range(2))
+    assert a.predicted_success == b.predicted_success
+    assert a.predicted_success_interval == b.predicted_success_interval
+
+
+def test_the_posterior_go_rule_runs_and_states_its_chance(boyd2):
+    r = run_episode(boyd2, "mirl-t", seed=1, protocol=FAST.replace(go_rule="adaptive-posterior"))
+    assert r.protocol.go_rule == "adaptive-posterior"
+    if r.go_time is not None:
+        lo, hi = r.predicted_success_interval
+        assert lo <= r.predicted_success <= hi

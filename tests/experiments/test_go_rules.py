@@ -8,13 +8,20 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from mirl.experiments.go_rules import AdaptiveRule, Planning, ValueRule, Waiting
+from mirl.experiments.go_rules import (
+    AdaptiveRule,
+    Planning,
+    PosteriorAdaptiveRule,
+    ValueRule,
+    Waiting,
+)
 from mirl.experiments.options import GO_RULES
-from mirl.learning.results import oracle_models
+from mirl.learning.results import LearnResult, oracle_models
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.go import solve_observer_mdp
 from mirl.planning.observer import observer_model
-from mirl.world.scenario import load_scenario
+from mirl.planning.posterior_chance import StatedChance
+from mirl.world.scenario import Scenario, load_scenario
 from mirl.worlds import make_world
 
 
@@ -23,7 +30,8 @@ def test_every_row_loads_a_strategy():
         rule = row.load()()
         assert callable(rule.decide) and callable(rule.replan_penalty)
     assert GO_RULES["value"].load() is ValueRule and GO_RULES["adaptive"].load() is AdaptiveRule
-    assert GO_RULES.names == ("adaptive", "value") and all(
+    assert GO_RULES["adaptive-posterior"].load() is PosteriorAdaptiveRule
+    assert GO_RULES.names == ("adaptive", "adaptive-posterior", "value") and all(
         r.description for r in GO_RULES.values()
     )
 
@@ -31,6 +39,9 @@ def test_every_row_loads_a_strategy():
 @dataclass
 class _Watcher:
     belief: BeliefFilter
+    learned: LearnResult
+    scenario: Scenario
+    visible: np.ndarray | None = None
     moments: tuple = ()
 
     def chances(self, chance_at):
@@ -44,7 +55,8 @@ def waiting():
     world = make_world(
         "grid", sc, model, observability=1.0, seed=4, noise=np.random.SeedSequence(1)
     )
-    belief = BeliefFilter(sc.domain, oracle_models(sc), visible=world.visible)
+    truth = oracle_models(sc)
+    belief = BeliefFilter(sc.domain, truth, visible=world.visible)
     for _ in range(79):
         world.step()
     for now in world.seen:
@@ -54,7 +66,7 @@ def waiting():
         hazard="markov", goal_reward=1.0, detection_penalty=0.5, opportunity_steps=10,
         moment_travel=30,
     )  # fmt: skip
-    return Waiting(world, _Watcher(belief), model, planning)
+    return Waiting(world, _Watcher(belief, truth, sc, world.visible), model, planning)
 
 
 def test_the_value_rule_goes_at_the_best_positive_value(waiting):
@@ -89,9 +101,47 @@ def test_the_adaptive_rule_weighs_going_now_against_the_chances_to_come(waiting)
     assert decision.plan.go_time == 0 and decision.plan.go_values[0] < 1.0
     assert decision.go_time == waiting.world.t
     assert decision.attempt.predicted_success is not None
-    sure = _Watcher(waiting.watcher.belief)
+    sure = _Watcher(waiting.watcher.belief, waiting.watcher.learned, waiting.watcher.scenario)
     sure.chances = lambda chance_at: [1.0]  # type: ignore[method-assign]
     patient = Waiting(waiting.world, sure, waiting.model, waiting.planning)
     decision = AdaptiveRule().decide(patient)
     assert decision.go_time is None and decision.attempt.predicted_success is None
     assert decision.next_round == waiting.world.t + waiting.planning.replan_every
+
+
+def test_the_oracles_stated_chance_is_its_exact_chance_with_no_spread(waiting):
+    # true models have no posterior to draw from: the stated chance is the exact one
+    decision = AdaptiveRule().decide(waiting)
+    a = decision.attempt
+    assert a.predicted_success == a.predicted_success_point
+    assert a.predicted_success_interval == (a.predicted_success, a.predicted_success)
+
+
+def test_the_posterior_rule_acts_as_the_adaptive_rule_where_draws_agree(waiting):
+    # with the true models the posterior chance is the point chance: the two rules decide alike
+    for rule in (AdaptiveRule(), PosteriorAdaptiveRule()):
+        decision = rule.decide(waiting)
+        assert decision.go_time == waiting.world.t
+    sure = _Watcher(waiting.watcher.belief, waiting.watcher.learned, waiting.watcher.scenario)
+    sure.chances = lambda chance_at: [1.0]  # type: ignore[method-assign]
+    patient = Waiting(waiting.world, sure, waiting.model, waiting.planning)
+    assert PosteriorAdaptiveRule().decide(patient).go_time is None
+
+
+def test_the_posterior_rule_waits_when_the_posterior_chance_falls_short(waiting):
+    """Where the adaptive rule goes (its go-now chance beats waiting), the posterior rule scales
+    that chance by the posterior's over the point models' and waits if it then falls short."""
+    c = float(AdaptiveRule().decide(waiting).plan.go_values[0])
+    watcher = _Watcher(waiting.watcher.belief, waiting.watcher.learned, waiting.watcher.scenario)
+    watcher.chances = lambda chance_at: [0.8 * c]  # type: ignore[method-assign]
+    tempted = Waiting(waiting.world, watcher, waiting.model, waiting.planning)
+    assert AdaptiveRule().decide(tempted).go_time == waiting.world.t
+    for posterior, goes in ((0.5 * 0.6, False), (0.95 * 0.6, True)):
+        rule = PosteriorAdaptiveRule()
+        rule._posterior.stated = lambda w, plan, m=posterior: StatedChance(  # type: ignore
+            m, (m, m), 0.6
+        )
+        decision = rule.decide(tempted)
+        assert (decision.go_time is not None) == goes
+        if goes:  # it states the chance it acted on
+            assert decision.attempt.predicted_success == pytest.approx(posterior)

@@ -51,7 +51,10 @@ def test_the_papers_protocol():
         ({"max_wait": 10_001}, "`max_wait` must be an integer in [0, 10000]"),
         ({"watch_until_seen": 0}, "`watch_until_seen` must be an integer in [1, 10000] or None"),
         ({"watch_until_seen": 500, "max_obs_steps": 400}, "must be at most max_obs_steps"),
-        ({"go_rule": "bold"}, "`go_rule`: unknown go rule 'bold' (known: adaptive, value)"),
+        (
+            {"go_rule": "bold"},
+            "`go_rule`: unknown go rule 'bold' (known: adaptive, adaptive-posterior, value)",
+        ),
         ({"relearn_growth": 1.0}, "`relearn_growth` must be a number > 1, got 1.0"),
         ({"replan_every": 0}, "`replan_every` must be an integer >= 1"),
         ({"hazard": "markv"}, "did you mean 'markov'"),

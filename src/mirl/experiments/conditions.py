@@ -370,6 +370,10 @@ def _flatten_run_result(result: Any) -> dict[str, Any]:
         out[f"seen_steps_{robot}"] = int(n)
     out["plan_value"] = _maybe_float(getattr(result, "plan_value", None))
     out["predicted_success"] = _maybe_float(getattr(result, "predicted_success", None))
+    interval = getattr(result, "predicted_success_interval", None)
+    if interval is not None:  # the spread of the stated chance over the model draws
+        out["predicted_success_lo"], out["predicted_success_hi"] = map(float, interval)
+        out["predicted_success_point"] = _maybe_float(result.predicted_success_point)
     relearns = getattr(result, "relearns", None)
     if relearns is not None:
         out["relearns"] = len(relearns)

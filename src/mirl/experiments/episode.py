@@ -36,7 +36,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -93,6 +93,8 @@ class _Going:
     predicted_success: float | None = None
     learned: LearnResult | None = None  # the models L went with (re-learned or not)
     relearns: tuple[Relearn, ...] | None = None
+    predicted_success_interval: tuple[float, float] | None = None
+    predicted_success_point: float | None = None
 
 
 def run_episode(
@@ -158,7 +160,9 @@ def run_episode(
     learning.check_method(spec)
     rule: GoRuleStrategy = GO_RULES[run.go_rule].load()()
     degree = scenario.observability if observability is None else float(observability)
-    sim_seed, noise_seed, learn_seed, random_seed = np.random.SeedSequence(int(seed)).spawn(4)
+    # spawned streams are keyed by their index: a fifth leaves the first four as they were
+    streams = np.random.SeedSequence(int(seed)).spawn(5)
+    sim_seed, noise_seed, learn_seed, random_seed, stated = streams
     timings = dict.fromkeys(("observe", "learn", "plan", "execute"), 0.0)
     t_start, cpu_start = time.perf_counter(), time.process_time()
 
@@ -202,7 +206,8 @@ def run_episode(
         assert learned is not None
         visible = run_world.visible if run.negative_evidence else None
         watcher = _Watcher(modelled, run_world, learned, learner, visible, run.joint, timings)
-        going = _planned_going(run_world, watcher, model, planning, rule, timings)
+        waiting = Waiting(run_world, watcher, model, planning, int(stated.generate_state(1)[0]))
+        going = _planned_going(waiting, rule, timings)
         learned = going.learned
 
     outcome, plan = "timeout", going.plan
@@ -230,6 +235,8 @@ def run_episode(
         result,
         protocol=run,
         predicted_success=going.predicted_success,
+        predicted_success_interval=going.predicted_success_interval,
+        predicted_success_point=going.predicted_success_point,
         relearns=going.relearns if learner is not None and learner.growth is not None else None,
         world=world,
     )
@@ -420,16 +427,12 @@ def _relearn_record(t: int, learner: _Learner, seconds: float) -> Relearn:
 
 
 def _planned_going(
-    world: RunWorld,
-    watcher: _Watcher,
-    model: ObserverModel,
-    planning: Planning,
-    rule: GoRuleStrategy,
-    timings: dict[str, float],
+    waiting: Waiting, rule: GoRuleStrategy, timings: dict[str, float]
 ) -> _Going:
     """Wait in the room, deciding by the go rule until a go time (or the deadline); the plan's
     time-indexed policy is how L will go."""
-    waiting = Waiting(world, watcher, model, planning)
+    world, planning = waiting.world, waiting.planning
+    watcher = cast(_Watcher, waiting.watcher)
     plan, go_time, attempts = wait_for_go(
         world,
         lambda: rule.decide(waiting),
@@ -452,6 +455,10 @@ def _planned_going(
         go_time, policy, replan, plan, tuple(attempts), plan_value, belief,
         # the round that named the go time stated it (the adaptive rule; None for the value rule)
         predicted_success=None if go_time is None else attempts[-1].predicted_success,
+        predicted_success_interval=(
+            None if go_time is None else attempts[-1].predicted_success_interval
+        ),
+        predicted_success_point=None if go_time is None else attempts[-1].predicted_success_point,
         learned=watcher.learned,
         relearns=tuple(watcher.relearns),
     )  # fmt: skip

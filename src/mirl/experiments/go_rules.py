@@ -18,13 +18,24 @@ import numpy as np
 
 from mirl.experiments.execution import Decision
 from mirl.experiments.records import PlanAttempt
+from mirl.learning.results import LearnResult
 from mirl.planning.belief import BeliefFilter
 from mirl.planning.go import ObserverPlan, solve_observer_mdp, waiting_value
 from mirl.planning.observer import ObserverModel
+from mirl.planning.posterior_chance import PosteriorBeliefs, StatedChance, posterior_beliefs
 from mirl.planning.success import success_probability
+from mirl.world.scenario import Scenario
 from mirl.worlds import RunWorld
 
-__all__ = ["Planning", "Waiting", "Watching", "GoRuleStrategy", "ValueRule", "AdaptiveRule"]
+__all__ = [
+    "Planning",
+    "Waiting",
+    "Watching",
+    "GoRuleStrategy",
+    "ValueRule",
+    "AdaptiveRule",
+    "PosteriorAdaptiveRule",
+]
 
 
 @dataclass(frozen=True)
@@ -68,10 +79,14 @@ class Planning:
 
 
 class Watching(Protocol):
-    """L's view from its room as a go rule reads it: its current belief (``belief``), and what
-    going at each of the record's moments promised."""
+    """L's view from its room as a go rule reads it: its current belief (``belief``) under its
+    current models (``learned``, of ``scenario``'s patrollers; the filter's negative evidence
+    ``visible``), and what going at each of the record's moments promised."""
 
     belief: BeliefFilter
+    learned: LearnResult
+    scenario: Scenario
+    visible: np.ndarray | None
 
     def chances(self, chance_at: Callable[[int, np.ndarray], float]) -> list[float]:
         """What going at each of the record's moments promised, computed once per moment and
@@ -104,12 +119,15 @@ class Waiting:
         L's model.
     planning : Planning
         The planning settings.
+    random_state : int, default 0
+        Seeds the stated chance's model draws (from the run's seed).
     """
 
     world: RunWorld
     watcher: Watching
     model: ObserverModel
     planning: Planning
+    random_state: int = 0
 
     def solve(
         self, steps: int, window: int, penalty: float, min_value: float = 0.0
@@ -199,8 +217,12 @@ class ValueRule(GoRuleStrategy):
 class AdaptiveRule(GoRuleStrategy):
     """Go now when the window's best go time is now and its chance beats the value of the
     chances still to come before the deadline, drawn like those of the record's moments; on
-    going, state the exact P(success) (docs/design.md, "The go rule"). Plans maximise
+    going, state P(success) averaged over model sets drawn from the posterior of L's models,
+    with its spread (docs/design.md, "The go rule" and "The stated chance"). Plans maximise
     P(success): no detection penalty."""
+
+    def __init__(self) -> None:
+        self._posterior = _Posterior()
 
     def decide(self, waiting: Waiting) -> Decision:
         t, p = waiting.world.t, waiting.planning
@@ -208,22 +230,72 @@ class AdaptiveRule(GoRuleStrategy):
         plan = waiting.solve(win + p.travel, win, 0.0, min_value=-1.0)  # P(success) objective
         best = plan.go_time if plan.go_time is not None else 0
         go = win == 0
+        stated = None
         if not go and best == 0:  # a later go time in the window is better: wait for it
             later = (p.deadline - t - win) // p.opportunity_steps
             chances = waiting.watcher.chances(lambda tt, b: _chance_at(waiting, tt, b))
-            go = float(plan.go_values[0]) >= waiting_value(chances, later)
-        now = None
-        if go:
-            now = success_probability(
-                waiting.watcher.belief, waiting.model, plan, extra=p.travel
-            ).success
+            value = waiting_value(chances, later)
+            go, stated = self._goes(waiting, plan, value)
+        if go and stated is None:
+            stated = self._posterior.stated(waiting, plan)
         go_time = t if go else None
         step = best if 0 < best < p.replan_every else p.replan_every
-        attempt = PlanAttempt(t, float(plan.go_values.max()), go_time, now)
+        attempt = PlanAttempt(
+            t, float(plan.go_values.max()), go_time,
+            *(() if stated is None else (stated.mean, stated.interval, stated.point)),
+        )  # fmt: skip
         return Decision(plan, go_time, t + step, attempt)
+
+    def _goes(
+        self, waiting: Waiting, plan: ObserverPlan, value: float
+    ) -> tuple[bool, StatedChance | None]:
+        """Whether going now beats waiting (worth ``value``), and the stated chance if this
+        round computed it: the planner's go-now chance against the value."""
+        return float(plan.go_values[0]) >= value, None
 
     def replan_penalty(self, planning: Planning) -> float:
         return 0.0
+
+
+class PosteriorAdaptiveRule(AdaptiveRule):
+    """The adaptive rule acting on the posterior chance: where the adaptive rule would go, the
+    planner's go-now chance is scaled by the stated (posterior-averaged) chance over the point
+    models' exact chance along the same plan, and L goes only if that still beats the value of
+    waiting (docs/design.md, "The go rule")."""
+
+    def _goes(
+        self, waiting: Waiting, plan: ObserverPlan, value: float
+    ) -> tuple[bool, StatedChance | None]:
+        now = float(plan.go_values[0])
+        if now < value:
+            return False, None
+        stated = self._posterior.stated(waiting, plan)
+        return now * stated.mean / max(stated.point, 1e-9) >= value, stated
+
+
+class _Posterior:
+    """The stated chance's filters (:func:`~mirl.planning.posterior_chance.posterior_beliefs`)
+    for L's current models: drawn when the models change, fed the record as it grows."""
+
+    def __init__(self) -> None:
+        self.learned: LearnResult | None = None
+        self.beliefs: PosteriorBeliefs | None = None
+
+    def stated(self, waiting: Waiting, plan: ObserverPlan) -> StatedChance:
+        """The chance L states on going now along ``plan``."""
+        watcher, travel = waiting.watcher, waiting.planning.travel
+        point = success_probability(watcher.belief, waiting.model, plan, extra=travel).success
+        record = waiting.world.seen
+        if watcher.learned is not self.learned:
+            self.learned = watcher.learned
+            self.beliefs = posterior_beliefs(
+                watcher.learned, record, watcher.scenario, visible=waiting.world.visible,
+                filter_visible=watcher.visible, random_state=waiting.random_state,
+            )  # fmt: skip
+        if self.beliefs is None:
+            return StatedChance(point, (point, point), point)
+        self.beliefs.run(record)
+        return self.beliefs.stated(point, waiting.model, plan, extra=travel)
 
 
 def _chance_at(waiting: Waiting, t: int, belief: np.ndarray) -> float:

@@ -82,8 +82,14 @@ GO_RULES: Registry[GoRule] = Registry(
         GoRule(
             "adaptive",
             "go when the chance of going now beats the value of waiting until the deadline, "
-            "and state the exact P(success)",
+            "and state P(success) averaged over a posterior of L's models",
             "mirl.experiments.go_rules:AdaptiveRule",
+        ),
+        GoRule(
+            "adaptive-posterior",
+            "the adaptive rule, going only if the go-now chance scaled by the posterior-averaged "
+            "P(success) over the point models' still beats the value of waiting",
+            "mirl.experiments.go_rules:PosteriorAdaptiveRule",
         ),
         GoRule(
             "value",

@@ -29,6 +29,10 @@ __all__ = [
 class PlanAttempt:
     """One planning round: when, the best go value in the window and the chosen go time.
 
+    .. versionchanged:: 0.2.0
+       ``predicted_success`` is the posterior-averaged chance; the point models' is
+       ``predicted_success_point``.
+
     Parameters
     ----------
     t : int
@@ -38,27 +42,39 @@ class PlanAttempt:
     go_time : int or None
         The chosen go time (an absolute step; None when no go value was positive).
     predicted_success : float, optional
-        The adaptive rule's P(success) of going now (None under the value rule).
+        The adaptive rule's P(success) of going now, averaged over model sets drawn from the
+        posterior of L's models (None under the value rule and when L waits).
+    predicted_success_interval : tuple of (float, float), optional
+        The 5 % and 95 % quantiles of the per-draw chances.
+    predicted_success_point : float, optional
+        The point models' exact P(success) along the same plan.
     """
 
     t: int
     best_value: float
     go_time: int | None
     predicted_success: float | None = None  # the adaptive rule: P(success) of going now
+    predicted_success_interval: tuple[float, float] | None = None
+    predicted_success_point: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """The round's JSON form (``predicted_success`` only when set).
+        """The round's JSON form (the ``predicted_success`` keys only when set).
 
         Returns
         -------
         dict
-            ``t``, ``best_value``, ``go_time`` and ``predicted_success``.
+            ``t``, ``best_value``, ``go_time``, ``predicted_success``,
+            ``predicted_success_interval`` and ``predicted_success_point``.
         """
         return {
             "t": self.t,
             "best_value": self.best_value,
             "go_time": self.go_time,
-            **_if_set(predicted_success=self.predicted_success),
+            **_if_set(
+                predicted_success=self.predicted_success,
+                predicted_success_interval=_listed(self.predicted_success_interval),
+                predicted_success_point=self.predicted_success_point,
+            ),
         }
 
 
@@ -165,13 +181,18 @@ class RunResult:
     extras : WorldExtras, optional
         What the run's world records beyond the contract (the physical world's contacts).
     predicted_success : float, optional
-        The adaptive rule's P(success) at the go time.
+        The adaptive rule's P(success) at the go time, averaged over model sets drawn from the
+        posterior of L's models (docs/design.md, "The stated chance").
     relearns : tuple of Relearn, optional
         The re-learns while L waited (None: L learned once).
     protocol : RunProtocol, optional
         How the run went (None: a record made by hand).
     world : str, default "grid"
         The run's world, a name in :data:`~mirl.worlds.WORLDS`.
+    predicted_success_interval : tuple of (float, float), optional
+        The 5 % and 95 % quantiles of the per-draw chances at the go time.
+    predicted_success_point : float, optional
+        The point models' exact P(success) at the go time.
     """
 
     scenario: str
@@ -201,6 +222,8 @@ class RunResult:
     relearns: tuple[Relearn, ...] | None = None  # None: L learned once
     protocol: RunProtocol | None = None  # how the run went (None: a record made by hand)
     world: str = DEFAULT_WORLD  # the run's world, a name in mirl.worlds.WORLDS
+    predicted_success_interval: tuple[float, float] | None = None  # per-draw 5–95 % quantiles
+    predicted_success_point: float | None = None  # the point models' chance at the go time
 
     @property
     def watch_until_seen(self) -> int | None:
@@ -228,7 +251,11 @@ class RunResult:
             "outcome": self.outcome,
             "go_time": self.go_time,
             "plan_value": self.plan_value,
-            **_if_set(predicted_success=self.predicted_success),
+            **_if_set(
+                predicted_success=self.predicted_success,
+                predicted_success_interval=_listed(self.predicted_success_interval),
+                predicted_success_point=self.predicted_success_point,
+            ),
             "behavior_accuracy": self.behavior_accuracy,
             "behavior_accuracy_per_robot": self.behavior_accuracy_per_robot,
             "feature_probabilities": self.feature_probabilities,
@@ -276,6 +303,11 @@ def _uncertainty(learned: LearnResult | None) -> dict[str, Any]:
             or None
         ),
     }
+
+
+def _listed(pair: tuple[float, float] | None) -> list[float] | None:
+    """A pair as a JSON list (None stays None)."""
+    return None if pair is None else [float(v) for v in pair]
 
 
 def _if_set(**values: Any) -> dict[str, Any]:

@@ -311,15 +311,7 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
     elif result.plan_value is None:
         lines.append(f"went      at t={result.go_time} (a random time)")
     elif result.predicted_success is not None:
-        lines.append(
-            f"went      at t = {result.go_time}, expecting to get through with probability "
-            f"{result.predicted_success:.2f} ({result.go_time - (result.obs_steps - 1)} steps "
-            f"after observing, {len(result.attempts)} planning rounds)"
-        )
-        lines.append(
-            "          (P(goal reached unseen) along its plan under its models and belief; L goes "
-            "when its chance now beats what it can expect by waiting until its deadline)"
-        )
+        lines += _stated_lines(result)
     else:
         lines.append(
             f"went      at t={result.go_time}, {result.go_time - (result.obs_steps - 1)} steps "
@@ -347,3 +339,26 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         + f"; total {tm['total']:.2f} s"
     )
     return "\n".join(lines)
+
+
+def _stated_lines(result: RunResult) -> list[str]:
+    """When L went and with what chance: averaged over model draws, with their spread and the
+    point models' chance, where its models were drawn (docs/design.md, "The stated chance")."""
+    assert result.go_time is not None and result.predicted_success is not None
+    interval, point = result.predicted_success_interval, result.predicted_success_point
+    lo, hi = interval if interval is not None else (result.predicted_success,) * 2
+    drawn = lo < hi
+    spread = f" (90 % of model draws: {lo:.2f}–{hi:.2f})" if drawn else ""
+    how = (
+        "averaged over model sets drawn from the posterior of its models"
+        + ("" if point is None else f" ({point:.2f} under its point models alone)")
+        if drawn
+        else "under its models and belief"
+    )
+    return [
+        f"went      at t = {result.go_time} ({result.go_time - (result.obs_steps - 1)} steps "
+        f"after observing, {len(result.attempts)} planning rounds), expecting to get through "
+        f"with probability {result.predicted_success:.2f}{spread}",
+        f"          (P(goal reached unseen) along its plan, {how}; L goes when its chance now "
+        "beats what it can expect by waiting until its deadline)",
+    ]
