@@ -210,8 +210,6 @@ class GridRunWorld:
     def step(
         self, observer_action: int | None = None, *, patroller_actions: np.ndarray | None = None
     ) -> np.ndarray:
-        # the patrollers first, so that actions the simulator refuses move nobody; L's failures
-        # have a stream of their own, so the order changes no outcome
         """Advance one step.
 
         Parameters
@@ -229,6 +227,8 @@ class GridRunWorld:
         ndarray of int, shape (N,)
             The patrollers' true states at the new step.
         """
+        # the patrollers first, so that actions the simulator refuses move nobody; L's failures
+        # have a stream of their own, so the order changes no outcome
         if patroller_actions is None:
             obs, _, _, _, info = self.sim.step()
         else:
