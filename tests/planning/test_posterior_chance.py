@@ -120,3 +120,52 @@ def test_true_models_have_no_posterior_to_draw(record):
 
     sc, seen, visible = record
     assert posterior_beliefs(oracle_models(sc), list(seen), sc, visible=visible) is None
+
+
+def test_the_draws_filters_stepped_together_are_each_filter_bit_for_bit(record):
+    """The stack (one product for all draws) against each filter updated alone, over a record
+    with unseen, unwatched and impossible observations (a robot seen where its model cannot
+    have taken it: the fallback)."""
+    from mirl.planning.belief import NOT_WATCHING
+
+    sc, seen, visible = record
+    truth = oracle_models(sc)
+    draws = [_team_with_floor(sc, truth, f) for f in (0.6, 0.9, 0.99)]
+    odd = seen.copy()
+    odd[40:45] = NOT_WATCHING
+    odd[69, 0], odd[70, 0] = np.flatnonzero(visible)[[0, -1]]  # a jump across the map
+    beliefs = PosteriorBeliefs(sc.domain, draws, visible=visible, joint=False, reference=truth)
+    assert beliefs._stack is not None
+    alone = [_filter(sc, m, odd, visible, False) for m in (*draws, truth)]
+    beliefs.run(odd)
+    assert beliefs.t == len(odd) - 1
+    for f, g in zip((*beliefs.filters, beliefs.reference), alone, strict=True):
+        assert f.t == g.t and f.fallbacks == g.fallbacks
+        assert np.array_equal(f.belief, g.belief)
+    assert sum(g.fallbacks for g in alone) > 0  # the impossible sighting was exercised
+    # a filter stepped alone in between: the stack takes its belief, not its own copy
+    beliefs.filters[0].update(odd[-1])
+    alone[0].update(odd[-1])
+    for f in (*beliefs.filters[1:], beliefs.reference):
+        f.update(odd[-1])
+    for g in alone[1:]:
+        g.update(odd[-1])
+    beliefs.update(odd[-2])
+    for g in alone:
+        g.update(odd[-2])
+    for f, g in zip((*beliefs.filters, beliefs.reference), alone, strict=True):
+        assert np.array_equal(f.belief, g.belief)
+
+
+def test_a_stack_takes_factored_filters_of_one_view_only(record):
+    from mirl.planning.belief import FactoredFilterStack
+
+    sc, seen, visible = record
+    truth = oracle_models(sc)
+    joint = BeliefFilter(sc.domain, truth, visible=visible, joint=True)
+    factored = BeliefFilter(sc.domain, truth, visible=visible, joint=False)
+    with pytest.raises(ValueError, match="factored"):
+        FactoredFilterStack([factored, joint])
+    blind = BeliefFilter(sc.domain, truth, joint=False)
+    with pytest.raises(ValueError, match="view"):
+        FactoredFilterStack([factored, blind])

@@ -162,3 +162,29 @@ def test_factored_detection_is_its_formula_and_may_go_a_block_at_a_time(br3):
     later_det, later_haz = rows(occ[3:])  # a block from step 3: its first hazard row is row 0's
     np.testing.assert_allclose(later_det, det[3:], atol=1e-15)
     np.testing.assert_allclose(later_haz[1:], haz[4:], atol=1e-15)
+
+
+def test_stacked_teams_step_each_team_bit_for_bit(br3):
+    """Teams of different models stepped as one block-diagonal product: each team's marginals
+    exactly its own FactoredTeam's."""
+    from dataclasses import replace
+
+    from mirl.planning.team_filter import StackedFactoredTeams
+    from mirl.world.motion import transition_matrix
+
+    truth = oracle_models(br3)
+    models = [truth]
+    for floor in (0.5, 0.8):
+        robots = []
+        for r in truth.robots:
+            probs = {**r.feature_probabilities, "floor": floor}
+            T = transition_matrix(br3.domain, probs, br3.error_model)
+            robots.append(replace(r, transitions=T, feature_probabilities=probs))
+        models.append(replace(truth, robots=tuple(robots)))
+    teams = [FactoredTeam(TeamParts(br3.domain, m)) for m in models]
+    belief = np.stack([_random_beliefs((3, br3.domain.n_states), k) for k in range(3)])
+    belief[1, 2, : br3.domain.n_states // 2] = 0.0  # zeros, as after negative evidence
+    stacked = StackedFactoredTeams(teams).propagate(belief)
+    for k, team in enumerate(teams):
+        assert np.array_equal(stacked[k], team.propagate(belief[k]))
+    assert not np.array_equal(stacked[0], stacked[1])  # the models differ

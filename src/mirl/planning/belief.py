@@ -31,7 +31,13 @@ from mirl.learning.results import LearnResult
 from mirl.mdp import policy_matrix
 from mirl.planning.observer import ObserverModel
 from mirl.planning.pair_sums import MeetingStep, PairSightings
-from mirl.planning.team_filter import ExactTeam, FactoredDetection, FactoredTeam, TeamParts
+from mirl.planning.team_filter import (
+    ExactTeam,
+    FactoredDetection,
+    FactoredTeam,
+    StackedFactoredTeams,
+    TeamParts,
+)
 from mirl.sparse import csr_matmul
 from mirl.world.domain import N_HEADINGS, STOP, TURN_LEFT, PatrolDomain
 from mirl.world.game import Equilibrium, meeting
@@ -43,6 +49,7 @@ __all__ = [
     "BeliefFilter",
     "BeliefForm",
     "FactoredBelief",
+    "FactoredFilterStack",
     "PairBelief",
     "Prediction",
     "StreamedPrediction",
@@ -802,12 +809,26 @@ class BeliefFilter:
             Each robot's observed state, :data:`UNSEEN` (-1) if L watched and did not see it, or
             :data:`NOT_WATCHING` (-2) if L did not watch.
         """
-        observed = np.asarray(observed, dtype=int)
         prior = self.form.uniform() if self.belief is None else self.form.propagate(self.belief)
-        ev = [self._evidence(int(o)) for o in observed]
+        ev = self.evidence(observed)
         self.belief, fallbacks = self.form.condition(prior, ev, observed)
         self.fallbacks += fallbacks
         self.t += 1
+
+    def evidence(self, observed) -> list[np.ndarray]:
+        """Each robot's evidence of one step: the likelihood of each of its states.
+
+        Parameters
+        ----------
+        observed : array_like of int, shape (N,)
+            As for :meth:`update`.
+
+        Returns
+        -------
+        list of ndarray of shape (S,)
+            One likelihood per robot.
+        """
+        return [self._evidence(int(o)) for o in np.asarray(observed, dtype=int)]
 
     def propagate(self, belief: np.ndarray) -> np.ndarray:
         """``belief`` (in this filter's form) one step later, without evidence.
@@ -891,6 +912,80 @@ class BeliefFilter:
             raise ValueError("predict() before any update(): the filter has no belief yet")
         t0 = self.t if t is None else int(t)
         return self.form.predict(steps, model, belief, t0)
+
+
+class FactoredFilterStack:
+    """Factored :class:`BeliefFilter` s fed the same record, stepped together: one
+    :class:`~mirl.planning.team_filter.StackedFactoredTeams` step for all of them and their
+    conditioning as one array operation. Each filter's belief, step and fallbacks are then
+    those its own :meth:`BeliefFilter.update` would give, bit for bit (the same products added
+    in the same order, each robot's normalising sum over the same contiguous row).
+
+    Parameters
+    ----------
+    filters : sequence of BeliefFilter
+        Factored filters of the same domain, L's same view and heading noise, at the same step.
+
+    Raises
+    ------
+    ValueError
+        A filter that is not factored, or filters that differ in their view, heading noise,
+        robots or step.
+    """
+
+    def __init__(self, filters) -> None:
+        self.filters = list(filters)
+        first = self.filters[0]
+        for f in self.filters:
+            if not isinstance(f.form, FactoredBelief):
+                raise ValueError(f"a stack steps factored filters only, not '{f.mode}'")
+            same = (
+                f.n_robots == first.n_robots and f.n_states == first.n_states
+                and f.heading_noise == first.heading_noise and f.t == first.t
+                and np.array_equal(f.visible, first.visible)
+            )  # fmt: skip
+            if not same:
+                raise ValueError("stacked filters differ in robots, view, heading noise or step")
+        self.team = StackedFactoredTeams([f.form.team for f in self.filters])  # type: ignore[attr-defined]
+        self._post: np.ndarray | None = None  # the last update's beliefs, (M, N, S)
+        self._views: list[np.ndarray] = []
+
+    @property
+    def t(self) -> int:
+        """The filters' current step (-1 before the first)."""
+        return self.filters[0].t
+
+    def update(self, observed) -> None:
+        """:meth:`BeliefFilter.update` of every filter.
+
+        Parameters
+        ----------
+        observed : array_like of int, shape (N,)
+            As for :meth:`BeliefFilter.update`.
+        """
+        first = self.filters[0]
+        if first.belief is None:
+            prior = np.stack([f.form.uniform() for f in self.filters])
+        else:
+            beliefs = [f.belief for f in self.filters]
+            ours = self._post is not None and all(
+                b is v for b, v in zip(beliefs, self._views, strict=True)
+            )  # unless a filter was stepped alone, its belief is a row of the last update's
+            stacked = self._post if ours and self._post is not None else np.stack(beliefs)
+            prior = self.team.propagate(stacked)
+        ev = first.evidence(observed)
+        post = prior * np.stack(ev)
+        z = post.sum(axis=-1)  # each row's own sum, as _condition takes it
+        impossible = z <= 1e-300
+        post /= np.where(impossible, 1.0, z)[..., None]
+        for m, i in zip(*np.nonzero(impossible), strict=True):
+            post[m, i] = _condition(prior[m, i], ev[i])[0]
+        bad = impossible.sum(axis=1)
+        self._post, self._views = post, list(post)
+        for m, f in enumerate(self.filters):
+            f.belief = self._views[m]
+            f.fallbacks += int(bad[m])
+            f.t += 1
 
 
 def _chosen_form(

@@ -18,7 +18,7 @@ import numpy as np
 from mirl.learning.methods import get_method
 from mirl.learning.model_posterior import draw_models
 from mirl.learning.results import LearnResult
-from mirl.planning.belief import BeliefFilter, Prediction
+from mirl.planning.belief import BeliefFilter, FactoredFilterStack, Prediction
 from mirl.planning.go import ObserverPlan, solve_observer_mdp
 from mirl.planning.observer import ObserverModel
 from mirl.planning.success import success_probability
@@ -131,6 +131,11 @@ class PosteriorBeliefs:
             else BeliefFilter(domain, reference, visible=visible, joint=joint)
         )
         self.kept: dict[int, list[np.ndarray]] = {}
+        every = self.filters + ([] if self.reference is None else [self.reference])
+        # factored filters (the stated chance's) step together: one product for all of them
+        self._stack = (
+            FactoredFilterStack(every) if all(f.mode == "factored" for f in every) else None
+        )
 
     @property
     def t(self) -> int:
@@ -145,6 +150,9 @@ class PosteriorBeliefs:
         observed : ndarray of shape (N,)
             What L saw of each patroller at the step (-1: unseen).
         """
+        if self._stack is not None:
+            self._stack.update(observed)
+            return
         for f in self.filters:
             f.update(observed)
         if self.reference is not None:
