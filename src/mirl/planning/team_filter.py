@@ -288,12 +288,12 @@ def _block_diagonal(arrays: list[tuple]) -> tuple:
     previous block's, its columns shifted past theirs), entries in their order; 32-bit indices
     when they fit (the product then reads less memory; its sums are the same)."""
     indptr, indices, data = [np.zeros(1, dtype=np.int64)], [], []
-    rows = cols = 0
+    rows = cols = nnz = 0
     for ptr, idx, dat, (r, c) in arrays:
-        indptr.append(ptr[1:] + indptr[-1][-1])
+        indptr.append(ptr[1:] + nnz)  # a block may have no rows (a lone robot's masks)
         indices.append(idx + cols)
         data.append(dat)
-        rows, cols = rows + r, cols + c
+        rows, cols, nnz = rows + r, cols + c, nnz + len(dat)
     ptr_all, idx_all = np.concatenate(indptr), np.concatenate(indices)
     if max(int(ptr_all[-1]), rows, cols) < 2**31 - 1:
         ptr_all, idx_all = ptr_all.astype(np.int32), idx_all.astype(np.int32)
