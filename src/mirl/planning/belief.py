@@ -937,7 +937,7 @@ class FactoredFilterStack:
         self.filters = list(filters)
         first = self.filters[0]
         for f in self.filters:
-            if not isinstance(f.form, FactoredBelief):
+            if not self.stackable([f]):
                 raise ValueError(f"a stack steps factored filters only, not '{f.mode}'")
             same = (
                 f.n_robots == first.n_robots and f.n_states == first.n_states
@@ -949,6 +949,22 @@ class FactoredFilterStack:
         self.team = StackedFactoredTeams([f.form.team for f in self.filters])  # type: ignore[attr-defined]
         self._post: np.ndarray | None = None  # the last update's beliefs, (M, N, S)
         self._views: list[np.ndarray] = []
+
+    @staticmethod
+    def stackable(filters) -> bool:
+        """Whether ``filters`` are all factored (the form a stack steps).
+
+        Parameters
+        ----------
+        filters : sequence of BeliefFilter
+            The filters.
+
+        Returns
+        -------
+        bool
+            True when every filter holds per-robot marginals.
+        """
+        return all(isinstance(f.form, FactoredBelief) for f in filters)
 
     @property
     def t(self) -> int:

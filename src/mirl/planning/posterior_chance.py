@@ -134,7 +134,7 @@ class PosteriorBeliefs:
         every = self.filters + ([] if self.reference is None else [self.reference])
         # factored filters (the stated chance's) step together: one product for all of them
         self._stack = (
-            FactoredFilterStack(every) if all(f.mode == "factored" for f in every) else None
+            FactoredFilterStack(every) if FactoredFilterStack.stackable(every) else None
         )
 
     @property
