@@ -27,7 +27,7 @@ from mirl.learning.verdicts import (
     verdict_from_draws,
 )
 from mirl.simulation.grid import PatrolSimulator
-from mirl.world.faults import DamageDefinition, DriftSpec
+from mirl.world.faults import WHEELS, DamageDefinition, DriftSpec
 from mirl.world.scenario import load_scenario
 
 FEATURES = ("left_wheel", "right_wheel", "navigation", "floor")
@@ -408,3 +408,71 @@ def test_a_wheel_that_only_drifts_is_weakened_not_damaged():
         "unaffected"
     )
     assert v.to_dict()["weakened"] == "right_wheel"
+
+
+# ---- parts every move needs, and parts that together fail every move --------------------------
+def _brute_force_together(subsets, common):
+    """Every set of non-common parts that holds a part of each move's subset, minimal by
+    inclusion, united: by enumerating all sets of the features."""
+    import itertools
+
+    rest = [set(s) - common for s in subsets]
+    pool = sorted(set().union(*rest))
+    sets = [
+        set(c) for k in range(len(pool) + 1) for c in itertools.combinations(pool, k)
+    ]  # fmt: skip
+    hitting = [h for h in sets if all(r & h for r in rest)]
+    minimal = [h for h in hitting if not any(o < h for o in hitting)]
+    return set().union(*minimal) if all(rest) else set()
+
+
+def test_parts_that_fail_every_move_under_the_papers_xi():
+    from mirl.learning.motion_models import candidate_models
+    from mirl.learning.verdicts import confounded_parts
+
+    scenario = load_scenario("boyd2")
+    paper, free = {m.xi: m.feature_map for m in candidate_models(scenario.domain.feature_map)}.values()
+    assert confounded_parts(paper) == ({"navigation", "floor"}, {"left_wheel", "right_wheel"})
+    # turns that need no wheel fail only with a common part: no confounding
+    assert confounded_parts(free) == ({"navigation", "floor"}, frozenset())
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_confounded_parts_match_a_brute_force(seed):
+    from mirl.learning.verdicts import MOVING_ACTIONS, confounded_parts
+    from mirl.world.domain import FeatureMap
+
+    rng = np.random.default_rng(seed)
+    features = ("a", "b", "c", "d", "e")
+    subsets = {
+        a: tuple(f for f in features if rng.random() < 0.6) or ("a",)
+        for a in (*MOVING_ACTIONS, "stop")
+    }
+    fm = FeatureMap(features, subsets)
+    common, together = confounded_parts(fm)
+    moving = [set(subsets[a]) for a in MOVING_ACTIONS]
+    assert common == set.intersection(*moving)
+    assert together == _brute_force_together(moving, set(common))
+
+
+def test_both_wheels_are_not_ruled_out_for_navigation_or_floor():
+    """Both of J's wheels at 0.7 on the grid: its labelled steps fail alike whatever they
+    try, and a verdict that names navigation or the floor names the wheels with them."""
+    scenario = load_scenario("boyd2-healthy")
+    scenario = scenario.with_damage("J", "left_wheel", 0.7).with_damage("J", "right_wheel", 0.7)
+    from mirl.observations.trajectories import Trajectories
+
+    named_wheel = 0
+    for seed in range(3):
+        sim = PatrolSimulator(scenario, observability=1.0)
+        _, info = sim.reset(seed=seed)
+        states = [info["states"].copy()]
+        for _ in range(450):
+            states.append(sim.step()[-1]["states"].copy())
+        obs = Trajectories.from_states(scenario.domain, scenario.robot_names, np.asarray(states))
+        verdict = learn(obs, scenario, "mirl-t", observability=1.0).robot("J").verdict
+        assert verdict is not None and verdict.names_damage
+        if verdict.confidence >= 0.9:
+            assert verdict.is_right(("left_wheel", "right_wheel")), verdict
+        named_wheel += any(w in verdict.named for w in WHEELS)
+    assert named_wheel == 3

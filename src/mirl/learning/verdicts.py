@@ -43,6 +43,7 @@ damaged parts (:class:`~mirl.world.faults.DamageDefinition`), from which
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -104,6 +105,8 @@ __all__ = [
     "never_seen_moving",
     "verdict_from_draws",
     "point_verdict",
+    "MOVING_ACTIONS",
+    "confounded_parts",
 ]
 
 LEVEL = 0.95
@@ -1215,6 +1218,76 @@ def _every_model_covered(
     return Verdict(None, confidence, names, verdict.damage_probabilities)
 
 
+MOVING_ACTIONS = ("forward", "turn_left", "turn_right")
+"""The actions that move a robot: a part every one of them needs fails them all alike."""
+
+
+def confounded_parts(feature_map) -> tuple[frozenset[str], frozenset[str]]:
+    """The parts every move needs, and the parts that, damaged together, fail every move
+    without them.
+
+    A damaged part that every move needs (navigation, the floor) fails all moves alike. So
+    do parts each move needs one of (under the paper's ξ both wheels: forward needs both, each
+    turn one), only at other rates per action. Those rates are what L's action labels cannot
+    be trusted with: the labels are L's policy's actions, and a robot whose steps fail often
+    retries a failed turn where L's policy expects another action. Measured on the atlas's
+    office, both wheels at 0.7: turns succeed 0.67 of the time and the labelled steps have them
+    at 0.45-0.50, as often as forward steps, so "navigation or floor" fitted better than the
+    wheels (docs/design.md, "Fault verdicts").
+
+    Parameters
+    ----------
+    feature_map : FeatureMap
+        A ξ (:class:`~mirl.world.domain.FeatureMap`).
+
+    Returns
+    -------
+    common : frozenset of str
+        The parts every moving action needs.
+    together : frozenset of str
+        The union of the minimal sets of other parts that hold a part of every moving action:
+        empty when some move needs only common parts (then its failures point at them).
+    """
+    subsets = [set(feature_map.action_subsets[a]) for a in MOVING_ACTIONS]
+    common = set.intersection(*subsets)
+    rest = [s - common for s in subsets]
+    if any(not r for r in rest):
+        return frozenset(common), frozenset()
+    pool = sorted(set().union(*rest))
+    hitting = [
+        set(h)
+        for k in range(1, len(pool) + 1)
+        for h in itertools.combinations(pool, k)
+        if all(r & set(h) for r in rest)
+    ]
+    minimal = [h for h in hitting if not any(o < h for o in hitting)]
+    return frozenset(common), frozenset(set().union(*minimal))
+
+
+def _common_parts_widened(
+    verdict: Verdict, post: MotionPosterior, features, p: np.ndarray, w: np.ndarray, definition
+) -> Verdict:
+    """A verdict that names only parts every move needs, widened by the parts that together
+    fail every move under each model holding at least :data:`COVERAGE_SLACK` of the weight
+    (:func:`confounded_parts`), with the pooled probability that one of them is damaged: the
+    labelled steps cannot tell the two apart."""
+    if not verdict.names_damage:
+        return verdict
+    named = set(verdict.named)
+    widened = set(named)
+    for model, weight in zip(post.models, post.weights, strict=True):
+        common, together = confounded_parts(model.feature_map)
+        if weight >= COVERAGE_SLACK and named <= common:
+            widened |= together
+    if widened == named:
+        return verdict
+    chosen = [i for i, f in enumerate(features) if f in widened]
+    thresholds = np.array([definition.threshold(f) for f in features])
+    confidence = float(w @ (p[:, chosen] < thresholds[chosen]).any(axis=1))
+    names = tuple(features[i] for i in chosen)
+    return Verdict(None, confidence, names, verdict.damage_probabilities)
+
+
 def _kind_probabilities(post: MotionPosterior, domain, s, action, random_state: int):
     """(draws, steps, 3) probabilities of each kind of move
     (:data:`~mirl.learning.model_check.MOVE_KINDS`) under posterior draws, and under the draws
@@ -1355,6 +1428,7 @@ def robot_uncertainty(
     verdict = _every_model_covered(
         verdict_from_draws(features, p, w, definition), post, features, p, w, definition
     )
+    verdict = _common_parts_widened(verdict, post, features, p, w, definition)
     used = keep & ~misfit & ~in_the_way
     groups = indistinguishable(plan_domain, s[used], lab[used])
     wheels_group = any(set(g) == set(WHEELS) for g in groups)
