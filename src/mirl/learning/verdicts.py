@@ -1267,8 +1267,8 @@ def confounded_parts(feature_map) -> tuple[frozenset[str], frozenset[str]]:
 def _common_parts_widened(
     verdict: Verdict, post: MotionPosterior, features, p: np.ndarray, w: np.ndarray, definition
 ) -> Verdict:
-    """A verdict that names only parts every move needs, widened by the parts that together
-    fail every move under each model holding at least :data:`COVERAGE_SLACK` of the weight
+    """A verdict that names a part every move needs, widened by the parts that together fail
+    every move under each model holding at least :data:`COVERAGE_SLACK` of the weight
     (:func:`confounded_parts`), with the pooled probability that one of them is damaged: the
     labelled steps cannot tell the two apart."""
     if not verdict.names_damage:
@@ -1277,7 +1277,7 @@ def _common_parts_widened(
     widened = set(named)
     for model, weight in zip(post.models, post.weights, strict=True):
         common, together = confounded_parts(model.feature_map)
-        if weight >= COVERAGE_SLACK and named <= common:
+        if weight >= COVERAGE_SLACK and named & common:
             widened |= together
     if widened == named:
         return verdict
