@@ -361,24 +361,29 @@ def test_a_robot_in_the_way_holds_a_robot():
         (d.state_index(0, 6, 2), False),  # three cells ahead
         (-1, False),  # unseen
     ]
-    for state, held in others:
-        assert held_by_others(d, [east, np.full(6, state)], 0).tolist() == [held] * 6
+    for state, held in others:  # no step starts at the last time
+        assert held_by_others(d, [east, np.full(6, state)], 0).tolist() == [held] * 5 + [False]
     # the other way round: the robot going east holds the other only where it is ahead of it
-    assert held_by_others(d, [np.full(6, d.state_index(0, 5, 2)), east], 0).all()
+    assert held_by_others(d, [np.full(6, d.state_index(0, 5, 2)), east], 0)[:5].all()
     assert not held_by_others(d, [np.full(6, d.state_index(0, 5, 0)), east], 0).any()
 
 
 def test_a_robot_in_the_way_at_the_step_s_end_holds_a_robot():
     """The step from t to t + 1 is held when the other robot is in the way at t + 1 only: it
-    came into the cell the robot was heading for. Read against where the robot was at t."""
+    came into the cell the robot was heading for. Read against where the robot was at t. Where
+    L did not see the other robot, its cell a step earlier (later) counts, one cell nearer."""
     d = load_scenario("boyd2").domain
-    robot = np.array([d.state_index(0, 3, 0)] * 4)
-    other = np.array([-1, -1, d.state_index(0, 4, 2), -1])  # seen in the cell ahead at t = 2
-    assert held_by_others(d, [robot, other], 0).tolist() == [False, True, True, False]
-    # the robot moved on: at t = 1 it is at (0, 2), the other then three cells ahead at t = 2
-    moving = np.array([d.state_index(0, c, 0) for c in (1, 2, 3, 4)])
-    far = np.array([-1, -1, d.state_index(0, 5, 2), -1])
-    assert held_by_others(d, [moving, far], 0).tolist() == [False, False, True, False]
+    robot = np.array([d.state_index(0, 3, 0)] * 5)
+    ahead = np.array([-1, -1, d.state_index(0, 4, 2), -1, -1])  # seen in the cell ahead at t = 2
+    # steps 1 (its end) and 2 (its start); 0 and 3 from a step away: within one cell
+    assert held_by_others(d, [robot, ahead], 0).tolist() == [True, True, True, True, False]
+    two = np.array([-1, -1, d.state_index(0, 5, 2), -1, -1])  # seen two cells ahead at t = 2
+    assert held_by_others(d, [robot, two], 0).tolist() == [False, True, True, False, False]
+    # a robot moving on: at t = 1 it is at (0, 2), the other three cells ahead at t = 2; at
+    # t = 3 the robot is at (0, 4), the other one cell ahead a step before
+    moving = np.array([d.state_index(0, c, 0) for c in (1, 2, 3, 4, 5)])
+    far = np.array([-1, -1, d.state_index(0, 5, 2), -1, -1])
+    assert held_by_others(d, [moving, far], 0).tolist() == [False, False, True, True, False]
 
 
 def test_a_step_blocked_two_cells_ahead_is_left_out():

@@ -486,7 +486,8 @@ def held_by_others(
     it only costs the trials they would have been (few on a grid, where robots seldom meet).
     Where the other robot stands is read against the robot's cell and heading at the step's
     start, the move it was making; at the end, the other robot may have come into the cell
-    the robot was heading for.
+    the robot was heading for. A robot L lost sight of for that moment (it went on into a
+    cell L does not see) counts where L saw it a step before (after), one cell nearer.
 
     .. versionchanged:: 0.2.0
        The other robot counts up to ``distance`` cells ahead (not the cell ahead alone) and at
@@ -509,28 +510,41 @@ def held_by_others(
     ndarray of bool, shape (horizon,)
         Whether, the robot seen at the step's start (time t; the step goes to t + 1), another
         robot seen at t or t + 1 was in the robot's cell at t or ahead of it within
-        ``distance`` cells.
+        ``distance`` cells; where L did not see the other robot at t (t + 1), its cell at
+        t − 1 (t + 2) counts, within ``distance`` − 1 cells, since a robot moves at most one
+        cell a step. False at the last time, where no step starts.
     """
     own = np.asarray(series[robot])
-    held = np.zeros(len(own), dtype=bool)
-    if len(own) == 0:
-        return held
+    n = len(own)
+    held = np.zeros(n, dtype=bool)
     cos_bearing = np.cos(np.radians(BLOCKING_BEARING))
     seen = own >= 0
     a = domain.states[np.where(seen, own, 0)]
     forward = HEADING_DELTAS[a[:, 2]]
+    times = np.arange(n)
+
+    def in_the_way(other: np.ndarray, at: np.ndarray, reach: float) -> np.ndarray:
+        """Whether ``other``, seen at times ``at`` (-1: no time), is within ``reach`` cells
+        ahead of the robot at each step's start, or in its cell."""
+        ok = (at >= 0) & (at < n)
+        b_state = np.where(ok, other[np.clip(at, 0, n - 1)], -1)
+        b = domain.states[np.where(b_state >= 0, b_state, 0)]
+        v = (b[:, :2] - a[:, :2]).astype(float)
+        dist = np.hypot(v[:, 0], v[:, 1])
+        ahead = (v * forward).sum(axis=1) >= cos_bearing * dist
+        return seen & (b_state >= 0) & ((dist == 0) | ((dist <= reach) & ahead))
+
     for j, other in enumerate(series):
         if j == robot:
             continue
         other = np.asarray(other)
-        for lag in (0, 1):  # the other robot at the step's start, then at its end
-            b_state = other[lag:]
-            both = seen[: len(own) - lag] & (b_state >= 0)
-            b = domain.states[np.where(b_state >= 0, b_state, 0)]
-            v = (b[:, :2] - a[: len(own) - lag, :2]).astype(float)
-            dist = np.hypot(v[:, 0], v[:, 1])
-            ahead = (v * forward[: len(own) - lag]).sum(axis=1) >= cos_bearing * dist
-            held[: len(own) - lag] |= both & ((dist == 0) | ((dist <= distance) & ahead))
+        # at the step's start (t) and end (t + 1); unseen then, a step earlier or later with a
+        # cell less reach (a robot moves at most one cell a step)
+        for at, beside in ((times, times - 1), (times + 1, times + 2)):
+            unseen = (at >= n) | (other[np.clip(at, 0, n - 1)] < 0)
+            held |= in_the_way(other, np.where(at < n, at, -1), distance)
+            held |= unseen & in_the_way(other, beside, distance - 1)
+    held[-1:] = False  # no step starts at the last time
     return held
 
 
