@@ -12,9 +12,10 @@ verdict averaged over them. Around that:
   points at are left out — never failures of a part — and the verdict says that the record
   does not fit; it then gives L's models even odds (:data:`MODEL_TRUST`) and the prior the
   rest, so it claims nothing at high confidence.
-* **Robots in the way.** A step that starts with another robot in the robot's cell or the cell
-  ahead is left out of the evidence and the drift: a physical robot there blocks or pushes it,
-  and on a grid such steps are few. :func:`held_by_others`.
+* **Robots in the way.** A step with another robot in the robot's cell or up to two cells
+  ahead of it, at the step's start or end, is left out of the evidence and the drift: a
+  physical robot there blocks, pushes or slows it, and on a grid such steps are few.
+  :func:`held_by_others`.
 * **Clustered failures.** Failures come in runs (a robot on a wall, a robot queueing behind
   another), so steps are not independent trials. The lag-1 autocorrelation ρ of the
   standardised outcome residuals gives the variance inflation (1 + ρ)/(1 − ρ) of an AR(1)
@@ -87,6 +88,7 @@ __all__ = [
     "LateralDrift",
     "WHEELS",
     "MODEL_TRUST",
+    "BLOCKING_DISTANCE",
     "held_by_others",
     "beside_others",
     "in_company",
@@ -461,10 +463,38 @@ def in_company(
     return near
 
 
-def held_by_others(domain: PatrolDomain, series: Sequence[np.ndarray], robot: int) -> np.ndarray:
-    """The steps at which L saw another robot in a robot's cell or in the cell ahead of it.
+BLOCKING_DISTANCE = 2.0
+"""Cells (centre to centre): how near ahead another robot can be, at a step's start or end,
+for the step's outcome to be its doing. The cell ahead is where a robot collides with one
+standing there or arriving there during the step; two cells ahead, one coming the other way
+meets it in the cell between, and one going the same way that the robot has caught up with
+holds it there (a slow robot's discretised cell lags its body, which already fills the gap)."""
+BLOCKING_BEARING = 70.0
+"""Degrees either side of a robot's heading within which another robot is ahead of it (the
+physical controller's ``AHEAD_BEARING``: what a robot slows for)."""
 
-    A physical robot there is in the way: what the step does is not its parts' doing.
+
+def held_by_others(
+    domain: PatrolDomain,
+    series: Sequence[np.ndarray],
+    robot: int,
+    distance: float = BLOCKING_DISTANCE,
+) -> np.ndarray:
+    """The steps whose outcome another robot L saw may explain: at the step's start or its
+    end, another robot in the robot's cell, or within ``distance`` cells ahead of it.
+
+    A physical robot there is in the way (it blocks, pushes or slows the robot), so what the
+    step does is not the robot's parts' doing. The steps are chosen by where the other robots
+    are, never by what the step did, so leaving them all out of the evidence biases nothing:
+    it only costs the trials they would have been (few on a grid, where robots seldom meet).
+    Where the other robot stands is read against the robot's cell and heading at the step's
+    start, the move it was making; at the end, the other robot may have come into the cell
+    the robot was heading for. A robot L lost sight of for that moment (it went on into a
+    cell L does not see) counts where L saw it a step before (after), one cell nearer.
+
+    .. versionchanged:: 0.2.0
+       The other robot counts up to ``distance`` cells ahead (not the cell ahead alone) and at
+       the step's end as well as its start.
 
     Parameters
     ----------
@@ -474,18 +504,50 @@ def held_by_others(domain: PatrolDomain, series: Sequence[np.ndarray], robot: in
         Every robot's observed states, -1 where unseen.
     robot : int
         The robot's index in ``series``.
+    distance : float, default BLOCKING_DISTANCE
+        How near (cells, centre to centre) ahead of the robot, within
+        :data:`BLOCKING_BEARING` of its heading, the other robot must be.
 
     Returns
     -------
     ndarray of bool, shape (horizon,)
-        Whether, both seen, another robot was in the robot's cell or the cell ahead.
+        Whether, the robot seen at the step's start (time t; the step goes to t + 1), another
+        robot seen at t or t + 1 was in the robot's cell at t or ahead of it within
+        ``distance`` cells; where L did not see the other robot at t (t + 1), its cell at
+        t − 1 (t + 2) counts, within ``distance`` − 1 cells, since a robot moves at most one
+        cell a step. False at the last time, where no step starts.
     """
     own = np.asarray(series[robot])
-    held = np.zeros(len(own), dtype=bool)
-    for both, a, b in _seen_together(domain, series, robot):
-        v = b[:, :2] - a[:, :2]
-        ahead = (v == HEADING_DELTAS[a[:, 2]]).all(axis=1)
-        held[both] |= (v == 0).all(axis=1) | ahead
+    n = len(own)
+    held = np.zeros(n, dtype=bool)
+    cos_bearing = np.cos(np.radians(BLOCKING_BEARING))
+    seen = own >= 0
+    a = domain.states[np.where(seen, own, 0)]
+    forward = HEADING_DELTAS[a[:, 2]]
+    times = np.arange(n)
+
+    def in_the_way(other: np.ndarray, at: np.ndarray, reach: float) -> np.ndarray:
+        """Whether ``other``, seen at times ``at`` (-1: no time), is within ``reach`` cells
+        ahead of the robot at each step's start, or in its cell."""
+        ok = (at >= 0) & (at < n)
+        b_state = np.where(ok, other[np.clip(at, 0, n - 1)], -1)
+        b = domain.states[np.where(b_state >= 0, b_state, 0)]
+        v = (b[:, :2] - a[:, :2]).astype(float)
+        dist = np.hypot(v[:, 0], v[:, 1])
+        ahead = (v * forward).sum(axis=1) >= cos_bearing * dist
+        return seen & (b_state >= 0) & ((dist == 0) | ((dist <= reach) & ahead))
+
+    for j, other in enumerate(series):
+        if j == robot:
+            continue
+        other = np.asarray(other)
+        # at the step's start (t) and end (t + 1); unseen then, a step earlier or later with a
+        # cell less reach (a robot moves at most one cell a step)
+        for at, beside in ((times, times - 1), (times + 1, times + 2)):
+            unseen = (at >= n) | (other[np.clip(at, 0, n - 1)] < 0)
+            held |= in_the_way(other, np.where(at < n, at, -1), distance)
+            held |= unseen & in_the_way(other, beside, distance - 1)
+    held[-1:] = False  # no step starts at the last time
     return held
 
 
@@ -985,7 +1047,7 @@ class RobotRecord:
         The steps at which another robot was near it (:func:`in_company`), left out of the
         drift.
     held : ndarray of shape (horizon,), optional
-        The steps that start with another robot in its cell or the cell ahead
+        The steps with another robot in its cell or ahead of it, at the step's start or end
         (:func:`held_by_others`), left out of the evidence and the drift.
     beside : ndarray of shape (horizon,), optional
         The steps with another robot within one cell (:func:`beside_others`), for the jam check.
