@@ -58,9 +58,10 @@ def test_the_bag_is_read_at_its_stamps_resolution(learned):
             "J",
             marks=pytest.mark.xfail(
                 strict=True,
-                reason="a false verdict (issue 39): J, healthy, is 'one of J's parts (right wheel, "
-                "navigation, floor) is damaged' at 1.00 with the model check passed. J waits 11 s "
-                "before it moves and crosses a 0.25 m cell in 1-3 s: at 1 s steps a third of its "
+                reason="a false verdict (issue 39): J, healthy, is 'one of J's parts (left wheel, "
+                "right wheel, navigation, floor) is damaged' at 1.00 with the model check passed. "
+                "J waits 11 s before it moves and crosses a 0.25 m cell in 1-3 s: at 1 s steps a "
+                "third of its "
                 "observed steps stay in their cell, and the verdict counts them as failed moves "
                 "against a healthy level no TurtleBot under a navigation stack was measured at",
             ),

@@ -13,6 +13,7 @@ from mirl.learning.model_check import (
     check_pinned,
     check_stalls,
     check_unexplained,
+    held_back,
     longest_run_tail,
     stay_runs,
 )
@@ -120,6 +121,42 @@ def test_stays_as_frequent_beside_another_robot_are_no_jam():
     stayed = rng.random(300) < 0.1
     near = rng.random(300) < 0.3
     assert check_jams(stayed, near, np.full((50, 300), 0.1)).ok
+
+
+# ---- in the way ---------------------------------------------------------------------------------
+def test_steps_in_another_robot_s_way_are_left_out_whatever_the_test_says():
+    """The held steps are the check's misfit steps (left out of the evidence) whether or not
+    the robot stayed put on them more often than elsewhere: they are chosen by where the
+    other robot was, not by what the step did."""
+    rng = np.random.default_rng(3)
+    n = 300
+    labels = rng.integers(0, 3, n)
+    held = np.zeros(n, dtype=bool)
+    held[rng.choice(n, 12, replace=False)] = True
+    stayed = rng.random(n) < 0.1  # as often held as not: the test passes
+    fair = held_back(stayed, held, labels)
+    assert fair.ok and set(fair.misfit.tolist()) == set(np.flatnonzero(held).tolist())
+    blocked = stayed | held  # every held step stayed put: the test fails
+    check = held_back(blocked, held, labels)
+    assert not check.ok and check.p_value < ALPHA and "in its way" in check.reason
+    assert set(check.misfit.tolist()) == set(np.flatnonzero(held).tolist())
+    assert held_back(stayed, np.zeros(n, dtype=bool), labels).misfit.size == 0
+
+
+def test_the_in_the_way_test_is_the_mantel_haenszel_tail():
+    """One stratum: the Mantel–Haenszel statistic is the hypergeometric mean and variance of
+    the held stays; its continuity-corrected normal tail against a direct computation."""
+    from scipy.stats import hypergeom, norm
+
+    n, n_held, k, observed = 200, 20, 30, 9
+    held = np.zeros(n, dtype=bool)
+    held[:n_held] = True
+    stayed = np.zeros(n, dtype=bool)
+    stayed[:observed] = True
+    stayed[n_held : n_held + k - observed] = True
+    h = hypergeom(n, k, n_held)
+    expected = norm.sf((observed - h.mean() - 0.5) / h.std())
+    assert held_back(stayed, held, np.zeros(n, dtype=int)).p_value == pytest.approx(expected)
 
 
 # ---- moves --------------------------------------------------------------------------------------

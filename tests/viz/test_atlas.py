@@ -139,3 +139,24 @@ def test_the_cost_estimate_fits_each_world_and_scenario_linear_in_the_length():
     assert estimate_cpu(gs, design) == pytest.approx(1 + 0.02 * 900 + office)
     other = Condition("mirl-t", "boyd2-healthy", 1.0, 150, world="physics", damage="none")
     assert estimate_cpu(gs, [*design, other]) is None
+
+
+@pytest.mark.parametrize(
+    ("verdict", "truth", "alone", "among"),
+    [
+        (("left_wheel",), ("left_wheel",), True, False),
+        (("left_wheel", "right_wheel"), ("left_wheel", "right_wheel"), True, False),
+        (("left_wheel",), ("left_wheel", "right_wheel"), True, False),
+        (("left_wheel", "navigation"), ("left_wheel",), False, True),
+        (("left_wheel", "right_wheel"), ("left_wheel",), False, True),
+        (("navigation", "floor"), ("left_wheel", "right_wheel"), False, False),
+        ((), ("left_wheel",), False, False),
+    ],
+)
+def test_named_alone_means_only_damaged_parts_are_named(verdict, truth, alone, among):
+    from mirl.viz.atlas import AtlasVerdict
+
+    base = VerdictItem("grid", 1.0, "J:left_wheel", "J", 0, verdict, 0.95, truth, True)
+    item = AtlasVerdict(base, "pose-csv", "boyd2-healthy", 450, "two wheels", 0.7, "ok", 450,
+                        ("", ""))  # fmt: skip
+    assert (item.named_alone, item.named_among) == (alone, among)

@@ -19,9 +19,12 @@ what the models, at their posterior, predict for it (a posterior-predictive chec
   this long somewhere in the record is the Poisson clumping approximation (Arratia, Goldstein
   & Gordon 1990), averaged over the posterior. A robot jammed against an unseen robot or wedged
   on a wall stalls longer than any failure rate explains.
+* **In the way** — the steps with another robot L saw in the robot's cell or ahead of it, at
+  the step's start or end (:func:`~mirl.learning.verdicts.held_by_others`), are no evidence
+  of its parts: they are left out whatever the record shows, and the check says whether the
+  robot stayed put on them more often than elsewhere (:func:`held_back`).
 * **Jams** — steps on which the robot stayed put while another robot L saw was within one cell
-  (beside, behind, diagonally: the steps with one in the robot's cell or the cell ahead are no
-  evidence of its parts in the first place, :func:`~mirl.learning.verdicts.held_by_others`).
+  (beside, behind, diagonally: those in its way are left out already).
   The models say a step stays put as often next to another robot as anywhere; physical robots
   touching say otherwise.
 * **Moves** — how often the robot moved forward, turned and stayed put, against how often the
@@ -378,19 +381,27 @@ def check_jams(
 def held_back(
     stayed: np.ndarray, held: np.ndarray, labels: np.ndarray, dispersion: float = 1.0
 ) -> Check:
-    """Whether a robot stays put more often with another robot in its way than without.
+    """The steps another robot was in the way of, and whether the robot stayed put on them
+    more often than on the others.
 
-    A one-sided Mantel–Haenszel test over the steps' labels (Mantel & Haenszel 1959), its
-    variance inflated by the record's dispersion: physical robots in each other's cell or cell
-    ahead block or push each other; on a grid they do not, and those steps are evidence like
-    any other.
+    The held steps are always the check's misfit steps, left out of the evidence: they are
+    chosen by where another robot was, not by what the step did, so leaving them out biases
+    nothing, while counting them lets a robot queueing behind a slow one look broken (a
+    robot held on a few steps gives a test too few of them to tell). The check itself is a
+    one-sided Mantel–Haenszel test over the steps' labels (Mantel & Haenszel 1959), its
+    variance inflated by the record's dispersion: it fails when physical robots in each
+    other's way blocked or pushed each other, as on a grid they do not.
+
+    .. versionchanged:: 0.2.0
+       The held steps are left out whatever the test says.
 
     Parameters
     ----------
     stayed : ndarray of bool, shape (n,)
         Whether the robot stayed put.
     held : ndarray of bool, shape (n,)
-        Whether another robot was seen in its cell or the cell ahead.
+        Whether another robot was in its way
+        (:func:`~mirl.learning.verdicts.held_by_others`).
     labels : ndarray of int, shape (n,)
         The steps' labels (the strata).
     dispersion : float, default 1
@@ -399,12 +410,13 @@ def held_back(
     Returns
     -------
     Check
-        ``"in the way"``; when it fails, its misfit steps are the held steps.
+        ``"in the way"``; its misfit steps are the held steps.
     """
     stayed, held = np.asarray(stayed, dtype=bool), np.asarray(held, dtype=bool)
     labels = np.asarray(labels, dtype=int)
+    misfit = np.flatnonzero(held)
     if not held.any() or held.all():
-        return Check("in the way", True, 1.0)
+        return Check("in the way", True, 1.0, misfit=misfit)
     observed = expected = variance = 0.0
     for a in np.unique(labels):
         m = labels == a
@@ -415,15 +427,15 @@ def held_back(
         expected += n_held * k / n
         variance += n_held * (n - n_held) * k * (n - k) / (n**2 * (n - 1))
     if variance <= 0:
-        return Check("in the way", True, 1.0)
+        return Check("in the way", True, 1.0, misfit=misfit)
     p = float(ndtr(-(observed - expected - 0.5) / np.sqrt(dispersion * variance)))
     if p >= ALPHA:
-        return Check("in the way", True, p)
+        return Check("in the way", True, p, misfit=misfit)
     reason = (
         f"stayed put on {observed:.0f} of {int(held.sum())} steps with another robot in its "
-        f"cell or the cell ahead, where {expected:.0f} were its own doing (p = {p:.1g})"
+        f"way, where {expected:.0f} were its own doing (p = {p:.1g})"
     )
-    return Check("in the way", False, p, reason, "", np.flatnonzero(held))
+    return Check("in the way", False, p, reason, "", misfit)
 
 
 # ---- the kinds of moves -------------------------------------------------------------------------

@@ -93,13 +93,14 @@ class AtlasVerdict:
 
     @property
     def named_alone(self) -> bool:
-        """Whether the verdict names one part, a damaged one."""
-        return len(self.base.verdict) == 1 and self.base.verdict[0] in self.base.truth
+        """Whether the verdict names damaged parts only: one part, a damaged one, or (with two
+        damaged) exactly those ("one of J's wheels is weak (or both)")."""
+        return bool(self.base.verdict) and set(self.base.verdict) <= set(self.base.truth)
 
     @property
     def named_among(self) -> bool:
-        """Whether the verdict names several parts, a damaged one among them."""
-        return len(self.base.verdict) > 1 and any(p in self.base.truth for p in self.base.verdict)
+        """Whether the verdict names a damaged part among parts that are not damaged."""
+        return not self.named_alone and any(p in self.base.truth for p in self.base.verdict)
 
 
 def atlas_items(gs: Sequence[Group]) -> list[AtlasVerdict]:
