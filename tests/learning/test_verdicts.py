@@ -489,7 +489,8 @@ def test_parts_that_fail_every_move_under_the_papers_xi():
     from mirl.learning.verdicts import confounded_parts
 
     scenario = load_scenario("boyd2")
-    paper, free = {m.xi: m.feature_map for m in candidate_models(scenario.domain.feature_map)}.values()
+    models = candidate_models(scenario.domain.feature_map)
+    paper, free = {m.xi: m.feature_map for m in models}.values()
     assert confounded_parts(paper) == ({"navigation", "floor"}, {"left_wheel", "right_wheel"})
     # turns that need no wheel fail only with a common part: no confounding
     assert confounded_parts(free) == ({"navigation", "floor"}, frozenset())
