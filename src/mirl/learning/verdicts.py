@@ -1271,6 +1271,12 @@ def _every_model_covered(
         if weight >= COVERAGE_SLACK:
             own = expit(model_draws.x[:, : len(features)])
             named |= set(verdict_from_draws(features, own, model_draws.weights, definition).named)
+    return _widened_to(verdict, named, features, p, w, definition)
+
+
+def _widened_to(verdict: Verdict, named: set, features, p, w, definition) -> Verdict:
+    """``verdict`` naming ``named`` instead, with the pooled probability that one of them is
+    damaged (``verdict`` itself when it names them already)."""
     if named == set(verdict.named):
         return verdict
     chosen = [i for i, f in enumerate(features) if f in named]
@@ -1341,13 +1347,7 @@ def _common_parts_widened(
         common, together = confounded_parts(model.feature_map)
         if weight >= COVERAGE_SLACK and named & common:
             widened |= together
-    if widened == named:
-        return verdict
-    chosen = [i for i, f in enumerate(features) if f in widened]
-    thresholds = np.array([definition.threshold(f) for f in features])
-    confidence = float(w @ (p[:, chosen] < thresholds[chosen]).any(axis=1))
-    names = tuple(features[i] for i in chosen)
-    return Verdict(None, confidence, names, verdict.damage_probabilities)
+    return _widened_to(verdict, widened, features, p, w, definition)
 
 
 def _kind_probabilities(post: MotionPosterior, domain, s, action, random_state: int):
