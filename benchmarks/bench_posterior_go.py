@@ -49,7 +49,13 @@ def main() -> None:
     ap.add_argument("--out", required=True)
     ap.add_argument("--report", action="store_true", help="only report what --out holds")
     ap.add_argument("--plot", default=None, help="draw the reliability diagram to this file")
+    ap.add_argument("--panels", nargs="+", default=None, metavar="FILE.jsonl",
+                    help="with --plot: one panel per file (its name the title), the first rule's "
+                    "runs; --out is then only the first file")  # fmt: skip
     args = ap.parse_args()
+    if args.panels:
+        plot_panels(args.panels, args.plot or "panels.png")
+        return
     if not args.report:
         measure(args)
     with open(args.out) as f:
@@ -57,6 +63,46 @@ def main() -> None:
     report(rows)
     if args.plot:
         plot(rows, args.plot)
+
+
+def _reliability(ax, went: list[dict]) -> np.ndarray:
+    """Realised against stated, per decile, for the posterior and the point models' chance."""
+    y = np.array([r["outcome"] == "success" for r in went], dtype=float)
+    for key, name, colour in (("stated", "posterior", "C0"), ("point", "point models'", "C3")):
+        x = np.array([r[key] for r in went])
+        k = np.minimum((x * 10).astype(int), 9)
+        d = [j for j in range(10) if (k == j).any()]
+        ax.scatter([x[k == j].mean() for j in d], [y[k == j].mean() for j in d],
+                   s=[12 * (k == j).sum() for j in d], c=colour, alpha=0.7,
+                   label=f"{name}: {x.mean():.2f} stated")  # fmt: skip
+    ax.plot([0, 1], [0, 1], "k:", lw=1)
+    ax.set(xlim=(0, 1), ylim=(0, 1), xlabel="stated chance (decile mean)",
+           ylabel="realised success")  # fmt: skip
+    ax.legend(loc="upper left", fontsize=8)
+    return y
+
+
+def plot_panels(paths: list[str], out: str, columns: int = 4) -> None:
+    """One reliability diagram per file of runs (a method and view each), on one figure."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows_of = [[json.loads(line) for line in open(p)] for p in paths]
+    n_rows = -(-len(paths) // columns)
+    fig, axes = plt.subplots(n_rows, columns, figsize=(3.6 * columns, 3.6 * n_rows),
+                             squeeze=False)  # fmt: skip
+    for ax, path, rows in zip(axes.flat, paths, rows_of, strict=False):
+        rule = rows[0]["rule"]
+        went = [r for r in rows if r["rule"] == rule and r["stated"] is not None]
+        y = _reliability(ax, went)
+        name = os.path.splitext(os.path.basename(path))[0]
+        ax.set_title(f"{name}: {len(went)} runs, {y.mean():.2f} realised", fontsize=9)
+    for ax in list(axes.flat)[len(paths):]:
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(out, dpi=100)
 
 
 def plot(rows: list[dict], path: str) -> None:
@@ -71,19 +117,8 @@ def plot(rows: list[dict], path: str) -> None:
     fig, axes = plt.subplots(1, len(rules), figsize=(4.2 * len(rules), 4.2), squeeze=False)
     for ax, rule in zip(axes[0], rules, strict=True):
         went = [r for r in rows if r["rule"] == rule and r["stated"] is not None]
-        y = np.array([r["outcome"] == "success" for r in went], dtype=float)
-        for key, name, colour in (("stated", "posterior", "C0"), ("point", "point models'", "C3")):
-            x = np.array([r[key] for r in went])
-            k = np.minimum((x * 10).astype(int), 9)
-            d = [j for j in range(10) if (k == j).any()]
-            ax.scatter([x[k == j].mean() for j in d], [y[k == j].mean() for j in d],
-                       s=[12 * (k == j).sum() for j in d], c=colour, alpha=0.7,
-                       label=f"{name}: {x.mean():.2f} stated")  # fmt: skip
-        ax.plot([0, 1], [0, 1], "k:", lw=1)
-        ax.set(xlim=(0, 1), ylim=(0, 1), xlabel="stated chance (decile mean)",
-               ylabel="realised success", title=f"{rule}: {len(went)} runs, {y.mean():.2f} "
-               "realised")  # fmt: skip
-        ax.legend(loc="upper left", fontsize=8)
+        y = _reliability(ax, went)
+        ax.set_title(f"{rule}: {len(went)} runs, {y.mean():.2f} realised")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
