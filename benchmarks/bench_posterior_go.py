@@ -8,9 +8,10 @@ Run i is ``run_episode(scenario, method, seed=run_seed(BASE, i))`` under the def
 (``mirl run``'s; ``--obs-steps 300`` observes a fixed 300 steps, as Fig. 4a does), once with the
 ``adaptive`` go rule (today's decisions; it states both the posterior-averaged chance and its
 point models') and once with ``adaptive-posterior`` (``--rules`` picks). Each run is one JSON line
-(its outcome, go time, the stated chance, its 5–95 % interval, the point models' chance and the
-run's CPU seconds); a run already in ``--out`` is not run again, so a long measurement can be
-split over processes (``--first``, ``--runs``) and resumed.
+(its outcome, go time, the stated chance, its 5–95 % interval, the point models' chance, the
+averaged chance before calibration, the fraction of states L sees and the run's CPU seconds); a
+run already in ``--out`` is not run again, so a long measurement can be split over processes
+(``--first``, ``--runs``) and resumed.
 
 The report: per rule, success and timeouts; where L went, the mean stated chance (posterior and
 point) against the realised rate with standard errors, the Brier scores, and the deciles of the
@@ -125,6 +126,7 @@ def plot(rows: list[dict], path: str) -> None:
 
 def measure(args) -> None:
     scenario = Condition(args.method, args.scenario, args.observability).scenario_object()
+    view = float(scenario.domain.visible_states(args.observability).mean())  # as the run's
     done = set()
     if os.path.exists(args.out):
         with open(args.out) as f:
@@ -146,7 +148,10 @@ def measure(args) -> None:
                     "rule": rule, "run": i, "base": args.base, "outcome": r.outcome,
                     "go": r.go_time, "stated": r.predicted_success,
                     "interval": r.predicted_success_interval,
-                    "point": r.predicted_success_point, "cpu": r.timings["cpu"],
+                    "point": r.predicted_success_point,
+                    "averaged": r.predicted_success_averaged, "cpu": r.timings["cpu"],
+                    "method": args.method, "scenario": args.scenario, "world": args.world,
+                    "observability": args.observability, "view": view,
                 }  # fmt: skip
                 print(json.dumps(row), file=out, flush=True)
 

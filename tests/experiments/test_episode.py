@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from scipy.special import expit, logit
 
 from mirl.cli import main
 from mirl.experiments.conditions import OUTCOMES
@@ -305,6 +306,36 @@ def test_the_stated_chance_is_averaged_over_model_draws_with_its_interval(boyd2)
     # learned models are uncertain: the draws spread and move the chance off the point models'
     assert any(r.predicted_success_interval[1] > r.predicted_success_interval[0] for r in went)
     assert any(r.predicted_success != r.predicted_success_point for r in went)
+
+
+def test_the_stated_chance_goes_through_the_methods_calibration_at_default_options(boyd2):
+    from mirl.planning.chance_calibration import calibration_maps
+
+    m = calibration_maps()["mirl"]
+    view = float(boyd2.domain.visible_states(boyd2.observability).mean())
+    runs = [run_episode(boyd2, "mirl", seed=seed, protocol=FAST) for seed in range(3)]
+    went = [r for r in runs if r.go_time is not None]
+    assert went
+    for r in went:
+        averaged = r.predicted_success_averaged
+        assert averaged is not None and r.to_dict()["predicted_success_averaged"] == averaged
+        lo, hi = r.predicted_success_interval
+        assert lo <= r.predicted_success <= hi
+        # undo the map: the width it was given is the spread of the draws' own quantiles
+        width = (logit(r.predicted_success) - m.intercept - m.slope * logit(averaged)
+                 - m.view * view) / m.width  # fmt: skip
+        raw_lo, raw_hi = (
+            expit((logit(x) - m.intercept - m.width * width - m.view * view) / m.slope)
+            for x in (lo, hi)
+        )
+        assert raw_lo <= averaged <= raw_hi
+        # (the map clips a chance to [0.001, 0.999] before its logit)
+        assert raw_hi - raw_lo == pytest.approx(width, abs=2e-3)
+    # given learning options other than the defaults it was fitted under, L states the average
+    other = run_episode(boyd2, "mirl", seed=went[0].seed, protocol=FAST, learn_options={"p": 0.7})
+    if other.go_time is not None:
+        assert other.predicted_success_averaged is None
+        assert "calibrated" not in format_report(boyd2, other)
 
 
 def test_the_stated_chance_is_a_function_of_the_seed(boyd2):

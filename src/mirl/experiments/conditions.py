@@ -374,6 +374,9 @@ def _flatten_run_result(result: Any) -> dict[str, Any]:
     if interval is not None:  # the spread of the stated chance over the model draws
         out["predicted_success_lo"], out["predicted_success_hi"] = map(float, interval)
         out["predicted_success_point"] = _maybe_float(result.predicted_success_point)
+        averaged = getattr(result, "predicted_success_averaged", None)
+        if averaged is not None:  # before the method's held-out calibration
+            out["predicted_success_averaged"] = float(averaged)
     relearns = getattr(result, "relearns", None)
     if relearns is not None:
         out["relearns"] = len(relearns)

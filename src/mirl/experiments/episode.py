@@ -95,6 +95,16 @@ class _Going:
     relearns: tuple[Relearn, ...] | None = None
     predicted_success_interval: tuple[float, float] | None = None
     predicted_success_point: float | None = None
+    predicted_success_averaged: float | None = None
+
+    def stated(self) -> dict[str, Any]:
+        """The chance L stated on going, as :class:`RunResult`'s ``predicted_success*``."""
+        return {
+            "predicted_success": self.predicted_success,
+            "predicted_success_interval": self.predicted_success_interval,
+            "predicted_success_point": self.predicted_success_point,
+            "predicted_success_averaged": self.predicted_success_averaged,
+        }
 
 
 def run_episode(
@@ -206,7 +216,8 @@ def run_episode(
         assert learned is not None
         visible = run_world.visible if run.negative_evidence else None
         watcher = _Watcher(modelled, run_world, learned, learner, visible, run.joint, timings)
-        waiting = Waiting(run_world, watcher, model, planning, int(stated.generate_state(1)[0]))
+        seed_k, default = int(stated.generate_state(1)[0]), learning.in_effect_default
+        waiting = Waiting(run_world, watcher, model, planning, seed_k, calibrate=default)
         going = _planned_going(waiting, rule, timings)
         learned = going.learned
 
@@ -234,9 +245,7 @@ def run_episode(
     return replace(
         result,
         protocol=run,
-        predicted_success=going.predicted_success,
-        predicted_success_interval=going.predicted_success_interval,
-        predicted_success_point=going.predicted_success_point,
+        **going.stated(),
         relearns=going.relearns if learner is not None and learner.growth is not None else None,
         world=world,
     )
@@ -459,6 +468,9 @@ def _planned_going(
             None if go_time is None else attempts[-1].predicted_success_interval
         ),
         predicted_success_point=None if go_time is None else attempts[-1].predicted_success_point,
+        predicted_success_averaged=(
+            None if go_time is None else attempts[-1].predicted_success_averaged
+        ),
         learned=watcher.learned,
         relearns=tuple(watcher.relearns),
     )  # fmt: skip

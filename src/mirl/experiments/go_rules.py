@@ -121,6 +121,10 @@ class Waiting:
         The planning settings.
     random_state : int, default 0
         Seeds the stated chance's model draws (from the run's seed).
+    calibrate : bool, default True
+        Whether the stated chance goes through its method's held-out calibration
+        (:mod:`mirl.planning.chance_calibration`); the maps were fitted under the default
+        learning options, so a run with others states its averaged chance.
     """
 
     world: RunWorld
@@ -128,6 +132,7 @@ class Waiting:
     model: ObserverModel
     planning: Planning
     random_state: int = 0
+    calibrate: bool = True
 
     def solve(
         self, steps: int, window: int, penalty: float, min_value: float = 0.0
@@ -242,7 +247,8 @@ class AdaptiveRule(GoRuleStrategy):
         step = best if 0 < best < p.replan_every else p.replan_every
         attempt = PlanAttempt(
             t, float(plan.go_values.max()), go_time,
-            *(() if stated is None else (stated.mean, stated.interval, stated.point)),
+            *(() if stated is None else (
+                stated.mean, stated.interval, stated.point, stated.averaged)),
         )  # fmt: skip
         return Decision(plan, go_time, t + step, attempt)
 
@@ -270,7 +276,8 @@ class PosteriorAdaptiveRule(AdaptiveRule):
         if now < value:
             return False, None
         stated = self._posterior.stated(waiting, plan)
-        return now * stated.mean / max(stated.point, 1e-9) >= value, stated
+        averaged = stated.mean if stated.averaged is None else stated.averaged
+        return now * averaged / max(stated.point, 1e-9) >= value, stated
 
 
 class _Posterior:
@@ -295,7 +302,10 @@ class _Posterior:
         if self.beliefs is None:
             return StatedChance(point, (point, point), point)
         self.beliefs.run(record)
-        return self.beliefs.stated(point, waiting.model, plan, extra=travel)
+        stated = self.beliefs.stated(point, waiting.model, plan, extra=travel)
+        if not waiting.calibrate:
+            return stated
+        return stated.calibrated(watcher.learned.method, float(np.mean(waiting.world.visible)))
 
 
 def _chance_at(waiting: Waiting, t: int, belief: np.ndarray) -> float:

@@ -48,6 +48,9 @@ class PlanAttempt:
         The 5 % and 95 % quantiles of the per-draw chances.
     predicted_success_point : float, optional
         The point models' exact P(success) along the same plan.
+    predicted_success_averaged : float, optional
+        The posterior-averaged chance before the method's held-out calibration (None when the
+        method has none: ``predicted_success`` is then that average).
     """
 
     t: int
@@ -56,6 +59,7 @@ class PlanAttempt:
     predicted_success: float | None = None  # the adaptive rule: P(success) of going now
     predicted_success_interval: tuple[float, float] | None = None
     predicted_success_point: float | None = None
+    predicted_success_averaged: float | None = None  # before calibration (None: uncalibrated)
 
     def to_dict(self) -> dict[str, Any]:
         """The round's JSON form (the ``predicted_success`` keys only when set).
@@ -64,7 +68,8 @@ class PlanAttempt:
         -------
         dict
             ``t``, ``best_value``, ``go_time``, ``predicted_success``,
-            ``predicted_success_interval`` and ``predicted_success_point``.
+            ``predicted_success_interval``, ``predicted_success_point`` and
+            ``predicted_success_averaged``.
         """
         return {
             "t": self.t,
@@ -74,6 +79,7 @@ class PlanAttempt:
                 predicted_success=self.predicted_success,
                 predicted_success_interval=_listed(self.predicted_success_interval),
                 predicted_success_point=self.predicted_success_point,
+                predicted_success_averaged=self.predicted_success_averaged,
             ),
         }
 
@@ -193,6 +199,9 @@ class RunResult:
         The 5 % and 95 % quantiles of the per-draw chances at the go time.
     predicted_success_point : float, optional
         The point models' exact P(success) at the go time.
+    predicted_success_averaged : float, optional
+        The posterior-averaged chance at the go time before the method's held-out calibration
+        (None when the method has none).
     """
 
     scenario: str
@@ -224,6 +233,7 @@ class RunResult:
     world: str = DEFAULT_WORLD  # the run's world, a name in mirl.worlds.WORLDS
     predicted_success_interval: tuple[float, float] | None = None  # per-draw 5–95 % quantiles
     predicted_success_point: float | None = None  # the point models' chance at the go time
+    predicted_success_averaged: float | None = None  # before calibration (None: uncalibrated)
 
     @property
     def watch_until_seen(self) -> int | None:
@@ -255,6 +265,7 @@ class RunResult:
                 predicted_success=self.predicted_success,
                 predicted_success_interval=_listed(self.predicted_success_interval),
                 predicted_success_point=self.predicted_success_point,
+                predicted_success_averaged=self.predicted_success_averaged,
             ),
             "behavior_accuracy": self.behavior_accuracy,
             "behavior_accuracy_per_robot": self.behavior_accuracy_per_robot,

@@ -349,16 +349,23 @@ def _stated_lines(result: RunResult) -> list[str]:
     lo, hi = interval if interval is not None else (result.predicted_success,) * 2
     drawn = lo < hi
     spread = f" (90 % of model draws: {lo:.2f}–{hi:.2f})" if drawn else ""
-    how = (
-        "averaged over model sets drawn from the posterior of its models"
-        + ("" if point is None else f" ({point:.2f} under its point models alone)")
-        if drawn
-        else "under its models and belief"
-    )
+    averaged = result.predicted_success_averaged
+    if averaged is not None:  # the draws' chances went through the method's calibration
+        spread = f" ({lo:.2f}–{hi:.2f} over 90 % of its model draws)"
+        how = (
+            f"{averaged:.2f} averaged over model sets drawn from the posterior of its models, "
+            f"stated through {METHODS[result.method].paper_name}'s calibration on held-out runs"
+        )
+    elif drawn:
+        how = "averaged over model sets drawn from the posterior of its models"
+    else:
+        how = "under its models and belief"
+    if drawn and point is not None:
+        how += f"; {point:.2f} under its point models alone"
     return [
         f"went      at t = {result.go_time} ({result.go_time - (result.obs_steps - 1)} steps "
         f"after observing, {len(result.attempts)} planning rounds), expecting to get through "
         f"with probability {result.predicted_success:.2f}{spread}",
-        f"          (P(goal reached unseen) along its plan, {how}; L goes when its chance now "
+        f"          (P(goal reached unseen) along its plan: {how}; L goes when its chance now "
         "beats what it can expect by waiting until its deadline)",
     ]

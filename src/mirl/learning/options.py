@@ -10,7 +10,7 @@ that implement them (numpy and scipy). The module imports nothing heavy.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import MappingProxyType
 from typing import Any
 
@@ -213,6 +213,22 @@ class LearnOptions(Options):
     def _check(self) -> None:
         if self.irl_options is not None:  # a read-only copy: the options stay as they were made
             object.__setattr__(self, "irl_options", MappingProxyType(dict(self.irl_options)))
+
+    @property
+    def in_effect_default(self) -> bool:
+        """Whether these options learn as the defaults do (an option given at its default
+        value, such as ``p=0.9``, counts as the default)."""
+        given = replace(
+            self,
+            p=None if self.fixed_p == DEFAULT_P else self.p,
+            em_init=None if self.initial_transitions == EM_INITS.names[0] else self.em_init,
+            n_restarts=(
+                None if self.restarts == IRL_OPTIMIZERS[self.optimizer].restarts
+                else self.n_restarts
+            ),
+            irl_options=self.irl_options or None,
+        )  # fmt: skip
+        return given == type(self)()
 
     @property
     def fixed_p(self) -> float:

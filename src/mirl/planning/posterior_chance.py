@@ -10,7 +10,7 @@ uncertainty moves the chance.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import cast
 
 import numpy as np
@@ -19,6 +19,7 @@ from mirl.learning.methods import get_method
 from mirl.learning.model_posterior import draw_models
 from mirl.learning.results import LearnResult
 from mirl.planning.belief import BeliefFilter, FactoredFilterStack, Prediction
+from mirl.planning.chance_calibration import calibrate_chance
 from mirl.planning.go import ObserverPlan, solve_observer_mdp
 from mirl.planning.observer import ObserverModel
 from mirl.planning.success import success_probability
@@ -363,12 +364,39 @@ class StatedChance:
         The point models' exact chance along the same plan.
     draws : tuple of float
         The per-draw chances (empty when nothing is drawn).
+    averaged : float or None, default None
+        The chance averaged over the draws before the method's held-out calibration
+        (:mod:`mirl.planning.chance_calibration`) mapped it to ``mean``; None when uncalibrated.
     """
 
     mean: float
     interval: tuple[float, float]
     point: float
     draws: tuple[float, ...] = ()
+    averaged: float | None = None
+
+    def calibrated(self, method: str, view: float) -> StatedChance:
+        """This chance as ``method``'s held-out calibration states it.
+
+        Parameters
+        ----------
+        method : str
+            The method that learned the models.
+        view : float
+            The fraction of the patrollers' states L sees.
+
+        Returns
+        -------
+        StatedChance
+            ``mean`` and ``interval`` mapped, ``averaged`` the average they were mapped from;
+            this one unchanged when the method has no map or nothing was drawn.
+        """
+        if not self.draws or self.averaged is not None:
+            return self
+        mapped = calibrate_chance(method, self.mean, self.interval, view)
+        if mapped is None:
+            return self
+        return replace(self, mean=mapped[0], interval=mapped[1], averaged=self.mean)
 
 
 def posterior_beliefs(

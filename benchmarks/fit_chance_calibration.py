@@ -1,0 +1,125 @@
+"""Fit the stated chance's held-out calibration (:mod:`mirl.planning.chance_calibration`) from
+runs of ``bench_posterior_go.py``, or measure the shipped maps on other runs.
+
+    python benchmarks/fit_chance_calibration.py --fit RUNS.jsonl ... [--write]
+    python benchmarks/fit_chance_calibration.py --evaluate RUNS.jsonl ...
+
+``--fit`` fits one map per method on every run where L went in the files given (each row names
+its method, scenario, world, observability and view) and prints them; ``--write`` stores them in
+``src/mirl/data/stated_chance_calibration.json``. The runs it is fitted on must not be the runs
+it is reported on: fit on one seed base, evaluate on another.
+
+``--evaluate`` states each run's chance through the shipped map of its method (from the run's
+averaged chance, so runs made before the map existed are measured the same way; a run made with
+the map states exactly this) and prints, per method, scenario, world and observability: runs,
+success, timeouts, the mean stated chance where L went against the realised rate with its
+standard error, and the deciles with at least 20 runs whose realised rate is more than 0.10
+from their mean stated chance.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from mirl.planning.chance_calibration import (
+    CALIBRATION_FILE,
+    calibrate_chance,
+    fit_calibration,
+    maps_to_json,
+)
+
+TARGET = Path(__file__).resolve().parents[1] / "src" / "mirl" / "data" / CALIBRATION_FILE
+
+
+def _rows(files: list[str]) -> list[dict]:
+    rows = []
+    for name in files:
+        with open(name) as f:
+            rows += [json.loads(line) for line in f]
+    return rows
+
+
+def _averaged(r: dict) -> float:
+    """The run's chance before any calibration (a run without a map states it as is)."""
+    return r["averaged"] if r.get("averaged") is not None else r["stated"]
+
+
+def fit(files: list[str], write: bool) -> None:
+    by_method: dict[str, list[dict]] = defaultdict(list)
+    for r in _rows(files):
+        if r["stated"] is not None and r["interval"] is not None:
+            by_method[r["method"]].append(r)
+    maps = {}
+    for method, rs in sorted(by_method.items()):
+        where = sorted({(r["scenario"], r["world"], r["observability"], r["base"]) for r in rs})
+        fitted_on = "; ".join(f"{s} ({w}) at {o}, seeds run_seed({b}, i)" for s, w, o, b in where)
+        maps[method] = fit_calibration(
+            [_averaged(r) for r in rs], [r["interval"][1] - r["interval"][0] for r in rs],
+            [r["view"] for r in rs], [r["outcome"] == "success" for r in rs],
+            fitted_on=f"{len(rs)} runs where L went: {fitted_on}",
+        )  # fmt: skip
+        print(method, maps[method])
+    if write:
+        how = "python benchmarks/fit_chance_calibration.py --fit " + " ".join(
+            Path(f).name for f in files
+        )
+        TARGET.write_text(maps_to_json(maps, how), encoding="utf-8")
+        print("wrote", TARGET)
+
+
+def evaluate(files: list[str]) -> None:
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for r in _rows(files):
+        groups[(r["method"], r["scenario"], r["world"], r["observability"])].append(r)
+    print("| method | scenario | world | view | runs | success | timeouts | stated where L "
+          "went (− realised ± s.e.) | averaged (− realised) | deciles ≥ 20 runs within 0.10 |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for key, rs in sorted(groups.items()):
+        went = [r for r in rs if r["stated"] is not None]
+        y = np.array([r["outcome"] == "success" for r in went], dtype=float)
+        raw = np.array([_averaged(r) for r in went])
+        stated = []
+        for r in went:
+            mapped = calibrate_chance(r["method"], _averaged(r), tuple(r["interval"]), r["view"])
+            stated.append(_averaged(r) if mapped is None else mapped[0])
+        s = np.array(stated)
+        n = len(went)
+        ok = tot = 0
+        bad = []
+        k = np.minimum((s * 10).astype(int), 9)
+        for d in range(10):
+            sel = k == d
+            if sel.sum() >= 20:
+                tot += 1
+                gap = s[sel].mean() - y[sel].mean()
+                ok += abs(gap) <= 0.10
+                if abs(gap) > 0.10:
+                    bad.append(f"{d / 10:.1f}–{(d + 1) / 10:.1f}: {sel.sum()} runs {gap:+.2f}")
+        success = np.mean([r["outcome"] == "success" for r in rs])
+        timeouts = np.mean([r["outcome"] == "timeout" for r in rs])
+        se = (s - y).std(ddof=1) / np.sqrt(n)
+        print(f"| {key[0]} | {key[1]} | {key[2]} | {key[3]} | {len(rs)} | {success:.3f} | "
+              f"{timeouts:.3f} | {s.mean():.3f} ({s.mean() - y.mean():+.3f} ± {se:.3f}) | "
+              f"{raw.mean():.3f} ({raw.mean() - y.mean():+.3f}) | {ok} of {tot}"
+              + (f" ({'; '.join(bad)})" if bad else "") + " |")  # fmt: skip
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--fit", nargs="+", default=None, metavar="RUNS.jsonl")
+    ap.add_argument("--write", action="store_true", help="store the fitted maps in mirl/data")
+    ap.add_argument("--evaluate", nargs="+", default=None, metavar="RUNS.jsonl")
+    args = ap.parse_args()
+    if args.fit:
+        fit(args.fit, args.write)
+    if args.evaluate:
+        evaluate(args.evaluate)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,217 @@
+"""The stated chance's held-out calibration: a logistic map, one per method, from the
+posterior-averaged chance L computes to the chance it states, fitted on runs whose seeds are not
+the ones reported (docs/design.md, "The stated chance").
+
+Averaging the chance over a posterior of L's models removes most of the selection effect of
+going when the point models' error favours going, but not all of it, and not the same part for
+every method: a method whose motion model is fixed (mIRL\\*+Int's p) or whose models are far
+from the truth (DBN-EM) has a posterior that is too narrow, so its chance is too confident where
+L goes; mIRL\\*/T+Int at 0.14 has one that is too wide. What is left is measured on held-out
+runs and corrected by Platt scaling (Platt, 1999) with the two quantities that move it:
+
+    stated = σ(a + b · logit(averaged) + c · width + d · view)
+
+where ``averaged`` is the posterior-averaged chance, ``width`` the spread of the per-draw
+chances (their 5–95 % interval) and ``view`` the fraction of the patrollers' states L sees. The
+map is monotone in ``averaged`` (b > 0 is required of a fit), so it changes what L says, never
+when it goes. A method without a fitted map states its averaged chance, and says so.
+
+The coefficients are fitted by penalised maximum likelihood (:func:`fit_calibration`), a
+Gaussian prior centred on the identity map (a = c = d = 0, b = 1) keeping a method with few runs
+near what it computed; scikit-learn's ``LogisticRegression`` penalises towards zero, not towards
+the identity, so the fit is the few lines below on :func:`scipy.optimize.minimize`.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from functools import lru_cache
+from importlib import resources
+
+import numpy as np
+from scipy.optimize import minimize
+from scipy.special import expit, logit
+
+__all__ = [
+    "ChanceMap",
+    "CALIBRATION_FILE",
+    "fit_calibration",
+    "calibration_maps",
+    "calibrate_chance",
+    "maps_to_json",
+]
+
+CALIBRATION_FILE = "stated_chance_calibration.json"
+"""The fitted maps, in ``mirl/data`` (written by ``benchmarks/fit_chance_calibration.py``)."""
+
+_CLIP = 1e-3  # logit's argument is clipped to [_CLIP, 1 − _CLIP]: a chance of exactly 0 or 1
+
+
+@dataclass(frozen=True)
+class ChanceMap:
+    """One method's calibration map (module docstring).
+
+    Parameters
+    ----------
+    intercept, slope, width, view : float
+        a, b, c and d of the map; b > 0.
+    runs : int
+        The held-out runs it was fitted on (where L went).
+    fitted_on : str
+        Which runs, in words (scenario, world, views, seeds).
+    """
+
+    intercept: float
+    slope: float
+    width: float
+    view: float
+    runs: int
+    fitted_on: str
+
+    def __post_init__(self) -> None:
+        if not self.slope > 0:
+            raise ValueError(f"a calibration map's slope must be positive, got {self.slope}")
+
+    def __call__(self, chance, width, view) -> np.ndarray:
+        """The stated chance for averaged chance(s) ``chance``.
+
+        Parameters
+        ----------
+        chance : float or ndarray
+            The posterior-averaged chance(s), in [0, 1].
+        width : float or ndarray
+            The per-draw chances' 5–95 % spread.
+        view : float or ndarray
+            The fraction of the patrollers' states L sees.
+
+        Returns
+        -------
+        ndarray
+            The calibrated chance(s), in (0, 1).
+        """
+        z = logit(np.clip(chance, _CLIP, 1 - _CLIP))
+        return expit(self.intercept + self.slope * z + self.width * np.asarray(width)
+                     + self.view * np.asarray(view))  # fmt: skip
+
+
+def _design(chance, width, view) -> np.ndarray:
+    chance = np.asarray(chance, dtype=float)
+    return np.column_stack([
+        np.ones_like(chance), logit(np.clip(chance, _CLIP, 1 - _CLIP)),
+        np.broadcast_to(width, chance.shape), np.broadcast_to(view, chance.shape),
+    ])  # fmt: skip
+
+
+def fit_calibration(
+    chance, width, view, success, *, prior_precision: float = 1.0, fitted_on: str = ""
+) -> ChanceMap:
+    """Fit a method's calibration map to held-out runs by penalised maximum likelihood.
+
+    Parameters
+    ----------
+    chance : array_like of shape (n,)
+        The posterior-averaged chance of each run where L went.
+    width : array_like of shape (n,)
+        Its per-draw chances' 5–95 % spread.
+    view : array_like of shape (n,)
+        The fraction of the patrollers' states L saw in that run.
+    success : array_like of shape (n,) of bool
+        Whether the run succeeded.
+    prior_precision : float, default 1.0
+        The Gaussian prior's precision on (a, b − 1, c, d): the identity map is worth this many
+        runs' curvature, little against hundreds.
+    fitted_on : str, default ""
+        Which runs, in words.
+
+    Returns
+    -------
+    ChanceMap
+        The fitted map.
+
+    Raises
+    ------
+    ValueError
+        Fewer than 20 runs, lengths that differ, or a fit whose slope is not positive.
+    """
+    X = _design(chance, width, view)
+    y = np.asarray(success, dtype=float)
+    if len(y) != len(X):
+        raise ValueError(f"{len(X)} chances but {len(y)} outcomes")
+    if len(y) < 20:
+        raise ValueError(f"a calibration map needs at least 20 runs, got {len(y)}")
+    centre = np.array([0.0, 1.0, 0.0, 0.0])
+
+    def loss(theta: np.ndarray) -> tuple[float, np.ndarray]:
+        z = X @ theta
+        gap = theta - centre
+        value = np.sum(np.logaddexp(0.0, z) - y * z) + 0.5 * prior_precision * gap @ gap
+        return float(value), X.T @ (expit(z) - y) + prior_precision * gap
+
+    theta = minimize(loss, centre, jac=True, method="L-BFGS-B").x
+    a, b, c, d = map(float, theta)
+    return ChanceMap(a, b, c, d, runs=len(y), fitted_on=fitted_on)
+
+
+@lru_cache(maxsize=1)
+def calibration_maps() -> Mapping[str, ChanceMap]:
+    """The shipped maps by method name (:data:`CALIBRATION_FILE`).
+
+    Returns
+    -------
+    mapping of str to ChanceMap
+        One per method fitted; a method absent states its averaged chance.
+    """
+    text = (resources.files("mirl") / "data" / CALIBRATION_FILE).read_text(encoding="utf-8")
+    return {name: ChanceMap(**fields) for name, fields in json.loads(text)["methods"].items()}
+
+
+def calibrate_chance(
+    method: str, chance: float, interval: tuple[float, float], view: float
+) -> tuple[float, tuple[float, float]] | None:
+    """The chance and interval ``method`` states, mapped by its calibration.
+
+    Parameters
+    ----------
+    method : str
+        The method that learned L's models.
+    chance : float
+        The posterior-averaged chance.
+    interval : tuple of (float, float)
+        The per-draw chances' 5–95 % quantiles (mapped with the same width and view, so the
+        stated chance stays inside its interval).
+    view : float
+        The fraction of the patrollers' states L sees.
+
+    Returns
+    -------
+    (float, (float, float)) or None
+        The stated chance and interval; None when the method has no map.
+    """
+    m = calibration_maps().get(method)
+    if m is None:
+        return None
+    width = interval[1] - interval[0]
+    lo, mid, hi = m(np.array([interval[0], chance, interval[1]]), width, view)
+    return float(mid), (float(lo), float(hi))
+
+
+def maps_to_json(maps: Mapping[str, ChanceMap], how: str) -> str:
+    """The JSON text of :data:`CALIBRATION_FILE` for ``maps``.
+
+    Parameters
+    ----------
+    maps : mapping of str to ChanceMap
+        The fitted maps by method.
+    how : str
+        The command that fitted them.
+
+    Returns
+    -------
+    str
+        The file's text.
+    """
+    return json.dumps(
+        {"how": how, "methods": {k: asdict(v) for k, v in sorted(maps.items())}}, indent=2
+    ) + "\n"
