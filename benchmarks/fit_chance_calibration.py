@@ -25,6 +25,7 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+from scipy.stats import chi2
 
 from mirl.planning.chance_calibration import (
     CALIBRATION_FILE,
@@ -77,8 +78,9 @@ def evaluate(files: list[str]) -> None:
     for r in _rows(files):
         groups[(r["method"], r["scenario"], r["world"], r["observability"])].append(r)
     print("| method | scenario | world | view | runs | success | timeouts | stated where L "
-          "went (− realised ± s.e.) | averaged (− realised) | deciles ≥ 20 runs within 0.10 |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+          "went (− realised ± s.e.) | averaged (− realised) | deciles ≥ 20 runs within 0.10 | "
+          "Hosmer–Lemeshow p | P(every decile within 0.10), if calibrated |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for key, rs in sorted(groups.items()):
         went = [r for r in rs if r["stated"] is not None]
         y = np.array([r["outcome"] == "success" for r in went], dtype=float)
@@ -100,13 +102,35 @@ def evaluate(files: list[str]) -> None:
                 ok += abs(gap) <= 0.10
                 if abs(gap) > 0.10:
                     bad.append(f"{d / 10:.1f}–{(d + 1) / 10:.1f}: {sel.sum()} runs {gap:+.2f}")
+        hl, by_chance = _decile_tests(s, y)
         success = np.mean([r["outcome"] == "success" for r in rs])
         timeouts = np.mean([r["outcome"] == "timeout" for r in rs])
         se = (s - y).std(ddof=1) / np.sqrt(n)
         print(f"| {key[0]} | {key[1]} | {key[2]} | {key[3]} | {len(rs)} | {success:.3f} | "
               f"{timeouts:.3f} | {s.mean():.3f} ({s.mean() - y.mean():+.3f} ± {se:.3f}) | "
               f"{raw.mean():.3f} ({raw.mean() - y.mean():+.3f}) | {ok} of {tot}"
-              + (f" ({'; '.join(bad)})" if bad else "") + " |")  # fmt: skip
+              + (f" ({'; '.join(bad)})" if bad else "")
+              + f" | {hl:.2f} | {by_chance:.2f} |")  # fmt: skip
+
+
+def _decile_tests(s: np.ndarray, y: np.ndarray, draws: int = 20_000) -> tuple[float, float]:
+    """The Hosmer–Lemeshow test of the deciles of the stated chance (df = deciles − 2), and
+    how often every decile with at least 20 runs lands within 0.10 of its mean stated chance
+    when the outcomes are drawn from the stated chances themselves (a calibrated statement)."""
+    k = np.minimum((s * 10).astype(int), 9)
+    groups = [k == d for d in range(10) if (k == d).any()]
+    stat = sum(
+        (y[g].sum() - s[g].sum()) ** 2 / max(s[g].sum() * (1 - s[g].mean()), 1e-9)
+        for g in groups
+    )
+    p_hl = float(chi2.sf(stat, max(len(groups) - 2, 1)))
+    big = [g for g in groups if g.sum() >= 20]
+    rng = np.random.default_rng(0)
+    sim = rng.random((draws, len(s))) < s
+    ok = np.ones(draws, dtype=bool)
+    for g in big:
+        ok &= np.abs(sim[:, g].mean(axis=1) - s[g].mean()) <= 0.10
+    return p_hl, float(ok.mean())
 
 
 def main() -> None:

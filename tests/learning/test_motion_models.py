@@ -179,6 +179,51 @@ def test_l_learns_with_the_model_the_record_favours():
     assert j.motion_model.endswith("/stop")
 
 
+def test_weak_wheels_drift_only_where_turns_need_no_wheel():
+    """The drift's evidence points at a wheel under the models whose wheels drive the robot
+    continuously (turns free of wheels); under the paper's ξ, where a failed wheel loses a
+    whole step, it is the same for every p (noise), so it weighs the model only."""
+    from mirl.learning.motion_models import _evidence_under
+
+    models = candidate_models(load_scenario("boyd2").feature_map)
+    assert [m.wheels_drift for m in models] == [False, False, True, True]
+
+    def by_gap(p):
+        return -((p[:, 1] - p[:, 0] - 0.3) ** 2)
+
+    p = np.random.default_rng(0).uniform(size=(50, 4))
+    assert _evidence_under(models[2], by_gap) is by_gap
+    flat = _evidence_under(models[0], by_gap)(p)
+    np.testing.assert_array_equal(flat, np.full(50, -0.09))
+    assert _evidence_under(models[0], None) is None
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_grid_robots_poses_do_not_move_its_verdict_off_the_wheel(tmp_path, capsys, seed):
+    """Poses made from a grid record (cell centres with noise, no drift) of J with its left
+    wheel at 0.6: the paper's ξ keeps the weight it has on the grid CSV and the verdict names
+    the left wheel alone, as on the grid CSV — a robot that keeps its line is no evidence of
+    a wheel that drifts."""
+    import json
+
+    from mirl.cli import main
+
+    obs, poses = tmp_path / "obs.csv", tmp_path / "poses.csv"
+    main(["simulate", "--scenario", "boyd2", "--damage", "J:left_wheel=0.6", "--steps", "450",
+          "--seed", str(seed), "--observability", "1", "--random-starts", "--observations",
+          str(obs), "--poses", str(poses), "--pose-noise", "0.05", "5"])  # fmt: skip
+    capsys.readouterr()
+    verdicts = {}
+    for path, extra in ((obs, []), (poses, ["--start-time", "0"])):
+        main(["learn", "--scenario", "boyd2", "--observability", "1", "--json", "--observations",
+              str(path), *extra])  # fmt: skip
+        j = json.loads(capsys.readouterr().out)["robots"]["J"]
+        assert j["motion_models"]["paper/uniform"] > 0.9
+        verdicts[path.name] = (j["verdict"]["part"], j["verdict"]["confidence"])
+    assert verdicts["poses.csv"][0] == verdicts["obs.csv"][0] == "left_wheel"
+    assert verdicts["poses.csv"][1] > 0.95
+
+
 def test_a_steps_outcomes_sum_to_one():
     """Summed over every next state, a step's likelihood is 1 under every model, p and ε."""
     scenario, s, s_next, labels = _record(seed=3)

@@ -102,6 +102,14 @@ class MotionModel:
         """``"paper/uniform"``, ``"free-turns/stop"``, …"""
         return f"{self.xi}/{self.errors}"
 
+    @property
+    def wheels_drift(self) -> bool:
+        """Whether a weak wheel drifts the robot under this model: a robot whose turns need no
+        wheel is driven by its wheels continuously (a weaker wheel slows its side), while one
+        whose turns need a wheel loses whole steps to a failed wheel and keeps its line."""
+        subsets = self.feature_map.action_subsets
+        return not any(w in subsets.get(a, ()) for a in ("turn_left", "turn_right") for w in WHEELS)
+
     def describe(self) -> str:
         """The model in words.
 
@@ -741,7 +749,10 @@ def motion_posterior(
     prior : PriorSpec, default DEFAULT_PRIOR
         The prior.
     extra_log_likelihood : callable, optional
-        Further evidence as a function of p (the lateral drift).
+        Further evidence as a function of p (the lateral drift, a function of the wheels' gap).
+        Under a model whose wheels do not drift (:attr:`MotionModel.wheels_drift`) it is taken
+        at equal wheels (p = 1): the drift there is the measurement's noise, whatever p, so it
+        weighs that model without pointing at a wheel.
     dispersion : float, default 1
         The steps' log-likelihood is divided by it.
     n_draws : int, default N_DRAWS
@@ -759,14 +770,22 @@ def motion_posterior(
     draws = tuple(
         model_posterior(
             features, step_design(domain, m, s, s_next, action_prior), healthy, prior=prior,
-            extra_log_likelihood=extra_log_likelihood, dispersion=dispersion, n_draws=n_draws,
-            random_state=random_state,
+            extra_log_likelihood=_evidence_under(m, extra_log_likelihood), dispersion=dispersion,
+            n_draws=n_draws, random_state=random_state,
         )
         for m in models
     )  # fmt: skip
     log_z = np.array([d.log_evidence for d in draws])
     w = np.exp(log_z - log_z.max())
     return MotionPosterior(features, models, w / w.sum(), draws)
+
+
+def _evidence_under(model: MotionModel, extra):
+    """The drift's evidence under ``model``: as given where weak wheels drift, else at equal
+    wheels (a constant in p)."""
+    if extra is None or model.wheels_drift:
+        return extra
+    return lambda p: extra(np.ones_like(p))
 
 
 def wheels_of(features: Sequence[str]) -> tuple[int, int] | None:
