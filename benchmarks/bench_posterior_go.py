@@ -69,7 +69,7 @@ def main() -> None:
 def _reliability(ax, went: list[dict]) -> np.ndarray:
     """Realised against stated, per decile, for the posterior and the point models' chance."""
     y = np.array([r["outcome"] == "success" for r in went], dtype=float)
-    for key, name, colour in (("stated", "posterior", "C0"), ("point", "point models'", "C3")):
+    for key, name, colour in (("stated", "stated", "C0"), ("point", "point models'", "C3")):
         x = np.array([r[key] for r in went])
         k = np.minimum((x * 10).astype(int), 9)
         d = [j for j in range(10) if (k == j).any()]

@@ -9,12 +9,14 @@ its method, scenario, world, observability and view) and prints them; ``--write`
 ``src/mirl/data/stated_chance_calibration.json``. The runs it is fitted on must not be the runs
 it is reported on: fit on one seed base, evaluate on another.
 
-``--evaluate`` states each run's chance through the shipped map of its method (from the run's
-averaged chance, so runs made before the map existed are measured the same way; a run made with
-the map states exactly this) and prints, per method, scenario, world and observability: runs,
-success, timeouts, the mean stated chance where L went against the realised rate with its
-standard error, and the deciles with at least 20 runs whose realised rate is more than 0.10
-from their mean stated chance.
+``--evaluate`` states each run's chance through the shipped map of its method (from the
+run's averaged chance, so runs made before the map existed are measured the same way; a run made
+with the map states exactly this) and prints, per method, scenario, world and observability:
+runs, success, timeouts, the mean stated chance where L went against the realised rate with its
+standard error, the deciles with at least 20 runs whose realised rate is more than 0.10 from
+their mean stated chance, the Hosmer–Lemeshow test of the deciles, and how often a calibrated
+statement would keep every such decile within 0.10 at these counts. ``--restate DIR`` writes
+the runs as stated there, for ``bench_posterior_go.py --panels``.
 """
 
 from __future__ import annotations
@@ -133,16 +135,37 @@ def _decile_tests(s: np.ndarray, y: np.ndarray, draws: int = 20_000) -> tuple[fl
     return p_hl, float(ok.mean())
 
 
+def restate(files: list[str], folder: str) -> None:
+    """Write each file's runs into ``folder`` as the shipped maps state them (``stated`` and
+    ``interval`` mapped, ``averaged`` the average they came from), for the reliability plots of
+    ``bench_posterior_go.py --panels``."""
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    for name in files:
+        out = []
+        for r in _rows([name]):
+            if r["stated"] is not None and r.get("averaged") is None:
+                mapped = calibrate_chance(r["method"], r["stated"], tuple(r["interval"]), r["view"])
+                if mapped is not None:
+                    r = {**r, "stated": mapped[0], "interval": list(mapped[1]),
+                         "averaged": r["stated"]}  # fmt: skip
+            out.append(json.dumps(r))
+        (Path(folder) / Path(name).name).write_text("\n".join(out) + "\n", encoding="utf-8")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--fit", nargs="+", default=None, metavar="RUNS.jsonl")
     ap.add_argument("--write", action="store_true", help="store the fitted maps in mirl/data")
     ap.add_argument("--evaluate", nargs="+", default=None, metavar="RUNS.jsonl")
+    ap.add_argument("--restate", default=None, metavar="DIR",
+                    help="with --evaluate: write the runs as the shipped maps state them here")
     args = ap.parse_args()
     if args.fit:
         fit(args.fit, args.write)
     if args.evaluate:
         evaluate(args.evaluate)
+        if args.restate:
+            restate(args.evaluate, args.restate)
 
 
 if __name__ == "__main__":

@@ -308,12 +308,12 @@ def test_the_stated_chance_is_averaged_over_model_draws_with_its_interval(boyd2)
     assert any(r.predicted_success != r.predicted_success_point for r in went)
 
 
-def test_the_stated_chance_goes_through_the_methods_calibration_at_default_options(boyd2):
+def test_the_stated_chance_goes_through_the_methods_calibration_where_it_was_fitted(boyd2):
     from mirl.planning.chance_calibration import calibration_maps
 
     m = calibration_maps()["mirl"]
     view = float(boyd2.domain.visible_states(boyd2.observability).mean())
-    runs = [run_episode(boyd2, "mirl", seed=seed, protocol=FAST) for seed in range(3)]
+    runs = [run_episode(boyd2, "mirl", seed=seed) for seed in range(2)]  # mirl run's protocol
     went = [r for r in runs if r.go_time is not None]
     assert went
     for r in went:
@@ -331,11 +331,15 @@ def test_the_stated_chance_goes_through_the_methods_calibration_at_default_optio
         assert raw_lo <= averaged <= raw_hi
         # (the map clips a chance to [0.001, 0.999] before its logit)
         assert raw_hi - raw_lo == pytest.approx(width, abs=2e-3)
-    # given learning options other than the defaults it was fitted under, L states the average
-    other = run_episode(boyd2, "mirl", seed=went[0].seed, protocol=FAST, learn_options={"p": 0.7})
-    if other.go_time is not None:
-        assert other.predicted_success_averaged is None
-        assert "calibrated" not in format_report(boyd2, other)
+    # under other learning options or another protocol than the maps were fitted under, L
+    # states the average
+    for other in (
+        run_episode(boyd2, "mirl", seed=went[0].seed, learn_options={"p": 0.7}),
+        run_episode(boyd2, "mirl", seed=went[0].seed, protocol=FAST),
+    ):
+        if other.go_time is not None:
+            assert other.predicted_success_averaged is None
+            assert "calibration" not in format_report(boyd2, other)
 
 
 def test_the_stated_chance_is_a_function_of_the_seed(boyd2):

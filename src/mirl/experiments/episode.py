@@ -78,6 +78,8 @@ CHANCE_SAMPLE = 16
 # patroller, not the whole travel horizon: the moments' plans cost in proportion to it
 MOMENT_SLACK = 20
 
+CALIBRATED_PROTOCOL = RunProtocol()  # mirl run's: the stated chance's maps were fitted under it
+
 
 @dataclass
 class _Going:
@@ -216,8 +218,8 @@ def run_episode(
         assert learned is not None
         visible = run_world.visible if run.negative_evidence else None
         watcher = _Watcher(modelled, run_world, learned, learner, visible, run.joint, timings)
-        seed_k, default = int(stated.generate_state(1)[0]), learning.in_effect_default
-        waiting = Waiting(run_world, watcher, model, planning, seed_k, calibrate=default)
+        k = int(stated.generate_state(1)[0])
+        waiting = Waiting(run_world, watcher, model, planning, k, _calibrated(run, learning))
         going = _planned_going(waiting, rule, timings)
         learned = going.learned
 
@@ -249,6 +251,13 @@ def run_episode(
         relearns=going.relearns if learner is not None and learner.growth is not None else None,
         world=world,
     )
+
+
+def _calibrated(run: RunProtocol, learning: LearnOptions) -> bool:
+    """Whether the stated chance goes through its method's held-out calibration: only under
+    the protocol and learning options its maps were fitted under (docs/design.md, "The held-out
+    calibration")."""
+    return learning.in_effect_default and run == CALIBRATED_PROTOCOL
 
 
 def _planning(run: RunProtocol, model: ObserverModel, t_obs: int) -> Planning:

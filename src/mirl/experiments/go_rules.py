@@ -123,8 +123,9 @@ class Waiting:
         Seeds the stated chance's model draws (from the run's seed).
     calibrate : bool, default True
         Whether the stated chance goes through its method's held-out calibration
-        (:mod:`mirl.planning.chance_calibration`); the maps were fitted under the default
-        learning options, so a run with others states its averaged chance.
+        (:mod:`mirl.planning.chance_calibration`); the maps were fitted under ``mirl run``'s
+        protocol and the default learning options, so a run with others states its averaged
+        chance.
     """
 
     world: RunWorld
