@@ -55,8 +55,14 @@ class ChanceMap:
 
     Parameters
     ----------
-    intercept, slope, width, view : float
-        a, b, c and d of the map; b > 0.
+    intercept : float
+        The map's a.
+    slope : float
+        Its b, the weight of the averaged chance's logit; positive.
+    width : float
+        Its c, the weight of the draws' spread.
+    view : float
+        Its d, the weight of the fraction of states L sees.
     runs : int
         The held-out runs it was fitted on (where L went).
     fitted_on : str
