@@ -100,3 +100,13 @@ def test_learn_takes_options_or_a_mapping_the_same():
         assert (x.weights == y.weights).all() and (x.policy == y.policy).all()
     with pytest.raises(OptionError, match="`p` applies to the methods mirl and known-r only"):
         learn(obs, sc, "mirl-t", options={"p": 0.8})
+
+
+def test_options_given_at_their_defaults_learn_as_the_defaults_do():
+    from mirl.learning.options import DEFAULT_P, LearnOptions
+
+    assert LearnOptions().in_effect_default
+    assert LearnOptions(p=DEFAULT_P, em_init="intended", n_restarts=1).in_effect_default
+    for other in ({"p": 0.7}, {"em_init": "uniform"}, {"max_iterations": 3},
+                  {"objective": "counts"}, {"n_restarts": 3}):  # fmt: skip
+        assert not LearnOptions(**other).in_effect_default, other
