@@ -78,6 +78,11 @@ CHANCE_SAMPLE = 16
 # patroller, not the whole travel horizon: the moments' plans cost in proportion to it
 MOMENT_SLACK = 20
 
+STATED_KEYS = (
+    "predicted_success", "predicted_success_interval", "predicted_success_point",
+    "predicted_success_averaged",
+)  # fmt: skip
+"""The stated chance's fields, alike in :class:`PlanAttempt` and :class:`RunResult`."""
 CALIBRATED_PROTOCOL = RunProtocol()  # mirl run's: the stated chance's maps were fitted under it
 
 
@@ -92,21 +97,15 @@ class _Going:
     attempts: tuple[PlanAttempt, ...] = ()
     plan_value: float | None = None
     belief: BeliefFilter | None = None
-    predicted_success: float | None = None
     learned: LearnResult | None = None  # the models L went with (re-learned or not)
     relearns: tuple[Relearn, ...] | None = None
-    predicted_success_interval: tuple[float, float] | None = None
-    predicted_success_point: float | None = None
-    predicted_success_averaged: float | None = None
 
     def stated(self) -> dict[str, Any]:
-        """The chance L stated on going, as :class:`RunResult`'s ``predicted_success*``."""
-        return {
-            "predicted_success": self.predicted_success,
-            "predicted_success_interval": self.predicted_success_interval,
-            "predicted_success_point": self.predicted_success_point,
-            "predicted_success_averaged": self.predicted_success_averaged,
-        }
+        """The chance L stated on going, as :class:`RunResult`'s ``predicted_success*``: the
+        round that named the go time stated it (the adaptive rule; None for the value rule and
+        the random baseline, which plan no round)."""
+        named = self.attempts[-1] if self.go_time is not None and self.attempts else None
+        return {k: getattr(named, k, None) for k in STATED_KEYS}
 
 
 def run_episode(
@@ -471,15 +470,6 @@ def _planned_going(
 
     return _Going(
         go_time, policy, replan, plan, tuple(attempts), plan_value, belief,
-        # the round that named the go time stated it (the adaptive rule; None for the value rule)
-        predicted_success=None if go_time is None else attempts[-1].predicted_success,
-        predicted_success_interval=(
-            None if go_time is None else attempts[-1].predicted_success_interval
-        ),
-        predicted_success_point=None if go_time is None else attempts[-1].predicted_success_point,
-        predicted_success_averaged=(
-            None if go_time is None else attempts[-1].predicted_success_averaged
-        ),
         learned=watcher.learned,
         relearns=tuple(watcher.relearns),
     )  # fmt: skip

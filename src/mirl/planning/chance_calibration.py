@@ -97,15 +97,21 @@ class ChanceMap:
         ndarray
             The calibrated chance(s), in (0, 1).
         """
-        z = logit(np.clip(chance, _CLIP, 1 - _CLIP))
+        z = _logit(chance)
         return expit(self.intercept + self.slope * z + self.width * np.asarray(width)
                      + self.view * np.asarray(view))  # fmt: skip
 
 
+def _logit(chance) -> np.ndarray:
+    """logit of a chance clipped to [_CLIP, 1 − _CLIP] (a chance of exactly 0 or 1 is finite)."""
+    return logit(np.clip(chance, _CLIP, 1 - _CLIP))
+
+
 def _design(chance, width, view) -> np.ndarray:
+    """The map's inputs, one row per run: 1, logit(chance) (clipped), width, view."""
     chance = np.asarray(chance, dtype=float)
     return np.column_stack([
-        np.ones_like(chance), logit(np.clip(chance, _CLIP, 1 - _CLIP)),
+        np.ones_like(chance), _logit(chance),
         np.broadcast_to(width, chance.shape), np.broadcast_to(view, chance.shape),
     ])  # fmt: skip
 
