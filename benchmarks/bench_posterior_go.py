@@ -152,6 +152,7 @@ def measure(args) -> None:
                     "averaged": r.predicted_success_averaged, "cpu": r.timings["cpu"],
                     "method": args.method, "scenario": args.scenario, "world": args.world,
                     "observability": args.observability, "view": view,
+                    "obs_steps": args.obs_steps,
                 }  # fmt: skip
                 print(json.dumps(row), file=out, flush=True)
 

@@ -1,12 +1,15 @@
 """Fit the stated chance's held-out calibration (:mod:`mirl.planning.chance_calibration`) from
 runs of ``bench_posterior_go.py``, or measure the shipped maps on other runs.
 
-    python benchmarks/fit_chance_calibration.py --fit RUNS.jsonl ... [--write]
-    python benchmarks/fit_chance_calibration.py --evaluate RUNS.jsonl ...
+    python benchmarks/fit_chance_calibration.py --fit RUNS.jsonl ... [--protocol P] [--write]
+    python benchmarks/fit_chance_calibration.py --evaluate RUNS.jsonl ... [--protocol P]
 
 ``--fit`` fits one map per method on every run where L went in the files given (each row names
 its method, scenario, world, observability and view) and prints them; ``--write`` stores them in
-``src/mirl/data/stated_chance_calibration.json``. The runs it is fitted on must not be the runs
+``src/mirl/data/stated_chance_calibration.json`` as the maps of ``--protocol`` (``mirl-run``,
+``mirl run``'s protocol, by default; ``fixed-observation`` for runs of
+``bench_posterior_go.py --obs-steps 300``, the experiments' protocol), keeping the other
+protocol's. The runs it is fitted on must not be the runs
 it is reported on: fit on one seed base, evaluate on another.
 
 ``--evaluate`` states each run's chance through the shipped map of its method (from the
@@ -31,12 +34,19 @@ from scipy.stats import chi2
 
 from mirl.planning.chance_calibration import (
     CALIBRATION_FILE,
+    FIXED_OBSERVATION,
+    MIRL_RUN,
+    CalibratedProtocol,
     calibrate_chance,
+    calibration_protocols,
     fit_calibration,
     maps_to_json,
 )
 
 TARGET = Path(__file__).resolve().parents[1] / "src" / "mirl" / "data" / CALIBRATION_FILE
+
+# the options (those that differ from mirl run's) each protocol's runs were made under
+PROTOCOL_OPTIONS = {MIRL_RUN: {}, FIXED_OBSERVATION: {"watch_until_seen": None}}
 
 
 def _rows(files: list[str]) -> list[dict]:
@@ -52,7 +62,7 @@ def _averaged(r: dict) -> float:
     return r["averaged"] if r.get("averaged") is not None else r["stated"]
 
 
-def fit(files: list[str], write: bool) -> None:
+def fit(files: list[str], write: bool, protocol: str) -> None:
     by_method: dict[str, list[dict]] = defaultdict(list)
     for r in _rows(files):
         if r["stated"] is not None and r["interval"] is not None:
@@ -70,12 +80,14 @@ def fit(files: list[str], write: bool) -> None:
     if write:
         how = "python benchmarks/fit_chance_calibration.py --fit " + " ".join(
             Path(f).name for f in files
-        )
-        TARGET.write_text(maps_to_json(maps, how), encoding="utf-8")
+        ) + f" --protocol {protocol} --write"
+        fitted = dict(calibration_protocols())
+        fitted[protocol] = CalibratedProtocol(PROTOCOL_OPTIONS[protocol], maps, how)
+        TARGET.write_text(maps_to_json(fitted), encoding="utf-8")
         print("wrote", TARGET)
 
 
-def evaluate(files: list[str]) -> None:
+def evaluate(files: list[str], protocol: str) -> None:
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for r in _rows(files):
         groups[(r["method"], r["scenario"], r["world"], r["observability"])].append(r)
@@ -89,7 +101,9 @@ def evaluate(files: list[str]) -> None:
         raw = np.array([_averaged(r) for r in went])
         stated = []
         for r in went:
-            mapped = calibrate_chance(r["method"], _averaged(r), tuple(r["interval"]), r["view"])
+            mapped = calibrate_chance(
+                r["method"], _averaged(r), tuple(r["interval"]), r["view"], protocol
+            )
             stated.append(_averaged(r) if mapped is None else mapped[0])
         s = np.array(stated)
         n = len(went)
@@ -135,7 +149,7 @@ def _decile_tests(s: np.ndarray, y: np.ndarray, draws: int = 20_000) -> tuple[fl
     return p_hl, float(ok.mean())
 
 
-def restate(files: list[str], folder: str) -> None:
+def restate(files: list[str], folder: str, protocol: str) -> None:
     """Write each file's runs into ``folder`` as the shipped maps state them (``stated`` and
     ``interval`` mapped, ``averaged`` the average they came from), for the reliability plots of
     ``bench_posterior_go.py --panels``."""
@@ -144,7 +158,9 @@ def restate(files: list[str], folder: str) -> None:
         out = []
         for r in _rows([name]):
             if r["stated"] is not None and r.get("averaged") is None:
-                mapped = calibrate_chance(r["method"], r["stated"], tuple(r["interval"]), r["view"])
+                mapped = calibrate_chance(
+                    r["method"], r["stated"], tuple(r["interval"]), r["view"], protocol
+                )
                 if mapped is not None:
                     r = {**r, "stated": mapped[0], "interval": list(mapped[1]),
                          "averaged": r["stated"]}  # fmt: skip
@@ -159,13 +175,15 @@ def main() -> None:
     ap.add_argument("--evaluate", nargs="+", default=None, metavar="RUNS.jsonl")
     ap.add_argument("--restate", default=None, metavar="DIR",
                     help="with --evaluate: write the runs as the shipped maps state them here")
+    ap.add_argument("--protocol", default=MIRL_RUN, choices=sorted(PROTOCOL_OPTIONS),
+                    help="the protocol the runs were made under")  # fmt: skip
     args = ap.parse_args()
     if args.fit:
-        fit(args.fit, args.write)
+        fit(args.fit, args.write, args.protocol)
     if args.evaluate:
-        evaluate(args.evaluate)
+        evaluate(args.evaluate, args.protocol)
         if args.restate:
-            restate(args.evaluate, args.restate)
+            restate(args.evaluate, args.restate, args.protocol)
 
 
 if __name__ == "__main__":

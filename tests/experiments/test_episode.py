@@ -342,6 +342,24 @@ def test_the_stated_chance_goes_through_the_methods_calibration_where_it_was_fit
             assert "calibration" not in format_report(boyd2, other)
 
 
+def test_each_protocol_with_fitted_maps_states_through_its_own():
+    from mirl.experiments.episode import _calibration
+    from mirl.learning.options import LearnOptions
+    from mirl.planning.chance_calibration import FIXED_OBSERVATION, MIRL_RUN
+
+    default = LearnOptions()
+    assert _calibration(RunProtocol(), default) == MIRL_RUN
+    # the experiments' default protocol (Fig. 4a, Table 1): a fixed 300 observed steps
+    assert _calibration(RunProtocol(watch_until_seen=None), default) == FIXED_OBSERVATION
+    assert _calibration(RunProtocol.paper(go_rule="adaptive", relearn=True), default) == (
+        FIXED_OBSERVATION
+    )
+    # fig3's other observation times, the paper's rule, other learning options: no map
+    assert _calibration(RunProtocol(obs_steps=150, watch_until_seen=None), default) is None
+    assert _calibration(RunProtocol.paper(), default) is None
+    assert _calibration(RunProtocol(), LearnOptions(p=0.7)) is None
+
+
 def test_the_stated_chance_is_a_function_of_the_seed(boyd2):
     a, b = (run_episode(boyd2, "mirl-t", seed=2, protocol=FAST) for _ in range(2))
     assert a.predicted_success == b.predicted_success

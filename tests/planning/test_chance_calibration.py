@@ -3,6 +3,8 @@ recovery of a known map, the shipped maps, and a statement mapped as the run sta
 
 from __future__ import annotations
 
+from importlib import resources
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -11,10 +13,15 @@ from scipy.special import expit, logit
 
 from mirl.learning.methods import get_method
 from mirl.planning.chance_calibration import (
+    CALIBRATION_FILE,
+    FIXED_OBSERVATION,
+    MIRL_RUN,
     ChanceMap,
     calibrate_chance,
     calibration_maps,
+    calibration_protocols,
     fit_calibration,
+    maps_to_json,
 )
 from mirl.planning.posterior_chance import StatedChance
 
@@ -91,13 +98,35 @@ def test_bad_fits_are_refused():
         fit_calibration([0.5] * 30, [0.1] * 30, [1.0] * 30, [True] * 29)
 
 
-def test_the_shipped_maps_are_for_methods_that_learn():
-    maps = calibration_maps()
-    assert set(maps) == {"mirl-t", "mirl", "known-r-t", "dbn-em"}
-    for name, m in maps.items():
-        assert get_method(name).learns
-        assert m.slope > 0 and m.runs >= 200
-        assert "seeds run_seed(" in m.fitted_on
+def test_the_shipped_maps_are_for_methods_that_learn_under_each_protocol():
+    protocols = calibration_protocols()
+    assert set(protocols) == {MIRL_RUN, FIXED_OBSERVATION}
+    assert protocols[MIRL_RUN].options == {}
+    assert protocols[FIXED_OBSERVATION].options == {"watch_until_seen": None}
+    for protocol in protocols:
+        maps = calibration_maps(protocol)
+        assert set(maps) == {"mirl-t", "mirl", "known-r-t", "dbn-em"}
+        for name, m in maps.items():
+            assert get_method(name).learns
+            assert m.slope > 0 and m.runs >= 200
+            assert "seeds run_seed(" in m.fitted_on
+    # the file is exactly what the fitting script writes for what it holds
+    text = (resources.files("mirl") / "data" / CALIBRATION_FILE).read_text(encoding="utf-8")
+    assert maps_to_json(protocols) == text
+
+
+def test_a_protocol_without_maps_is_refused_by_name():
+    with pytest.raises(ValueError, match="no stated-chance calibration for protocol 'paper'"):
+        calibration_maps("paper")
+
+
+def test_the_same_average_is_stated_through_its_protocols_map():
+    s = StatedChance(0.7, (0.5, 0.85), 0.75, draws=(0.5, 0.7, 0.85))
+    for protocol in (MIRL_RUN, FIXED_OBSERVATION):
+        m = calibration_maps(protocol)["mirl-t"]
+        assert s.calibrated("mirl-t", 0.13, protocol).mean == pytest.approx(
+            float(m(0.7, 0.35, 0.13))
+        )
 
 
 def test_a_method_without_a_map_states_its_average():

@@ -51,6 +51,7 @@ from mirl.learning.options import LearnOptions
 from mirl.learning.results import LearnResult, behavior_accuracy, oracle_models
 from mirl.observations.trajectories import Trajectories
 from mirl.planning.belief import BeliefFilter
+from mirl.planning.chance_calibration import calibration_protocols
 from mirl.planning.go import ObserverPlan
 from mirl.planning.observer import ObserverModel, observer_model, shortest_path_policy
 from mirl.world.scenario import Scenario
@@ -83,7 +84,6 @@ STATED_KEYS = (
     "predicted_success_averaged",
 )  # fmt: skip
 """The stated chance's fields, alike in :class:`PlanAttempt` and :class:`RunResult`."""
-CALIBRATED_PROTOCOL = RunProtocol()  # mirl run's: the stated chance's maps were fitted under it
 
 
 @dataclass
@@ -218,7 +218,7 @@ def run_episode(
         visible = run_world.visible if run.negative_evidence else None
         watcher = _Watcher(modelled, run_world, learned, learner, visible, run.joint, timings)
         k = int(stated.generate_state(1)[0])
-        waiting = Waiting(run_world, watcher, model, planning, k, _calibrated(run, learning))
+        waiting = Waiting(run_world, watcher, model, planning, k, _calibration(run, learning))
         going = _planned_going(waiting, rule, timings)
         learned = going.learned
 
@@ -252,11 +252,16 @@ def run_episode(
     )
 
 
-def _calibrated(run: RunProtocol, learning: LearnOptions) -> bool:
-    """Whether the stated chance goes through its method's held-out calibration: only under
-    the protocol and learning options its maps were fitted under (docs/design.md, "The held-out
-    calibration")."""
-    return learning.in_effect_default and run == CALIBRATED_PROTOCOL
+def _calibration(run: RunProtocol, learning: LearnOptions) -> str | None:
+    """The held-out calibration the stated chance goes through: the one fitted under this run's
+    protocol with the default learning options; None under any other (docs/design.md, "The
+    held-out calibration")."""
+    if not learning.in_effect_default:
+        return None
+    for name, fitted in calibration_protocols().items():
+        if run == RunProtocol(**fitted.options):
+            return name
+    return None
 
 
 def _planning(run: RunProtocol, model: ObserverModel, t_obs: int) -> Planning:

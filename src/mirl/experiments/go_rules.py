@@ -20,6 +20,7 @@ from mirl.experiments.execution import Decision
 from mirl.experiments.records import PlanAttempt
 from mirl.learning.results import LearnResult
 from mirl.planning.belief import BeliefFilter
+from mirl.planning.chance_calibration import MIRL_RUN
 from mirl.planning.go import ObserverPlan, solve_observer_mdp, waiting_value
 from mirl.planning.observer import ObserverModel
 from mirl.planning.posterior_chance import PosteriorBeliefs, StatedChance, posterior_beliefs
@@ -121,11 +122,11 @@ class Waiting:
         The planning settings.
     random_state : int, default 0
         Seeds the stated chance's model draws (from the run's seed).
-    calibrate : bool, default True
-        Whether the stated chance goes through its method's held-out calibration
-        (:mod:`mirl.planning.chance_calibration`); the maps were fitted under ``mirl run``'s
-        protocol and the default learning options, so a run with others states its averaged
-        chance.
+    calibration : str or None, default "mirl-run"
+        The protocol whose held-out calibration the stated chance goes through
+        (:func:`~mirl.planning.chance_calibration.calibration_protocols`); None: none, and L
+        states its averaged chance. The maps were fitted under their protocol with the default
+        learning options, so a run under others has none.
     """
 
     world: RunWorld
@@ -133,7 +134,7 @@ class Waiting:
     model: ObserverModel
     planning: Planning
     random_state: int = 0
-    calibrate: bool = True
+    calibration: str | None = MIRL_RUN
 
     def solve(
         self, steps: int, window: int, penalty: float, min_value: float = 0.0
@@ -304,9 +305,10 @@ class _Posterior:
             return StatedChance(point, (point, point), point)
         self.beliefs.run(record)
         stated = self.beliefs.stated(point, waiting.model, plan, extra=travel)
-        if not waiting.calibrate:
+        if waiting.calibration is None:
             return stated
-        return stated.calibrated(watcher.learned.method, float(np.mean(waiting.world.visible)))
+        view = float(np.mean(waiting.world.visible))
+        return stated.calibrated(watcher.learned.method, view, waiting.calibration)
 
 
 def _chance_at(waiting: Waiting, t: int, belief: np.ndarray) -> float:

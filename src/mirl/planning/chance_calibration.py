@@ -1,6 +1,6 @@
-"""The stated chance's held-out calibration: a logistic map, one per method, from the
-posterior-averaged chance L computes to the chance it states, fitted on runs whose seeds are not
-the ones reported (docs/design.md, "The stated chance").
+"""The stated chance's held-out calibration: a logistic map, one per method and run protocol,
+from the posterior-averaged chance L computes to the chance it states, fitted on runs whose seeds
+are not the ones reported (docs/design.md, "The stated chance").
 
 Averaging the chance over a posterior of L's models removes most of the selection effect of
 going when the point models' error favours going, but not all of it, and not the same part for
@@ -16,6 +16,12 @@ chances (their 5–95 % interval) and ``view`` the fraction of the patrollers' s
 map is monotone in ``averaged`` (b > 0 is required of a fit), so it changes what L says, never
 when it goes. A method without a fitted map states its averaged chance, and says so.
 
+The selection left differs with the protocol: ``mirl run`` watches until it has seen every
+patroller (its average understates), the experiments observe a fixed 300 steps (their average
+overstates). A map holds only under the protocol it was fitted under, so the file keeps one set
+per protocol, each with the options that name it (:class:`CalibratedProtocol`); a run under any
+other protocol states its averaged chance.
+
 The coefficients are fitted by penalised maximum likelihood (:func:`fit_calibration`), a
 Gaussian prior centred on the identity map (a = c = d = 0, b = 1) keeping a method with few runs
 near what it computed; scikit-learn's ``LogisticRegression`` penalises towards zero, not towards
@@ -29,6 +35,7 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 from importlib import resources
+from typing import Any
 
 import numpy as np
 from scipy.optimize import minimize
@@ -36,7 +43,11 @@ from scipy.special import expit, logit
 
 __all__ = [
     "ChanceMap",
+    "CalibratedProtocol",
     "CALIBRATION_FILE",
+    "MIRL_RUN",
+    "FIXED_OBSERVATION",
+    "calibration_protocols",
     "fit_calibration",
     "calibration_maps",
     "calibrate_chance",
@@ -45,6 +56,13 @@ __all__ = [
 
 CALIBRATION_FILE = "stated_chance_calibration.json"
 """The fitted maps, in ``mirl/data`` (written by ``benchmarks/fit_chance_calibration.py``)."""
+
+MIRL_RUN = "mirl-run"
+"""The maps fitted under ``mirl run``'s protocol (watching until every patroller was seen)."""
+
+FIXED_OBSERVATION = "fixed-observation"
+"""The maps fitted under the experiments' default protocol: exactly 300 observed steps (Fig. 4a,
+Table 1)."""
 
 _CLIP = 1e-3  # logit's argument is clipped to [_CLIP, 1 − _CLIP]: a chance of exactly 0 or 1
 
@@ -166,21 +184,80 @@ def fit_calibration(
     return ChanceMap(a, b, c, d, runs=len(y), fitted_on=fitted_on)
 
 
+@dataclass(frozen=True)
+class CalibratedProtocol:
+    """The maps fitted under one run protocol.
+
+    Parameters
+    ----------
+    options : mapping of str to object
+        The protocol's options that differ from ``mirl run``'s (``RunProtocol(**options)``;
+        empty for ``mirl run``'s own).
+    maps : mapping of str to ChanceMap
+        One map per method fitted under it.
+    how : str
+        The command that fitted them.
+    """
+
+    options: Mapping[str, Any]
+    maps: Mapping[str, ChanceMap]
+    how: str
+
+
 @lru_cache(maxsize=1)
-def calibration_maps() -> Mapping[str, ChanceMap]:
-    """The shipped maps by method name (:data:`CALIBRATION_FILE`).
+def calibration_protocols() -> Mapping[str, CalibratedProtocol]:
+    """The shipped maps (:data:`CALIBRATION_FILE`), by the name of the protocol they were fitted
+    under.
+
+    Returns
+    -------
+    mapping of str to CalibratedProtocol
+        :data:`MIRL_RUN` (``mirl run``'s protocol) and :data:`FIXED_OBSERVATION` (a fixed 300
+        observed steps, the experiments' protocol).
+    """
+    text = (resources.files("mirl") / "data" / CALIBRATION_FILE).read_text(encoding="utf-8")
+    return {
+        name: CalibratedProtocol(
+            options=entry["options"],
+            maps={m: ChanceMap(**fields) for m, fields in entry["methods"].items()},
+            how=entry["how"],
+        )
+        for name, entry in json.loads(text)["protocols"].items()
+    }
+
+
+def calibration_maps(protocol: str = MIRL_RUN) -> Mapping[str, ChanceMap]:
+    """The shipped maps of one protocol, by method name.
+
+    Parameters
+    ----------
+    protocol : str, default MIRL_RUN
+        The protocol's name (:func:`calibration_protocols`).
 
     Returns
     -------
     mapping of str to ChanceMap
         One per method fitted; a method absent states its averaged chance.
+
+    Raises
+    ------
+    ValueError
+        No maps were fitted under a protocol of that name.
     """
-    text = (resources.files("mirl") / "data" / CALIBRATION_FILE).read_text(encoding="utf-8")
-    return {name: ChanceMap(**fields) for name, fields in json.loads(text)["methods"].items()}
+    protocols = calibration_protocols()
+    if protocol not in protocols:
+        raise ValueError(
+            f"no stated-chance calibration for protocol {protocol!r}; known: {sorted(protocols)}"
+        )
+    return protocols[protocol].maps
 
 
 def calibrate_chance(
-    method: str, chance: float, interval: tuple[float, float], view: float
+    method: str,
+    chance: float,
+    interval: tuple[float, float],
+    view: float,
+    protocol: str = MIRL_RUN,
 ) -> tuple[float, tuple[float, float]] | None:
     """The chance and interval ``method`` states, mapped by its calibration.
 
@@ -195,13 +272,15 @@ def calibrate_chance(
         stated chance stays inside its interval).
     view : float
         The fraction of the patrollers' states L sees.
+    protocol : str, default MIRL_RUN
+        The run protocol whose maps apply (:func:`calibration_protocols`).
 
     Returns
     -------
     (float, (float, float)) or None
-        The stated chance and interval; None when the method has no map.
+        The stated chance and interval; None when the method has no map under that protocol.
     """
-    m = calibration_maps().get(method)
+    m = calibration_maps(protocol).get(method)
     if m is None:
         return None
     width = interval[1] - interval[0]
@@ -209,21 +288,24 @@ def calibrate_chance(
     return float(mid), (float(lo), float(hi))
 
 
-def maps_to_json(maps: Mapping[str, ChanceMap], how: str) -> str:
-    """The JSON text of :data:`CALIBRATION_FILE` for ``maps``.
+def maps_to_json(protocols: Mapping[str, CalibratedProtocol]) -> str:
+    """The JSON text of :data:`CALIBRATION_FILE` for ``protocols``.
 
     Parameters
     ----------
-    maps : mapping of str to ChanceMap
-        The fitted maps by method.
-    how : str
-        The command that fitted them.
+    protocols : mapping of str to CalibratedProtocol
+        The fitted maps by protocol name.
 
     Returns
     -------
     str
         The file's text.
     """
-    return json.dumps(
-        {"how": how, "methods": {k: asdict(v) for k, v in sorted(maps.items())}}, indent=2
-    ) + "\n"
+    return json.dumps({"protocols": {
+        name: {
+            "options": dict(p.options),
+            "how": p.how,
+            "methods": {k: asdict(v) for k, v in sorted(p.maps.items())},
+        }
+        for name, p in sorted(protocols.items())
+    }}, indent=2) + "\n"  # fmt: skip

@@ -19,7 +19,7 @@ from mirl.learning.methods import get_method
 from mirl.learning.model_posterior import draw_models
 from mirl.learning.results import LearnResult
 from mirl.planning.belief import BeliefFilter, FactoredFilterStack, Prediction
-from mirl.planning.chance_calibration import calibrate_chance
+from mirl.planning.chance_calibration import MIRL_RUN, calibrate_chance
 from mirl.planning.go import ObserverPlan, solve_observer_mdp
 from mirl.planning.observer import ObserverModel
 from mirl.planning.success import success_probability
@@ -375,7 +375,7 @@ class StatedChance:
     draws: tuple[float, ...] = ()
     averaged: float | None = None
 
-    def calibrated(self, method: str, view: float) -> StatedChance:
+    def calibrated(self, method: str, view: float, protocol: str = MIRL_RUN) -> StatedChance:
         """This chance as ``method``'s held-out calibration states it.
 
         Parameters
@@ -384,6 +384,9 @@ class StatedChance:
             The method that learned the models.
         view : float
             The fraction of the patrollers' states L sees.
+        protocol : str, default MIRL_RUN
+            The run protocol whose maps apply
+            (:func:`~mirl.planning.chance_calibration.calibration_protocols`).
 
         Returns
         -------
@@ -393,7 +396,7 @@ class StatedChance:
         """
         if not self.draws or self.averaged is not None:
             return self
-        mapped = calibrate_chance(method, self.mean, self.interval, view)
+        mapped = calibrate_chance(method, self.mean, self.interval, view, protocol)
         if mapped is None:
             return self
         return replace(self, mean=mapped[0], interval=mapped[1], averaged=self.mean)
