@@ -1,5 +1,6 @@
 """Fit the stated chance's held-out calibration (:mod:`mirl.planning.chance_calibration`) from
-runs of ``bench_posterior_go.py``, or measure the shipped maps on other runs.
+runs of ``bench_posterior_go.py``, or measure the shipped maps on other runs (those files, or
+a sweep's ``results.sqlite``).
 
     python benchmarks/fit_chance_calibration.py --fit RUNS.jsonl ... [--protocol P] [--write]
     python benchmarks/fit_chance_calibration.py --evaluate RUNS.jsonl ... [--protocol P]
@@ -26,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sqlite3
 from collections import defaultdict
 from pathlib import Path
 
@@ -52,8 +54,39 @@ PROTOCOL_OPTIONS = {MIRL_RUN: {}, FIXED_OBSERVATION: {"watch_until_seen": None}}
 def _rows(files: list[str]) -> list[dict]:
     rows = []
     for name in files:
+        if name.endswith(".sqlite"):
+            rows += _sweep_rows(name)
+            continue
         with open(name) as f:
             rows += [json.loads(line) for line in f]
+    return rows
+
+
+def _sweep_rows(path: str) -> list[dict]:
+    """A sweep's runs (``mirl experiment … --out DIR``, its ``results.sqlite``) as rows of
+    ``bench_posterior_go.py``: a method run with a p other than its default is named with it
+    (it has no map), and the view is the scenario's at the run's observability."""
+    from mirl.learning.options import DEFAULT_P
+    from mirl.world.scenario import load_scenario
+
+    con = sqlite3.connect(path)
+    query = "select condition_key, method, scenario, observability, p, run, outcome, metrics "
+    rows, views = [], {}
+    for key, method, scenario, obs, p, i, outcome, metrics in con.execute(
+        query + "from runs where error is null or error = ''"
+    ):
+        m = json.loads(metrics)
+        if (scenario, obs) not in views:
+            views[scenario, obs] = float(load_scenario(scenario).domain.visible_states(obs).mean())
+        stated = m.get("predicted_success")
+        lo, hi = m.get("predicted_success_lo"), m.get("predicted_success_hi")
+        rows.append({
+            "method": method if p is None or p == DEFAULT_P else f"{method} (p={p:g})",
+            "scenario": scenario, "world": json.loads(key).get("world", "grid"),
+            "observability": obs, "view": views[scenario, obs], "run": i, "outcome": outcome,
+            "stated": stated, "interval": None if lo is None else [lo, hi],
+            "averaged": m.get("predicted_success_averaged"),
+        })  # fmt: skip
     return rows
 
 
@@ -97,6 +130,8 @@ def evaluate(files: list[str], protocol: str) -> None:
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for key, rs in sorted(groups.items()):
         went = [r for r in rs if r["stated"] is not None]
+        if not went:  # a method that states nothing (Random)
+            continue
         y = np.array([r["outcome"] == "success" for r in went], dtype=float)
         raw = np.array([_averaged(r) for r in went])
         stated = []
