@@ -10,6 +10,7 @@ from mirl.viz.aggregate import Group
 from mirl.viz.verdicts import (
     VerdictItem,
     expected_calibration_error,
+    rates_markdown,
     reliability_table,
     verdict_items,
     verdicts_markdown,
@@ -55,3 +56,16 @@ def test_the_section_reads_the_stored_runs(tmp_path):
     md = verdicts_markdown([group], tmp_path)
     assert "J's left wheel | 3 | 1.000 (3/3)" in md
     assert (tmp_path / "verdicts.png").exists()
+
+
+def test_the_rates_count_runs_whatever_the_team_size():
+    # three healthy robots in each of two runs: 2 runs, 6 verdicts, 5 of them "no part"
+    items = [
+        VerdictItem("grid", 1.0, None, robot, run, (), 0.95, (), True)
+        for run in range(2)
+        for robot in ("I", "J", "K")
+    ]
+    items[-1] = VerdictItem("grid", 1.0, None, "K", 1, ("floor",), 0.6, (), False)
+    row = rates_markdown(items).splitlines()[2]
+    assert row.startswith("| grid | 1 | none | 2 |"), row
+    assert "0.833 (5/6)" in row, row

@@ -235,7 +235,7 @@ def rates_markdown(items: Sequence[VerdictItem]) -> str:
         if not damage:
             healthy = _share([not i.verdict for i in sel])
             lines.append(
-                f"| {world} | {d:g} | none | {len(sel) // 2} | – | – | {healthy} | – | "
+                f"| {world} | {d:g} | none | {len({i.run for i in sel})} | – | – | {healthy} | – | "
                 f"{np.mean([i.confidence for i in sel]):.2f} | – |"
             )
             continue
