@@ -85,7 +85,8 @@ def _sweep_rows(path: str) -> list[dict]:
             "scenario": scenario, "world": json.loads(key).get("world", "grid"),
             "observability": obs, "view": views[scenario, obs], "run": i, "outcome": outcome,
             "stated": stated, "interval": None if lo is None else [lo, hi],
-            "averaged": m.get("predicted_success_averaged"),
+            "point": m.get("predicted_success_point"),
+            "averaged": m.get("predicted_success_averaged"), "rule": json.loads(key)["go_rule"],
         })  # fmt: skip
     return rows
 
@@ -187,10 +188,11 @@ def _decile_tests(s: np.ndarray, y: np.ndarray, draws: int = 20_000) -> tuple[fl
 def restate(files: list[str], folder: str, protocol: str) -> None:
     """Write each file's runs into ``folder`` as the shipped maps state them (``stated`` and
     ``interval`` mapped, ``averaged`` the average they came from), for the reliability plots of
-    ``bench_posterior_go.py --panels``."""
+    ``bench_posterior_go.py --panels``; a sweep's runs go one file per method, world and view
+    (``METHOD-WORLD-VIEW.jsonl``), those where L stated a chance."""
     Path(folder).mkdir(parents=True, exist_ok=True)
     for name in files:
-        out = []
+        out: dict[str, list[str]] = defaultdict(list)
         for r in _rows([name]):
             if r["stated"] is not None and r.get("averaged") is None:
                 mapped = calibrate_chance(
@@ -199,8 +201,13 @@ def restate(files: list[str], folder: str, protocol: str) -> None:
                 if mapped is not None:
                     r = {**r, "stated": mapped[0], "interval": list(mapped[1]),
                          "averaged": r["stated"]}  # fmt: skip
-            out.append(json.dumps(r))
-        (Path(folder) / Path(name).name).write_text("\n".join(out) + "\n", encoding="utf-8")
+            if not name.endswith(".sqlite"):
+                out[Path(name).name].append(json.dumps(r))
+            elif r["stated"] is not None:
+                label = r["method"].replace(" (p=", "-p").replace(")", "")
+                out[f"{label}-{r['world']}-{r['observability']:g}.jsonl"].append(json.dumps(r))
+        for file, lines in out.items():
+            (Path(folder) / file).write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
 def main() -> None:
