@@ -40,6 +40,7 @@ from mirl.planning.chance_calibration import (
     MIRL_RUN,
     CalibratedProtocol,
     calibrate_chance,
+    calibration_maps,
     calibration_protocols,
     fit_calibration,
     maps_to_json,
@@ -70,6 +71,7 @@ def _sweep_rows(path: str) -> list[dict]:
     from mirl.world.scenario import load_scenario
 
     con = sqlite3.connect(path)
+    base = int(dict(con.execute("select key, value from meta").fetchall()).get("base_seed", 0))
     query = "select condition_key, method, scenario, observability, p, run, outcome, metrics "
     rows, views = [], {}
     for key, method, scenario, obs, p, i, outcome, metrics in con.execute(
@@ -83,7 +85,8 @@ def _sweep_rows(path: str) -> list[dict]:
         rows.append({
             "method": method if p is None or p == DEFAULT_P else f"{method} (p={p:g})",
             "scenario": scenario, "world": json.loads(key).get("world", "grid"),
-            "observability": obs, "view": views[scenario, obs], "run": i, "outcome": outcome,
+            "observability": obs, "view": views[scenario, obs], "run": i, "base": base,
+            "outcome": outcome,
             "stated": stated, "interval": None if lo is None else [lo, hi],
             "point": m.get("predicted_success_point"),
             "averaged": m.get("predicted_success_averaged"), "rule": json.loads(key)["go_rule"],
@@ -96,6 +99,16 @@ def _averaged(r: dict) -> float:
     return r["averaged"] if r.get("averaged") is not None else r["stated"]
 
 
+def _unmapped_width(r: dict, protocol: str) -> float:
+    """The spread of the run's per-draw chances before any calibration: a mapped run's interval
+    is taken back through its method's map."""
+    if r.get("averaged") is None:
+        return r["interval"][1] - r["interval"][0]
+    m = calibration_maps(protocol)[r["method"]]
+    lo, hi = m.unmapped_interval(r["stated"], tuple(r["interval"]), r["averaged"], r["view"])
+    return hi - lo
+
+
 def fit(files: list[str], write: bool, protocol: str) -> None:
     by_method: dict[str, list[dict]] = defaultdict(list)
     for r in _rows(files):
@@ -106,7 +119,7 @@ def fit(files: list[str], write: bool, protocol: str) -> None:
         where = sorted({(r["scenario"], r["world"], r["observability"], r["base"]) for r in rs})
         fitted_on = "; ".join(f"{s} ({w}) at {o}, seeds run_seed({b}, i)" for s, w, o, b in where)
         maps[method] = fit_calibration(
-            [_averaged(r) for r in rs], [r["interval"][1] - r["interval"][0] for r in rs],
+            [_averaged(r) for r in rs], [_unmapped_width(r, protocol) for r in rs],
             [r["view"] for r in rs], [r["outcome"] == "success" for r in rs],
             fitted_on=f"{len(rs)} runs where L went: {fitted_on}",
         )  # fmt: skip
@@ -137,6 +150,9 @@ def evaluate(files: list[str], protocol: str) -> None:
         raw = np.array([_averaged(r) for r in went])
         stated = []
         for r in went:
+            if r.get("averaged") is not None:  # stated through the map when it ran
+                stated.append(r["stated"])
+                continue
             mapped = calibrate_chance(
                 r["method"], _averaged(r), tuple(r["interval"]), r["view"], protocol
             )

@@ -120,6 +120,37 @@ class ChanceMap:
                      + self.view * np.asarray(view))  # fmt: skip
 
 
+    def unmapped_interval(
+        self, stated: float, interval: tuple[float, float], averaged: float, view: float
+    ) -> tuple[float, float]:
+        """The interval a statement had before this map: the map's inverse at the width and
+        view the statement was mapped with (its ``c · width`` read off the stated chance and its
+        average, so no division by ``c``).
+
+        Parameters
+        ----------
+        stated : float
+            The stated (mapped) chance.
+        interval : tuple of (float, float)
+            The stated (mapped) interval.
+        averaged : float
+            The average the chance was mapped from.
+        view : float
+            The fraction of states L saw.
+
+        Returns
+        -------
+        tuple of (float, float)
+            The per-draw chances' quantiles before the map (exact up to the clipping of a chance
+            to [0.001, 0.999] before its logit).
+        """
+        spread = float(_logit(stated) - self.intercept - self.slope * _logit(averaged)
+                       - self.view * view)  # c · width  # fmt: skip
+        lo, hi = expit((_logit(np.asarray(interval)) - self.intercept - spread - self.view * view)
+                       / self.slope)  # fmt: skip
+        return float(lo), float(hi)
+
+
 def _logit(chance) -> np.ndarray:
     """logit of a chance clipped to [_CLIP, 1 − _CLIP] (a chance of exactly 0 or 1 is finite)."""
     return logit(np.clip(chance, _CLIP, 1 - _CLIP))
