@@ -10,8 +10,8 @@ its method, scenario, world, observability and view) and prints them; ``--write`
 ``src/mirl/data/stated_chance_calibration.json`` as the maps of ``--protocol`` (``mirl-run``,
 ``mirl run``'s protocol, by default; ``fixed-observation`` for runs of
 ``bench_posterior_go.py --obs-steps 300``, the experiments' protocol), keeping the other
-protocol's. The runs it is fitted on must not be the runs
-it is reported on: fit on one seed base, evaluate on another.
+protocol's; the maps apply in the worlds of the runs they were fitted on. The runs it is
+fitted on must not be the runs it is reported on: fit on one seed base, evaluate on another.
 
 ``--evaluate`` states each run's chance through the shipped map of its method (from the
 run's averaged chance, so runs made before the map existed are measured the same way; a run made
@@ -99,6 +99,28 @@ def _averaged(r: dict) -> float:
     return r["averaged"] if r.get("averaged") is not None else r["stated"]
 
 
+def _as_stated(r: dict, protocol: str) -> dict:
+    """The run as the shipped maps state it: ``stated`` and ``interval`` through its method's
+    map of ``protocol`` where one applies (its world among the maps'), ``averaged`` the average
+    they came from; the average, unmapped, where none does. A run that was mapped when it ran
+    keeps its statement, one made in a world without maps gets its average back."""
+    if r["stated"] is None:
+        return r
+    fitted = calibration_protocols()[protocol]
+    applies = r["method"] in fitted.maps and r["world"] in fitted.worlds
+    if r.get("averaged") is not None:  # mapped when it ran
+        if applies:
+            return r
+        m = fitted.maps.get(r["method"]) or calibration_maps(MIRL_RUN)[r["method"]]
+        lo, hi = m.unmapped_interval(r["stated"], tuple(r["interval"]), r["averaged"], r["view"])
+        return {**r, "stated": r["averaged"], "interval": [lo, hi], "averaged": None}
+    if not applies:
+        return r
+    mapped = calibrate_chance(r["method"], r["stated"], tuple(r["interval"]), r["view"], protocol)
+    assert mapped is not None
+    return {**r, "stated": mapped[0], "interval": list(mapped[1]), "averaged": r["stated"]}
+
+
 def _unmapped_width(r: dict, protocol: str) -> float:
     """The spread of the run's per-draw chances before any calibration: a mapped run's interval
     is taken back through its method's map."""
@@ -129,7 +151,8 @@ def fit(files: list[str], write: bool, protocol: str) -> None:
             Path(f).name for f in files
         ) + f" --protocol {protocol} --write"
         fitted = dict(calibration_protocols())
-        fitted[protocol] = CalibratedProtocol(PROTOCOL_OPTIONS[protocol], maps, how)
+        worlds = tuple(sorted({r["world"] for rs in by_method.values() for r in rs}))
+        fitted[protocol] = CalibratedProtocol(PROTOCOL_OPTIONS[protocol], maps, how, worlds)
         TARGET.write_text(maps_to_json(fitted), encoding="utf-8")
         print("wrote", TARGET)
 
@@ -148,15 +171,7 @@ def evaluate(files: list[str], protocol: str) -> None:
             continue
         y = np.array([r["outcome"] == "success" for r in went], dtype=float)
         raw = np.array([_averaged(r) for r in went])
-        stated = []
-        for r in went:
-            if r.get("averaged") is not None:  # stated through the map when it ran
-                stated.append(r["stated"])
-                continue
-            mapped = calibrate_chance(
-                r["method"], _averaged(r), tuple(r["interval"]), r["view"], protocol
-            )
-            stated.append(_averaged(r) if mapped is None else mapped[0])
+        stated = [_as_stated(r, protocol)["stated"] for r in went]
         s = np.array(stated)
         n = len(went)
         ok = tot = 0
@@ -210,13 +225,7 @@ def restate(files: list[str], folder: str, protocol: str) -> None:
     for name in files:
         out: dict[str, list[str]] = defaultdict(list)
         for r in _rows([name]):
-            if r["stated"] is not None and r.get("averaged") is None:
-                mapped = calibrate_chance(
-                    r["method"], r["stated"], tuple(r["interval"]), r["view"], protocol
-                )
-                if mapped is not None:
-                    r = {**r, "stated": mapped[0], "interval": list(mapped[1]),
-                         "averaged": r["stated"]}  # fmt: skip
+            r = _as_stated(r, protocol)
             if not name.endswith(".sqlite"):
                 out[Path(name).name].append(json.dumps(r))
             elif r["stated"] is not None:

@@ -348,16 +348,18 @@ def test_each_protocol_with_fitted_maps_states_through_its_own():
     from mirl.planning.chance_calibration import FIXED_OBSERVATION, MIRL_RUN
 
     default = LearnOptions()
-    assert _calibration(RunProtocol(), default) == MIRL_RUN
+    assert _calibration(RunProtocol(), default, "grid") == MIRL_RUN
     # the experiments' default protocol (Fig. 4a, Table 1): a fixed 300 observed steps
-    assert _calibration(RunProtocol(watch_until_seen=None), default) == FIXED_OBSERVATION
-    assert _calibration(RunProtocol.paper(go_rule="adaptive", relearn=True), default) == (
-        FIXED_OBSERVATION
-    )
-    # fig3's other observation times, the paper's rule, other learning options: no map
-    assert _calibration(RunProtocol(obs_steps=150, watch_until_seen=None), default) is None
-    assert _calibration(RunProtocol.paper(), default) is None
-    assert _calibration(RunProtocol(), LearnOptions(p=0.7)) is None
+    assert _calibration(RunProtocol(watch_until_seen=None), default, "grid") == FIXED_OBSERVATION
+    fig4a = RunProtocol.paper(go_rule="adaptive", relearn=True)
+    assert _calibration(fig4a, default, "grid") == FIXED_OBSERVATION
+    # fig3's other observation times, the paper's rule, other learning options, and a world the
+    # maps were not fitted in: no map
+    assert _calibration(RunProtocol(obs_steps=150, watch_until_seen=None), default, "grid") is None
+    assert _calibration(RunProtocol.paper(), default, "grid") is None
+    assert _calibration(RunProtocol(), LearnOptions(p=0.7), "grid") is None
+    assert _calibration(RunProtocol(), default, "physics") is None
+    assert _calibration(fig4a, default, "physics") is None
 
 
 def test_the_stated_chance_is_a_function_of_the_seed(boyd2):

@@ -103,6 +103,10 @@ def test_the_shipped_maps_are_for_methods_that_learn_under_each_protocol():
     assert set(protocols) == {MIRL_RUN, FIXED_OBSERVATION}
     assert protocols[MIRL_RUN].options == {}
     assert protocols[FIXED_OBSERVATION].options == {"watch_until_seen": None}
+    for p in protocols.values():  # fitted in the grid world only, and saying so
+        assert p.worlds == ("grid",)
+        assert all("(grid)" in m.fitted_on and "(physics)" not in m.fitted_on
+                   for m in p.maps.values())  # fmt: skip
     for protocol in protocols:
         maps = calibration_maps(protocol)
         assert set(maps) == {"mirl-t", "mirl", "known-r-t", "dbn-em"}

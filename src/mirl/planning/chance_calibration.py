@@ -20,7 +20,11 @@ The selection left differs with the protocol: ``mirl run`` watches until it has 
 patroller (its average understates), the experiments observe a fixed 300 steps (their average
 overstates). A map holds only under the protocol it was fitted under, so the file keeps one set
 per protocol, each with the options that name it (:class:`CalibratedProtocol`); a run under any
-other protocol states its averaged chance.
+other protocol states its averaged chance. So does a run in a world the maps were not fitted in:
+a map corrects the bias of the runs it saw, and a method whose motion model is fixed
+(mIRL\\*+Int's p) is biased by how wrong that p is for the world's robots, which the map's
+inputs do not see (in the physical world, mIRL\\*+Int's grid map states 0.51 where 0.97 comes
+true).
 
 The coefficients are fitted by penalised maximum likelihood (:func:`fit_calibration`), a
 Gaussian prior centred on the identity map (a = c = d = 0, b = 1) keeping a method with few runs
@@ -228,11 +232,14 @@ class CalibratedProtocol:
         One map per method fitted under it.
     how : str
         The command that fitted them.
+    worlds : tuple of str
+        The worlds whose runs they were fitted on; a run in another world states its average.
     """
 
     options: Mapping[str, Any]
     maps: Mapping[str, ChanceMap]
     how: str
+    worlds: tuple[str, ...]
 
 
 @lru_cache(maxsize=1)
@@ -252,6 +259,7 @@ def calibration_protocols() -> Mapping[str, CalibratedProtocol]:
             options=entry["options"],
             maps={m: ChanceMap(**fields) for m, fields in entry["methods"].items()},
             how=entry["how"],
+            worlds=tuple(entry["worlds"]),
         )
         for name, entry in json.loads(text)["protocols"].items()
     }
@@ -335,6 +343,7 @@ def maps_to_json(protocols: Mapping[str, CalibratedProtocol]) -> str:
     return json.dumps({"protocols": {
         name: {
             "options": dict(p.options),
+            "worlds": list(p.worlds),
             "how": p.how,
             "methods": {k: asdict(v) for k, v in sorted(p.maps.items())},
         }
