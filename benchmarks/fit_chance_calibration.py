@@ -10,7 +10,8 @@ its method, scenario, world, observability and view) and prints them; ``--write`
 ``src/mirl/data/stated_chance_calibration.json`` as the maps of ``--protocol`` (``mirl-run``,
 ``mirl run``'s protocol, by default; ``fixed-observation`` for runs of
 ``bench_posterior_go.py --obs-steps 300``, the experiments' protocol), keeping the other
-protocol's; the maps apply in the worlds of the runs they were fitted on. The runs it is
+protocol's and the maps of methods not in the files; the maps apply in the worlds of the runs
+they were fitted on. The runs it is
 fitted on must not be the runs it is reported on: fit on one seed base, evaluate on another.
 
 ``--evaluate`` states each run's chance through the shipped map of its method (from the
@@ -151,8 +152,15 @@ def fit(files: list[str], write: bool, protocol: str) -> None:
             Path(f).name for f in files
         ) + f" --protocol {protocol} --write"
         fitted = dict(calibration_protocols())
-        worlds = tuple(sorted({r["world"] for rs in by_method.values() for r in rs}))
-        fitted[protocol] = CalibratedProtocol(PROTOCOL_OPTIONS[protocol], maps, how, worlds)
+        worlds = {r["world"] for rs in by_method.values() for r in rs}
+        if protocol in fitted:  # the methods not refitted keep their maps
+            before = fitted[protocol]
+            maps = {**before.maps, **maps}
+            how = how if set(maps) == set(by_method) else f"{before.how}; then {how}"
+            worlds |= set(before.worlds)
+        fitted[protocol] = CalibratedProtocol(
+            PROTOCOL_OPTIONS[protocol], maps, how, tuple(sorted(worlds))
+        )
         TARGET.write_text(maps_to_json(fitted), encoding="utf-8")
         print("wrote", TARGET)
 
