@@ -23,8 +23,8 @@ per protocol, each with the options that name it (:class:`CalibratedProtocol`); 
 other protocol states its averaged chance. So does a run in a world the maps were not fitted in:
 a map corrects the bias of the runs it saw, and a method whose motion model is fixed
 (mIRL\\*+Int's p) is biased by how wrong that p is for the world's robots, which the map's
-inputs do not see (in the physical world, mIRL\\*+Int's grid map states 0.51 where 0.97 comes
-true).
+inputs do not see (carried to the physical world, mIRL\\*+Int's grid map stated 0.51 where 0.97
+came true).
 
 The coefficients are fitted by penalised maximum likelihood (:func:`fit_calibration`), a
 Gaussian prior centred on the identity map (a = c = d = 0, b = 1) keeping a method with few runs
