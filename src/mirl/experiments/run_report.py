@@ -357,7 +357,10 @@ def _stated_lines(result: RunResult) -> list[str]:
             f"stated through {METHODS[result.method].paper_name}'s calibration on held-out runs"
         )
     elif drawn:
-        how = "averaged over model sets drawn from the posterior of its models"
+        how = (
+            "averaged over model sets drawn from the posterior of its models, not calibrated: "
+            "no held-out map was fitted for this method, world, protocol and learning options"
+        )
     else:
         how = "under its models and belief"
     if drawn and point is not None:
