@@ -104,7 +104,8 @@ def _as_stated(r: dict, protocol: str) -> dict:
     """The run as the shipped maps state it: ``stated`` and ``interval`` through its method's
     map of ``protocol`` where one applies (its world among the maps'), ``averaged`` the average
     they came from; the average, unmapped, where none does. A run that was mapped when it ran
-    keeps its statement, one made in a world without maps gets its average back."""
+    keeps its statement, one made in a world without maps gets its average back (its interval
+    taken back through the map shipped now, which is taken to be the one that mapped it)."""
     if r["stated"] is None:
         return r
     fitted = calibration_protocols()[protocol]

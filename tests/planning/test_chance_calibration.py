@@ -161,13 +161,8 @@ def test_a_statement_is_mapped_with_its_spread_and_keeps_its_average():
 @settings(max_examples=60, deadline=None)
 def test_a_mapped_interval_is_taken_back_through_its_map(chance, lo_gap, hi_gap, view):
     lo, hi = max(chance - lo_gap, 0.002), min(chance + hi_gap, 0.998)
-    for m in calibration_maps(FIXED_OBSERVATION).values():  # DBN-EM's width weight is ~0
-        stated, interval = calibrate_chance_with(m, chance, (lo, hi), view)
-        back = m.unmapped_interval(stated, interval, chance, view)
+    for name, m in calibration_maps(FIXED_OBSERVATION).items():  # DBN-EM's width weight is ~0
+        mapped = calibrate_chance(name, chance, (lo, hi), view, FIXED_OBSERVATION)
+        assert mapped is not None
+        back = m.unmapped_interval(mapped[0], mapped[1], chance, view)
         assert back == pytest.approx((lo, hi), abs=1e-9)
-
-
-def calibrate_chance_with(m, chance, interval, view):
-    width = interval[1] - interval[0]
-    lo, mid, hi = m(np.array([interval[0], chance, interval[1]]), width, view)
-    return float(mid), (float(lo), float(hi))
