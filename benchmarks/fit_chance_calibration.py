@@ -100,12 +100,21 @@ def _averaged(r: dict) -> float:
     return r["averaged"] if r.get("averaged") is not None else r["stated"]
 
 
+def _unmapped_interval(r: dict, protocol: str) -> tuple[float, float]:
+    """The run's per-draw interval before any calibration: a mapped run's is taken back through
+    its method's map shipped now (taken to be the one that mapped it; ``protocol``'s, or
+    ``mirl run``'s where that protocol has none for the method)."""
+    if r.get("averaged") is None:
+        return r["interval"][0], r["interval"][1]
+    m = calibration_maps(protocol).get(r["method"]) or calibration_maps(MIRL_RUN)[r["method"]]
+    return m.unmapped_interval(r["stated"], tuple(r["interval"]), r["averaged"], r["view"])
+
+
 def _as_stated(r: dict, protocol: str) -> dict:
     """The run as the shipped maps state it: ``stated`` and ``interval`` through its method's
     map of ``protocol`` where one applies (its world among the maps'), ``averaged`` the average
     they came from; the average, unmapped, where none does. A run that was mapped when it ran
-    keeps its statement, one made in a world without maps gets its average back (its interval
-    taken back through the map shipped now, which is taken to be the one that mapped it)."""
+    keeps its statement; one made in a world without maps gets its average back."""
     if r["stated"] is None:
         return r
     fitted = calibration_protocols()[protocol]
@@ -113,24 +122,13 @@ def _as_stated(r: dict, protocol: str) -> dict:
     if r.get("averaged") is not None:  # mapped when it ran
         if applies:
             return r
-        m = fitted.maps.get(r["method"]) or calibration_maps(MIRL_RUN)[r["method"]]
-        lo, hi = m.unmapped_interval(r["stated"], tuple(r["interval"]), r["averaged"], r["view"])
+        lo, hi = _unmapped_interval(r, protocol)
         return {**r, "stated": r["averaged"], "interval": [lo, hi], "averaged": None}
     if not applies:
         return r
     mapped = calibrate_chance(r["method"], r["stated"], tuple(r["interval"]), r["view"], protocol)
     assert mapped is not None
     return {**r, "stated": mapped[0], "interval": list(mapped[1]), "averaged": r["stated"]}
-
-
-def _unmapped_width(r: dict, protocol: str) -> float:
-    """The spread of the run's per-draw chances before any calibration: a mapped run's interval
-    is taken back through its method's map."""
-    if r.get("averaged") is None:
-        return r["interval"][1] - r["interval"][0]
-    m = calibration_maps(protocol)[r["method"]]
-    lo, hi = m.unmapped_interval(r["stated"], tuple(r["interval"]), r["averaged"], r["view"])
-    return hi - lo
 
 
 def fit(files: list[str], write: bool, protocol: str) -> None:
@@ -143,7 +141,8 @@ def fit(files: list[str], write: bool, protocol: str) -> None:
         where = sorted({(r["scenario"], r["world"], r["observability"], r["base"]) for r in rs})
         fitted_on = "; ".join(f"{s} ({w}) at {o}, seeds run_seed({b}, i)" for s, w, o, b in where)
         maps[method] = fit_calibration(
-            [_averaged(r) for r in rs], [_unmapped_width(r, protocol) for r in rs],
+            [_averaged(r) for r in rs],
+            [hi - lo for lo, hi in (_unmapped_interval(r, protocol) for r in rs)],
             [r["view"] for r in rs], [r["outcome"] == "success" for r in rs],
             fitted_on=f"{len(rs)} runs where L went: {fitted_on}",
         )  # fmt: skip

@@ -125,8 +125,8 @@ class Waiting:
     calibration : str or None, default "mirl-run"
         The protocol whose held-out calibration the stated chance goes through
         (:func:`~mirl.planning.chance_calibration.calibration_protocols`); None: none, and L
-        states its averaged chance. The maps were fitted under their protocol with the default
-        learning options, so a run under others has none.
+        states its averaged chance. The maps were fitted under their protocol, in their worlds,
+        with the default learning options, so a run under others has none.
     """
 
     world: RunWorld
