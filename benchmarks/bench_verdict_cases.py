@@ -17,6 +17,11 @@ run only learns. Cases:
 ``long-step``      physics, boyd2-healthy, no damage: the true 10 Hz poses at 3 s steps, so
                    that some moves span two cells (a tracker read at too long a step)
 ``grid``           grid, boyd2 (J's left wheel at 0.70), L's door (0.14), grid CSV
+``physics-left``   ``physics-right`` mirrored: I's left motor at 0.6, grid CSV
+``physics-left-poses``  the same runs read from L's pose CSV
+``physics-two-mirror``  physics, boyd2-healthy, I's left and J's right motor at 0.6, pose CSV
+``grid-right``     grid, boyd2-healthy with I's right wheel at 0.70, L's door (0.14), grid CSV
+``boydleft``       ``boydright`` mirrored: J's left motor at 0.5
 =================  ===========================================================================
 
 Per case and robot it prints the verdict, its confidence, whether it is (confidently) false,
@@ -67,6 +72,18 @@ CASES = {
         Case("long-step", "boyd2-healthy", "physics", (), {"I": (), "J": ()}, "true-poses", 1.0,
              ("--step-seconds", "3")),
         Case("grid", "boyd2", "grid", (), {"I": (), "J": ("left_wheel",)}, "grid", 0.14),
+        # the same questions mirrored (the other wheel, the other robot), as a user may ask them
+        Case("physics-left", "boyd2-healthy", "physics", ("I:left_wheel=0.6",),
+             {"I": ("left_wheel",), "J": ()}, "grid", 1.0),
+        Case("physics-left-poses", "boyd2-healthy", "physics", ("I:left_wheel=0.6",),
+             {"I": ("left_wheel",), "J": ()}, "poses", 1.0),
+        Case("physics-two-mirror", "boyd2-healthy", "physics",
+             ("I:left_wheel=0.6", "J:right_wheel=0.6"),
+             {"I": ("left_wheel",), "J": ("right_wheel",)}, "poses", 1.0),
+        Case("grid-right", "boyd2-healthy", "grid", ("I:right_wheel=0.7",),
+             {"I": ("right_wheel",), "J": ()}, "grid", 0.14),
+        Case("boydleft", "boydright", "physics", ("J:left_wheel=0.5",),
+             {"I": (), "J": ("left_wheel",)}, "grid", 1.0),
     )
 }  # fmt: skip
 
