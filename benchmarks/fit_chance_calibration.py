@@ -91,6 +91,10 @@ def _sweep_rows(path: str) -> list[dict]:
             "stated": stated, "interval": None if lo is None else [lo, hi],
             "point": m.get("predicted_success_point"),
             "averaged": m.get("predicted_success_averaged"), "rule": json.loads(key)["go_rule"],
+            "averaged_interval": (
+                None if m.get("predicted_success_averaged_lo") is None
+                else [m["predicted_success_averaged_lo"], m["predicted_success_averaged_hi"]]
+            ),
         })  # fmt: skip
     return rows
 
@@ -101,11 +105,14 @@ def _averaged(r: dict) -> float:
 
 
 def _unmapped_interval(r: dict, protocol: str) -> tuple[float, float]:
-    """The run's per-draw interval before any calibration: a mapped run's is taken back through
-    its method's map shipped now (taken to be the one that mapped it; ``protocol``'s, or
+    """The run's per-draw interval before any calibration: as the run recorded it, or for a
+    mapped run that did not record it (made before the record kept it), taken back through its
+    method's map shipped now (taken to be the one that mapped it; ``protocol``'s, or
     ``mirl run``'s where that protocol has none for the method)."""
     if r.get("averaged") is None:
         return r["interval"][0], r["interval"][1]
+    if r.get("averaged_interval") is not None:
+        return r["averaged_interval"][0], r["averaged_interval"][1]
     m = calibration_maps(protocol).get(r["method"]) or calibration_maps(MIRL_RUN)[r["method"]]
     return m.unmapped_interval(r["stated"], tuple(r["interval"]), r["averaged"], r["view"])
 
@@ -123,12 +130,18 @@ def _as_stated(r: dict, protocol: str) -> dict:
         if applies:
             return r
         lo, hi = _unmapped_interval(r, protocol)
-        return {**r, "stated": r["averaged"], "interval": [lo, hi], "averaged": None}
+        return {
+            **r, "stated": r["averaged"], "interval": [lo, hi], "averaged": None,
+            "averaged_interval": None,
+        }  # fmt: skip
     if not applies:
         return r
     mapped = calibrate_chance(r["method"], r["stated"], tuple(r["interval"]), r["view"], protocol)
     assert mapped is not None
-    return {**r, "stated": mapped[0], "interval": list(mapped[1]), "averaged": r["stated"]}
+    return {
+        **r, "stated": mapped[0], "interval": list(mapped[1]), "averaged": r["stated"],
+        "averaged_interval": list(r["interval"]),
+    }  # fmt: skip
 
 
 def fit(files: list[str], write: bool, protocol: str) -> None:

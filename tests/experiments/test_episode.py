@@ -331,6 +331,11 @@ def test_the_stated_chance_goes_through_the_methods_calibration_where_it_was_fit
         assert raw_lo <= averaged <= raw_hi
         # (the map clips a chance to [0.001, 0.999] before its logit)
         assert raw_hi - raw_lo == pytest.approx(width, abs=2e-3)
+        # the run keeps the draws' own quantiles, which the map took to the stated interval
+        kept = r.predicted_success_interval_averaged
+        assert kept is not None and kept == pytest.approx((raw_lo, raw_hi), abs=2e-3)
+        assert r.to_dict()["predicted_success_interval_averaged"] == list(kept)
+        assert m(np.array(kept), kept[1] - kept[0], view) == pytest.approx([lo, hi])
     # under other learning options or another protocol than the maps were fitted under, L
     # states the average
     for other in (
@@ -339,6 +344,7 @@ def test_the_stated_chance_goes_through_the_methods_calibration_where_it_was_fit
     ):
         if other.go_time is not None:
             assert other.predicted_success_averaged is None
+            assert other.predicted_success_interval_averaged is None
             report = format_report(boyd2, other)
             assert "stated through" not in report and "not calibrated" in report
 

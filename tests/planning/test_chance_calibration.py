@@ -144,6 +144,7 @@ def test_a_statement_is_mapped_with_its_spread_and_keeps_its_average():
     c = s.calibrated("mirl-t", 0.13)
     m = calibration_maps()["mirl-t"]
     assert c.averaged == 0.7 and c.point == 0.75 and c.draws == s.draws
+    assert c.averaged_interval == (0.5, 0.85)  # what a refit of the map reads
     assert c.mean == pytest.approx(float(m(0.7, 0.35, 0.13)))
     assert c.interval == pytest.approx((float(m(0.5, 0.35, 0.13)), float(m(0.85, 0.35, 0.13))))
     assert c.interval[0] <= c.mean <= c.interval[1]

@@ -377,6 +377,10 @@ def _flatten_run_result(result: Any) -> dict[str, Any]:
         averaged = getattr(result, "predicted_success_averaged", None)
         if averaged is not None:  # before the method's held-out calibration
             out["predicted_success_averaged"] = float(averaged)
+            raw = result.predicted_success_interval_averaged
+            out["predicted_success_averaged_lo"], out["predicted_success_averaged_hi"] = map(
+                float, raw
+            )
     relearns = getattr(result, "relearns", None)
     if relearns is not None:
         out["relearns"] = len(relearns)

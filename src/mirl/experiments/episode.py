@@ -81,7 +81,7 @@ MOMENT_SLACK = 20
 
 STATED_KEYS = (
     "predicted_success", "predicted_success_interval", "predicted_success_point",
-    "predicted_success_averaged",
+    "predicted_success_averaged", "predicted_success_interval_averaged",
 )  # fmt: skip
 """The stated chance's fields, alike in :class:`PlanAttempt` and :class:`RunResult`."""
 

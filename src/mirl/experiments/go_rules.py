@@ -250,7 +250,8 @@ class AdaptiveRule(GoRuleStrategy):
         attempt = PlanAttempt(
             t, float(plan.go_values.max()), go_time,
             *(() if stated is None else (
-                stated.mean, stated.interval, stated.point, stated.averaged)),
+                stated.mean, stated.interval, stated.point, stated.averaged,
+                stated.averaged_interval)),
         )  # fmt: skip
         return Decision(plan, go_time, t + step, attempt)
 

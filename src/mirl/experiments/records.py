@@ -51,6 +51,8 @@ class PlanAttempt:
     predicted_success_averaged : float, optional
         The posterior-averaged chance before the method's held-out calibration (None when the
         method has none: ``predicted_success`` is then that average).
+    predicted_success_interval_averaged : tuple of (float, float), optional
+        The per-draw quantiles before the calibration (None when the method has none).
     """
 
     t: int
@@ -60,6 +62,7 @@ class PlanAttempt:
     predicted_success_interval: tuple[float, float] | None = None
     predicted_success_point: float | None = None
     predicted_success_averaged: float | None = None  # before calibration (None: uncalibrated)
+    predicted_success_interval_averaged: tuple[float, float] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The round's JSON form (the ``predicted_success`` keys only when set).
@@ -68,8 +71,8 @@ class PlanAttempt:
         -------
         dict
             ``t``, ``best_value``, ``go_time``, ``predicted_success``,
-            ``predicted_success_interval``, ``predicted_success_point`` and
-            ``predicted_success_averaged``.
+            ``predicted_success_interval``, ``predicted_success_point``,
+            ``predicted_success_averaged`` and ``predicted_success_interval_averaged``.
         """
         return {
             "t": self.t,
@@ -80,6 +83,9 @@ class PlanAttempt:
                 predicted_success_interval=_listed(self.predicted_success_interval),
                 predicted_success_point=self.predicted_success_point,
                 predicted_success_averaged=self.predicted_success_averaged,
+                predicted_success_interval_averaged=_listed(
+                    self.predicted_success_interval_averaged
+                ),
             ),
         }
 
@@ -202,6 +208,9 @@ class RunResult:
     predicted_success_averaged : float, optional
         The posterior-averaged chance at the go time before the method's held-out calibration
         (None when the method has none).
+    predicted_success_interval_averaged : tuple of (float, float), optional
+        The per-draw quantiles at the go time before the calibration (None when the method
+        has none).
     """
 
     scenario: str
@@ -234,6 +243,7 @@ class RunResult:
     predicted_success_interval: tuple[float, float] | None = None  # per-draw 5–95 % quantiles
     predicted_success_point: float | None = None  # the point models' chance at the go time
     predicted_success_averaged: float | None = None  # before calibration (None: uncalibrated)
+    predicted_success_interval_averaged: tuple[float, float] | None = None  # ditto
 
     @property
     def watch_until_seen(self) -> int | None:
@@ -266,6 +276,9 @@ class RunResult:
                 predicted_success_interval=_listed(self.predicted_success_interval),
                 predicted_success_point=self.predicted_success_point,
                 predicted_success_averaged=self.predicted_success_averaged,
+                predicted_success_interval_averaged=_listed(
+                    self.predicted_success_interval_averaged
+                ),
             ),
             "behavior_accuracy": self.behavior_accuracy,
             "behavior_accuracy_per_robot": self.behavior_accuracy_per_robot,

@@ -367,6 +367,9 @@ class StatedChance:
     averaged : float or None, default None
         The chance averaged over the draws before the method's held-out calibration
         (:mod:`mirl.planning.chance_calibration`) mapped it to ``mean``; None when uncalibrated.
+    averaged_interval : tuple of (float, float) or None, default None
+        The per-draw chances' quantiles before the calibration mapped them to ``interval``
+        (None when uncalibrated): with ``averaged``, what a map is refitted from.
     """
 
     mean: float
@@ -374,6 +377,7 @@ class StatedChance:
     point: float
     draws: tuple[float, ...] = ()
     averaged: float | None = None
+    averaged_interval: tuple[float, float] | None = None
 
     def calibrated(self, method: str, view: float, protocol: str = MIRL_RUN) -> StatedChance:
         """This chance as ``method``'s held-out calibration states it.
@@ -391,15 +395,19 @@ class StatedChance:
         Returns
         -------
         StatedChance
-            ``mean`` and ``interval`` mapped, ``averaged`` the average they were mapped from;
-            this one unchanged when the method has no map or nothing was drawn.
+            ``mean`` and ``interval`` mapped, ``averaged`` and ``averaged_interval`` what they
+            were mapped from; this one unchanged when the method has no map or nothing was
+            drawn.
         """
         if not self.draws or self.averaged is not None:
             return self
         mapped = calibrate_chance(method, self.mean, self.interval, view, protocol)
         if mapped is None:
             return self
-        return replace(self, mean=mapped[0], interval=mapped[1], averaged=self.mean)
+        return replace(
+            self, mean=mapped[0], interval=mapped[1], averaged=self.mean,
+            averaged_interval=self.interval,
+        )  # fmt: skip
 
 
 def posterior_beliefs(
