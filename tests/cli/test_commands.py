@@ -288,7 +288,10 @@ def test_learn_and_run_give_intervals_and_verdicts(tmp_path, capsys):
     assert "left_wheel" in named and max(damage, key=damage.get) == "left_wheel"
     assert 0.5 < verdict["confidence"] <= 1 and verdict["fit"]["ok"]
     models = j["motion_models"]
-    assert set(models) == {"paper/uniform", "paper/stop", "free-turns/uniform", "free-turns/stop"}
+    assert set(models) == {
+        "paper/uniform", "paper/stop", "free-turns/uniform", "free-turns/stop",
+        "paper-mirrored/stop",
+    }  # fmt: skip
     assert abs(sum(models.values()) - 1) < 1e-3
     assert j["motion_model"] == "paper/uniform"  # the grid's own, which the record favours
     assert main(learn) == 0

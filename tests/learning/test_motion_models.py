@@ -29,15 +29,74 @@ from mirl.world.motion import transition_matrix, turns_without_wheels
 from mirl.world.scenario import load_scenario
 
 
-def test_the_candidates_are_the_two_by_two_of_xi_and_error_model():
+def test_the_candidates_are_the_two_by_two_of_xi_and_error_model_and_a_mirror():
     scenario = load_scenario("boyd2")
     names = [m.name for m in candidate_models(scenario.feature_map)]
-    assert names == ["paper/uniform", "paper/stop", "free-turns/uniform", "free-turns/stop"]
+    assert names == [
+        "paper/uniform", "paper/stop", "free-turns/uniform", "free-turns/stop",
+        "paper-mirrored/stop",
+    ]  # fmt: skip
     free = candidate_models(scenario.feature_map)[3].feature_map
     assert free.action_subsets["turn_left"] == ("navigation", "floor")
     assert free.action_subsets["forward"] == scenario.feature_map.action_subsets["forward"]
-    # a ξ whose turns need no wheel already has one variant only
+    mirror = candidate_models(scenario.feature_map)[4].feature_map
+    assert mirror.action_subsets["turn_left"] == ("left_wheel", "navigation", "floor")
+    assert mirror.action_subsets["turn_right"] == ("right_wheel", "navigation", "floor")
+    assert mirror.action_subsets["forward"] == scenario.feature_map.action_subsets["forward"]
+    # a ξ whose turns need no wheel already has one variant only, and nothing to mirror
     assert [m.name for m in candidate_models(free)] == ["paper/uniform", "paper/stop"]
+
+
+def test_a_step_under_the_mirror_is_its_twins_with_the_wheels_swapped():
+    """Against Eq. 5's transition matrices of the two ξ (independent of the step design): the
+    same record is exactly as probable under the mirror as under its twin with the wheels'
+    probabilities exchanged, so step outcomes cannot tell them apart."""
+    scenario, s, s_next, _ = _record(seed=2)
+    d = scenario.domain
+    twin, mirror = candidate_models(d.feature_map)[1], candidate_models(d.feature_map)[4]
+    A = d.n_actions
+    pi = np.random.default_rng(1).dirichlet(np.ones(A), size=len(s))
+    features = d.feature_map.features
+    rng = np.random.default_rng(2)
+    for _ in range(3):
+        p = rng.uniform(0.2, 1.0, len(features))
+        swapped = p.copy()
+        swapped[[0, 1]] = p[[1, 0]]
+        T_twin = transition_matrix(
+            model_domain(d, twin), dict(zip(features, p, strict=True)), "stop"
+        )
+        T_mirror = transition_matrix(
+            model_domain(d, mirror), dict(zip(features, swapped, strict=True)), "stop"
+        )
+        for i in range(len(s)):
+            rows = s[i] * A + np.arange(A)
+            assert pi[i] @ T_twin[rows, [s_next[i]]] == pytest.approx(
+                pi[i] @ T_mirror[rows, [s_next[i]]], rel=1e-12
+            )
+
+
+def test_a_mirror_shares_its_twins_weight_and_changes_no_other_model():
+    """With the mirror among the candidates the other models' weights and draws, and the
+    evidence, are bit for bit those without it; the twin's weight is split in two and the
+    mirror's draws are the twin's with the wheels swapped."""
+    from mirl.learning.motion_models import fold_mirrors, motion_posterior
+
+    scenario, s, s_next, labels = _record(seed=4, steps=300)
+    d = scenario.domain
+    pi = np.eye(d.n_actions)[labels]
+    healthy = {f: 0.95 for f in d.feature_map.features}
+    models = candidate_models(d.feature_map)
+    every = motion_posterior(d, s, s_next, pi, healthy, models=models, n_draws=200)
+    base = motion_posterior(d, s, s_next, pi, healthy, models=models[:4], n_draws=200)
+    assert every.mean_log_evidence == base.mean_log_evidence
+    np.testing.assert_array_equal(every.weights[[0, 2, 3]], base.weights[[0, 2, 3]])
+    assert every.weights[1] == every.weights[4] == base.weights[1] / 2
+    np.testing.assert_array_equal(every.folded_weights()[:4], base.weights)
+    assert fold_mirrors(every.model_weights()) == base.model_weights()
+    for m in range(4):
+        np.testing.assert_array_equal(every.draws[m].x, base.draws[m].x)
+    np.testing.assert_array_equal(every.draws[4].x[:, [1, 0]], base.draws[1].x[:, :2])
+    np.testing.assert_array_equal(every.draws[4].x[:, 2:], base.draws[1].x[:, 2:])
 
 
 def _record(seed=0, steps=120):
@@ -172,6 +231,23 @@ def test_the_record_says_whether_turns_need_a_wheel(xi, errors):
     assert j.uncertainty.motion_models[f"{xi}/{errors}"] > 0.9
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_failed_steps_that_stay_put_leave_a_wheels_side_to_the_drift(seed):
+    """A record whose failed steps stay put (a physical robot's) and whose turns need a wheel:
+    which wheel a failed turn tests is not in its outcomes, so the verdict names J's wheels,
+    not one of them, and marks them as told apart by nothing it saw. Eq. 5's grid (the paper's
+    own world, whose ξ the scenario states) keeps naming the left wheel alone."""
+    j = _learned_under("paper", "stop", seed=seed)
+    weights = j.uncertainty.motion_models
+    assert weights["paper/stop"] == weights["paper-mirrored/stop"] > 0.05
+    assert j.verdict.part is None and {"left_wheel", "right_wheel"} <= set(j.verdict.candidates)
+    assert j.verdict.confidence > 0.9
+    assert ("left_wheel", "right_wheel") in j.uncertainty.indistinguishable
+    assert not j.uncertainty.sided_by_drift
+    grid = _learned_under("paper", "uniform", seed=seed)
+    assert grid.verdict.part == "left_wheel"
+
+
 def test_l_learns_with_the_model_the_record_favours():
     """A record made with failures that stay put: L, starting from the scenario's Eq. 5,
     learns again under the stop model and plans with it."""
@@ -186,7 +262,7 @@ def test_weak_wheels_drift_only_where_turns_need_no_wheel():
     from mirl.learning.motion_models import _evidence_under
 
     models = candidate_models(load_scenario("boyd2").feature_map)
-    assert [m.wheels_drift for m in models] == [False, False, True, True]
+    assert [m.wheels_drift for m in models] == [False, False, True, True, False]
 
     def by_gap(p):
         return -((p[:, 1] - p[:, 0] - 0.3) ** 2)

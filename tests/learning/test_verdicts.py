@@ -490,8 +490,9 @@ def test_parts_that_fail_every_move_under_the_papers_xi():
 
     scenario = load_scenario("boyd2")
     models = candidate_models(scenario.domain.feature_map)
-    paper, free = {m.xi: m.feature_map for m in models}.values()
+    paper, free, mirror = {m.xi: m.feature_map for m in models}.values()
     assert confounded_parts(paper) == ({"navigation", "floor"}, {"left_wheel", "right_wheel"})
+    assert confounded_parts(mirror) == confounded_parts(paper)  # the same parts, swapped
     # turns that need no wheel fail only with a common part: no confounding
     assert confounded_parts(free) == ({"navigation", "floor"}, frozenset())
 

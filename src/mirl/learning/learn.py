@@ -84,6 +84,7 @@ from mirl.learning.methods import (
 from mirl.learning.motion_models import (
     MotionModel,
     candidate_models,
+    fold_mirrors,
     model_domain,
     unexplained_steps,
 )
@@ -630,7 +631,7 @@ def switched_models(
     for i, (model, u) in enumerate(zip(models, sure, strict=True)):
         if u is None or not u.motion_models:
             continue
-        weights = u.motion_models
+        weights = fold_mirrors(u.motion_models)  # L never learns under a mirror (its twin's)
         best = max(weights, key=weights.__getitem__)
         fit = u.verdict.fit
         target = declared

@@ -11,7 +11,17 @@ each (:mod:`mirl.world.motion`):
 * **Where does a failed step end?** Eq. 5 sends it to the intended state of a uniformly chosen
   other action (``uniform``); a physical robot stays where it was (``stop``).
 
-The candidates are the 2 × 2 of these (fewer when the scenario's ξ has no wheel in its turns).
+The candidates are the 2 × 2 of these (fewer when the scenario's ξ has no wheel in its turns),
+and one more for a robot whose failed steps stay put and whose turns need a wheel: *which*
+wheel. The paper's ξ charges a turn to the wheel that drives the pivot; a physical robot's turn
+can as well fail by the wheel that holds it, and on step outcomes the two cannot be told apart —
+the same record is exactly as probable under either with the wheels swapped. So ``paper/stop``
+has a mirror, ``paper-mirrored/stop`` (:func:`mirrored_feature_map`), drawn as its twin's draws
+with the wheels swapped and sharing its twin's prior odds; the verdict then names a wheel's side
+only where something else shows it (the drift, under the models whose wheels drift). Eq. 5's
+failures (``uniform``) are the paper's own grid, whose ξ the scenario states; they keep it
+alone.
+
 Each is weighed by its *marginal likelihood*: the probability of the robot's observed steps
 with the feature probabilities p integrated over their prior, and each step's action over L's
 policy,
@@ -45,7 +55,7 @@ from __future__ import annotations
 
 import weakref
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.special import betaln, expit
@@ -62,6 +72,9 @@ __all__ = [
     "DEFAULT_PRIOR",
     "StepDesign",
     "candidate_models",
+    "mirrored_feature_map",
+    "fold_mirrors",
+    "MIRRORED",
     "describe_model",
     "motion_sentence",
     "step_design",
@@ -74,9 +87,11 @@ __all__ = [
     "motion_posterior",
 ]
 
-XI_NAMES = ("paper", "free-turns")
-"""The ξ a model takes: the scenario's (the paper's, for the shipped scenarios), or the
-scenario's with no wheel in the turns."""
+XI_NAMES = ("paper", "free-turns", "paper-mirrored")
+"""The ξ a model takes: the scenario's (the paper's, for the shipped scenarios), the
+scenario's with no wheel in the turns, or the scenario's with its wheels swapped."""
+MIRRORED = "-mirrored"
+"""What a mirror's ξ name adds to its twin's."""
 
 
 @dataclass(frozen=True)
@@ -85,8 +100,9 @@ class MotionModel:
 
     Parameters
     ----------
-    xi : {"paper", "free-turns"}
-        The scenario's ξ, or the scenario's with the wheels taken out of the turns.
+    xi : {"paper", "free-turns", "paper-mirrored"}
+        The scenario's ξ, the scenario's with the wheels taken out of the turns, or the
+        scenario's with the left and right wheel swapped (:func:`mirrored_feature_map`).
     errors : {"uniform", "stop"}
         Where a failed step ends (:data:`~mirl.world.motion.ERROR_MODELS`).
     feature_map : FeatureMap
@@ -135,7 +151,10 @@ def describe_model(name: str) -> str:
         What the model says of turns and of failed steps.
     """
     xi, errors = name.split("/")
-    turns = "turns need a wheel" if xi == "paper" else "turns need no wheel"
+    turns = {
+        "paper": "turns need a wheel",
+        "paper-mirrored": "turns need a wheel, the other one",
+    }.get(xi, "turns need no wheel")
     ends = (
         "a failed step ends where another action would have (Eq. 5)"
         if errors == "uniform"
@@ -161,6 +180,7 @@ def motion_sentence(weights: Mapping[str, float], planned: str, odds: float = 10
     str
         The sentence the reports print.
     """
+    weights = fold_mirrors(weights)
     best = max(weights, key=weights.__getitem__)
     said = f"{describe_model(best)} ({best}, weight {weights[best]:.2f})"
     if not planned or planned == best:
@@ -170,10 +190,69 @@ def motion_sentence(weights: Mapping[str, float], planned: str, odds: float = 10
     return said + f"; L plans with {planned}: learning again under {best} explained it no better"
 
 
-def candidate_models(feature_map: FeatureMap) -> tuple[MotionModel, ...]:
-    """The 2 × 2 of ξ (the scenario's; without wheels in the turns) and error model.
+def mirrored_feature_map(feature_map: FeatureMap) -> FeatureMap:
+    """ξ with the left and right wheel swapped wherever they appear (subsets and overrides).
 
-    The ξ without wheels is left out when it is the scenario's own (no wheel drives a turn).
+    A turn then tests the wheel the scenario's ξ says it does not: the one that holds the pivot
+    rather than the one that drives it. A step is exactly as probable under this ξ as under the
+    scenario's with the two wheels' success probabilities exchanged.
+
+    Parameters
+    ----------
+    feature_map : FeatureMap
+        The scenario's ξ.
+
+    Returns
+    -------
+    FeatureMap
+        The mirrored ξ (the same map when it has no two wheels).
+    """
+    if not set(WHEELS) <= set(feature_map.features):
+        return feature_map
+    swap = {WHEELS[0]: WHEELS[1], WHEELS[1]: WHEELS[0]}
+
+    def mirrored(names):
+        out = tuple(swap.get(f, f) for f in names)
+        return tuple(names) if set(out) == set(names) else out  # both wheels: as it was
+
+    subsets = {a: mirrored(sub) for a, sub in feature_map.action_subsets.items()}
+    overrides = tuple(
+        replace(ov, add=mirrored(ov.add), remove=mirrored(ov.remove))
+        for ov in feature_map.overrides
+    )
+    return FeatureMap(feature_map.features, subsets, overrides)
+
+
+def fold_mirrors(weights: Mapping[str, float]) -> dict[str, float]:
+    """Model weights with each mirror's (``paper-mirrored/stop``) added to its twin's
+    (``paper/stop``): the weight of "turns need a wheel" whichever wheel, as learning weighs it
+    (L learns under the scenario's ξ or without wheels in the turns, never the mirror, which
+    explains every record exactly as well as its twin).
+
+    Parameters
+    ----------
+    weights : mapping of str to float
+        Model name → weight.
+
+    Returns
+    -------
+    dict of str to float
+        The weights without the mirrors.
+    """
+    out: dict[str, float] = {}
+    for name, w in weights.items():
+        xi, errors = name.split("/")
+        twin = f"{xi.removesuffix(MIRRORED)}/{errors}"
+        out[twin] = out.get(twin, 0.0) + float(w)
+    return out
+
+
+def candidate_models(feature_map: FeatureMap) -> tuple[MotionModel, ...]:
+    """The 2 × 2 of ξ (the scenario's; without wheels in the turns) and error model, and the
+    scenario's ξ mirrored with failed steps that stay put.
+
+    The ξ without wheels is left out when it is the scenario's own (no wheel drives a turn); the
+    mirror when swapping the wheels changes nothing.
 
     Parameters
     ----------
@@ -183,13 +262,17 @@ def candidate_models(feature_map: FeatureMap) -> tuple[MotionModel, ...]:
     Returns
     -------
     tuple of MotionModel
-        The candidates, the scenario's ξ first.
+        The candidates, the scenario's ξ first and the mirror last.
     """
     free = turns_without_wheels(feature_map)
     maps = [("paper", feature_map)]
     if dict(free.action_subsets) != dict(feature_map.action_subsets):
         maps.append(("free-turns", free))
-    return tuple(MotionModel(xi, e, fm) for xi, fm in maps for e in ERROR_MODELS)
+    out = [MotionModel(xi, e, fm) for xi, fm in maps for e in ERROR_MODELS]
+    mirror = mirrored_feature_map(feature_map)
+    if mirror != feature_map:
+        out.append(MotionModel("paper" + MIRRORED, "stop", mirror))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -568,15 +651,22 @@ class MotionPosterior:
     models : tuple of MotionModel
         The candidates weighed.
     weights : ndarray of shape (M,)
-        Each model's posterior probability (equal prior odds).
+        Each model's posterior probability (equal prior odds, a mirror sharing its twin's).
     draws : tuple of WeightedDraws
         Each model's draws (logit p_1 … logit p_F, logit ε).
+    twins : tuple of int, default ()
+        Per model, the index of the model it mirrors or that mirrors it (-1: none); empty when
+        no model has a mirror.
     """
 
     features: tuple[str, ...]
     models: tuple[MotionModel, ...]
     weights: np.ndarray
     draws: tuple[WeightedDraws, ...]
+    twins: tuple[int, ...] = ()
+
+    def _is_mirror(self, m: int) -> bool:
+        return bool(self.twins) and self.twins[m] >= 0 and self.models[m].xi.endswith(MIRRORED)
 
     @property
     def log_evidence(self) -> np.ndarray:
@@ -585,9 +675,24 @@ class MotionPosterior:
 
     @property
     def mean_log_evidence(self) -> float:
-        """log of the models' mean marginal likelihood (equal prior odds)."""
-        z = self.log_evidence
+        """log of the models' mean marginal likelihood under their prior odds (a mirror and its
+        twin share one model's odds, and are equally probable)."""
+        z = self.log_evidence[[m for m in range(len(self.models)) if not self._is_mirror(m)]]
         return float(z.max() + np.log(np.mean(np.exp(z - z.max()))))
+
+    def folded_weights(self) -> np.ndarray:
+        """(M,) each model's weight, a mirror's and its twin's both their sum: how probable it
+        is that turns need a wheel, whichever (what a model needs to count in a verdict).
+
+        Returns
+        -------
+        ndarray of shape (M,)
+            The weights, folded.
+        """
+        w = np.asarray(self.weights, dtype=float)
+        if not self.twins:
+            return w.copy()
+        return np.array([w[m] + (w[t] if t >= 0 else 0.0) for m, t in enumerate(self.twins)])
 
     @property
     def best(self) -> MotionModel:
@@ -693,6 +798,8 @@ class MotionPosterior:
         """
         out = []
         for m, x in draws:
+            if self._is_mirror(m):  # its twin's probabilities at the wheels swapped back
+                m, x = self.twins[m], _wheels_swapped(self.features, x)
             rows = [
                 step_coefficients(domain, self.models[m], s, tgt, action_prior) for tgt in targets
             ]
@@ -767,17 +874,69 @@ def motion_posterior(
     """
     models = tuple(models or candidate_models(domain.feature_map))
     features = domain.feature_map.features
-    draws = tuple(
-        model_posterior(
+    twins = _twins(models)
+    own = np.array([not (twins[i] >= 0 and m.xi.endswith(MIRRORED)) for i, m in enumerate(models)])
+    symmetric = _wheel_symmetric(features, healthy)
+
+    def sampled(m: MotionModel) -> WeightedDraws:
+        return model_posterior(
             features, step_design(domain, m, s, s_next, action_prior), healthy, prior=prior,
             extra_log_likelihood=_evidence_under(m, extra_log_likelihood), dispersion=dispersion,
             n_draws=n_draws, random_state=random_state,
+        )  # fmt: skip
+
+    draws: list[WeightedDraws] = [sampled(m) if own[i] else None for i, m in enumerate(models)]  # type: ignore[misc]
+    for i in np.flatnonzero(~own):
+        # with the wheels' prior alike, a mirror's posterior is its twin's with the wheels
+        # swapped (the same likelihood, the same prior): no second sampler, and the two weigh
+        # exactly alike
+        twin = draws[twins[i]]
+        draws[i] = (
+            replace(twin, x=_wheels_swapped(features, twin.x)) if symmetric else sampled(models[i])
         )
-        for m in models
-    )  # fmt: skip
     log_z = np.array([d.log_evidence for d in draws])
-    w = np.exp(log_z - log_z.max())
-    return MotionPosterior(features, models, w / w.sum(), draws)
+    # equal prior odds per model, a mirror and its twin sharing one model's
+    w = np.zeros(len(models))
+    w[own] = np.exp(log_z[own] - log_z[own].max())
+    w[own] /= w[own].sum()
+    if symmetric:  # equally probable: the twin's weight split in two
+        for i in np.flatnonzero(~own):
+            w[i] = w[twins[i]] = w[twins[i]] / 2
+    elif (~own).any():
+        prior_odds = np.where(own, 1.0, 0.5)
+        prior_odds[[twins[i] for i in np.flatnonzero(~own)]] = 0.5
+        w = prior_odds * np.exp(log_z - log_z.max())
+        w /= w.sum()
+    return MotionPosterior(features, models, w, tuple(draws), twins if (~own).any() else ())
+
+
+def _twins(models: Sequence[MotionModel]) -> tuple[int, ...]:
+    """Per model the index of its mirror or of the model it mirrors (-1: none)."""
+    index = {m.name: i for i, m in enumerate(models)}
+    out = [-1] * len(models)
+    for i, m in enumerate(models):
+        if m.xi.endswith(MIRRORED):
+            j = index.get(f"{m.xi.removesuffix(MIRRORED)}/{m.errors}", -1)
+            if j >= 0:
+                out[i], out[j] = j, i
+    return tuple(out)
+
+
+def _wheel_symmetric(features: Sequence[str], healthy: Mapping[str, float]) -> bool:
+    """Whether the prior treats the two wheels alike (their healthy levels equal)."""
+    if wheels_of(features) is None:
+        return False
+    return healthy.get(WHEELS[0], DEFAULT_HEALTHY) == healthy.get(WHEELS[1], DEFAULT_HEALTHY)
+
+
+def _wheels_swapped(features: Sequence[str], x: np.ndarray) -> np.ndarray:
+    """Draws with the left and right wheel's columns exchanged."""
+    pair = wheels_of(features)
+    out = np.array(x, copy=True)
+    if pair is not None:
+        left, right = pair
+        out[:, [left, right]] = out[:, [right, left]]
+    return out
 
 
 def _evidence_under(model: MotionModel, extra):
