@@ -231,6 +231,29 @@ def test_the_record_says_whether_turns_need_a_wheel(xi, errors):
     assert j.uncertainty.motion_models[f"{xi}/{errors}"] > 0.9
 
 
+def test_a_mirror_under_a_lopsided_prior_is_drawn_and_weighed_on_its_own():
+    """Where the wheels' healthy levels differ the mirror is no longer its twin's posterior
+    swapped: it is sampled itself, and the pair shares one model's prior odds (each half)."""
+    from mirl.learning.motion_models import motion_posterior
+
+    scenario, s, s_next, labels = _record(seed=4, steps=300)
+    d = scenario.domain
+    pi = np.eye(d.n_actions)[labels]
+    healthy = {f: 0.95 for f in d.feature_map.features} | {"right_wheel": 0.9}
+    models = candidate_models(d.feature_map)
+    post = motion_posterior(d, s, s_next, pi, healthy, models=models, n_draws=200)
+    z = post.log_evidence
+    expected = np.exp(z - z.max()) * np.array([1.0, 0.5, 1.0, 1.0, 0.5])
+    np.testing.assert_allclose(post.weights, expected / expected.sum(), rtol=1e-12)
+    swapped = post.draws[1].x.copy()
+    swapped[:, [0, 1]] = swapped[:, [1, 0]]
+    assert not np.array_equal(post.draws[4].x, swapped)  # its own draws
+    # the evidence: each of the four models' prior odds, the pair's the mean of its two
+    pair = np.log((np.exp(z[1] - z.max()) + np.exp(z[4] - z.max())) / 2) + z.max()
+    four = np.array([z[0], pair, z[2], z[3]])
+    assert post.mean_log_evidence == pytest.approx(logsumexp(four) - np.log(4), rel=1e-12)
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_failed_steps_that_stay_put_leave_a_wheels_side_to_the_drift(seed):
     """A record whose failed steps stay put (a physical robot's) and whose turns need a wheel:

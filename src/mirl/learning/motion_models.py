@@ -676,8 +676,14 @@ class MotionPosterior:
     @property
     def mean_log_evidence(self) -> float:
         """log of the models' mean marginal likelihood under their prior odds (a mirror and its
-        twin share one model's odds, and are equally probable)."""
-        z = self.log_evidence[[m for m in range(len(self.models)) if not self._is_mirror(m)]]
+        twin share one model's odds: the pair's is their mean, its twin's where they are
+        equal, as they are under a prior that treats the wheels alike)."""
+        z = self.log_evidence.copy()
+        for m in range(len(self.models)):
+            if self._is_mirror(m) and z[m] != z[self.twins[m]]:
+                t = self.twins[m]
+                z[t] = np.logaddexp(z[t], z[m]) - np.log(2.0)
+        z = z[[m for m in range(len(self.models)) if not self._is_mirror(m)]]
         return float(z.max() + np.log(np.mean(np.exp(z - z.max()))))
 
     def folded_weights(self) -> np.ndarray:
