@@ -153,7 +153,7 @@ def describe_model(name: str) -> str:
     xi, errors = name.split("/")
     turns = {
         "paper": "turns need a wheel",
-        "paper-mirrored": "turns need a wheel, the other one",
+        "paper-mirrored": "turns need a wheel, the one that holds the pivot",
     }.get(xi, "turns need no wheel")
     ends = (
         "a failed step ends where another action would have (Eq. 5)"
