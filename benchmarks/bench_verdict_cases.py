@@ -22,6 +22,8 @@ run only learns. Cases:
 ``physics-two-mirror``  physics, boyd2-healthy, I's left and J's right motor at 0.6, pose CSV
 ``grid-right``     grid, boyd2-healthy with I's right wheel at 0.70, L's door (0.14), grid CSV
 ``boydleft``       ``boydright`` mirrored: J's left motor at 0.5
+``three-right``    physics, boydright-3, I's right motor at 0.5, full view, grid CSV
+``office-right``   physics, office, K's right motor at 0.5, full view, grid CSV
 =================  ===========================================================================
 
 Per case and robot it prints the verdict, its confidence, whether it is (confidently) false,
@@ -84,6 +86,11 @@ CASES = {
              {"I": ("right_wheel",), "J": ()}, "grid", 0.14),
         Case("boydleft", "boydright", "physics", ("J:left_wheel=0.5",),
              {"I": (), "J": ("left_wheel",)}, "grid", 1.0),
+        # other maps and teams, the grid CSV of the physical world
+        Case("three-right", "boydright-3", "physics", ("I:right_wheel=0.5",),
+             {"I": ("right_wheel",), "J": (), "K": ()}, "grid", 1.0),
+        Case("office-right", "office", "physics", ("K:right_wheel=0.5",),
+             {"I": (), "J": (), "K": ("right_wheel",), "M": ()}, "grid", 1.0),
     )
 }  # fmt: skip
 
