@@ -891,15 +891,18 @@ def motion_posterior(
             n_draws=n_draws, random_state=random_state,
         )  # fmt: skip
 
-    draws: list[WeightedDraws] = [sampled(m) if own[i] else None for i, m in enumerate(models)]  # type: ignore[misc]
-    for i in np.flatnonzero(~own):
+    by_sampler = {i: sampled(m) for i, m in enumerate(models) if own[i]}
+
+    def mirrored(i: int) -> WeightedDraws:
         # with the wheels' prior alike, a mirror's posterior is its twin's with the wheels
         # swapped (the same likelihood, the same prior): no second sampler, and the two weigh
         # exactly alike
-        twin = draws[twins[i]]
-        draws[i] = (
-            replace(twin, x=_wheels_swapped(features, twin.x)) if symmetric else sampled(models[i])
-        )
+        if not symmetric:
+            return sampled(models[i])
+        twin = by_sampler[twins[i]]
+        return replace(twin, x=_wheels_swapped(features, twin.x))
+
+    draws = [by_sampler[i] if own[i] else mirrored(i) for i in range(len(models))]
     log_z = np.array([d.log_evidence for d in draws])
     # equal prior odds per model, a mirror and its twin sharing one model's
     w = np.zeros(len(models))
