@@ -6,7 +6,9 @@ a sweep's ``results.sqlite``).
     python benchmarks/fit_chance_calibration.py --evaluate RUNS.jsonl ... [--protocol P]
 
 ``--fit`` fits one map per method on every run where L went in the files given (each row names
-its method, scenario, world, observability and view) and prints them; ``--write`` stores them in
+its method, scenario, world, observability and view) and prints them; where the runs come from
+two or more seed ranges, how strongly each map is held near the identity is chosen by leaving
+one range out (:func:`~mirl.planning.chance_calibration.choose_prior_precision`); ``--write`` stores them in
 ``src/mirl/data/stated_chance_calibration.json`` as the maps of ``--protocol`` (``mirl-run``,
 ``mirl run``'s protocol, by default; ``fixed-observation`` for runs of
 ``bench_posterior_go.py --obs-steps 300``, the experiments' protocol), keeping the other
@@ -43,6 +45,7 @@ from mirl.planning.chance_calibration import (
     calibrate_chance,
     calibration_maps,
     calibration_protocols,
+    choose_prior_precision,
     fit_calibration,
     maps_to_json,
 )
@@ -153,11 +156,22 @@ def fit(files: list[str], write: bool, protocol: str) -> None:
     for method, rs in sorted(by_method.items()):
         where = sorted({(r["scenario"], r["world"], r["observability"], r["base"]) for r in rs})
         fitted_on = "; ".join(f"{s} ({w}) at {o}, seeds run_seed({b}, i)" for s, w, o, b in where)
-        maps[method] = fit_calibration(
+        data = (
             [_averaged(r) for r in rs],
             [hi - lo for lo, hi in (_unmapped_interval(r, protocol) for r in rs)],
             [r["view"] for r in rs], [r["outcome"] == "success" for r in rs],
-            fitted_on=f"{len(rs)} runs where L went: {fitted_on}",
+        )  # fmt: skip
+        precision, how_held = 1.0, ""
+        if len({r["base"] for r in rs}) >= 2:  # shrink as far as maps carry across ranges
+            precision, losses = choose_prior_precision(*data, [r["base"] for r in rs])
+            how_held = (
+                f"; held towards the identity with prior precision {precision:g}, chosen by "
+                "leaving one seed range out (held-out log loss per run: "
+                + ", ".join(f"{p:g}: {v:.4f}" for p, v in losses.items()) + ")"
+            )
+        maps[method] = fit_calibration(
+            *data, prior_precision=precision,
+            fitted_on=f"{len(rs)} runs where L went: {fitted_on}{how_held}",
         )  # fmt: skip
         print(method, maps[method])
     if write:

@@ -20,6 +20,7 @@ from mirl.planning.chance_calibration import (
     calibrate_chance,
     calibration_maps,
     calibration_protocols,
+    choose_prior_precision,
     fit_calibration,
     maps_to_json,
 )
@@ -87,6 +88,53 @@ def test_a_map_is_monotone_and_keeps_the_chance_in_its_interval(a, b, c, d, x):
     ys = m(xs, 0.2, 0.5)
     assert np.all(np.diff(ys) >= 0)
     assert np.all((ys > 0) & (ys < 1))
+
+
+def _held_out_loss(data, groups, precision):
+    """Leave-one-range-out log loss written out apart from the module's loop."""
+    chance, width, view, success = data
+    total = 0.0
+    for g in np.unique(groups):
+        fit = groups != g
+        m = fit_calibration(
+            chance[fit], width[fit], view[fit], success[fit], prior_precision=precision
+        )
+        q = m(chance[~fit], width[~fit], view[~fit])
+        total += -np.sum(success[~fit] * np.log(q) + (~success[~fit]) * np.log(1 - q))
+    return total / len(success)
+
+
+def test_the_precision_is_the_one_whose_maps_carry_best_across_ranges():
+    data = _synthetic((0.3, 0.8, -0.5, 0.2), 900, seed=5)
+    groups = np.repeat([9000, 77000, 0], 300)
+    chosen, losses = choose_prior_precision(*data, groups, precisions=(1.0, 100.0, 1e4))
+    for precision, loss in losses.items():
+        assert loss == pytest.approx(_held_out_loss(data, groups, precision), rel=1e-9)
+    assert losses[chosen] == min(losses.values())
+
+
+def test_a_bias_the_ranges_share_is_kept_and_one_they_do_not_is_shrunk():
+    # every range biased alike: the map must move (a small precision carries best)
+    rng = np.random.default_rng(6)
+    chance = rng.uniform(0.05, 0.95, 3000)
+    width, view = rng.uniform(0, 0.4, 3000), rng.choice([0.13, 1.0], 3000)
+    groups = np.repeat([1, 2, 3], 1000)
+    biased = rng.random(3000) < expit(logit(chance) - 1.0)
+    chosen, _ = choose_prior_precision(chance, width, view, biased, groups)
+    assert chosen <= 10
+    # a calibrated chance: whatever the precision chosen, the map stays near the identity
+    calibrated = rng.random(3000) < chance
+    chosen, _ = choose_prior_precision(chance, width, view, calibrated, groups)
+    m = fit_calibration(chance, width, view, calibrated, prior_precision=chosen)
+    assert np.abs(m(chance, width, view) - chance).max() < 0.05
+
+
+def test_choosing_the_precision_needs_two_ranges():
+    data = _synthetic((0.0, 1.0, 0.0, 0.0), 100, seed=7)
+    with pytest.raises(ValueError, match="at least two seed ranges"):
+        choose_prior_precision(*data, np.zeros(100))
+    with pytest.raises(ValueError, match="100 chances, 100 outcomes and 99 groups"):
+        choose_prior_precision(*data, np.zeros(99))
 
 
 def test_bad_fits_are_refused():

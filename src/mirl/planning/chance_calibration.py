@@ -27,9 +27,11 @@ inputs do not see (carried to the physical world, mIRL\\*+Int's grid map stated 
 came true).
 
 The coefficients are fitted by penalised maximum likelihood (:func:`fit_calibration`), a
-Gaussian prior centred on the identity map (a = c = d = 0, b = 1) keeping a method with few runs
-near what it computed; scikit-learn's ``LogisticRegression`` penalises towards zero, not towards
-the identity, so the fit is the few lines below on :func:`scipy.optimize.minimize`.
+Gaussian prior centred on the identity map (a = c = d = 0, b = 1); scikit-learn's
+``LogisticRegression`` penalises towards zero, not towards the identity, so the fit is the few
+lines below on :func:`scipy.optimize.minimize`. How strongly the prior holds is chosen by how
+well maps fitted on some seed ranges predict another's outcomes (:func:`choose_prior_precision`,
+leave one range out): a map must carry the method's bias, not one range's luck.
 """
 
 from __future__ import annotations
@@ -53,6 +55,8 @@ __all__ = [
     "FIXED_OBSERVATION",
     "calibration_protocols",
     "fit_calibration",
+    "PRECISIONS",
+    "choose_prior_precision",
     "calibration_maps",
     "calibrate_chance",
     "maps_to_json",
@@ -217,6 +221,71 @@ def fit_calibration(
     theta = minimize(loss, centre, jac=True, method="L-BFGS-B").x
     a, b, c, d = map(float, theta)
     return ChanceMap(a, b, c, d, runs=len(y), fitted_on=fitted_on)
+
+
+PRECISIONS = (1.0, 10.0, 100.0, 1000.0, 10000.0)
+"""The prior precisions :func:`choose_prior_precision` weighs: from a map the runs set almost
+alone (1: the identity is worth a run's curvature) to one held near the identity
+(10 000: worth far more runs than any fit has)."""
+
+
+def choose_prior_precision(
+    chance, width, view, success, groups, *, precisions=PRECISIONS
+) -> tuple[float, dict[float, float]]:
+    """How strongly a map is held near the identity, chosen by how well maps fitted on some
+    seed ranges predict the outcomes of another (leave one range out).
+
+    A map fitted on one range of a few hundred runs carries that range's luck as well as the
+    method's bias; the precision at which maps carry from range to range best is the one whose
+    map is the method's bias, as far as the ranges show it. The loss is the held-out log loss
+    summed over the ranges left out; a tie goes to the larger precision (the map nearer the
+    identity).
+
+    Parameters
+    ----------
+    chance, width, view, success : array_like of shape (n,)
+        As for :func:`fit_calibration`.
+    groups : array_like of shape (n,)
+        Each run's seed range (any hashable label); at least two distinct.
+    precisions : sequence of float, default :data:`PRECISIONS`
+        The candidates.
+
+    Returns
+    -------
+    precision : float
+        The chosen precision.
+    losses : dict of float to float
+        Each candidate's held-out log loss per run.
+
+    Raises
+    ------
+    ValueError
+        Fewer than two seed ranges, or lengths that differ.
+    """
+    chance = np.asarray(chance, dtype=float)
+    width = np.broadcast_to(np.asarray(width, dtype=float), chance.shape)
+    view = np.broadcast_to(np.asarray(view, dtype=float), chance.shape)
+    y = np.asarray(success, dtype=bool)
+    groups = np.asarray(groups)
+    if not len(y) == len(groups) == len(chance):
+        raise ValueError(f"{len(chance)} chances, {len(y)} outcomes and {len(groups)} groups")
+    labels = np.unique(groups)
+    if len(labels) < 2:
+        raise ValueError("choosing the precision needs runs from at least two seed ranges")
+    losses = {}
+    for precision in precisions:
+        total = 0.0
+        for g in labels:
+            out = groups == g
+            m = fit_calibration(
+                chance[~out], width[~out], view[~out], y[~out], prior_precision=precision
+            )
+            q = np.clip(m(chance[out], width[out], view[out]), 1e-12, 1 - 1e-12)
+            total -= float(np.sum(np.where(y[out], np.log(q), np.log1p(-q))))
+        losses[float(precision)] = total / len(y)
+    best = min(losses.values())
+    chosen = max(p for p, v in losses.items() if v <= best + 1e-12)
+    return chosen, losses
 
 
 @dataclass(frozen=True)
