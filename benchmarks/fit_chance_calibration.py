@@ -16,9 +16,16 @@ protocol's and the maps of methods not in the files; the maps apply in the world
 they were fitted on. The runs it is
 fitted on must not be the runs it is reported on: fit on one seed base, evaluate on another.
 
+``--methods`` keeps the runs of the methods named (a sweep holds every method of its
+experiment, the oracle's and the fixed p's among them, which have no map). A run that was stated
+through a map and does not record its range before it is taken back through the map that stated
+it: ``--stated-through MAPS.json`` names that map's file (``git show
+REV:src/mirl/data/stated_chance_calibration.json``), else the shipped one is taken to be it.
+
 ``--evaluate`` states each run's chance through the shipped map of its method (from the
 run's averaged chance, so runs made before the map existed are measured the same way; a run made
-with the map states exactly this) and prints, per method, scenario, world and observability:
+with the map states exactly this, and one made with another map keeps its statement unless
+``--stated-through`` names that map, when it is restated through the shipped one) and prints, per method, scenario, world and observability:
 runs, success, timeouts, the mean stated chance where L went against the realised rate with its
 standard error, the deciles with at least 20 runs whose realised rate is more than 0.10 from
 their mean stated chance, the Hosmer–Lemeshow test of the deciles, and how often a calibrated
@@ -107,16 +114,34 @@ def _averaged(r: dict) -> float:
     return r["averaged"] if r.get("averaged") is not None else r["stated"]
 
 
+STATED_THROUGH: dict[str, dict] | None = None
+"""The maps that stated the runs (``--stated-through``), by protocol; None: the maps shipped."""
+STATED_THROUGH_FILE: str | None = None
+
+
+def _maps_in(path: str) -> dict[str, dict]:
+    """The maps of a calibration file (another revision's ``stated_chance_calibration.json``),
+    by protocol and method."""
+    from mirl.planning.chance_calibration import ChanceMap
+
+    entries = json.loads(Path(path).read_text(encoding="utf-8"))["protocols"]
+    return {
+        name: {m: ChanceMap(**fields) for m, fields in entry["methods"].items()}
+        for name, entry in entries.items()
+    }
+
+
 def _unmapped_interval(r: dict, protocol: str) -> tuple[float, float]:
     """The run's per-draw interval before any calibration: as the run recorded it, or for a
     mapped run that did not record it (made before the record kept it), taken back through its
-    method's map shipped now (taken to be the one that mapped it; ``protocol``'s, or
-    ``mirl run``'s where that protocol has none for the method)."""
+    method's map — the one that mapped it: ``--stated-through``'s, or else the one shipped now
+    (``protocol``'s, or ``mirl run``'s where that protocol has none for the method)."""
     if r.get("averaged") is None:
         return r["interval"][0], r["interval"][1]
     if r.get("averaged_interval") is not None:
         return r["averaged_interval"][0], r["averaged_interval"][1]
-    m = calibration_maps(protocol).get(r["method"]) or calibration_maps(MIRL_RUN)[r["method"]]
+    maps = STATED_THROUGH or {p: calibration_maps(p) for p in (protocol, MIRL_RUN)}
+    m = maps[protocol].get(r["method"]) or maps[MIRL_RUN][r["method"]]
     return m.unmapped_interval(r["stated"], tuple(r["interval"]), r["averaged"], r["view"])
 
 
@@ -129,6 +154,10 @@ def _as_stated(r: dict, protocol: str) -> dict:
         return r
     fitted = calibration_protocols()[protocol]
     applies = r["method"] in fitted.maps and r["world"] in fitted.worlds
+    if r.get("averaged") is not None and STATED_THROUGH is not None:  # restated: raw, then mapped
+        lo, hi = _unmapped_interval(r, protocol)
+        r = {**r, "stated": r["averaged"], "interval": [lo, hi], "averaged": None,
+             "averaged_interval": None}  # fmt: skip
     if r.get("averaged") is not None:  # mapped when it ran
         if applies:
             return r
@@ -147,9 +176,11 @@ def _as_stated(r: dict, protocol: str) -> dict:
     }  # fmt: skip
 
 
-def fit(files: list[str], write: bool, protocol: str) -> None:
+def fit(files: list[str], write: bool, protocol: str, methods: list[str] | None = None) -> None:
     by_method: dict[str, list[dict]] = defaultdict(list)
     for r in _rows(files):
+        if methods is not None and r["method"] not in methods:
+            continue
         if r["stated"] is not None and r["interval"] is not None:
             by_method[r["method"]].append(r)
     maps = {}
@@ -175,9 +206,13 @@ def fit(files: list[str], write: bool, protocol: str) -> None:
         )  # fmt: skip
         print(method, maps[method])
     if write:
-        how = "python benchmarks/fit_chance_calibration.py --fit " + " ".join(
-            Path(f).name for f in files
-        ) + f" --protocol {protocol} --write"
+        how = (
+            "python benchmarks/fit_chance_calibration.py --fit "
+            + " ".join(f"{Path(f).parent.name}/{Path(f).name}" for f in files)
+            + (" --methods " + " ".join(methods) if methods else "")
+            + (f" --stated-through {Path(STATED_THROUGH_FILE).name}" if STATED_THROUGH_FILE else "")
+            + f" --protocol {protocol} --write"
+        )
         fitted = dict(calibration_protocols())
         worlds = {r["world"] for rs in by_method.values() for r in rs}
         if protocol in fitted:  # the methods not refitted keep their maps
@@ -279,9 +314,19 @@ def main() -> None:
                     help="with --evaluate: write the runs as the shipped maps state them here")
     ap.add_argument("--protocol", default=MIRL_RUN, choices=sorted(PROTOCOL_OPTIONS),
                     help="the protocol the runs were made under")  # fmt: skip
+    ap.add_argument("--methods", nargs="+", default=None, metavar="METHOD",
+                    help="with --fit: only these methods' runs (default: every method's)")
+    ap.add_argument("--stated-through", default=None, metavar="MAPS.json",
+                    help="the calibration file whose maps stated the runs, where they do not "
+                    "record their range before the map (git show REV:src/mirl/data/"
+                    "stated_chance_calibration.json)")  # fmt: skip
     args = ap.parse_args()
+    if args.stated_through:
+        global STATED_THROUGH, STATED_THROUGH_FILE
+        STATED_THROUGH = _maps_in(args.stated_through)
+        STATED_THROUGH_FILE = args.stated_through
     if args.fit:
-        fit(args.fit, args.write, args.protocol)
+        fit(args.fit, args.write, args.protocol, args.methods)
     if args.evaluate:
         evaluate(args.evaluate, args.protocol)
         if args.restate:
