@@ -8,29 +8,30 @@ a sweep's ``results.sqlite``).
 ``--fit`` fits one map per method on every run where L went in the files given (each row names
 its method, scenario, world, observability and view) and prints them; where the runs come from
 two or more seed ranges, how strongly each map is held near the identity is chosen by leaving
-one range out (:func:`~mirl.planning.chance_calibration.choose_prior_precision`); ``--write`` stores them in
-``src/mirl/data/stated_chance_calibration.json`` as the maps of ``--protocol`` (``mirl-run``,
-``mirl run``'s protocol, by default; ``fixed-observation`` for runs of
+one range out (:func:`~mirl.planning.chance_calibration.choose_prior_precision`); ``--write``
+stores them in ``src/mirl/data/stated_chance_calibration.json`` as the maps of ``--protocol``
+(``mirl-run``, ``mirl run``'s protocol, by default; ``fixed-observation`` for runs of
 ``bench_posterior_go.py --obs-steps 300``, the experiments' protocol), keeping the other
 protocol's and the maps of methods not in the files; the maps apply in the worlds of the runs
-they were fitted on. The runs it is
-fitted on must not be the runs it is reported on: fit on one seed base, evaluate on another.
+they were fitted on. The runs it is fitted on must not be the runs it is reported on: fit on one
+seed base, evaluate on another.
 
-``--methods`` keeps the runs of the methods named (a sweep holds every method of its
-experiment, the oracle's and the fixed p's among them, which have no map). A run that was stated
-through a map and does not record its range before it is taken back through the map that stated
-it: ``--stated-through MAPS.json`` names that map's file (``git show
+``--methods`` keeps the runs of the methods named (a sweep holds every method of its experiment,
+the oracle's and the fixed p's among them, which have no map). A run that was stated through a
+map and does not record its range before it is taken back through the map that stated it:
+``--stated-through MAPS.json`` names that map's file (``git show
 REV:src/mirl/data/stated_chance_calibration.json``), else the shipped one is taken to be it.
 
-``--evaluate`` states each run's chance through the shipped map of its method (from the
-run's averaged chance, so runs made before the map existed are measured the same way; a run made
-with the map states exactly this, and one made with another map keeps its statement unless
-``--stated-through`` names that map, when it is restated through the shipped one) and prints, per method, scenario, world and observability:
-runs, success, timeouts, the mean stated chance where L went against the realised rate with its
-standard error, the deciles with at least 20 runs whose realised rate is more than 0.10 from
-their mean stated chance, the Hosmer–Lemeshow test of the deciles, and how often a calibrated
-statement would keep every such decile within 0.10 at these counts. ``--restate DIR`` writes
-the runs as stated there, for ``bench_posterior_go.py --panels``.
+``--evaluate`` states each run's chance through the shipped map of its method (from the run's
+averaged chance, so runs made before the map existed are measured the same way; a run made with
+the map states exactly this, and one made with another map keeps its statement unless
+``--stated-through`` names that map, when it is restated through the shipped one) and prints,
+per method, scenario, world and observability: runs, success, timeouts, the mean stated chance
+where L went against the realised rate with its standard error, the deciles with at least 20
+runs whose realised rate is more than 0.10 from their mean stated chance, the Hosmer–Lemeshow
+test of the deciles, and how often a calibrated statement would keep every such decile within
+0.10 at these counts. ``--restate DIR`` writes the runs as stated there, for
+``bench_posterior_go.py --panels``.
 """
 
 from __future__ import annotations
