@@ -10,6 +10,7 @@ from mirl.learning.model_check import (
     ALPHA,
     check_jams,
     check_moves,
+    check_pace,
     check_pinned,
     check_stalls,
     check_unexplained,
@@ -254,3 +255,40 @@ def test_a_robot_never_seen_moving_gets_no_verdict():
     assert not v.seen_moving and not v.names_damage
     assert v.sentence("J") == "L never saw J move: no verdict on its parts"
     assert v.to_dict()["seen_moving"] is False and v.to_dict()["fit"]["ok"] is False
+
+
+# ---- pace ---------------------------------------------------------------------------------------
+def test_a_record_at_no_pace_fails_and_says_what_fixes_it():
+    assert check_pace("").ok and check_pace("").name == "pace"
+    check = check_pace("at the record's step (1 s) 3.7% of the moves span more than one cell")
+    assert not check.ok and "3.7%" in check.reason and "`step_seconds`" in check.fix
+    assert check.misfit.size == 0  # which stays the step cut short, nothing says
+
+
+def test_a_damaged_robot_s_record_at_no_pace_claims_nothing_with_confidence():
+    """J's left wheel at 0.5, fully seen: named with confidence from a record at its pace (the
+    pace check listed, passed, changing nothing), at most even odds from one at no pace."""
+    scenario = load_scenario("boyd2-healthy")
+    from mirl.simulation.grid import simulate
+
+    damaged = scenario.with_damage("J", "left_wheel", 0.5)
+    sim = simulate(damaged, 450, seed=3, observability=1.0, random_starts=True)
+    d = damaged.domain
+    x = sim.observations.state_series(d, 1)
+    labels = np.where(x >= 0, damaged.true_policy(1)[np.maximum(x, 0)], -1)
+    probs = damaged.robots[1].feature_probabilities
+
+    def verdict(off_pace):
+        record = RobotRecord(x, labels, off_pace=off_pace)
+        return robot_uncertainty(d, record, probs, damaged.faults).verdict
+
+    grid, at_pace = verdict(None), verdict("")
+    assert grid.names_damage and grid.confidence >= 0.9
+    assert (at_pace.part, at_pace.candidates, at_pace.confidence) == (
+        grid.part, grid.candidates, grid.confidence
+    )
+    assert "pace" not in grid.fit.to_dict()["checks"]
+    assert at_pace.fit.to_dict()["checks"]["pace"] == {"ok": True}
+    off = verdict("at the record's step (1 s) 3.7% of the moves span more than one cell")
+    assert not off.fit.ok and "3.7%" in off.fit.reason and off.confidence < 0.9
+    assert "does not fit L's motion models" in off.sentence("J")

@@ -139,3 +139,92 @@ def test_two_robots_on_one_topic_stamped_in_whole_seconds_do_not_break_the_auto_
     auto = auto_step_seconds(_whole_seconds(both), scenario)
     assert auto.seconds == pytest.approx(1.0) and auto.why == "poses"
     assert auto.long_moves > AUTO_LONG_MOVES  # the jumps between the two are not read away
+
+
+# ---- a record at no pace ------------------------------------------------------------------------
+def _varying_track(scenario, speeds=(1.3, 0.5), seconds: float = 600.0) -> PoseTracks:
+    """One robot driving the top hallway of boyd2 back and forth, 20 s at each speed of
+    ``speeds`` (cells a second) in turn — a navigation stack that speeds up and slows down —
+    tracked at 20 Hz."""
+    frame = scenario.map.frame
+    cells = [c for c in range(scenario.map.shape[1]) if scenario.map.patroller[0, c]]
+    lo, hi = min(cells), max(cells)
+    t = np.arange(0.0, seconds, 0.05)
+    speed = np.asarray(speeds)[(t // 20.0).astype(int) % len(speeds)]
+    length = hi - lo
+    phase = np.mod(np.concatenate([[0.0], np.cumsum(speed[:-1] * 0.05)]), 2 * length)
+    col = lo + np.where(phase < length, phase, 2 * length - phase)
+    yaw = np.where(phase < length, 0.0, np.pi)
+    x, y = frame.cell_centre(np.zeros_like(col), col)
+    return PoseTracks(("I",), t, np.zeros(len(t), dtype=int), x, y, yaw)
+
+
+def test_a_record_at_its_pace_is_not_off_pace(scenario):
+    """At the step the auto step chooses — a track in jumps, a smooth one, whole-second stamps
+    of a steady robot — the record is at its pace; grid states tell nothing of it."""
+    obs = simulate(scenario, 300, seed=1, observability=1.0, random_starts=True).observations
+    assert obs.off_pace is None
+    jumps = poses_from_trajectories(obs, scenario, step_seconds=1.5, seed=1)
+    for tracks in (jumps, _smooth_track(scenario, 0.5), _whole_seconds(_smooth_track(scenario, 1))):
+        d = discretise(tracks, scenario, step_seconds="auto")
+        assert d.trajectories.off_pace == "", d.auto_step
+
+
+def test_a_robot_whose_speed_varies_more_than_a_step_allows_is_off_pace(scenario):
+    """A robot at 1.3 and 0.5 cells a second in turn, stamped in whole seconds: at 1 s (no
+    shorter step has a pose at both ends) its fast moves cross two cells, its slow ones stay in
+    their cell; the record says it is at no pace, and the model check reads that."""
+    d = discretise(_whole_seconds(_varying_track(scenario)), scenario, step_seconds="auto")
+    assert d.step_seconds == 1.0 and d.auto_step.why == "poses"
+    assert d.auto_step.long_moves > AUTO_LONG_MOVES
+    off = d.trajectories.off_pace
+    assert "the tracker's interval" in off and f"{d.auto_step.long_moves:.1%}" in off
+    assert d.trajectories.select(d.trajectories.t < 100).off_pace == off  # carried with the rows
+    # the same robot at a steady speed, and a step the user gives, at which its moves fit
+    steady = discretise(_varying_track(scenario, (0.5,)), scenario, step_seconds=2.0)
+    assert steady.trajectories.off_pace == ""
+    given = discretise(_varying_track(scenario), scenario, step_seconds=2.0).trajectories
+    assert "the step given" in given.off_pace
+
+
+def test_the_robots_seen_moving_too_little_tell_no_pace(scenario):
+    """Fewer than AUTO_MIN_MOVES moves: nothing to tell, whatever share spans two cells."""
+    tracks = _whole_seconds(_varying_track(scenario, seconds=12.0))
+    assert discretise(tracks, scenario, step_seconds=1.0).trajectories.off_pace == ""
+
+
+def _sparse(tracks: PoseTracks, every: float = 2.0) -> PoseTracks:
+    """The poses a camera takes once every ``every`` seconds (at the robots' decisions)."""
+    keep = np.isclose(np.mod(tracks.t + 1e-9, every), 0.0, atol=1e-6)
+    return PoseTracks(
+        tracks.robot_names, tracks.t[keep], tracks.robot[keep], tracks.x[keep], tracks.y[keep],
+        tracks.yaw[keep],
+    )  # fmt: skip
+
+
+def _pair(scenario, speeds: tuple[float, float]) -> PoseTracks:
+    """I and J on the top hallway at ``speeds`` cells a second, J 13 s behind."""
+    one, other = (_smooth_track(scenario, v, seconds=600.0) for v in speeds)
+    return PoseTracks(
+        ("I", "J"),
+        np.concatenate([one.t, other.t]),
+        np.concatenate([np.zeros(len(one.t), int), np.ones(len(other.t), int)]),
+        np.concatenate([one.x, other.x]),
+        np.concatenate([one.y, other.y]),
+        np.concatenate([one.yaw, other.yaw]),
+    )
+
+
+def test_robots_slowed_down_alike_under_a_sparse_tracker_fit_two_paces(scenario):
+    """A camera once every 2 s: two robots crawling a quarter of a cell a second move within
+    one cell only at 4 s, the auto step reads them there, and the record says that the poses
+    fit two paces; with one robot at half a cell a second, it is the pace at 2 s, no flag."""
+    slow = discretise(_sparse(_pair(scenario, (0.25, 0.25))), scenario, step_seconds="auto")
+    assert slow.step_seconds == 4.0 and slow.auto_step.why == "multiple"
+    assert slow.auto_step.tracker_interval == 2.0 and "a multiple" in slow.auto_step.sentence()
+    assert "a multiple of the tracker's interval (2 s)" in slow.trajectories.off_pace
+    paced = discretise(_sparse(_pair(scenario, (0.5, 0.25))), scenario, step_seconds="auto")
+    assert paced.step_seconds == 2.0 and paced.auto_step.why == "poses"
+    assert paced.trajectories.off_pace == ""
+    given = discretise(_sparse(_pair(scenario, (0.25, 0.25))), scenario, step_seconds=2.0)
+    assert given.trajectories.off_pace == ""  # the user says the robots decide every 2 s

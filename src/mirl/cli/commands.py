@@ -318,6 +318,12 @@ def _convert(args: argparse.Namespace) -> int:
         )
         raise UsageError(f"{args.input}: nothing to convert: {why}")
     loaded.trajectories.to_csv(args.output)
+    if loaded.trajectories.off_pace:  # the grid CSV keeps states, not the times that tell it
+        warn(
+            f"{args.input}: {loaded.trajectories.off_pace}; {args.output} keeps the cells, not "
+            f"the poses' times, so a verdict learned from it cannot know this: learn from "
+            f"{args.input} itself"
+        )
     if loaded.discretised is not None:
         print(f"{args.input}: " + loaded.discretised.summary())
     else:

@@ -314,6 +314,7 @@ def _round_setup(
         random_state,
         em_init,
         lateral=lateral,
+        off_pace=observations.off_pace,
     )
 
 
@@ -355,7 +356,7 @@ def _uncertainties(
         # a robot reacts to another as far as it sees it: the patrollers' detection distance
         record = robot_record(
             domain, setup.series, labels, i, lateral=lateral[i],
-            reach=setup.scenario.detect_distance,
+            reach=setup.scenario.detect_distance, off_pace=setup.off_pace,
         )  # fmt: skip
         out.append(
             robot_uncertainty(
@@ -568,6 +569,7 @@ class RoundSetup:
     random_state: int | None
     em_init: str = "intended"
     lateral: list[np.ndarray | None] | None = None  # per robot (horizon,) offsets, or None
+    off_pace: str | None = None  # why the record's step is at no pace (poses; None: grid)
     warm_start: LearnResult | None = None  # an earlier solution to start from
     models: list[MotionModel] | None = None  # per robot, the motion model T is learned under
 

@@ -34,6 +34,17 @@ what the models, at their posterior, predict for it (a posterior-predictive chec
   estimate of what the robot meant to do; where it is wrong — a robot that stood in a queue
   for half its record can teach the IRL that it likes to stop — every failure lands on the
   wrong part.
+* **Pace** — a record read at a step at which more of the robots' moves span two cells than
+  a pace allows (:data:`~mirl.observations.discretise.AUTO_LONG_MOVES`) is at no step's pace:
+  robots whose speed varies that much (a navigation stack that waits, turns on the spot and
+  accelerates) cross a cell in one step, in two or in three, and a step that stays in its cell
+  is as likely a move the step cut short as a failed one. The verdicts' healthy levels are
+  rates of moves made at the robots' pace; on such a record a failed step is no evidence of a
+  part. So too where the poses fit two paces: a sparse tracker's record whose moves stay within
+  one cell only at a multiple of its interval holds robots slowed down alike or a tracker
+  faster than their decisions, and a move completed at the one step is a failed move at the
+  other (:func:`check_pace`, a record-level check from the poses,
+  :func:`~mirl.observations.discretise.off_pace`: a grid CSV carries no pace).
 * **Few trials** — a feature whose Eq. 4 estimate is pinned at 0 by fewer than
   :data:`PINNED_TRIALS` trials of the subsets that fix it: a part called dead on a handful of
   failures, which a few misread steps make. (Pinned at 1 by few trials is a short record of a
@@ -69,6 +80,7 @@ __all__ = [
     "check_moves",
     "MOVE_KINDS",
     "check_pinned",
+    "check_pace",
     "stay_runs",
     "longest_run_tail",
     "model_fit",
@@ -94,8 +106,8 @@ class Check:
     Parameters
     ----------
     name : str
-        ``"unexplained"``, ``"stalls"``, ``"jams"``, ``"moves"``, ``"few trials"`` or ``"in the
-        way"``.
+        ``"unexplained"``, ``"stalls"``, ``"jams"``, ``"moves"``, ``"few trials"``, ``"in the
+        way"`` or ``"pace"``.
     ok : bool
         Whether the record passes it.
     p_value : float or None
@@ -537,6 +549,35 @@ def check_pinned(
     if not pinned:
         return Check("few trials", True)
     return Check("few trials", False, None, "Eq. 4 pins " + ", ".join(pinned))
+
+
+# ---- pace ---------------------------------------------------------------------------------------
+def check_pace(off_pace: str) -> Check:
+    """The record's step against the robots' pace (module doc).
+
+    Parameters
+    ----------
+    off_pace : str
+        Why the record's step is at no pace of the robots (the poses' discretisation says:
+        :attr:`~mirl.observations.trajectories.Trajectories.off_pace`); empty when it is at
+        their pace or there is nothing to tell.
+
+    Returns
+    -------
+    Check
+        ``"pace"``; no misfit steps (which of the steps that stayed in their cell the step cut
+        short, nothing in the record says).
+    """
+    if not off_pace:
+        return Check("pace", True)
+    return Check(
+        "pace",
+        False,
+        None,
+        off_pace,
+        "poses stamped more finely, so that a step at the robots' pace has a pose at both "
+        "ends, or the robots' decision interval as `step_seconds`",
+    )
 
 
 def model_fit(checks: Sequence[Check], left_out: Mapping[str, int]) -> ModelFit:

@@ -57,6 +57,7 @@ from mirl.learning.model_check import (
     ModelFit,
     check_jams,
     check_moves,
+    check_pace,
     check_pinned,
     check_stalls,
     check_unexplained,
@@ -245,8 +246,10 @@ class Verdict:
                 parts = ", ".join(map(_words, self.candidates))
                 what = f"one of {robot}'s parts ({parts}) is damaged"
             said = f"{what}; the observations cannot tell which {conf}"
-        if self.weakened is not None:
-            said += f"; its {_words(self.weakened)} is weakened, its moves unaffected"
+        if self.weakened is not None:  # "unaffected" is the verdict's, as far as the record fits
+            said += f"; its {_words(self.weakened)} is weakened" + (
+                ", its moves unaffected" if self.fit is None or self.fit.ok else ""
+            )
         if self.fit is not None and not self.fit.ok:
             said += f"; but {robot}'s record does not fit L's motion models: {self.fit.reason}"
         return said
@@ -1051,6 +1054,9 @@ class RobotRecord:
         (:func:`held_by_others`), left out of the evidence and the drift.
     beside : ndarray of shape (horizon,), optional
         The steps with another robot within one cell (:func:`beside_others`), for the jam check.
+    off_pace : str, optional
+        Why the record's step is at no pace of the robots (empty: it is), from poses; None
+        from grid states (:attr:`~mirl.observations.trajectories.Trajectories.off_pace`).
     """
 
     series: np.ndarray
@@ -1059,6 +1065,7 @@ class RobotRecord:
     company: np.ndarray | None = None
     held: np.ndarray | None = None
     beside: np.ndarray | None = None
+    off_pace: str | None = None
 
 
 def robot_record(
@@ -1069,10 +1076,12 @@ def robot_record(
     *,
     lateral: np.ndarray | None = None,
     reach: float = 6.0,
+    off_pace: str | None = None,
 ) -> RobotRecord:
     """Robot ``robot``'s :class:`RobotRecord` from every robot's series (-1 unseen) and
     labels; ``reach`` is how far (cells) a robot reacts to another coming the other way (the
-    patrollers' detection distance), for the drift's company."""
+    patrollers' detection distance), for the drift's company; ``off_pace`` the record's
+    (:attr:`RobotRecord.off_pace`)."""
     return RobotRecord(
         np.asarray(series[robot]),
         np.asarray(labels[robot]),
@@ -1080,6 +1089,7 @@ def robot_record(
         None if lateral is None else in_company(domain, series, robot, reach),
         held_by_others(domain, series, robot),
         beside_others(domain, series, robot),
+        off_pace,
     )
 
 
@@ -1481,6 +1491,8 @@ def robot_uncertainty(
     )  # fmt: skip
     counts = count_subsets(plan_domain, s[keep], lab[keep], s_next[keep]).observations()
     checks.append(check_pinned(probabilities, counts))
+    if record.off_pace is not None:
+        checks.append(check_pace(record.off_pace))
     if misfit.any():  # misfit steps are never failures of a part
         post = posterior(keep & ~misfit & ~in_the_way)
     left_out = {

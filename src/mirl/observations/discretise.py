@@ -40,6 +40,7 @@ __all__ = [
     "heading_of_yaw",
     "lateral_offset",
     "auto_step_seconds",
+    "off_pace",
     "AutoStep",
     "AUTO_LONG_MOVES",
     "AUTO_MIN_MOVES",
@@ -164,20 +165,26 @@ class AutoStep:
     long_moves : float
         The share of consecutive observed steps, at that step, whose move spans more than one
         cell.
-    why : {"pace", "poses", "few moves", "no fit"}
+    why : {"pace", "poses", "multiple", "few moves", "no fit"}
         The robots' pace; the tracker's own interval, at most twice a second (one pose a step);
-        or the paper's 2 s because the robots were not seen moving on enough consecutive steps
+        a multiple of that interval, at which the robots seen moving move one cell a step (a
+        pace the poses cannot tell from robots slowed down alike, see :func:`off_pace`); or
+        the paper's 2 s because the robots were not seen moving on enough consecutive steps
         to tell it, or because no step kept their moves within one cell.
+    tracker_interval : float, optional
+        The time (s) between a sparse tracker's poses (:data:`AUTO_SPARSE` or more), where
+        the step is a multiple of it.
     """
 
     seconds: float
     long_moves: float
     why: str = "pace"
+    tracker_interval: float | None = None
 
     @property
     def found(self) -> bool:
         """Whether the step is the robots' pace or the tracker's interval."""
-        return self.why in ("pace", "poses")
+        return self.why in ("pace", "poses", "multiple")
 
     def sentence(self) -> str:
         """How the step was chosen, in words.
@@ -191,6 +198,11 @@ class AutoStep:
             return (
                 f"chosen: the tracker's interval, one pose a step; {self.long_moves:.1%} of the "
                 "moves span more than one cell"
+            )
+        if self.why == "multiple":
+            return (
+                f"chosen: the robots' pace, a multiple of the tracker's interval, at which "
+                f"{self.long_moves:.1%} of their moves span more than one cell"
             )
         if self.why == "few moves":
             return "the paper's 2 s: the robots were not seen moving enough to tell their pace"
@@ -420,6 +432,7 @@ def discretise(
             rf[chosen], cf[chosen], row[chosen], col[chosen], heading, snapped[chosen]
         ),  # fmt: skip
     )
+    traj = replace(traj, off_pace=off_pace(traj, step_seconds, auto))
     vis = _visible_mask(visible, scenario, traj)
     n = len(tracks.robot_names)
 
@@ -531,7 +544,9 @@ def auto_step_seconds(
             for k in range(2, int(AUTO_STEPS[-1] / pose_interval) + 1):
                 _, fits, share = judged(round(k * pose_interval, 3))
                 if fits:
-                    chosen = AutoStep(round(k * pose_interval, 3), share)
+                    chosen = AutoStep(
+                        round(k * pose_interval, 3), share, "multiple", round(pose_interval, 3)
+                    )
             return chosen
     period = _jump_period(t, row, col, robots)
     if period is not None:
@@ -550,6 +565,77 @@ def auto_step_seconds(
     if not judged_any:
         return AutoStep(2.0, 0.0, "few moves")
     return AutoStep(2.0, judged(2.0)[2], "no fit")
+
+
+def off_pace(traj: Trajectories, step_seconds: float, auto: AutoStep | None = None) -> str:
+    """Why the step a record was read at is at no pace of its robots; empty when it is.
+
+    A pace is a step at which at most :data:`AUTO_LONG_MOVES` of the consecutive observed steps
+    move a robot more than one cell (:func:`auto_step_seconds` chooses the longest such step).
+    A record read at a step above that share — the only step its stamps allow, no step kept
+    the moves within one cell, or the step the user gave — holds robots that cross a cell in
+    one step, in two or in three, and its steps that stay in their cell are as likely moves the
+    step cut short as failed ones (the model check's "pace",
+    :func:`mirl.learning.model_check.check_pace`). Robots seen moving on fewer than
+    :data:`AUTO_MIN_MOVES` consecutive steps tell nothing.
+
+    A record a sparse tracker reports is read at the longest multiple of its interval at which
+    the moves stay within one cell (:func:`auto_step_seconds`). Where that is a multiple and
+    not the interval itself, the poses fit two paces — robots that slowed down alike (every
+    motor weak, crawling a fraction of a cell a step) and a tracker that reports more often
+    than healthy robots decide — and a move completed at the one step is a failed move at the
+    other: with no robot that moves a cell a step at the interval, nothing in the record is a
+    healthy pace to judge the others' failures against.
+
+    Parameters
+    ----------
+    traj : Trajectories
+        The discretised record.
+    step_seconds : float
+        The step it was read at (s).
+    auto : AutoStep, optional
+        How the step was chosen (None: the user gave it).
+
+    Returns
+    -------
+    str
+        The reason in words, or "".
+    """
+    if auto is not None and auto.why == "pace":  # chosen where the moves fit
+        return ""
+    if auto is not None and auto.why == "multiple":
+        return (
+            f"the robots' moves stay within one cell at {step_seconds:g} s, a multiple of the "
+            f"tracker's interval ({auto.tracker_interval:g} s), so at the interval they cross a "
+            "cell at most every other step: robots slowed down alike, or a tracker that reports "
+            "more often than they decide — the poses cannot tell which, and a move completed "
+            "at the one step is a failed move at the other"
+        )
+    pairs = long = moved = 0
+    cells = np.column_stack([traj.row, traj.col]).astype(np.int64)
+    for i in range(len(traj.robot_names)):
+        _, rows = traj.for_robot(i)
+        if len(rows) < 2:
+            continue
+        both = np.diff(traj.t[rows]) == 1
+        dist = np.abs(np.diff(cells[rows], axis=0)).sum(axis=1)[both]
+        pairs, long, moved = pairs + len(dist), long + int((dist >= 2).sum()), moved + int(
+            (dist >= 1).sum()
+        )
+    if moved < AUTO_MIN_MOVES or long <= AUTO_LONG_MOVES * pairs:
+        return ""
+    if auto is None:
+        how = "the step given"
+    elif auto.why == "poses":
+        how = "the tracker's interval: no shorter step has a pose at both ends"
+    else:
+        how = "no step kept the moves within one cell"
+    return (
+        f"at the record's step ({step_seconds:g} s, {how}) {long / pairs:.1%} of the moves span "
+        f"more than one cell, more than a pace allows ({AUTO_LONG_MOVES:.0%}): the robots "
+        "move at no one step's pace, and a step that stays in its cell may be a move the step "
+        "cut short rather than a failed one"
+    )
 
 
 def _pose_interval(t: np.ndarray, robots: list[np.ndarray]) -> float:

@@ -55,6 +55,10 @@ class Trajectories:
         the centre line of its cell along its discretised heading; NaN where unknown. It is the
         evidence of a robot that veers (a weak wheel) that the grid state discards
         (docs/design.md, "Fault verdicts").
+    off_pace : str, optional
+        Robot data only: why the step the poses were read at is at no pace of the robots
+        (:func:`~mirl.observations.discretise.off_pace`), empty when it is at their pace; None
+        where nothing tells (grid states). The fault verdicts' model check reads it.
     """
 
     robot_names: tuple[str, ...]
@@ -65,6 +69,7 @@ class Trajectories:
     heading: np.ndarray
     horizon: int  # number of time steps the record spans (observed or not): t in [0, horizon)
     lateral: np.ndarray | None = None
+    off_pace: str | None = None
 
     def __len__(self) -> int:
         return len(self.t)
@@ -164,6 +169,7 @@ class Trajectories:
             self.heading[mask],
             self.horizon,
             None if self.lateral is None else self.lateral[mask],
+            self.off_pace,
         )
 
     def truncate(self, steps: int) -> Trajectories:
