@@ -165,10 +165,12 @@ class AutoStep:
     long_moves : float
         The share of consecutive observed steps, at that step, whose move spans more than one
         cell.
-    why : {"pace", "poses", "multiple", "few moves", "no fit"}
-        The robots' pace; the tracker's own interval, at most twice a second (one pose a step);
-        a multiple of that interval, at which the robots seen moving move one cell a step (a
-        pace the poses cannot tell from robots slowed down alike, see :func:`off_pace`); or
+    why : {"pace", "speed", "poses", "multiple", "few moves", "no fit"}
+        The robots' pace: the period of a track in jumps, or (``"speed"``) where a smooth
+        track's fastest robot moves a cell a step; the tracker's own interval, at most twice a
+        second (one pose a step); a multiple of that interval, at which the robots seen moving
+        move one cell a step (a pace the poses cannot tell from robots slowed down alike, see
+        :func:`off_pace`); or
         the paper's 2 s because the robots were not seen moving on enough consecutive steps
         to tell it, or because no step kept their moves within one cell.
     tracker_interval : float, optional
@@ -184,7 +186,7 @@ class AutoStep:
     @property
     def found(self) -> bool:
         """Whether the step is the robots' pace or the tracker's interval."""
-        return self.why in ("pace", "poses", "multiple")
+        return self.why in ("pace", "speed", "poses", "multiple")
 
     def sentence(self) -> str:
         """How the step was chosen, in words.
@@ -432,7 +434,11 @@ def discretise(
             rf[chosen], cf[chosen], row[chosen], col[chosen], heading, snapped[chosen]
         ),  # fmt: skip
     )
-    traj = replace(traj, off_pace=off_pace(traj, step_seconds, auto))
+    traj = replace(
+        traj,
+        off_pace=off_pace(traj, step_seconds, auto),
+        pace_from_speed=auto is not None and auto.why == "speed",
+    )
     vis = _visible_mask(visible, scenario, traj)
     n = len(tracks.robot_names)
 
@@ -559,7 +565,7 @@ def auto_step_seconds(
         enough, fits, share = judged(float(step))
         judged_any |= enough
         if fits:
-            best = AutoStep(float(step), share)
+            best = AutoStep(float(step), share, "speed")
     if best is not None:
         return best
     if not judged_any:
@@ -601,7 +607,7 @@ def off_pace(traj: Trajectories, step_seconds: float, auto: AutoStep | None = No
     str
         The reason in words, or "".
     """
-    if auto is not None and auto.why == "pace":  # chosen where the moves fit
+    if auto is not None and auto.why in ("pace", "speed"):  # chosen where the moves fit
         return ""
     if auto is not None and auto.why == "multiple":
         return (
