@@ -141,56 +141,18 @@ def test_two_robots_on_one_topic_stamped_in_whole_seconds_do_not_break_the_auto_
     assert auto.long_moves > AUTO_LONG_MOVES  # the jumps between the two are not read away
 
 
-# ---- a record at no pace ------------------------------------------------------------------------
-def _varying_track(scenario, speeds=(1.3, 0.5), seconds: float = 600.0) -> PoseTracks:
-    """One robot driving the top hallway of boyd2 back and forth, 20 s at each speed of
-    ``speeds`` (cells a second) in turn — a navigation stack that speeds up and slows down —
-    tracked at 20 Hz."""
-    frame = scenario.map.frame
-    cells = [c for c in range(scenario.map.shape[1]) if scenario.map.patroller[0, c]]
-    lo, hi = min(cells), max(cells)
-    t = np.arange(0.0, seconds, 0.05)
-    speed = np.asarray(speeds)[(t // 20.0).astype(int) % len(speeds)]
-    length = hi - lo
-    phase = np.mod(np.concatenate([[0.0], np.cumsum(speed[:-1] * 0.05)]), 2 * length)
-    col = lo + np.where(phase < length, phase, 2 * length - phase)
-    yaw = np.where(phase < length, 0.0, np.pi)
-    x, y = frame.cell_centre(np.zeros_like(col), col)
-    return PoseTracks(("I",), t, np.zeros(len(t), dtype=int), x, y, yaw)
-
-
-def test_a_record_at_its_pace_is_not_off_pace(scenario):
+# ---- a record at no healthy pace ---------------------------------------------------------------
+def test_a_record_at_its_pace_says_nothing_of_it(scenario):
     """At the step the auto step chooses — a track in jumps, a smooth one, whole-second stamps
-    of a steady robot — the record is at its pace; grid states tell nothing of it."""
+    of a steady robot read at the stamps' interval — nothing says the pace is no healthy
+    robot's; grid states tell nothing of it."""
     obs = simulate(scenario, 300, seed=1, observability=1.0, random_starts=True).observations
-    assert obs.off_pace is None
+    assert obs.off_pace is None and not obs.pace_from_speed
     jumps = poses_from_trajectories(obs, scenario, step_seconds=1.5, seed=1)
     for tracks in (jumps, _smooth_track(scenario, 0.5), _whole_seconds(_smooth_track(scenario, 1))):
         d = discretise(tracks, scenario, step_seconds="auto")
         assert d.trajectories.off_pace == "", d.auto_step
-
-
-def test_a_robot_whose_speed_varies_more_than_a_step_allows_is_off_pace(scenario):
-    """A robot at 1.3 and 0.5 cells a second in turn, stamped in whole seconds: at 1 s (no
-    shorter step has a pose at both ends) its fast moves cross two cells, its slow ones stay in
-    their cell; the record says it is at no pace, and the model check reads that."""
-    d = discretise(_whole_seconds(_varying_track(scenario)), scenario, step_seconds="auto")
-    assert d.step_seconds == 1.0 and d.auto_step.why == "poses"
-    assert d.auto_step.long_moves > AUTO_LONG_MOVES
-    off = d.trajectories.off_pace
-    assert "the tracker's interval" in off and f"{d.auto_step.long_moves:.1%}" in off
-    assert d.trajectories.select(d.trajectories.t < 100).off_pace == off  # carried with the rows
-    # the same robot at a steady speed, and a step the user gives, at which its moves fit
-    steady = discretise(_varying_track(scenario, (0.5,)), scenario, step_seconds=2.0)
-    assert steady.trajectories.off_pace == ""
-    given = discretise(_varying_track(scenario), scenario, step_seconds=2.0).trajectories
-    assert "the step given" in given.off_pace
-
-
-def test_the_robots_seen_moving_too_little_tell_no_pace(scenario):
-    """Fewer than AUTO_MIN_MOVES moves: nothing to tell, whatever share spans two cells."""
-    tracks = _whole_seconds(_varying_track(scenario, seconds=12.0))
-    assert discretise(tracks, scenario, step_seconds=1.0).trajectories.off_pace == ""
+    assert discretise(jumps, scenario, step_seconds="auto").auto_step.why == "pace"
 
 
 def _sparse(tracks: PoseTracks, every: float = 2.0) -> PoseTracks:
@@ -228,3 +190,14 @@ def test_robots_slowed_down_alike_under_a_sparse_tracker_fit_two_paces(scenario)
     assert paced.trajectories.off_pace == ""
     given = discretise(_sparse(_pair(scenario, (0.25, 0.25))), scenario, step_seconds=2.0)
     assert given.trajectories.off_pace == ""  # the user says the robots decide every 2 s
+
+
+def test_converting_a_record_that_fits_two_paces_warns_that_the_csv_loses_it(
+    scenario, tmp_path, capsys
+):
+    path = tmp_path / "poses.csv"
+    write_pose_csv(_sparse(_pair(scenario, (0.25, 0.25))), path)
+    code = main(["convert", str(path), str(tmp_path / "grid.csv"), "--scenario", "boyd2"])
+    err = capsys.readouterr().err
+    assert code == 0 and err.count("mirl: warning:") == 1
+    assert "a multiple of the tracker's interval" in err and "poses.csv itself" in err

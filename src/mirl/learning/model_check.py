@@ -34,17 +34,15 @@ what the models, at their posterior, predict for it (a posterior-predictive chec
   estimate of what the robot meant to do; where it is wrong — a robot that stood in a queue
   for half its record can teach the IRL that it likes to stop — every failure lands on the
   wrong part.
-* **Pace** — a record read at a step at which more of the robots' moves span two cells than
-  a pace allows (:data:`~mirl.observations.discretise.AUTO_LONG_MOVES`) is at no step's pace:
-  robots whose speed varies that much (a navigation stack that waits, turns on the spot and
-  accelerates) cross a cell in one step, in two or in three, and a step that stays in its cell
-  is as likely a move the step cut short as a failed one. The verdicts' healthy levels are
-  rates of moves made at the robots' pace; on such a record a failed step is no evidence of a
-  part. So too where the poses fit two paces: a sparse tracker's record whose moves stay within
-  one cell only at a multiple of its interval holds robots slowed down alike or a tracker
-  faster than their decisions, and a move completed at the one step is a failed move at the
-  other (:func:`check_pace`, a record-level check from the poses,
-  :func:`~mirl.observations.discretise.off_pace`: a grid CSV carries no pace).
+* **Pace** — the verdicts' healthy levels are rates of moves made at a healthy robot's pace,
+  and the auto step (:func:`~mirl.observations.discretise.auto_step_seconds`) takes the pace
+  from the robots' own moves. Where nothing in the record moves at a healthy pace, a failed
+  step is no evidence of a part: a sparse tracker's record whose moves stay within one cell
+  only at a multiple of its interval fits two paces (robots slowed down alike, or a tracker
+  faster than their decisions; :func:`~mirl.observations.discretise.off_pace`), and a smooth
+  track read at its fastest robot's speed where every robot at that pace veers towards a weak
+  wheel is at a weakened robot's pace (:func:`~mirl.learning.verdicts.weak_pace`). A
+  record-level check from the poses (:func:`check_pace`): a grid CSV carries no pace.
 * **Few trials** — a feature whose Eq. 4 estimate is pinned at 0 by fewer than
   :data:`PINNED_TRIALS` trials of the subsets that fix it: a part called dead on a handful of
   failures, which a few misread steps make. (Pinned at 1 by few trials is a short record of a
@@ -558,15 +556,15 @@ def check_pace(off_pace: str) -> Check:
     Parameters
     ----------
     off_pace : str
-        Why the record's step is at no pace of the robots (the poses' discretisation says:
-        :attr:`~mirl.observations.trajectories.Trajectories.off_pace`); empty when it is at
-        their pace or there is nothing to tell.
+        Why the record's step may be no healthy robot's pace
+        (:attr:`~mirl.observations.trajectories.Trajectories.off_pace`,
+        :func:`~mirl.learning.verdicts.weak_pace`); empty when nothing says so.
 
     Returns
     -------
     Check
-        ``"pace"``; no misfit steps (which of the steps that stayed in their cell the step cut
-        short, nothing in the record says).
+        ``"pace"``; no misfit steps (which of the steps that stayed in their cell a healthy
+        robot would have completed, nothing in the record says).
     """
     if not off_pace:
         return Check("pace", True)
@@ -575,8 +573,7 @@ def check_pace(off_pace: str) -> Check:
         False,
         None,
         off_pace,
-        "poses stamped more finely, so that a step at the robots' pace has a pose at both "
-        "ends, or the robots' decision interval as `step_seconds`",
+        "the robots' decision interval as `step_seconds`",
     )
 
 

@@ -1056,8 +1056,9 @@ class RobotRecord:
     beside : ndarray of shape (horizon,), optional
         The steps with another robot within one cell (:func:`beside_others`), for the jam check.
     off_pace : str, optional
-        Why the record's step is at no pace of the robots (empty: it is), from poses; None
-        from grid states (:attr:`~mirl.observations.trajectories.Trajectories.off_pace`).
+        Why the record's step may be no healthy robot's pace (empty: nothing says so), from
+        poses; None from grid states
+        (:attr:`~mirl.observations.trajectories.Trajectories.off_pace`).
     """
 
     series: np.ndarray

@@ -436,7 +436,7 @@ def discretise(
     )
     traj = replace(
         traj,
-        off_pace=off_pace(traj, step_seconds, auto),
+        off_pace=off_pace(auto),
         pace_from_speed=auto is not None and auto.why == "speed",
     )
     vis = _visible_mask(visible, scenario, traj)
@@ -573,17 +573,9 @@ def auto_step_seconds(
     return AutoStep(2.0, judged(2.0)[2], "no fit")
 
 
-def off_pace(traj: Trajectories, step_seconds: float, auto: AutoStep | None = None) -> str:
-    """Why the step a record was read at is at no pace of its robots; empty when it is.
-
-    A pace is a step at which at most :data:`AUTO_LONG_MOVES` of the consecutive observed steps
-    move a robot more than one cell (:func:`auto_step_seconds` chooses the longest such step).
-    A record read at a step above that share — the only step its stamps allow, no step kept
-    the moves within one cell, or the step the user gave — holds robots that cross a cell in
-    one step, in two or in three, and its steps that stay in their cell are as likely moves the
-    step cut short as failed ones (the model check's "pace",
-    :func:`mirl.learning.model_check.check_pace`). Robots seen moving on fewer than
-    :data:`AUTO_MIN_MOVES` consecutive steps tell nothing.
+def off_pace(auto: AutoStep | None) -> str:
+    """Why the step a record was read at may be no healthy robot's pace; empty when nothing says
+    so.
 
     A record a sparse tracker reports is read at the longest multiple of its interval at which
     the moves stay within one cell (:func:`auto_step_seconds`). Where that is a multiple and
@@ -591,15 +583,14 @@ def off_pace(traj: Trajectories, step_seconds: float, auto: AutoStep | None = No
     motor weak, crawling a fraction of a cell a step) and a tracker that reports more often
     than healthy robots decide — and a move completed at the one step is a failed move at the
     other: with no robot that moves a cell a step at the interval, nothing in the record is a
-    healthy pace to judge the others' failures against.
+    healthy pace to judge the others' failures against (the model check's "pace",
+    :func:`mirl.learning.model_check.check_pace`). A step the user gives is the robots' pace by
+    their word; a smooth track's is checked by its verdicts
+    (:func:`mirl.learning.verdicts.weak_pace`).
 
     Parameters
     ----------
-    traj : Trajectories
-        The discretised record.
-    step_seconds : float
-        The step it was read at (s).
-    auto : AutoStep, optional
+    auto : AutoStep or None
         How the step was chosen (None: the user gave it).
 
     Returns
@@ -607,40 +598,14 @@ def off_pace(traj: Trajectories, step_seconds: float, auto: AutoStep | None = No
     str
         The reason in words, or "".
     """
-    if auto is not None and auto.why in ("pace", "speed"):  # chosen where the moves fit
+    if auto is None or auto.why != "multiple":
         return ""
-    if auto is not None and auto.why == "multiple":
-        return (
-            f"the robots' moves stay within one cell at {step_seconds:g} s, a multiple of the "
-            f"tracker's interval ({auto.tracker_interval:g} s), so at the interval they cross a "
-            "cell at most every other step: robots slowed down alike, or a tracker that reports "
-            "more often than they decide — the poses cannot tell which, and a move completed "
-            "at the one step is a failed move at the other"
-        )
-    pairs = long = moved = 0
-    cells = np.column_stack([traj.row, traj.col]).astype(np.int64)
-    for i in range(len(traj.robot_names)):
-        _, rows = traj.for_robot(i)
-        if len(rows) < 2:
-            continue
-        both = np.diff(traj.t[rows]) == 1
-        dist = np.abs(np.diff(cells[rows], axis=0)).sum(axis=1)[both]
-        pairs, long, moved = pairs + len(dist), long + int((dist >= 2).sum()), moved + int(
-            (dist >= 1).sum()
-        )
-    if moved < AUTO_MIN_MOVES or long <= AUTO_LONG_MOVES * pairs:
-        return ""
-    if auto is None:
-        how = "the step given"
-    elif auto.why == "poses":
-        how = "the tracker's interval: no shorter step has a pose at both ends"
-    else:
-        how = "no step kept the moves within one cell"
     return (
-        f"at the record's step ({step_seconds:g} s, {how}) {long / pairs:.1%} of the moves span "
-        f"more than one cell, more than a pace allows ({AUTO_LONG_MOVES:.0%}): the robots "
-        "move at no one step's pace, and a step that stays in its cell may be a move the step "
-        "cut short rather than a failed one"
+        f"the robots' moves stay within one cell at {auto.seconds:g} s, a multiple of the "
+        f"tracker's interval ({auto.tracker_interval:g} s), so at the interval they cross a "
+        "cell at most every other step: robots slowed down alike, or a tracker that reports "
+        "more often than they decide — the poses cannot tell which, and a move completed "
+        "at the one step is a failed move at the other"
     )
 
 

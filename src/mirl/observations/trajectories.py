@@ -56,8 +56,8 @@ class Trajectories:
         evidence of a robot that veers (a weak wheel) that the grid state discards
         (docs/design.md, "Fault verdicts").
     off_pace : str, optional
-        Robot data only: why the step the poses were read at is at no pace of the robots
-        (:func:`~mirl.observations.discretise.off_pace`), empty when it is at their pace; None
+        Robot data only: why the step the poses were read at may be no healthy robot's pace
+        (:func:`~mirl.observations.discretise.off_pace`), empty when nothing says so; None
         where nothing tells (grid states). The fault verdicts' model check reads it.
     pace_from_speed : bool, default False
         Robot data only: the step is where the fastest robot of a smooth track moves a cell a
