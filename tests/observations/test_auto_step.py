@@ -147,7 +147,7 @@ def test_a_record_at_its_pace_says_nothing_of_it(scenario):
     of a steady robot read at the stamps' interval — nothing says the pace is no healthy
     robot's; grid states tell nothing of it."""
     obs = simulate(scenario, 300, seed=1, observability=1.0, random_starts=True).observations
-    assert obs.off_pace is None and not obs.pace_from_speed
+    assert obs.off_pace is None
     jumps = poses_from_trajectories(obs, scenario, step_seconds=1.5, seed=1)
     for tracks in (jumps, _smooth_track(scenario, 0.5), _whole_seconds(_smooth_track(scenario, 1))):
         d = discretise(tracks, scenario, step_seconds="auto")

@@ -96,12 +96,7 @@ from mirl.learning.transitions import (
     perceived_labels,
     policy_labels,
 )
-from mirl.learning.verdicts import (
-    FeatureUncertainty,
-    robot_record,
-    robot_uncertainty,
-    weak_pace,
-)
+from mirl.learning.verdicts import FeatureUncertainty, robot_record, robot_uncertainty
 from mirl.mdp import TabularMDP, value_iteration
 from mirl.observations.trajectories import Trajectories
 from mirl.world.game import Equilibrium
@@ -320,7 +315,6 @@ def _round_setup(
         em_init,
         lateral=lateral,
         off_pace=observations.off_pace,
-        pace_from_speed=observations.pace_from_speed,
     )
 
 
@@ -349,41 +343,30 @@ def _uncertainties(
     setup: RoundSetup, row: Method, trace: LoopTrace, probs, policies
 ) -> list[FeatureUncertainty | None]:
     """Per robot the intervals and verdict of its feature probabilities (None for a method
-    without them), from the labels they were learned from (:mod:`mirl.learning.verdicts`); on
-    a smooth track read at its robots' own speed, again with the pace check failed where that
-    speed is a weakened robot's (:func:`~mirl.learning.verdicts.weak_pace`)."""
+    without them), from the labels they were learned from (:mod:`mirl.learning.verdicts`)."""
     if not row.has_feature_probabilities or not trace.labels:
         return [None] * len(setup.series)
     labels = trace.labels[-1]
     irl = trace.irl + [None] * (len(setup.series) - len(trace.irl))
+    out: list[FeatureUncertainty | None] = []
     lateral = setup.lateral or [None] * len(setup.series)
     domain = setup.domain
     soft = [e.soft_policy_ if row.relabels and e is not None else None for e in irl]
-
-    def verdicts(off_pace: str | None) -> list[FeatureUncertainty | None]:
-        out: list[FeatureUncertainty | None] = []
-        for i in range(len(setup.series)):
-            # a robot reacts to another as far as it sees it: the patrollers' detection distance
-            record = robot_record(
-                domain, setup.series, labels, i, lateral=lateral[i],
-                reach=setup.scenario.detect_distance, off_pace=off_pace,
-            )  # fmt: skip
-            out.append(
-                robot_uncertainty(
-                    domain, record, probs[i], setup.scenario.faults,
-                    learned_with=setup.models[i] if setup.models else None,
-                    soft_policy=soft[i], own_policy=policies[i] if soft[i] is not None else None,
-                    models=candidate_models(setup.scenario.feature_map),
-                    random_state=setup.robot_seed(i, 0),
-                )
-            )  # fmt: skip
-        return out
-
-    out = verdicts(setup.off_pace)
-    if setup.pace_from_speed and not setup.off_pace:  # a weak robot's pace fails the check
-        weak = weak_pace(setup.scenario.robot_names, out)
-        if weak:
-            out = verdicts(weak)
+    for i in range(len(setup.series)):
+        # a robot reacts to another as far as it sees it: the patrollers' detection distance
+        record = robot_record(
+            domain, setup.series, labels, i, lateral=lateral[i],
+            reach=setup.scenario.detect_distance, off_pace=setup.off_pace,
+        )  # fmt: skip
+        out.append(
+            robot_uncertainty(
+                domain, record, probs[i], setup.scenario.faults,
+                learned_with=setup.models[i] if setup.models else None,
+                soft_policy=soft[i], own_policy=policies[i] if soft[i] is not None else None,
+                models=candidate_models(setup.scenario.feature_map),
+                random_state=setup.robot_seed(i, 0),
+            )
+        )  # fmt: skip
     return out
 
 
@@ -587,7 +570,6 @@ class RoundSetup:
     em_init: str = "intended"
     lateral: list[np.ndarray | None] | None = None  # per robot (horizon,) offsets, or None
     off_pace: str | None = None  # why the record's step is at no pace (poses; None: grid)
-    pace_from_speed: bool = False  # the step is the fastest robot's speed (a smooth track)
     warm_start: LearnResult | None = None  # an earlier solution to start from
     models: list[MotionModel] | None = None  # per robot, the motion model T is learned under
 

@@ -39,9 +39,7 @@ what the models, at their posterior, predict for it (a posterior-predictive chec
   from the robots' own moves. Where nothing in the record moves at a healthy pace, a failed
   step is no evidence of a part: a sparse tracker's record whose moves stay within one cell
   only at a multiple of its interval fits two paces (robots slowed down alike, or a tracker
-  faster than their decisions; :func:`~mirl.observations.discretise.off_pace`), and a smooth
-  track read at its fastest robot's speed where every robot at that pace veers towards a weak
-  wheel is at a weakened robot's pace (:func:`~mirl.learning.verdicts.weak_pace`). A
+  faster than their decisions; :func:`~mirl.observations.discretise.off_pace`). A
   record-level check from the poses (:func:`check_pace`): a grid CSV carries no pace.
 * **Few trials** — a feature whose Eq. 4 estimate is pinned at 0 by fewer than
   :data:`PINNED_TRIALS` trials of the subsets that fix it: a part called dead on a handful of
@@ -557,8 +555,8 @@ def check_pace(off_pace: str) -> Check:
     ----------
     off_pace : str
         Why the record's step may be no healthy robot's pace
-        (:attr:`~mirl.observations.trajectories.Trajectories.off_pace`,
-        :func:`~mirl.learning.verdicts.weak_pace`); empty when nothing says so.
+        (:attr:`~mirl.observations.trajectories.Trajectories.off_pace`); empty when nothing
+        says so.
 
     Returns
     -------

@@ -97,7 +97,6 @@ __all__ = [
     "drift_log_likelihood",
     "estimate_outside_interval",
     "weakened_wheel",
-    "weak_pace",
     "estimate_disagrees",
     "failure_dispersion",
     "action_distribution",
@@ -1398,44 +1397,6 @@ def _move_kinds(domain: PatrolDomain, s: np.ndarray, s_next: np.ndarray) -> np.n
     kinds[turned] = 1
     kinds[(intended[:, FORWARD] == s_next) & (s_next != s)] = 0
     return kinds
-
-
-def weak_pace(names: Sequence[str], uncertainties: Sequence[FeatureUncertainty | None]) -> str:
-    """Why a pace set by the robots' own speed is a weakened robot's; empty when it may be a
-    healthy one's.
-
-    A smooth track is read where its fastest robot moves a cell a step
-    (:func:`~mirl.observations.discretise.auto_step_seconds`), so the robots whose verdicts name
-    no damage are those that move at that pace. When every one of them veers towards a weak
-    wheel (:func:`weakened_wheel`), the pace is a weak robot's: a team slowed down alike reads
-    as healthy at it, and its failures say nothing of a healthy robot's (the model check's
-    "pace"). One robot at the pace that keeps its line is a healthy pace.
-
-    Parameters
-    ----------
-    names : sequence of str
-        The robots' names.
-    uncertainties : sequence of FeatureUncertainty or None
-        Their verdicts (None: a method without them).
-
-    Returns
-    -------
-    str
-        The reason in words, or "".
-    """
-    at_pace = [
-        (name, u.verdict.weakened)
-        for name, u in zip(names, uncertainties, strict=True)
-        if u is not None and u.verdict.seen_moving and not u.verdict.names_damage
-    ]
-    if not at_pace or any(w is None for _, w in at_pace):
-        return ""
-    veer = ", ".join(f"{name}'s {_words(w)}" for name, w in at_pace if w is not None)
-    return (
-        "the record's step is the robots' own speed (the fastest moves a cell a step), and "
-        f"every robot that moves at it veers towards a weak wheel ({veer}): it is a weakened "
-        "robot's pace, and a step judged against it says nothing of a healthy robot's"
-    )
 
 
 def robot_uncertainty(

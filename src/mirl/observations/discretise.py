@@ -165,12 +165,10 @@ class AutoStep:
     long_moves : float
         The share of consecutive observed steps, at that step, whose move spans more than one
         cell.
-    why : {"pace", "speed", "poses", "multiple", "few moves", "no fit"}
-        The robots' pace: the period of a track in jumps, or (``"speed"``) where a smooth
-        track's fastest robot moves a cell a step; the tracker's own interval, at most twice a
-        second (one pose a step); a multiple of that interval, at which the robots seen moving
-        move one cell a step (a pace the poses cannot tell from robots slowed down alike, see
-        :func:`off_pace`); or
+    why : {"pace", "poses", "multiple", "few moves", "no fit"}
+        The robots' pace; the tracker's own interval, at most twice a second (one pose a step);
+        a multiple of that interval, at which the robots seen moving move one cell a step (a
+        pace the poses cannot tell from robots slowed down alike, see :func:`off_pace`); or
         the paper's 2 s because the robots were not seen moving on enough consecutive steps
         to tell it, or because no step kept their moves within one cell.
     tracker_interval : float, optional
@@ -186,7 +184,7 @@ class AutoStep:
     @property
     def found(self) -> bool:
         """Whether the step is the robots' pace or the tracker's interval."""
-        return self.why in ("pace", "speed", "poses", "multiple")
+        return self.why in ("pace", "poses", "multiple")
 
     def sentence(self) -> str:
         """How the step was chosen, in words.
@@ -434,11 +432,7 @@ def discretise(
             rf[chosen], cf[chosen], row[chosen], col[chosen], heading, snapped[chosen]
         ),  # fmt: skip
     )
-    traj = replace(
-        traj,
-        off_pace=off_pace(auto),
-        pace_from_speed=auto is not None and auto.why == "speed",
-    )
+    traj = replace(traj, off_pace=off_pace(auto))
     vis = _visible_mask(visible, scenario, traj)
     n = len(tracks.robot_names)
 
@@ -565,7 +559,7 @@ def auto_step_seconds(
         enough, fits, share = judged(float(step))
         judged_any |= enough
         if fits:
-            best = AutoStep(float(step), share, "speed")
+            best = AutoStep(float(step), share)
     if best is not None:
         return best
     if not judged_any:
@@ -585,8 +579,8 @@ def off_pace(auto: AutoStep | None) -> str:
     other: with no robot that moves a cell a step at the interval, nothing in the record is a
     healthy pace to judge the others' failures against (the model check's "pace",
     :func:`mirl.learning.model_check.check_pace`). A step the user gives is the robots' pace by
-    their word; a smooth track's is checked by its verdicts
-    (:func:`mirl.learning.verdicts.weak_pace`).
+    their word. A smooth track read at its fastest robot's speed has no second reading to
+    compare, and is not flagged.
 
     Parameters
     ----------

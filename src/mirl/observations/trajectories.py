@@ -59,10 +59,6 @@ class Trajectories:
         Robot data only: why the step the poses were read at may be no healthy robot's pace
         (:func:`~mirl.observations.discretise.off_pace`), empty when nothing says so; None
         where nothing tells (grid states). The fault verdicts' model check reads it.
-    pace_from_speed : bool, default False
-        Robot data only: the step is where the fastest robot of a smooth track moves a cell a
-        step, its own speed, and so a healthy pace only if that robot is healthy (the fault
-        verdicts check it, :func:`mirl.learning.verdicts.weak_pace`).
     """
 
     robot_names: tuple[str, ...]
@@ -74,7 +70,6 @@ class Trajectories:
     horizon: int  # number of time steps the record spans (observed or not): t in [0, horizon)
     lateral: np.ndarray | None = None
     off_pace: str | None = None
-    pace_from_speed: bool = False
 
     def __len__(self) -> int:
         return len(self.t)
@@ -175,7 +170,6 @@ class Trajectories:
             self.horizon,
             None if self.lateral is None else self.lateral[mask],
             self.off_pace,
-            self.pace_from_speed,
         )
 
     def truncate(self, steps: int) -> Trajectories:
