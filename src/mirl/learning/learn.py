@@ -569,7 +569,7 @@ class RoundSetup:
     random_state: int | None
     em_init: str = "intended"
     lateral: list[np.ndarray | None] | None = None  # per robot (horizon,) offsets, or None
-    off_pace: str | None = None  # why the record's step is at no pace (poses; None: grid)
+    off_pace: str | None = None  # why its step may be no healthy pace (poses; None: grid)
     warm_start: LearnResult | None = None  # an earlier solution to start from
     models: list[MotionModel] | None = None  # per robot, the motion model T is learned under
 
