@@ -50,28 +50,30 @@ def test_the_bag_is_read_at_its_stamps_resolution(learned):
     assert learned["steps"] == 112
 
 
-@pytest.mark.parametrize(
-    "robot",
-    [
-        "I",
-        pytest.param(
-            "J",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="a false verdict (issue 39): J, healthy, is 'one of J's parts (left wheel, "
-                "right wheel, navigation, floor) is damaged' at 1.00 with the model check passed. "
-                "J waits 11 s before it moves and crosses a 0.25 m cell in 1-3 s; the stamps "
-                "are whole seconds, so 1 s is the only step, at which 62 of its 106 observed "
-                "steps stay in their cell. The poses cannot tell a robot this slow from one "
-                "whose motors are weak (the physical world's crawl the same), and nothing in "
-                "the record moves at a healthy pace",
-            ),
-        ),
-    ],
-)
+@pytest.mark.parametrize("robot", ["I", "J"])
 def test_no_confident_claim_that_a_part_of_a_healthy_robot_is_damaged(learned, robot):
     verdict = learned["robots"][robot]["verdict"]
     assert not says_damaged_confidently(verdict), verdict
+
+
+def test_robots_slower_than_their_tracker_fail_the_pace_check(learned):
+    """J waits 11 s before it moves and crosses a 0.25 m cell in 1-3 s; I is slower still. At
+    the only step the whole-second stamps allow, both stay in their cell on most of their free
+    steps: nothing in the record moves at a healthy pace, so the poses cannot tell these slow
+    healthy robots from robots whose motors are weak (the physical world's crawl reads the
+    same), and neither verdict may claim a part at high confidence."""
+    for robot in ("I", "J"):
+        fit = learned["robots"][robot]["verdict"]["fit"]
+        assert not fit["ok"] and "tracker's interval (1 s)" in fit["reason"], fit
+        assert not fit["checks"]["pace"]["ok"]
+
+
+def test_converting_the_bag_warns_that_the_grid_csv_loses_its_pace(tmp_path, capsys):
+    out = tmp_path / "grid.csv"
+    code = main(["convert", str(BAG), str(out), "--scenario", str(DATA / "world.toml"), *TOPICS])
+    err = capsys.readouterr().err
+    assert code == 0 and out.exists() and err.count("mirl: warning:") == 1
+    assert "tracker's interval (1 s)" in err and "location.bag itself" in err
 
 
 def test_the_topic_as_published_two_robots_on_one_is_a_misfit(tmp_path):

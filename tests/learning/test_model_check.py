@@ -8,6 +8,7 @@ import pytest
 
 from mirl.learning.model_check import (
     ALPHA,
+    CRAWL_SHARE,
     check_jams,
     check_moves,
     check_pace,
@@ -16,6 +17,7 @@ from mirl.learning.model_check import (
     check_unexplained,
     held_back,
     longest_run_tail,
+    no_pace_setter,
     stay_runs,
 )
 from mirl.learning.verdicts import RobotRecord, robot_uncertainty
@@ -299,3 +301,18 @@ def test_a_damaged_robot_s_record_at_no_pace_claims_nothing_with_confidence(robo
     off = verdict(TWO_PACES)
     assert not off.fit.ok and TWO_PACES in off.fit.reason and off.confidence < 0.9
     assert "does not fit L's motion models" in off.sentence(robot)
+
+
+def test_a_record_at_its_tracker_s_interval_has_a_pace_when_one_robot_moves():
+    """Every robot judged (20 free steps or more) staying on more than half of them: no pace
+    setter, and the reason names the interval and each robot's stays. One robot that moves on
+    half of its steps or more sets the pace; a robot seen too little is not judged."""
+    crawling = {"I": (15, 5), "J": (12, 9)}
+    reason = no_pace_setter(crawling, 1.0)
+    assert "tracker's interval (1 s)" in reason and "I 15/20, J 12/21" in reason
+    assert no_pace_setter({**crawling, "K": (3, 30)}, 1.0) == ""  # K crosses a cell a step
+    assert no_pace_setter({**crawling, "K": (10, 10)}, 1.0) == ""  # half is not more than half
+    assert CRAWL_SHARE == 0.5
+    assert no_pace_setter({**crawling, "K": (0, 19)}, 1.0) == reason  # K not judged
+    assert no_pace_setter({"I": (15, 4)}, 2.0) == ""  # nobody seen long enough
+    assert no_pace_setter({"I": (15, 4)}, 2.0, min_steps=10).startswith("at the tracker's")

@@ -18,6 +18,7 @@ from mirl.learning.verdicts import (
     drift_log_likelihood,
     failure_dispersion,
     feature_uncertainty,
+    free_pace,
     held_by_others,
     in_company,
     lateral_drift,
@@ -536,3 +537,17 @@ def test_both_wheels_are_not_ruled_out_for_navigation_or_floor():
             assert verdict.is_right(("left_wheel", "right_wheel")), verdict
         named_wheel += any(w in verdict.named for w in WHEELS)
     assert named_wheel == 3
+
+
+def test_a_robot_s_free_pace_counts_its_stays_and_moves_alone_that_keep_its_heading():
+    """Steps that stay in the cell and steps that move one cell, keeping the heading; turns,
+    steps with an unseen end and steps with another robot in the way are not counted."""
+    d = load_scenario("boydright").domain
+    e = [d.state_index(0, c, 0) for c in range(8)]
+    robot = np.array([e[1], e[1], e[2], e[2], e[3], d.state_index(0, 3, 1), -1, e[5], e[5]])
+    alone = np.full(len(robot), -1)
+    # stays: 0->1, 2->3; moves: 1->2, 3->4; a turn 4->5; unseen ends 5->6, 6->7; a stay 7->8
+    assert free_pace(d, [robot, alone], 0) == (3, 2)
+    other = alone.copy()
+    other[7] = d.state_index(0, 6, 2)  # in the way of the last step
+    assert free_pace(d, [robot, other], 0) == (2, 2)

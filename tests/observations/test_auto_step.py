@@ -191,6 +191,12 @@ def test_robots_slowed_down_alike_under_a_sparse_tracker_fit_two_paces(scenario,
     assert paced.trajectories.off_pace == ""
     given = discretise(_sparse(_pair(scenario, (0.25, 0.25))), scenario, step_seconds=2.0)
     assert given.trajectories.off_pace == ""  # the user says the robots decide every 2 s
+    # read one pose a step, the record says at which interval, for the model check to ask
+    # whether any robot moves at a healthy pace there; not at a multiple or a step given
+    assert paced.trajectories.tracker_interval == 2.0
+    assert slow.trajectories.tracker_interval is None
+    assert given.trajectories.tracker_interval is None
+    assert paced.trajectories.select(paced.trajectories.t < 10).tracker_interval == 2.0
 
 
 def test_converting_a_record_that_fits_two_paces_warns_that_the_csv_loses_it(

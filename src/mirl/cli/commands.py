@@ -304,6 +304,8 @@ def _read_observations(args: argparse.Namespace, scenario, observability=None):
 
 @command("convert")
 def _convert(args: argparse.Namespace) -> int:
+    from mirl.learning.verdicts import record_off_pace
+
     check_distinct(("IN", args.input), ("OUT", args.output))
     check_output(args.output, "OUT")
     scenario = _load_scenario(args)
@@ -318,9 +320,12 @@ def _convert(args: argparse.Namespace) -> int:
         )
         raise UsageError(f"{args.input}: nothing to convert: {why}")
     loaded.trajectories.to_csv(args.output)
-    if loaded.trajectories.off_pace:  # the grid CSV keeps states, not the times that tell it
+    traj, domain = loaded.trajectories, scenario.domain
+    series = [traj.state_series(domain, i) for i in range(len(traj.robot_names))]
+    off_pace = record_off_pace(domain, traj, series)
+    if off_pace:  # the grid CSV keeps states, not the times that tell it
         warn(
-            f"{args.input}: {loaded.trajectories.off_pace}; {args.output} keeps the cells, not "
+            f"{args.input}: {off_pace}; {args.output} keeps the cells, not "
             f"the poses' times, so a verdict learned from it cannot know this: learn from "
             f"{args.input} itself"
         )

@@ -96,7 +96,12 @@ from mirl.learning.transitions import (
     perceived_labels,
     policy_labels,
 )
-from mirl.learning.verdicts import FeatureUncertainty, robot_record, robot_uncertainty
+from mirl.learning.verdicts import (
+    FeatureUncertainty,
+    record_off_pace,
+    robot_record,
+    robot_uncertainty,
+)
 from mirl.mdp import TabularMDP, value_iteration
 from mirl.observations.trajectories import Trajectories
 from mirl.world.game import Equilibrium
@@ -314,7 +319,7 @@ def _round_setup(
         random_state,
         em_init,
         lateral=lateral,
-        off_pace=observations.off_pace,
+        off_pace=record_off_pace(domain, observations, series),
     )
 
 

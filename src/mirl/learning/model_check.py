@@ -39,7 +39,8 @@ what the models, at their posterior, predict for it (a posterior-predictive chec
   from the robots' own moves. Where nothing in the record moves at a healthy pace, a failed
   step is no evidence of a part: a sparse tracker's record whose moves stay within one cell
   only at a multiple of its interval fits two paces (robots slowed down alike, or a tracker
-  faster than their decisions; :func:`~mirl.observations.discretise.off_pace`). A
+  faster than their decisions; :func:`~mirl.observations.discretise.off_pace`), and so does
+  one read at the interval itself in which every robot crawls (:func:`no_pace_setter`). A
   record-level check from the poses (:func:`check_pace`): a grid CSV carries no pace.
 * **Few trials** — a feature whose Eq. 4 estimate is pinned at 0 by fewer than
   :data:`PINNED_TRIALS` trials of the subsets that fix it: a part called dead on a handful of
@@ -77,6 +78,8 @@ __all__ = [
     "MOVE_KINDS",
     "check_pinned",
     "check_pace",
+    "CRAWL_SHARE",
+    "no_pace_setter",
     "stay_runs",
     "longest_run_tail",
     "model_fit",
@@ -93,6 +96,10 @@ MOVES_SHARE = 0.05
 """The share of steps by which the kinds of moves must be off for the moves check to fail: a
 third of the damage margin (0.15), so that what the check lets pass cannot move a part's
 success probability across the margin by itself."""
+CRAWL_SHARE = 0.5
+"""A robot that stayed in its cell on more than this share of its free steps that kept their
+heading crosses a cell at most every other step: a crawl, not a healthy pace
+(:func:`no_pace_setter`)."""
 
 
 @dataclass(frozen=True)
@@ -572,6 +579,53 @@ def check_pace(off_pace: str) -> Check:
         None,
         off_pace,
         "the robots' decision interval as `step_seconds`",
+    )
+
+
+def no_pace_setter(
+    steps: Mapping[str, tuple[int, int]], interval: float, min_steps: int = 20
+) -> str:
+    """Why nothing in a record read at its tracker's interval moves at a healthy pace; empty
+    when a robot does.
+
+    A sparse tracker's record is read one pose a step where no multiple of its interval keeps
+    the robots' moves within one cell (:func:`~mirl.observations.discretise.auto_step_seconds`).
+    The interval is then the tracker's, not necessarily the robots' decisions'. Where every
+    robot L saw on enough free steps crawls — stays in its cell on more than
+    :data:`CRAWL_SHARE` of them — the poses fit two paces, as a multiple of the interval does
+    (:func:`~mirl.observations.discretise.off_pace`): robots slowed down alike, or healthy
+    robots slower than their tracker, whose unfinished moves read as failed ones. One robot
+    crossing a cell on most of its free steps is the healthy pace the others' failures are
+    judged against.
+
+    Parameters
+    ----------
+    steps : mapping of str to (int, int)
+        Per robot, its free steps (no other robot L saw in its way,
+        :func:`~mirl.learning.verdicts.held_by_others`) that kept its heading: those that
+        stayed in its cell and those that moved to the next.
+    interval : float
+        The tracker's interval (s), the record's step.
+    min_steps : int, default 20
+        Fewer such steps do not judge a robot's pace (the auto step's
+        :data:`~mirl.observations.discretise.AUTO_MIN_MOVES`).
+
+    Returns
+    -------
+    str
+        The reason in words (the pace check's, :func:`check_pace`), or "" when a robot L saw
+        on ``min_steps`` such steps or more moved on most of them, or none was seen that long.
+    """
+    judged = {name: (stay, stay + move) for name, (stay, move) in steps.items()}
+    judged = {name: sn for name, sn in judged.items() if sn[1] >= min_steps}
+    if not judged or any(stay <= CRAWL_SHARE * n for stay, n in judged.values()):
+        return ""
+    shares = ", ".join(f"{name} {stay}/{n}" for name, (stay, n) in judged.items())
+    return (
+        f"at the tracker's interval ({interval:g} s), the record's step, every robot stays in "
+        f"its cell on most of its free steps that keep their heading ({shares}): robots "
+        "slowed down alike, or healthy robots slower than their tracker — the poses cannot "
+        "tell which, and a move a slow robot had not finished by the step is a failed move"
     )
 
 

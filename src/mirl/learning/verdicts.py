@@ -62,6 +62,7 @@ from mirl.learning.model_check import (
     check_stalls,
     check_unexplained,
     held_back,
+    no_pace_setter,
 )
 from mirl.learning.motion_models import (
     DEFAULT_PRIOR,
@@ -78,6 +79,8 @@ from mirl.learning.motion_models import (
     wheels_of,
 )
 from mirl.learning.smc import tempered_smc
+from mirl.observations.discretise import AUTO_MIN_MOVES
+from mirl.observations.trajectories import Trajectories
 from mirl.world.domain import FORWARD, N_HEADINGS, TURN_LEFT, TURN_RIGHT, PatrolDomain
 from mirl.world.faults import DEFAULT_HEALTHY, WHEELS, DamageDefinition, DriftSpec
 from mirl.world.maps import HEADING_DELTAS
@@ -91,6 +94,8 @@ __all__ = [
     "MODEL_TRUST",
     "BLOCKING_DISTANCE",
     "held_by_others",
+    "free_pace",
+    "record_off_pace",
     "beside_others",
     "in_company",
     "lateral_drift",
@@ -552,6 +557,67 @@ def held_by_others(
             held |= unseen & in_the_way(other, beside, distance - 1)
     held[-1:] = False  # no step starts at the last time
     return held
+
+
+def free_pace(domain: PatrolDomain, series: Sequence[np.ndarray], robot: int) -> tuple[int, int]:
+    """A robot's free steps that kept its heading: how many stayed in its cell and how many
+    moved to the next (its pace, :func:`~mirl.learning.model_check.no_pace_setter`).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The scenario's domain (its states' cells and headings).
+    series : sequence of ndarray of int, shape (horizon,)
+        Every robot's observed states, -1 where unseen.
+    robot : int
+        The robot's index in ``series``.
+
+    Returns
+    -------
+    stayed, moved : int
+        The steps, seen at both ends and with no other robot L saw in the robot's way
+        (:func:`held_by_others`), that kept the robot's heading and stayed in its cell, and
+        those that moved it one cell.
+    """
+    own = np.asarray(series[robot])
+    start, end = own[:-1], own[1:]
+    both = (start >= 0) & (end >= 0)
+    a = domain.states[np.where(both, start, 0)]
+    b = domain.states[np.where(both, end, 0)]
+    cells = np.abs(b[:, :2] - a[:, :2]).sum(axis=1)
+    free = both & ~held_by_others(domain, series, robot)[:-1] & (a[:, 2] == b[:, 2])
+    return int((free & (cells == 0)).sum()), int((free & (cells == 1)).sum())
+
+
+def record_off_pace(
+    domain: PatrolDomain, observations: Trajectories, series: Sequence[np.ndarray]
+) -> str | None:
+    """Why the step a record was read at may be no healthy robot's pace, for the model check's
+    pace check (:func:`~mirl.learning.model_check.check_pace`): the poses' own reason
+    (:attr:`~mirl.observations.trajectories.Trajectories.off_pace`), or, for a record read at
+    its tracker's interval, that no robot moves a cell on most of its free steps
+    (:func:`~mirl.learning.model_check.no_pace_setter`).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The scenario's domain.
+    observations : Trajectories
+        The record.
+    series : sequence of ndarray of int, shape (horizon,)
+        Every robot's observed states, -1 where unseen, in ``observations``' robot order.
+
+    Returns
+    -------
+    str or None
+        The reason; "" when nothing says so; None for grid states, which carry no pace.
+    """
+    if observations.off_pace or observations.tracker_interval is None:
+        return observations.off_pace
+    steps = {
+        observations.robot_names[i]: free_pace(domain, series, i) for i in range(len(series))
+    }
+    return no_pace_setter(steps, observations.tracker_interval, AUTO_MIN_MOVES)
 
 
 def beside_others(domain: PatrolDomain, series: Sequence[np.ndarray], robot: int) -> np.ndarray:

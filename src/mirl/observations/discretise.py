@@ -432,7 +432,11 @@ def discretise(
             rf[chosen], cf[chosen], row[chosen], col[chosen], heading, snapped[chosen]
         ),  # fmt: skip
     )
-    traj = replace(traj, off_pace=off_pace(auto))
+    traj = replace(
+        traj,
+        off_pace=off_pace(auto),
+        tracker_interval=auto.seconds if auto is not None and auto.why == "poses" else None,
+    )
     vis = _visible_mask(visible, scenario, traj)
     n = len(tracks.robot_names)
 
@@ -580,7 +584,8 @@ def off_pace(auto: AutoStep | None) -> str:
     healthy pace to judge the others' failures against (the model check's "pace",
     :func:`mirl.learning.model_check.check_pace`). A step the user gives is the robots' pace by
     their word. A smooth track read at its fastest robot's speed has no second reading to
-    compare, and is not flagged.
+    compare, and is not flagged. A record read at the interval itself is flagged by its robots'
+    moves, which need the grid states (:func:`mirl.learning.verdicts.record_off_pace`).
 
     Parameters
     ----------

@@ -59,6 +59,13 @@ class Trajectories:
         Robot data only: why the step the poses were read at may be no healthy robot's pace
         (:func:`~mirl.observations.discretise.off_pace`), empty when nothing says so; None
         where nothing tells (grid states). The fault verdicts' model check reads it.
+    tracker_interval : float, optional
+        Robot data only: the interval (s) of the sparse tracker whose poses the record was
+        read at one a step, where the auto step chose it
+        (:func:`~mirl.observations.discretise.auto_step_seconds`, ``"poses"``); None
+        otherwise. The step is then the tracker's and may be no robot's pace, which the
+        model check asks of the robots' moves
+        (:func:`~mirl.learning.verdicts.record_off_pace`).
     """
 
     robot_names: tuple[str, ...]
@@ -70,6 +77,7 @@ class Trajectories:
     horizon: int  # number of time steps the record spans (observed or not): t in [0, horizon)
     lateral: np.ndarray | None = None
     off_pace: str | None = None
+    tracker_interval: float | None = None
 
     def __len__(self) -> int:
         return len(self.t)
@@ -170,6 +178,7 @@ class Trajectories:
             self.horizon,
             None if self.lateral is None else self.lateral[mask],
             self.off_pace,
+            self.tracker_interval,
         )
 
     def truncate(self, steps: int) -> Trajectories:
