@@ -347,6 +347,21 @@ def test_a_robot_following_or_leading_another_is_not_in_company():
     assert in_company(d, [east, coming], 0, 6.0).all()
 
 
+def test_a_robot_crossing_ahead_is_company():
+    """A robot crossing the hallway ahead (heading at a right angle, either way) makes a
+    physical robot keep right as one coming the other way does; one crossing behind it, or
+    farther than the distance, does not."""
+    d = load_scenario("boydright-3").domain
+    north = np.array([d.state_index(r, 10, 1) for r in (5, 4, 3, 2, 1)])  # K up its branch
+    for heading in (0, 2):  # I on the top hallway, going east or west, near the crossing
+        crossing = np.full(5, d.state_index(0, 9, heading))
+        assert in_company(d, [north, crossing], 0, 6.0).all()
+        far = np.full(5, d.state_index(0, 2, heading))
+        assert not in_company(d, [north, far], 0, 6.0).any()
+    behind = np.full(5, d.state_index(5, 10, 0))  # south of K's start, facing east
+    assert not in_company(d, [north[:-1], behind[:-1]], 0, 6.0)[1:].any()
+
+
 def test_a_robot_in_the_way_holds_a_robot():
     """Another robot in a robot's cell or up to two cells ahead of it holds it; one behind it,
     one three cells ahead, one two cells away across the robot's heading and one L does not

@@ -81,7 +81,7 @@ from mirl.learning.motion_models import (
 from mirl.learning.smc import tempered_smc
 from mirl.observations.discretise import AUTO_MIN_MOVES
 from mirl.observations.trajectories import Trajectories
-from mirl.world.domain import FORWARD, N_HEADINGS, TURN_LEFT, TURN_RIGHT, PatrolDomain
+from mirl.world.domain import FORWARD, TURN_LEFT, TURN_RIGHT, PatrolDomain
 from mirl.world.faults import DEFAULT_HEALTHY, WHEELS, DamageDefinition, DriftSpec
 from mirl.world.maps import HEADING_DELTAS
 
@@ -437,10 +437,18 @@ def _seen_together(
 def in_company(
     domain: PatrolDomain, series: Sequence[np.ndarray], robot: int, distance: float
 ) -> np.ndarray:
-    """The steps at which L saw another robot coming the other way near a robot.
+    """The steps at which L saw another robot near a robot, not going its way.
 
-    Robots passing each other keep to one side; a robot following or leading another does not
-    pass it and drives the middle, so those steps are not company.
+    Robots passing each other keep to one side, and so do robots crossing: a physical robot
+    keeps right of one whose heading differs from its own by more than a right angle
+    (:func:`mirl.physics.control.in_company`), which a crossing robot's turns and yaw noise
+    make it half the time. A robot following or leading another does not pass it and drives
+    the middle, so those steps are not company.
+
+    .. versionchanged:: 0.2.0
+       A crossing robot (heading at a right angle) is company too, not only one coming the
+       other way: the healthy K of boydright-3, whose branch crosses I's and J's hallway,
+       kept right on those steps and read as a robot veering to its right wheel.
 
     Parameters
     ----------
@@ -456,9 +464,9 @@ def in_company(
     Returns
     -------
     ndarray of bool, shape (horizon,)
-        Whether, both seen, another robot with the opposite heading was within ``distance``
-        cells of the robot, ahead of it or alongside (within 110° of its heading, so until
-        they have passed).
+        Whether, both seen, another robot with another heading (coming the other way or
+        crossing) was within ``distance`` cells of the robot, ahead of it or alongside
+        (within 110° of its heading, so until they have passed).
     """
     own = np.asarray(series[robot])
     near = np.zeros(len(own), dtype=bool)
@@ -466,8 +474,8 @@ def in_company(
         v = (b[:, :2] - a[:, :2]).astype(float)
         dist = np.hypot(*v.T)
         ahead = (v * HEADING_DELTAS[a[:, 2]]).sum(axis=1) >= np.cos(np.radians(110)) * dist
-        oncoming = b[:, 2] == (a[:, 2] + N_HEADINGS // 2) % N_HEADINGS
-        near[both] |= (dist <= distance) & oncoming & ahead
+        other_way = b[:, 2] != a[:, 2]
+        near[both] |= (dist <= distance) & other_way & ahead
     return near
 
 
