@@ -1,0 +1,90 @@
+"""How often robots stay in their cell at their camera's interval: the pace check's crawl.
+
+    python benchmarks/bench_crawl.py [--seeds 11,12,13] [--steps 450]
+
+The physical world's camera records (`mirl simulate --world physics ... --poses`, full view,
+random starts), read as `mirl learn` reads them (`--step-seconds auto`, one pose a step at the
+camera's 2 s): per robot, its free steps that kept its heading (no other robot L saw in its way,
+`mirl.learning.verdicts.free_pace`) and how many of them stayed in its cell. The pace check
+(`mirl.learning.model_check.no_pace_setter`) fails a record in which every robot seen on 20
+such steps or more stays on more than half of them. Healthy teams, one robot damaged, and teams
+all damaged; with ``--bag``, the real Gazebo bag of `tests/data/real/tb3-gazebo-nav` too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from mirl.learning.model_check import CRAWL_SHARE
+from mirl.learning.verdicts import free_pace
+from mirl.observations.sources import load_observations
+from mirl.world.scenario import load_scenario
+
+CASES = (
+    ("boyd2-healthy", ()),
+    ("boyd2-healthy", ("J:left_wheel=0.5",)),
+    ("boyd2-healthy", ("J:left_wheel=0.6",)),
+    ("boyd2-healthy", ("I:right_wheel=0.6",)),
+    ("boyd2-healthy", ("J:left_wheel=0.5", "J:right_wheel=0.5")),
+    ("boyd2-healthy", ("I:right_wheel=0.5", "J:left_wheel=0.5")),
+    ("boyd2-healthy", ("I:right_wheel=0.6", "J:left_wheel=0.6")),
+    ("boydright", ()),
+    ("boydright", ("J:right_wheel=0.5",)),
+    ("boydright-3", ()),
+    ("boydright-3", ("I:left_wheel=0.5", "J:left_wheel=0.5")),
+)
+BAG = Path(__file__).resolve().parents[1] / "tests" / "data" / "real" / "tb3-gazebo-nav"
+
+
+def shares(path: Path, scenario, **read) -> tuple[str, str]:
+    """The step chosen and each robot's stays / free steps that kept its heading."""
+    loaded = load_observations(path, scenario, **read)
+    traj, domain = loaded.trajectories, scenario.domain
+    series = [traj.state_series(domain, i) for i in range(len(traj.robot_names))]
+    parts = []
+    for i, name in enumerate(traj.robot_names):
+        stayed, moved = free_pace(domain, series, i)
+        n = stayed + moved
+        parts.append(f"{name} {stayed}/{n} ({stayed / n:.2f})" if n else f"{name} -")
+    auto = loaded.discretised.auto_step if loaded.discretised else None
+    step = f"{auto.seconds:g} s ({auto.why})" if auto else "given"
+    return step, ", ".join(parts)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", default="11,12,13")
+    ap.add_argument("--steps", type=int, default=450)
+    ap.add_argument("--bag", action="store_true")
+    args = ap.parse_args()
+    print(f"crawl: more than {CRAWL_SHARE:.0%} of the free steps that keep the heading stay")
+    print("| scenario | damage | seed | step | stayed / free steps |")
+    print("| --- | --- | --- | --- | --- |")
+    for name, damage in CASES:
+        scenario = load_scenario(name)
+        for seed in args.seeds.split(","):
+            with tempfile.TemporaryDirectory() as tmp:
+                flags = [f for d in damage for f in ("--damage", d)]
+                subprocess.run(
+                    [sys.executable, "-m", "mirl", "simulate", "--scenario", name, "--world",
+                     "physics", *flags, "--steps", str(args.steps), "--seed", seed,
+                     "--observability", "1", "--random-starts", "--poses", "poses.csv"],
+                    cwd=tmp, check=True, capture_output=True,
+                )  # fmt: skip
+                step, got = shares(Path(tmp) / "poses.csv", scenario, start_time=0.0)
+            print(f"| {name} | {', '.join(damage) or 'none'} | {seed} | {step} | {got} |",
+                  flush=True)  # fmt: skip
+    if args.bag:
+        step, got = shares(
+            BAG / "location.bag", load_scenario(BAG / "world.toml"),
+            topics={"/tb_a/location": "I", "/tb_b/location": "J"},
+        )  # fmt: skip
+        print(f"| the Gazebo bag | none | – | {step} | {got} |")
+
+
+if __name__ == "__main__":
+    main()
