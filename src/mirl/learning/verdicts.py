@@ -582,10 +582,11 @@ def free_pace(domain: PatrolDomain, series: Sequence[np.ndarray], robot: int) ->
 
     Returns
     -------
-    stayed, moved : int
+    stayed : int
         The steps, seen at both ends and with no other robot L saw in the robot's way
-        (:func:`held_by_others`), that kept the robot's heading and stayed in its cell, and
-        those that moved it one cell.
+        (:func:`held_by_others`), that kept the robot's heading and stayed in its cell.
+    moved : int
+        Those of the same steps that moved it one cell.
     """
     own = np.asarray(series[robot])
     start, end = own[:-1], own[1:]
