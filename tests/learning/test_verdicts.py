@@ -358,8 +358,8 @@ def test_a_robot_crossing_ahead_is_company():
         assert in_company(d, [north, crossing], 0, 6.0).all()
         far = np.full(5, d.state_index(0, 2, heading))
         assert not in_company(d, [north, far], 0, 6.0).any()
-    behind = np.full(5, d.state_index(5, 10, 0))  # south of K's start, facing east
-    assert not in_company(d, [north[:-1], behind[:-1]], 0, 6.0)[1:].any()
+    behind = np.full(4, d.state_index(5, 10, 0))  # crossing behind K, which starts a cell on
+    assert not in_company(d, [north[1:], behind], 0, 6.0).any()
 
 
 def test_a_robot_in_the_way_holds_a_robot():

@@ -63,6 +63,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.special import bdtrc, chdtrc, ndtr
 
+from mirl.observations.discretise import AUTO_MIN_MOVES
+
 __all__ = [
     "ALPHA",
     "MISREAD_RATE",
@@ -583,7 +585,7 @@ def check_pace(off_pace: str) -> Check:
 
 
 def no_pace_setter(
-    steps: Mapping[str, tuple[int, int]], interval: float, min_steps: int = 20
+    steps: Mapping[str, tuple[int, int]], interval: float, min_steps: int = AUTO_MIN_MOVES
 ) -> str:
     """Why nothing in a record read at its tracker's interval moves at a healthy pace; empty
     when a robot does.
@@ -606,9 +608,9 @@ def no_pace_setter(
         stayed in its cell and those that moved to the next.
     interval : float
         The tracker's interval (s), the record's step.
-    min_steps : int, default 20
-        Fewer such steps do not judge a robot's pace (the auto step's
-        :data:`~mirl.observations.discretise.AUTO_MIN_MOVES`).
+    min_steps : int, default AUTO_MIN_MOVES
+        Fewer such steps do not judge a robot's pace (the auto step's own minimum,
+        :data:`~mirl.observations.discretise.AUTO_MIN_MOVES`, 20).
 
     Returns
     -------
@@ -616,8 +618,11 @@ def no_pace_setter(
         The reason in words (the pace check's, :func:`check_pace`), or "" when a robot L saw
         on ``min_steps`` such steps or more moved on most of them, or none was seen that long.
     """
-    judged = {name: (stay, stay + move) for name, (stay, move) in steps.items()}
-    judged = {name: sn for name, sn in judged.items() if sn[1] >= min_steps}
+    judged = {
+        name: (stay, stay + move)
+        for name, (stay, move) in steps.items()
+        if stay + move >= min_steps
+    }
     if not judged or any(stay <= CRAWL_SHARE * n for stay, n in judged.values()):
         return ""
     shares = ", ".join(f"{name} {stay}/{n}" for name, (stay, n) in judged.items())

@@ -79,7 +79,6 @@ from mirl.learning.motion_models import (
     wheels_of,
 )
 from mirl.learning.smc import tempered_smc
-from mirl.observations.discretise import AUTO_MIN_MOVES
 from mirl.observations.trajectories import Trajectories
 from mirl.world.domain import FORWARD, TURN_LEFT, TURN_RIGHT, PatrolDomain
 from mirl.world.faults import DEFAULT_HEALTHY, WHEELS, DamageDefinition, DriftSpec
@@ -626,7 +625,7 @@ def record_off_pace(
     steps = {
         observations.robot_names[i]: free_pace(domain, series, i) for i in range(len(series))
     }
-    return no_pace_setter(steps, observations.tracker_interval, AUTO_MIN_MOVES)
+    return no_pace_setter(steps, observations.tracker_interval)
 
 
 def beside_others(domain: PatrolDomain, series: Sequence[np.ndarray], robot: int) -> np.ndarray:
