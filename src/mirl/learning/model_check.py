@@ -22,7 +22,11 @@ what the models, at their posterior, predict for it (a posterior-predictive chec
 * **In the way** — the steps with another robot L saw in the robot's cell or ahead of it, at
   the step's start or end (:func:`~mirl.learning.verdicts.held_by_others`), are no evidence
   of its parts: they are left out whatever the record shows, and the check says whether the
-  robot stayed put on them more often than elsewhere (:func:`held_back`).
+  robot stayed put on them more often than elsewhere (:func:`held_back`). It fails where they
+  are most of the robot's steps as well: L's policy for the robot, learned from its whole
+  record, then learned the other robot's pace as the robot's own wish, and the few steps left
+  are judged by labels from it (a healthy robot queueing behind a slow one for a whole record
+  looks like one that fails every move it does not make).
 * **Jams** — steps on which the robot stayed put while another robot L saw was within one cell
   (beside, behind, diagonally: those in its way are left out already).
   The models say a step stays put as often next to another robot as anywhere; physical robots
@@ -406,11 +410,16 @@ def held_back(
     nothing, while counting them lets a robot queueing behind a slow one look broken (a
     robot held on a few steps gives a test too few of them to tell). The check itself is a
     one-sided Mantel–Haenszel test over the steps' labels (Mantel & Haenszel 1959), its
-    variance inflated by the record's dispersion: it fails when physical robots in each
-    other's way blocked or pushed each other, as on a grid they do not.
+    variance inflated by the record's dispersion, says whether physical robots in each other's
+    way blocked or pushed each other, as on a grid they do not. The check fails when they did
+    and the held steps are more than half the robot's steps: L's policy for the robot is
+    learned from its whole record, so it then takes the other robot's pace for the robot's
+    own wish, and the labels of the steps left are no longer the robot's intentions. Where
+    the held steps are fewer, the robot's own moves dominate what L learned of it.
 
     .. versionchanged:: 0.2.0
-       The held steps are left out whatever the test says.
+       The held steps are left out whatever the test says, and the check enters the record's
+       fit, failing only where the held steps are most of the record.
 
     Parameters
     ----------
@@ -427,7 +436,8 @@ def held_back(
     Returns
     -------
     Check
-        ``"in the way"``; its misfit steps are the held steps.
+        ``"in the way"``; its misfit steps are the held steps (left out whether it fails or
+        not).
     """
     stayed, held = np.asarray(stayed, dtype=bool), np.asarray(held, dtype=bool)
     labels = np.asarray(labels, dtype=int)
@@ -446,11 +456,13 @@ def held_back(
     if variance <= 0:
         return Check("in the way", True, 1.0, misfit=misfit)
     p = float(ndtr(-(observed - expected - 0.5) / np.sqrt(dispersion * variance)))
-    if p >= ALPHA:
+    if p >= ALPHA or 2 * held.sum() <= len(held):
         return Check("in the way", True, p, misfit=misfit)
     reason = (
-        f"stayed put on {observed:.0f} of {int(held.sum())} steps with another robot in its "
-        f"way, where {expected:.0f} were its own doing (p = {p:.1g})"
+        f"another robot was in its way on {int(held.sum())} of its {len(held)} steps, and it "
+        f"stayed put on {observed:.0f} of them, more than its stays elsewhere account for "
+        f"({expected:.0f}; p = {p:.1g}): most of its record is the other robot's pace, which "
+        "L's policy for it learned as its own"
     )
     return Check("in the way", False, p, reason, "", misfit)
 

@@ -1324,6 +1324,7 @@ def _check_record(
     kept = np.flatnonzero(keep)
     # a robot held by another stays put for the other's reason, if the record says so
     way = held_back(stayed[kept], held[kept], lab[kept], dispersion)
+    checks.append(way)
     if way.misfit.size:
         in_the_way[kept[way.misfit]] = True
         post = posterior(keep & ~in_the_way)
