@@ -146,21 +146,23 @@ def test_steps_in_another_robot_s_way_are_left_out_whatever_the_test_says():
     assert held_back(stayed, np.zeros(n, dtype=bool), labels).misfit.size == 0
 
 
-@pytest.mark.parametrize("n_held", [120, 151, 240])
-def test_a_record_mostly_held_back_by_another_robot_does_not_fit(n_held):
+@pytest.mark.parametrize(("n", "n_held"), [(300, 240), (300, 281), (300, 290), (30, 14), (30, 16)])
+def test_a_record_mostly_held_back_by_another_robot_does_not_fit(n, n_held):
     """Held steps on which the robot stayed put far more often than elsewhere fail the check
-    only when they are more than half its steps: L's policy was then learned mostly from the
-    other robot's pace. Held as often as not, a record of any share of held steps fits."""
+    only when they are more than half its steps and fewer than 20 free steps are left: L's
+    policy was then learned mostly from the other robot's pace. Held as often as not, a record
+    of any share of held steps fits."""
     rng = np.random.default_rng(4)
-    n = 300
     labels = rng.integers(0, 3, n)
     held = np.zeros(n, dtype=bool)
     held[rng.choice(n, n_held, replace=False)] = True
     stayed = rng.random(n) < 0.1
-    blocked = stayed | (held & (rng.random(n) < 0.6))
+    blocked = (stayed & ~held) | held  # every held step stayed put
     check = held_back(blocked, held, labels)
-    assert check.p_value < ALPHA
-    assert check.ok == (2 * n_held <= n)
+    significant = check.p_value < ALPHA
+    assert check.ok == (not significant or 2 * n_held <= n or n - n_held >= 20)
+    if n == 300:
+        assert significant
     if not check.ok:
         assert f"in its way on {n_held} of its {n} steps" in check.reason
         assert "most of its record" in check.reason

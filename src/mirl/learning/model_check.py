@@ -23,10 +23,11 @@ what the models, at their posterior, predict for it (a posterior-predictive chec
   the step's start or end (:func:`~mirl.learning.verdicts.held_by_others`), are no evidence
   of its parts: they are left out whatever the record shows, and the check says whether the
   robot stayed put on them more often than elsewhere (:func:`held_back`). It fails where they
-  are most of the robot's steps as well: L's policy for the robot, learned from its whole
-  record, then learned the other robot's pace as the robot's own wish, and the few steps left
-  are judged by labels from it (a healthy robot queueing behind a slow one for a whole record
-  looks like one that fails every move it does not make).
+  are most of the robot's steps and fewer than :data:`~mirl.observations.discretise.AUTO_MIN_MOVES`
+  free steps are left: L's policy for the robot, learned from its whole record, then learned
+  the other robot's pace as the robot's own wish, and the few steps left are judged by labels
+  from it (a healthy robot queueing behind a slow one for a whole record looks like one that
+  fails every move it does not make).
 * **Jams** — steps on which the robot stayed put while another robot L saw was within one cell
   (beside, behind, diagonally: those in its way are left out already).
   The models say a step stays put as often next to another robot as anywhere; physical robots
@@ -400,7 +401,11 @@ def check_jams(
 
 
 def held_back(
-    stayed: np.ndarray, held: np.ndarray, labels: np.ndarray, dispersion: float = 1.0
+    stayed: np.ndarray,
+    held: np.ndarray,
+    labels: np.ndarray,
+    dispersion: float = 1.0,
+    min_free: int = AUTO_MIN_MOVES,
 ) -> Check:
     """The steps another robot was in the way of, and whether the robot stayed put on them
     more often than on the others.
@@ -411,11 +416,12 @@ def held_back(
     robot held on a few steps gives a test too few of them to tell). The check itself is a
     one-sided Mantel–Haenszel test over the steps' labels (Mantel & Haenszel 1959), its
     variance inflated by the record's dispersion, says whether physical robots in each other's
-    way blocked or pushed each other, as on a grid they do not. The check fails when they did
-    and the held steps are more than half the robot's steps: L's policy for the robot is
-    learned from its whole record, so it then takes the other robot's pace for the robot's
-    own wish, and the labels of the steps left are no longer the robot's intentions. Where
-    the held steps are fewer, the robot's own moves dominate what L learned of it.
+    way blocked or pushed each other, as on a grid they do not. The check fails when they did,
+    the held steps are more than half the robot's steps and fewer than ``min_free`` are left:
+    L's policy for the robot is learned from its whole record, so it then takes the other
+    robot's pace for the robot's own wish, and the labels of the few steps left are not the
+    robot's intentions. With ``min_free`` free steps or more — the steps L needs to read a
+    robot's own pace — the robot's own moves outweigh the queue in what L learned of it.
 
     .. versionchanged:: 0.2.0
        The held steps are left out whatever the test says, and the check enters the record's
@@ -432,6 +438,9 @@ def held_back(
         The steps' labels (the strata).
     dispersion : float, default 1
         The record's variance inflation.
+    min_free : int, default AUTO_MIN_MOVES
+        Free steps (not held) from which the robot's own moves outweigh the queue
+        (:data:`~mirl.observations.discretise.AUTO_MIN_MOVES`, 20).
 
     Returns
     -------
@@ -456,13 +465,14 @@ def held_back(
     if variance <= 0:
         return Check("in the way", True, 1.0, misfit=misfit)
     p = float(ndtr(-(observed - expected - 0.5) / np.sqrt(dispersion * variance)))
-    if p >= ALPHA or 2 * held.sum() <= len(held):
+    free = int((~held).sum())
+    if p >= ALPHA or 2 * held.sum() <= len(held) or free >= min_free:
         return Check("in the way", True, p, misfit=misfit)
     reason = (
         f"another robot was in its way on {int(held.sum())} of its {len(held)} steps, and it "
         f"stayed put on {observed:.0f} of them, more than its stays elsewhere account for "
         f"({expected:.0f}; p = {p:.1g}): most of its record is the other robot's pace, which "
-        "L's policy for it learned as its own"
+        f"L's policy for it learned as its own, and {free} free steps cannot outweigh it"
     )
     return Check("in the way", False, p, reason, "", misfit)
 
