@@ -464,6 +464,36 @@ def test_steps_held_by_another_robot_are_no_evidence_of_a_part():
     assert free.verdict.fit.left_out["in another robot's way"] == 41
 
 
+def test_a_record_spent_queueing_gives_no_confident_verdict():
+    """A healthy robot that stood behind another for nearly all its record, whose labels come
+    from a policy that learned from the queue to stand: its 15 free moves look like failed
+    stays. The queue's steps are left out either way; with them most of the record and fewer
+    than 20 free steps left, the record does not fit and the verdict is not confident."""
+    from mirl.world.actions import STOP
+
+    scenario, states = _steps()
+    d = scenario.domain
+    i = scenario.robot_index("I")
+    x0 = states[:16, i]
+    assert (x0[1:] != x0[:-1]).all()  # 15 moves
+    x = np.repeat(x0, 29)[28:]  # each state held 28 steps before the move on
+    queued = np.flatnonzero(x[1:] == x[:-1])
+    held = np.zeros(len(x), dtype=bool)
+    held[queued] = True  # another robot in its way (held_by_others's tests say where)
+    t, _, _ = observed_steps(x)
+    assert len(t) - held[t].sum() == 15
+    labels = np.full(len(x), STOP)  # what a policy learned from the queue says
+    probs = scenario.robots[i].feature_probabilities
+    # the free moves alone, judged by those labels, say a part is damaged
+    free = robot_uncertainty(d, RobotRecord(x0, labels[:16]), probs, scenario.faults)
+    assert free.verdict.names_damage and free.verdict.confidence > 0.9
+    queue = robot_uncertainty(d, RobotRecord(x, labels, held=held), probs, scenario.faults)
+    assert queue.verdict.fit.left_out["in another robot's way"] == held[t].sum()
+    checks = {c.name: c for c in queue.verdict.fit.checks}
+    assert not checks["in the way"].ok and "most of its record" in checks["in the way"].reason
+    assert queue.verdict.confidence < 0.8
+
+
 def test_a_wheel_that_only_drifts_is_weakened_not_damaged():
     """A robot that veers to the right beyond a healthy robot's spread, where the verdict is
     that no part is damaged: its right wheel is weakened, its moves unaffected."""
