@@ -425,7 +425,8 @@ def held_back(
 
     .. versionchanged:: 0.2.0
        The held steps are left out whatever the test says, and the check enters the record's
-       fit, failing only where the held steps are most of the record.
+       fit, failing only where the held steps are most of the record and few free steps are
+       left.
 
     Parameters
     ----------
