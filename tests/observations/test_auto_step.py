@@ -9,9 +9,11 @@ import pytest
 from mirl.cli import main
 from mirl.observations.discretise import (
     AUTO_LONG_MOVES,
+    RHYTHM_FACTOR,
     auto_step_seconds,
     discretise,
     poses_from_trajectories,
+    rhythm_strength,
 )
 from mirl.observations.poses import PoseTracks, write_pose_csv
 from mirl.observations.sources import load_observations
@@ -208,3 +210,123 @@ def test_converting_a_record_that_fits_two_paces_warns_that_the_csv_loses_it(
     err = capsys.readouterr().err
     assert code == 0 and err.count("mirl: warning:") == 1
     assert "a multiple of the tracker's interval" in err and "poses.csv itself" in err
+
+
+# ---- a smooth track's decision rhythm ---------------------------------------------------------
+def _driven(scenario, position, seconds: float = 600.0, rate: float = 20.0) -> PoseTracks:
+    """One robot driving the top hallway of boyd2 back and forth, ``position(t)`` cells along it
+    (turning round in place at its ends), tracked at ``rate`` Hz."""
+    frame = scenario.map.frame
+    cells = [c for c in range(scenario.map.shape[1]) if scenario.map.patroller[0, c]]
+    lo, length = min(cells), max(cells) - min(cells)
+    t = np.arange(0.0, seconds, 1 / rate)
+    phase = np.mod(position(t), 2 * length)
+    col = lo + np.where(phase < length, phase, 2 * length - phase)
+    yaw = np.where(phase < length, 0.0, np.pi)
+    x, y = frame.cell_centre(np.zeros_like(col), col)
+    return PoseTracks(("I",), t, np.zeros(len(t), dtype=int), x, y, yaw)
+
+
+def _stop_and_go(decision: float = 2.0, drive: float = 1.5, offset: float = 0.3):
+    """A robot that decides every ``decision`` s, drives one cell in ``drive`` s (a smooth
+    start and stop) and waits for its next decision."""
+
+    def position(t):
+        k, tau = np.divmod(t - offset, decision)
+        return k + (1 - np.cos(np.pi * np.minimum(tau, drive) / drive)) / 2
+
+    return position
+
+
+def _drive_on(speed: float = 0.3):
+    """A robot that never finishes a move within a decision: it drives on at about ``speed``
+    cells a second, the speed wandering (incommensurate periods, no rhythm)."""
+
+    def position(t):
+        wander = 0.3 * np.sin(t / 7.3) + 0.2 * np.sin(t / 2.9 + 1.0) + 0.1 * np.sin(t / 1.13)
+        return speed * (t + wander)
+
+    return position
+
+
+def _team(*tracks: PoseTracks) -> PoseTracks:
+    names = ("I", "J", "K")[: len(tracks)]
+    return PoseTracks(
+        names,
+        np.concatenate([tr.t for tr in tracks]),
+        np.concatenate([np.full(len(tr.t), i) for i, tr in enumerate(tracks)]),
+        np.concatenate([tr.x for tr in tracks]),
+        np.concatenate([tr.y for tr in tracks]),
+        np.concatenate([tr.yaw for tr in tracks]),
+    )
+
+
+def _rhythm(scenario, tracks: PoseTracks, step: float) -> float:
+    rf, cf = scenario.map.frame.cell_coordinates(tracks.x, tracks.y)
+    return rhythm_strength(tracks.t, rf, cf, tracks.yaw, step)
+
+
+@pytest.mark.parametrize("decision", [1.5, 2.0, 3.0])
+def test_a_robot_that_stops_onto_its_cells_keeps_the_rhythm_of_its_decisions(scenario, decision):
+    """Changes of motion at every decision concentrate in phase at the decision interval, and
+    at no step a tenth or more away from it; a robot that drives on keeps no rhythm at all."""
+    go = _driven(scenario, _stop_and_go(decision, drive=0.75 * decision))
+    assert _rhythm(scenario, go, decision) > 2 * RHYTHM_FACTOR
+    assert _rhythm(scenario, go, 1.1 * decision) < RHYTHM_FACTOR
+    assert _rhythm(scenario, go, 1.55 * decision) < RHYTHM_FACTOR
+    on = _driven(scenario, _drive_on(1 / decision))
+    assert _rhythm(scenario, on, decision) < RHYTHM_FACTOR
+
+
+def test_robots_that_drive_on_through_their_decisions_fit_two_paces(scenario):
+    """Two robots that never finish a move in time, tracked smoothly: the auto step reads them
+    at the faster one's pace, no robot keeps a rhythm there, and the record says the poses fit
+    two paces; beside one robot that stops onto its cells, the pace is its rhythm and nothing
+    is said; a step the user gives is not second-guessed."""
+    slow = _team(_driven(scenario, _drive_on(0.3)), _driven(scenario, _drive_on(0.25)))
+    d = discretise(slow, scenario, step_seconds="auto")
+    assert d.auto_step.found and d.auto_step.why == "pace" and d.auto_step.rhythm is False
+    assert "no robot's moves keep a rhythm" in d.trajectories.off_pace
+    assert f"{d.step_seconds:g} s" in d.trajectories.off_pace
+    paced = _team(_driven(scenario, _stop_and_go(2.0)), _driven(scenario, _drive_on(0.3)))
+    d = discretise(paced, scenario, step_seconds="auto")
+    assert d.step_seconds == pytest.approx(2.0, abs=0.051) and d.auto_step.rhythm is True
+    assert d.trajectories.off_pace == ""
+    given = discretise(slow, scenario, step_seconds=2.0)
+    assert given.auto_step is None and given.trajectories.off_pace == ""
+
+
+def _physical_team(damage: dict[str, float], seed: int, steps: int = 200):
+    """A boyd2-healthy team in the physical world at full view: its true poses (L's left out)
+    and the scenario."""
+    from mirl.physics.config import with_motor_strength
+    from mirl.physics.patrol import PhysicalWorld
+
+    sc = load_scenario("boyd2-healthy")
+    for robot, strength in damage.items():
+        wheel = "right_wheel" if robot == "I" else "left_wheel"
+        sc = with_motor_strength(sc, robot, wheel, strength)
+    world = PhysicalWorld(sc, observability=1.0, seed=seed)
+    for _ in range(steps - 1):
+        world.step()
+    tracks = world.true_tracks()
+    keep = tracks.robot < len(sc.robot_names)
+    return sc, PoseTracks(sc.robot_names, tracks.t[keep], tracks.robot[keep], tracks.x[keep],
+                          tracks.y[keep], tracks.yaw[keep])  # fmt: skip
+
+
+@pytest.mark.parametrize("seed", [11, 12])
+def test_physical_robots_keep_their_rhythm_unless_every_motor_is_weak(seed):
+    """The physical world's true poses at the control rate: a healthy robot stops onto its cells
+    at its decisions, and its rhythm is strong at the step chosen (3.5–6.2 times the yardstick
+    in `benchmarks/bench_rhythm.py`, seeds 1–3); a team whose motors are all at 0.6 drives on
+    (0.66–0.98 there) and its record says it fits two paces. A margin of about two either side
+    of the threshold, so that a CPU whose simulation differs in its last bits gives the same
+    answer."""
+    sc, healthy = _physical_team({}, seed)
+    d = discretise(healthy, sc, step_seconds="auto")
+    assert d.step_seconds == pytest.approx(2.0, abs=0.051) and d.trajectories.off_pace == ""
+    sc, slow = _physical_team({"I": 0.6, "J": 0.6}, seed)
+    d = discretise(slow, sc, step_seconds="auto")
+    assert d.step_seconds > 2.5 and d.auto_step.rhythm is False
+    assert "no robot's moves keep a rhythm" in d.trajectories.off_pace

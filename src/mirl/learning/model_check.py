@@ -44,8 +44,10 @@ what the models, at their posterior, predict for it (a posterior-predictive chec
   from the robots' own moves. Where nothing in the record moves at a healthy pace, a failed
   step is no evidence of a part: a sparse tracker's record whose moves stay within one cell
   only at a multiple of its interval fits two paces (robots slowed down alike, or a tracker
-  faster than their decisions; :func:`~mirl.observations.discretise.off_pace`), and so does
-  one read at the interval itself in which every robot crawls (:func:`no_pace_setter`). A
+  faster than their decisions; :func:`~mirl.observations.discretise.off_pace`), and so do
+  one read at the interval itself in which every robot crawls (:func:`no_pace_setter`) and a
+  smooth track in which no robot keeps a decision rhythm at the step
+  (:func:`~mirl.observations.discretise.decision_rhythm`). A
   record-level check from the poses (:func:`check_pace`): a grid CSV carries no pace.
 * **Few trials** — a feature whose Eq. 4 estimate is pinned at 0 by fewer than
   :data:`PINNED_TRIALS` trials of the subsets that fix it: a part called dead on a handful of

@@ -40,6 +40,8 @@ __all__ = [
     "heading_of_yaw",
     "lateral_offset",
     "auto_step_seconds",
+    "decision_rhythm",
+    "rhythm_strength",
     "off_pace",
     "AutoStep",
     "AUTO_LONG_MOVES",
@@ -69,6 +71,16 @@ AUTO_SPARSE = 0.5
 """A tracker that reports a robot this many seconds apart or more is read one pose a step."""
 AUTO_MIN_CHANGES = 10
 """Fewer changes of cell than this do not tell a track's period."""
+RHYTHM_WINDOW = 0.05
+"""A decision rhythm at a step lies within this share of it (the step is chosen in 0.05 s)."""
+RHYTHM_NULL = (1.15, 1.85)
+"""Periods, in multiples of the step, whose phase concentration is the rhythm's yardstick:
+changes of motion every step (or every half, third … of it) sum to nothing at any period
+P·m/n with m ≥ 2, so these periods carry none of a rhythm at the step."""
+RHYTHM_CLIP = 0.95
+"""Changes of motion are capped at this quantile of the robot's before their phases are summed."""
+RHYTHM_FACTOR = 2.0
+"""A rhythm is shown when its concentration is this many times the yardstick's largest."""
 
 
 class DiscretisationError(PoseError):
@@ -174,12 +186,17 @@ class AutoStep:
     tracker_interval : float, optional
         The time (s) between a sparse tracker's poses (:data:`AUTO_SPARSE` or more), where
         the step is a multiple of it.
+    rhythm : bool, optional
+        For a smooth track read at its fastest robot's pace: whether some robot's changes of
+        motion keep a rhythm at the step, its decisions (:func:`decision_rhythm`). None where
+        the track says its pace otherwise (a tracker's interval, jumps) or none was found.
     """
 
     seconds: float
     long_moves: float
     why: str = "pace"
     tracker_interval: float | None = None
+    rhythm: bool | None = None
 
     @property
     def found(self) -> bool:
@@ -565,7 +582,9 @@ def auto_step_seconds(
         if fits:
             best = AutoStep(float(step), share)
     if best is not None:
-        return best
+        yaw = np.asarray(tracks.yaw, dtype=float)
+        tracked = [(t[idx], rf[idx], cf[idx], yaw[idx]) for idx in robots]
+        return replace(best, rhythm=decision_rhythm(tracked, best.seconds))
     if not judged_any:
         return AutoStep(2.0, 0.0, "few moves")
     return AutoStep(2.0, judged(2.0)[2], "no fit")
@@ -583,8 +602,11 @@ def off_pace(auto: AutoStep | None) -> str:
     other: with no robot that moves a cell a step at the interval, nothing in the record is a
     healthy pace to judge the others' failures against (the model check's "pace",
     :func:`mirl.learning.model_check.check_pace`). A step the user gives is the robots' pace by
-    their word. A smooth track read at its fastest robot's speed has no second reading to
-    compare, and is not flagged. A record read at the interval itself is flagged by its robots'
+    their word. A smooth track is read at its fastest robot's speed, which robots slowed down
+    alike set as well as healthy ones; it is flagged where no robot's changes of motion keep a
+    rhythm at that step (:func:`decision_rhythm`): a robot that finishes its moves in time
+    stops onto each cell at its decisions, and its rhythm is the healthy pace the others'
+    failures are judged against. A record read at the interval itself is flagged by its robots'
     moves, which need the grid states (:func:`mirl.learning.verdicts.record_off_pace`).
 
     Parameters
@@ -596,7 +618,18 @@ def off_pace(auto: AutoStep | None) -> str:
     -------
     str
         The reason in words, or "".
+
+    .. versionchanged:: 0.2.0
+       A smooth track in which no robot keeps a decision rhythm at the step is flagged.
     """
+    if auto is not None and auto.why == "pace" and auto.rhythm is False:
+        return (
+            f"the poses move smoothly, and no robot's moves keep a rhythm at {auto.seconds:g} s, "
+            "the step the fastest robot's speed sets: robots slowed down alike, which drive on "
+            "through their decisions without finishing a move, and healthy robots that cross a "
+            f"cell every {auto.seconds:g} s without stopping give such poses — the poses cannot "
+            "tell which, and a move completed at the one step is a failed move at the other"
+        )
     if auto is None or auto.why != "multiple":
         return ""
     return (
@@ -606,6 +639,100 @@ def off_pace(auto: AutoStep | None) -> str:
         "more often than they decide — the poses cannot tell which, and a move completed "
         "at the one step is a failed move at the other"
     )
+
+
+def decision_rhythm(tracked, step: float) -> bool:
+    """Whether some robot's changes of motion keep a rhythm at ``step``: its decisions.
+
+    A patroller decides a move, drives it and decides again; a robot that finishes its move
+    within a decision slows down onto the cell and starts again at the next one, so its
+    changes of speed and turn rate fall at one phase of its decision interval. A robot that
+    never finishes a move in time (a weak motor) drives on through its decisions, and its
+    changes keep no rhythm; robots slowed down alike give a smooth track that reads at their
+    own pace as healthy. The rhythm is shown where :func:`rhythm_strength` exceeds
+    :data:`RHYTHM_FACTOR` for some robot.
+
+    Parameters
+    ----------
+    tracked : sequence of (ndarray, ndarray, ndarray, ndarray)
+        Per robot its poses' times (s, sorted), fractional rows and columns, and yaws (rad).
+    step : float
+        The step (s) whose rhythm is asked.
+
+    Returns
+    -------
+    bool
+        True when some robot's moves keep a rhythm at the step.
+    """
+    return any(
+        rhythm_strength(t, row, col, yaw, step) > RHYTHM_FACTOR for t, row, col, yaw in tracked
+    )
+
+
+def rhythm_strength(t, row, col, yaw, step: float) -> float:
+    """How strongly one robot's changes of motion keep a rhythm at ``step``.
+
+    The concentration of the changes' phases at a period P is
+    z(P) = |Σₖ aₖ e^{2πi tₖ/P}| / Σₖ aₖ, aₖ the change of speed (cells/s) plus the change of
+    turn rate (quarter turns a second) between consecutive poses, capped at their
+    :data:`RHYTHM_CLIP` quantile so that a few outliers (a yaw that flips, a pose that jumps)
+    do not outweigh the rest. The strength is the largest
+    z within :data:`RHYTHM_WINDOW` of ``step`` over the largest at the periods of
+    :data:`RHYTHM_NULL`, which a rhythm at the step does not reach: changes at every multiple
+    of the step sum to nothing at P·m/n for m ≥ 2. Computed by one FFT of the changes binned at
+    a twentieth of the step or the poses' interval, whichever is shorter (a phase error of at
+    most π/20), zero-padded to a quarter of a cycle's drift over the record between
+    neighbouring frequencies. Consecutive poses more than three intervals apart (a robot out of
+    view) make no change.
+
+    Parameters
+    ----------
+    t : ndarray of shape (n,)
+        The robot's pose times (s), sorted.
+    row, col : ndarray of shape (n,)
+        Its fractional cell coordinates.
+    yaw : ndarray of shape (n,)
+        Its yaws (rad).
+    step : float
+        The step (s).
+
+    Returns
+    -------
+    float
+        The ratio; 0 for a robot with fewer than four poses or no change of motion.
+    """
+    if len(t) < 4:
+        return 0.0
+    dt = np.diff(t)
+    interval = float(np.median(dt))
+    ok = (dt > 0) & (dt <= 3 * interval)
+    safe = np.where(ok, dt, 1.0)
+    speed = np.hypot(np.diff(row), np.diff(col)) / safe
+    turn = ((np.diff(yaw) + np.pi) % (2 * np.pi) - np.pi) / safe / (np.pi / 2)
+    both = ok[:-1] & ok[1:]
+    a = (np.abs(np.diff(speed)) + np.abs(np.diff(turn)))[both]
+    at = t[1:-1][both]
+    if not len(a):
+        return 0.0
+    # a few outliers (a yaw that flips, a pose that jumps) must not outweigh the record
+    a = np.minimum(a, np.quantile(a, RHYTHM_CLIP))
+    if a.sum() <= 0:
+        return 0.0
+    span = float(at[-1] - at[0])
+    width = max(min(step / 20, max(interval, 1e-3)), span / 2**22)  # bounded memory
+    bins = np.zeros(int(span / width) + 1)
+    np.add.at(bins, np.minimum((at - at[0]) / width, len(bins) - 1).astype(np.int64), a)
+    n = 1 << int(np.ceil(np.log2(4 * len(bins))))
+    z = np.abs(np.fft.rfft(bins, n)) / a.sum()
+    freq = np.fft.rfftfreq(n, width)
+
+    def largest(lo: float, hi: float) -> float:
+        inside = (freq >= 1 / (hi * step)) & (freq <= 1 / (lo * step))
+        return float(z[inside].max()) if inside.any() else 0.0
+
+    null = largest(*RHYTHM_NULL)
+    peak = largest(1 - RHYTHM_WINDOW, 1 + RHYTHM_WINDOW)
+    return peak / null if null > 0 else 0.0
 
 
 def _pose_interval(t: np.ndarray, robots: list[np.ndarray]) -> float:
