@@ -620,7 +620,7 @@ def off_pace(auto: AutoStep | None) -> str:
         The reason in words, or "".
 
     .. versionchanged:: 0.2.0
-       A smooth track in which no robot keeps a decision rhythm at the step is flagged.
+        A smooth track in which no robot keeps a decision rhythm at the step is flagged.
     """
     if auto is not None and auto.why == "pace" and auto.rhythm is False:
         return (
