@@ -2,6 +2,7 @@
 the verdicts learned from them.
 
     python benchmarks/bench_rhythm.py [--seeds 1-3] [--steps 450] [--work DIR]
+                                      [--noise SIGMA_M SIGMA_DEG]
 
 Each team is simulated in the physical world at full view with ``mirl simulate --world physics
 --poses P.csv``, and its true poses at the control rate (``P.true.csv``, the observer L's own
@@ -13,7 +14,9 @@ is false (names no damaged part; a motor at 0.7 or below is damaged, as the phys
 calibration has it) at 0.9 or more. Teams: healthy, one motor at 0.6, both robots' motors at
 0.5, 0.6, 0.7 and 0.8 on boyd2-healthy; healthy and two motors at 0.5 on boydright; healthy and
 three motors at 0.6 on boydright-3; healthy and four motors at 0.6 on the office (first seed
-only). Simulations are kept in ``--work`` (default ``/tmp/mirl-rhythm``).
+only). ``--noise`` adds a tracker's Gaussian noise (metres per axis, degrees of yaw, seeded by
+the run) to the true poses before they are learned. Simulations are kept in ``--work``
+(default ``/tmp/mirl-rhythm``).
 """
 
 from __future__ import annotations
@@ -89,11 +92,31 @@ def track(work: Path, scenario: str, damage: dict, seed: int, steps: int) -> Pat
     return out
 
 
+def noisy(path: Path, sigma_m: float, sigma_deg: float, seed: int) -> Path:
+    """A copy of the track at ``path`` with a tracker's Gaussian noise."""
+    if not sigma_m and not sigma_deg:
+        return path
+    out = path.with_name(f"{path.stem}.noise-{sigma_m:g}-{sigma_deg:g}.csv")
+    if not out.exists():
+        tr = read_pose_csv(path)
+        rng = np.random.default_rng(seed)
+        n = len(tr.t)
+        write_pose_csv(
+            PoseTracks(tr.robot_names, tr.t, tr.robot, tr.x + rng.normal(0, sigma_m, n),
+                       tr.y + rng.normal(0, sigma_m, n),
+                       tr.yaw + np.deg2rad(rng.normal(0, sigma_deg, n)), tr.source),
+            out,
+        )  # fmt: skip
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", default="1-3", help="first-last")
     ap.add_argument("--steps", type=int, default=450)
     ap.add_argument("--work", default="/tmp/mirl-rhythm")
+    ap.add_argument("--noise", nargs=2, type=float, default=(0.0, 0.0),
+                    metavar=("SIGMA_M", "SIGMA_DEG"))
     args = ap.parse_args()
     lo, hi = (int(x) for x in args.seeds.split("-"))
     work = Path(args.work)
@@ -105,7 +128,7 @@ def main() -> None:
         sc = load_scenario(scenario)
         for team, damage in teams.items():
             for seed in range(lo, hi + 1 if scenario != "office" else lo + 1):
-                path = track(work, scenario, damage, seed, args.steps)
+                path = noisy(track(work, scenario, damage, seed, args.steps), *args.noise, seed)
                 out = json.loads(quiet(["learn", "--scenario", scenario, "--observations",
                                         str(path), "--observability", "1", "--json"]))
                 step = float(out["step_seconds"])

@@ -75,10 +75,10 @@ RHYTHM_WINDOW = 0.05
 """A decision rhythm at a step lies within this share of it (the step is chosen in 0.05 s)."""
 RHYTHM_NULL = (1.15, 1.85)
 """Periods, in multiples of the step, whose phase concentration is the rhythm's yardstick:
-changes of motion every step (or every half, third … of it) sum to nothing at any period
+motion that repeats every step (or every half, third … of it) has no component at a period
 P·m/n with m ≥ 2, so these periods carry none of a rhythm at the step."""
 RHYTHM_CLIP = 0.95
-"""Changes of motion are capped at this quantile of the robot's before their phases are summed."""
+"""A robot's motion is capped at this quantile of its own before its phases are summed."""
 RHYTHM_FACTOR = 2.0
 """A rhythm is shown when its concentration is this many times the yardstick's largest."""
 
@@ -603,7 +603,7 @@ def off_pace(auto: AutoStep | None) -> str:
     healthy pace to judge the others' failures against (the model check's "pace",
     :func:`mirl.learning.model_check.check_pace`). A step the user gives is the robots' pace by
     their word. A smooth track is read at its fastest robot's speed, which robots slowed down
-    alike set as well as healthy ones; it is flagged where no robot's changes of motion keep a
+    alike set as well as healthy ones; it is flagged where no robot's motion keeps a
     rhythm at that step (:func:`decision_rhythm`): a robot that finishes its moves in time
     stops onto each cell at its decisions, and its rhythm is the healthy pace the others'
     failures are judged against. A record read at the interval itself is flagged by its robots'
@@ -642,15 +642,15 @@ def off_pace(auto: AutoStep | None) -> str:
 
 
 def decision_rhythm(tracked, step: float) -> bool:
-    """Whether some robot's changes of motion keep a rhythm at ``step``: its decisions.
+    """Whether some robot's motion keeps a rhythm at ``step``: its decisions.
 
     A patroller decides a move, drives it and decides again; a robot that finishes its move
     within a decision slows down onto the cell and starts again at the next one, so its
-    changes of speed and turn rate fall at one phase of its decision interval. A robot that
-    never finishes a move in time (a weak motor) drives on through its decisions, and its
-    changes keep no rhythm; robots slowed down alike give a smooth track that reads at their
-    own pace as healthy. The rhythm is shown where :func:`rhythm_strength` exceeds
-    :data:`RHYTHM_FACTOR` for some robot.
+    motion repeats at its decision interval. Robots slowed down alike (weak motors) never
+    finish a move in time and drive on through their decisions; a smooth track reads them at
+    their own, slower pace, as if healthy, and at that pace their motion keeps no rhythm. The
+    rhythm is shown where :func:`rhythm_strength` exceeds :data:`RHYTHM_FACTOR` for some
+    robot.
 
     Parameters
     ----------
@@ -670,20 +670,21 @@ def decision_rhythm(tracked, step: float) -> bool:
 
 
 def rhythm_strength(t, row, col, yaw, step: float) -> float:
-    """How strongly one robot's changes of motion keep a rhythm at ``step``.
+    """How strongly one robot's motion keeps a rhythm at ``step``.
 
-    The concentration of the changes' phases at a period P is
-    z(P) = |Σₖ aₖ e^{2πi tₖ/P}| / Σₖ aₖ, aₖ the change of speed (cells/s) plus the change of
-    turn rate (quarter turns a second) between consecutive poses, capped at their
+    The robot's motion aₖ is its speed (cells a second) plus its turn rate (quarter turns a
+    second), each over a quarter of the step — long enough that a tracker's noise of a few
+    centimetres and degrees does not swamp it, short enough to resolve a move — capped at their
     :data:`RHYTHM_CLIP` quantile so that a few outliers (a yaw that flips, a pose that jumps)
-    do not outweigh the rest. The strength is the largest
-    z within :data:`RHYTHM_WINDOW` of ``step`` over the largest at the periods of
-    :data:`RHYTHM_NULL`, which a rhythm at the step does not reach: changes at every multiple
-    of the step sum to nothing at P·m/n for m ≥ 2. Computed by one FFT of the changes binned at
-    a twentieth of the step or the poses' interval, whichever is shorter (a phase error of at
-    most π/20), zero-padded to a quarter of a cycle's drift over the record between
-    neighbouring frequencies. Consecutive poses more than three intervals apart (a robot out of
-    view) make no change.
+    do not outweigh the rest. Its phase concentration at a period P is
+    z(P) = |Σₖ aₖ e^{2πi tₖ/P}| / Σₖ aₖ: near 0 for a robot that drives on at a steady or
+    wandering speed, large for one that starts and stops with its decisions. The strength is
+    the largest z within :data:`RHYTHM_WINDOW` of ``step`` over the largest at the periods of
+    :data:`RHYTHM_NULL`, which a rhythm at the step does not reach: motion repeating every step
+    has no component at P·m/n for m ≥ 2. Computed by one FFT of the motion binned at a
+    twentieth of the step or the poses' interval, whichever is shorter (a phase error of at most
+    π/20), zero-padded to a quarter of a cycle's drift over the record between neighbouring
+    frequencies. A span over a gap of the track (a robot out of view) is left out.
 
     Parameters
     ----------
@@ -699,22 +700,23 @@ def rhythm_strength(t, row, col, yaw, step: float) -> float:
     Returns
     -------
     float
-        The ratio; 0 for a robot with fewer than four poses or no change of motion.
+        The ratio; 0 for a robot with too few poses or no motion.
     """
     if len(t) < 4:
         return 0.0
-    dt = np.diff(t)
-    interval = float(np.median(dt))
-    ok = (dt > 0) & (dt <= 3 * interval)
-    safe = np.where(ok, dt, 1.0)
-    speed = np.hypot(np.diff(row), np.diff(col)) / safe
-    turn = ((np.diff(yaw) + np.pi) % (2 * np.pi) - np.pi) / safe / (np.pi / 2)
-    both = ok[:-1] & ok[1:]
-    a = (np.abs(np.diff(speed)) + np.abs(np.diff(turn)))[both]
-    at = t[1:-1][both]
+    interval = float(np.median(np.diff(t)))
+    lag = max(1, int(round(step / 4 / max(interval, 1e-3))))
+    if len(t) <= lag:
+        return 0.0
+    span_k = t[lag:] - t[:-lag]
+    ok = (span_k > 0) & (span_k <= 1.5 * lag * interval)  # no gap inside the span
+    safe = np.where(ok, span_k, 1.0)
+    speed = np.hypot(row[lag:] - row[:-lag], col[lag:] - col[:-lag]) / safe
+    turn = np.abs((yaw[lag:] - yaw[:-lag] + np.pi) % (2 * np.pi) - np.pi) / safe / (np.pi / 2)
+    a = (speed + turn)[ok]
+    at = (0.5 * (t[lag:] + t[:-lag]))[ok]
     if not len(a):
         return 0.0
-    # a few outliers (a yaw that flips, a pose that jumps) must not outweigh the record
     a = np.minimum(a, np.quantile(a, RHYTHM_CLIP))
     if a.sum() <= 0:
         return 0.0
