@@ -24,6 +24,8 @@ run only learns. Cases:
 ``boydleft``       ``boydright`` mirrored: J's left motor at 0.5
 ``three-right``    physics, boydright-3, I's right motor at 0.5, full view, grid CSV
 ``office-right``   physics, office, K's right motor at 0.5, full view, grid CSV
+``two-true-poses``  physics, boyd2-healthy, I's right and J's left motor at 0.6, the true 10 Hz
+                   poses at the auto step (a smooth track of a team slowed down alike)
 =================  ===========================================================================
 
 Per case and robot it prints the verdict, its confidence, whether it is (confidently) false,
@@ -91,6 +93,9 @@ CASES = {
              {"I": ("right_wheel",), "J": (), "K": ()}, "grid", 1.0),
         Case("office-right", "office", "physics", ("K:right_wheel=0.5",),
              {"I": (), "J": (), "K": ("right_wheel",), "M": ()}, "grid", 1.0),
+        Case("two-true-poses", "boyd2-healthy", "physics",
+             ("I:right_wheel=0.6", "J:left_wheel=0.6"),
+             {"I": ("right_wheel",), "J": ("left_wheel",)}, "true-poses", 1.0),
     )
 }  # fmt: skip
 

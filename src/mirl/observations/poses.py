@@ -185,7 +185,10 @@ class PoseTracks:
         for i, n in enumerate(self.robot_names):
             if n not in names:
                 known = ", ".join(names)
-                raise PoseError(f"{self.source}: robot '{n}' is not in the scenario ({known})")
+                raise PoseError(
+                    f"{self.source}: robot '{n}' is not in the scenario ({known}); leave its "
+                    f"poses out, or say which scenario robot it is with `topics` ({n}=ROBOT)"
+                )
             lut[i] = names.index(n)
         return PoseTracks(
             names,
