@@ -187,9 +187,9 @@ class AutoStep:
         The time (s) between a sparse tracker's poses (:data:`AUTO_SPARSE` or more), where
         the step is a multiple of it.
     rhythm : bool, optional
-        For a smooth track read at its fastest robot's pace: whether some robot's changes of
-        motion keep a rhythm at the step, its decisions (:func:`decision_rhythm`). None where
-        the track says its pace otherwise (a tracker's interval, jumps) or none was found.
+        For a smooth track read at its fastest robot's pace: whether some robot's motion keeps
+        a rhythm at the step, its decisions (:func:`decision_rhythm`). None where the track
+        says its pace otherwise (a tracker's interval, jumps) or none was found.
     """
 
     seconds: float
@@ -702,9 +702,11 @@ def rhythm_strength(t, row, col, yaw, step: float) -> float:
     float
         The ratio; 0 for a robot with too few poses or no motion.
     """
-    if len(t) < 4:
+    gaps = np.diff(t)
+    gaps = gaps[gaps > 0]  # a stamp shared by two poses is no interval
+    if len(t) < 4 or not len(gaps):
         return 0.0
-    interval = float(np.median(np.diff(t)))
+    interval = float(np.median(gaps))
     lag = max(1, int(round(step / 4 / max(interval, 1e-3))))
     if len(t) <= lag:
         return 0.0
