@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mirl.cli import main
 from mirl.observations.discretise import (
@@ -343,3 +345,21 @@ def test_physical_robots_keep_their_rhythm_unless_every_motor_is_weak(seed):
     d = discretise(slow, sc, step_seconds="auto")
     assert d.step_seconds > 2.5 and d.auto_step.rhythm is False
     assert "no robot's moves keep a rhythm" in d.trajectories.off_pace
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.floats(0.0, 1e4), min_size=0, max_size=60),
+    st.floats(0.1, 10.0),
+    st.integers(0, 2**32 - 1),
+)
+def test_the_rhythm_of_any_track_is_a_finite_ratio(times, step, seed):
+    """Any sorted times (repeated stamps, gaps, a handful of poses) and any positions: the
+    strength is finite and non-negative, and a track that never moves has none."""
+    rng = np.random.default_rng(seed)
+    t = np.sort(np.asarray(times, dtype=float))
+    row, col, yaw = (rng.normal(0, 3, len(t)) for _ in range(3))
+    strength = rhythm_strength(t, row, col, yaw, step)
+    assert np.isfinite(strength) and strength >= 0
+    still = np.zeros(len(t))
+    assert rhythm_strength(t, still, still, still, step) == 0.0
