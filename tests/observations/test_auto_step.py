@@ -363,3 +363,21 @@ def test_the_rhythm_of_any_track_is_a_finite_ratio(times, step, seed):
     assert np.isfinite(strength) and strength >= 0
     still = np.zeros(len(t))
     assert rhythm_strength(t, still, still, still, step) == 0.0
+
+
+def test_converting_a_smooth_track_with_no_rhythm_warns_that_the_csv_loses_it(
+    scenario, tmp_path, capsys
+):
+    """`mirl convert` says that the grid CSV it writes cannot carry the doubt about the pace,
+    once; beside a robot that stops onto its cells it says nothing."""
+    slow, paced = tmp_path / "slow.csv", tmp_path / "paced.csv"
+    write_pose_csv(_team(_driven(scenario, _drive_on(0.3)), _driven(scenario, _drive_on(0.25))),
+                   slow)  # fmt: skip
+    write_pose_csv(_team(_driven(scenario, _stop_and_go(2.0)), _driven(scenario, _drive_on(0.3))),
+                   paced)  # fmt: skip
+    code = main(["convert", str(slow), str(tmp_path / "grid.csv"), "--scenario", "boyd2"])
+    err = capsys.readouterr().err
+    assert code == 0 and err.count("mirl: warning:") == 1
+    assert "no robot's moves keep a rhythm" in err and "slow.csv itself" in err
+    code = main(["convert", str(paced), str(tmp_path / "grid2.csv"), "--scenario", "boyd2"])
+    assert code == 0 and "mirl: warning:" not in capsys.readouterr().err
