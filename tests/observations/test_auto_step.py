@@ -48,17 +48,8 @@ def test_a_track_in_jumps_is_read_at_its_period(scenario, step, degree):
 
 def _smooth_track(scenario, speed: float, seconds: float = 600.0) -> PoseTracks:
     """One robot driving the top hallway of boyd2 back and forth at ``speed`` cells a second,
-    turning round in place at its ends, tracked at 20 Hz."""
-    frame = scenario.map.frame
-    cells = [c for c in range(scenario.map.shape[1]) if scenario.map.patroller[0, c]]
-    lo, hi = min(cells), max(cells)
-    t = np.arange(0.0, seconds, 0.05)
-    length = hi - lo
-    phase = np.mod(t * speed, 2 * length)
-    col = lo + np.where(phase < length, phase, 2 * length - phase)
-    yaw = np.where(phase < length, 0.0, np.pi)
-    x, y = frame.cell_centre(np.zeros_like(col), col)
-    return PoseTracks(("I",), t, np.zeros(len(t), dtype=int), x, y, yaw)
+    turning round in place at its ends, tracked at 20 Hz (:func:`_driven`)."""
+    return _driven(scenario, lambda t: t * speed, seconds)
 
 
 @pytest.mark.parametrize(("speed", "pace"), [(0.5, 2.0), (0.25, 4.0), (1.0, 1.0)])
