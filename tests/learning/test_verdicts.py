@@ -170,6 +170,56 @@ def test_verdict_records():
     assert truth.part == "left_wheel" and truth.confidence == 1.0
 
 
+def _draws_damaging(probabilities, n=2000, seed=0):
+    """Equally weighted draws of four parts, each below its threshold (0.8) with the given
+    probability, independently."""
+    rng = np.random.default_rng(seed)
+    damaged = rng.random((n, len(FEATURES))) < np.array(probabilities)
+    p = np.where(damaged, 0.5, 0.95)
+    return p, np.full(n, 1.0 / n)
+
+
+def test_a_part_the_draws_single_out_is_named_and_another_likely_one_said_besides():
+    """The verdict names the fewest parts that hold the probability of damage; a part more
+    probably damaged than not beyond them is damaged besides, not an alternative L cannot
+    tell from the named one."""
+    p, w = _draws_damaging([1.0, 0.0, 0.6, 0.0])
+    v = verdict_from_draws(FEATURES, p, w, DamageDefinition())
+    assert v.part == "left_wheel" and v.confidence == pytest.approx(1.0)
+    assert v.also == ("navigation",)
+    said = v.sentence("J")
+    assert said.startswith("J's left wheel is damaged (confidence 1.00)")
+    assert "its navigation is probably damaged too (0.6" in said
+    assert "cannot tell which" not in said
+    assert v.to_dict()["also"] == ["navigation"]
+    p, w = _draws_damaging([0.99, 0.97, 0.0, 0.0])
+    v = verdict_from_draws(FEATURES, p, w, DamageDefinition())
+    assert v.part == "left_wheel" and v.also == ("right_wheel",)
+    p, w = _draws_damaging([0.55, 0.0, 0.45, 0.0])  # neither alone holds the damage
+    v = verdict_from_draws(FEATURES, p, w, DamageDefinition())
+    assert set(v.candidates) == {"left_wheel", "navigation"} and v.also == ()
+    assert "cannot tell which" in v.sentence("J")
+    p, w = _draws_damaging([0.3, 0.0, 0.0, 0.0])
+    v = verdict_from_draws(FEATURES, p, w, DamageDefinition())
+    assert not v.names_damage and v.also == () and "also" not in v.to_dict()
+
+
+def test_the_parts_said_damaged_are_those_whose_median_is_below_the_threshold():
+    """One answer per question: a part is named or said damaged besides exactly when more than
+    half its draws are damaged (its median below the threshold)."""
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        probs = rng.choice([0.0, 0.2, 0.45, 0.55, 0.8, 1.0], size=4)
+        p, w = _draws_damaging(probs, seed=seed)
+        v = verdict_from_draws(FEATURES, p, w, DamageDefinition())
+        if not v.names_damage:
+            continue
+        medians = np.median(p, axis=0)
+        below = {f for f, m in zip(FEATURES, medians, strict=True) if m < 0.8}
+        assert below <= set(v.named) | set(v.also)
+        assert set(v.also) == {f for f in below if f not in v.named}
+
+
 def _steps(seed=0, steps=300):
     scenario = load_scenario("boyd2")
     sim = PatrolSimulator(scenario, observability=1.0)

@@ -160,3 +160,22 @@ def test_named_alone_means_only_damaged_parts_are_named(verdict, truth, alone, a
     item = AtlasVerdict(base, "pose-csv", "boyd2-healthy", 450, "two wheels", 0.7, "ok", 450,
                         ("", ""))  # fmt: skip
     assert (item.named_alone, item.named_among) == (alone, among)
+
+
+def test_a_part_said_damaged_besides_the_verdict_is_a_statement_of_its_own():
+    """A healthy part the verdict says is damaged too, at 0.9 or more, is a confidently false
+    statement even where the part it names is right; below 0.9, or damaged, it is not."""
+    from mirl.viz.atlas import AtlasVerdict, measures
+
+    def item(also, truth=("left_wheel",)):
+        base = VerdictItem("physics", 1.0, "J:left_wheel", "J", 0, ("left_wheel",), 0.99, truth,
+                           True)  # fmt: skip
+        return AtlasVerdict(base, "pose-csv", "boyd2-healthy", 450, "one wheel", 0.6, "ok", 450,
+                            ("", ""), also)  # fmt: skip
+
+    assert item((("navigation", 0.95),)).confident_false
+    assert not item((("navigation", 0.62),)).confident_false
+    assert not item((("right_wheel", 0.98),), ("left_wheel", "right_wheel")).confident_false
+    assert item(()).named_alone and item((("navigation", 0.62),)).named_alone
+    m = measures([item((("navigation", 0.95),)), item((("navigation", 0.62),))])
+    assert (m.false, m.alone) == (1, 2)

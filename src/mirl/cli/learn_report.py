@@ -25,8 +25,9 @@ def verdict_sentence(robot: str, record: dict) -> str:
         The robot's name, as the sentence names it.
     record : dict
         The verdict's record: ``part``, ``confidence``, ``candidates`` and, where present,
-        ``fit`` (its ``ok`` and ``reason`` are read), ``seen_moving`` (default True) and
-        ``weakened``.
+        ``damage_probabilities`` (the parts damaged besides those named, :attr:`Verdict.also
+        <mirl.learning.verdicts.Verdict.also>`, are read from them), ``fit`` (its ``ok`` and
+        ``reason`` are read), ``seen_moving`` (default True) and ``weakened``.
 
     Returns
     -------
@@ -43,6 +44,7 @@ def verdict_sentence(robot: str, record: dict) -> str:
         record["part"],
         record["confidence"],
         tuple(record["candidates"]),
+        record.get("damage_probabilities", {}),
         fit=fit,
         seen_moving=record.get("seen_moving", True),
         weakened=record.get("weakened"),

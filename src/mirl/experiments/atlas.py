@@ -625,7 +625,9 @@ def verdict_metrics(
     path: str, record: Mapping[str, Any], truth: Mapping[str, Sequence[str]]
 ) -> dict[str, Any]:
     """Per robot of ``mirl learn --json``'s ``record`` that has a verdict: the parts it names
-    (``verdict.PATH.R``, comma-separated; empty: no part), its confidence, whether it is right
+    (``verdict.PATH.R``, comma-separated; empty: no part), the parts it says are damaged besides
+    them with their probabilities (``also.PATH.R``, ``PART=P`` comma-separated, where there are
+    any: :attr:`~mirl.learning.verdicts.Verdict.also`), its confidence, whether it is right
     against ``truth`` (:meth:`~mirl.learning.verdicts.Verdict.is_right`: it names a damaged
     part, or no part of a healthy robot), its model check (``fit.PATH.R``: ``"ok"`` or the
     reason it failed) where the verdict has one, and the observed moves no action explains
@@ -652,8 +654,14 @@ def verdict_metrics(
         v = rec.get("verdict")
         if v is None:
             continue
-        verdict = Verdict(v["part"], float(v["confidence"]), tuple(v["candidates"]))
+        verdict = Verdict(
+            v["part"], float(v["confidence"]), tuple(v["candidates"]),
+            v.get("damage_probabilities", {}),
+        )  # fmt: skip
         out[f"verdict.{path}.{robot}"] = ",".join(verdict.named)
+        if verdict.also:
+            probs = verdict.damage_probabilities
+            out[f"also.{path}.{robot}"] = ",".join(f"{f}={probs[f]:g}" for f in verdict.also)
         out[f"confidence.{path}.{robot}"] = verdict.confidence
         out[f"right.{path}.{robot}"] = int(verdict.is_right(tuple(truth[robot])))
         fit = v.get("fit")

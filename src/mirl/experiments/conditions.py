@@ -337,14 +337,17 @@ def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
 
 
 def _verdict_metrics(learned: Any, truth: Mapping[str, tuple[str, ...]]) -> dict[str, Any]:
-    """Per robot the verdict, its confidence, the truly damaged parts and whether the verdict
-    is right; and the feature intervals (``ci.<robot>.<feature>``: [lo, hi])."""
+    """Per robot the verdict, the parts it says are damaged besides (``also.<robot>``, where
+    there are any), its confidence, the truly damaged parts and whether the verdict is right;
+    and the feature intervals (``ci.<robot>.<feature>``: [lo, hi])."""
     out: dict[str, Any] = {}
     for r in learned.robots:
         v = r.verdict
         if v is None:
             continue
         out[f"verdict.{r.name}"] = ",".join(v.named)
+        if v.also:
+            out[f"also.{r.name}"] = ",".join(f"{f}={v.damage_probabilities[f]:g}" for f in v.also)
         out[f"confidence.{r.name}"] = float(v.confidence)
         out[f"truth.{r.name}"] = ",".join(truth[r.name])
         out[f"right.{r.name}"] = int(v.is_right(truth[r.name]))

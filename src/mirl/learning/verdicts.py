@@ -177,6 +177,16 @@ class Verdict:
         """The parts the verdict says are (or may be) damaged."""
         return (self.part,) if self.part is not None else self.candidates
 
+    @property
+    def also(self) -> tuple[str, ...]:
+        """Parts the verdict does not name that are more probably damaged than not, by
+        decreasing probability (``damage_probabilities``): damaged besides the parts named —
+        a second weak wheel, a common part whose failures the named part does not explain."""
+        if not self.names_damage:
+            return ()
+        more = [(p, f) for f, p in self.damage_probabilities.items() if p > 0.5]
+        return tuple(f for p, f in sorted(more, key=lambda x: -x[0]) if f not in self.named)
+
     def is_right(self, damaged: Sequence[str]) -> bool:
         """Whether the verdict is right when ``damaged`` are the truly damaged parts.
 
@@ -202,8 +212,8 @@ class Verdict:
         -------
         dict
             ``part``, ``confidence`` and ``damage_probabilities`` (rounded to 4 decimals),
-            ``candidates``; ``seen_moving`` (only when False), ``weakened`` and ``fit`` only
-            when set.
+            ``candidates``; ``seen_moving`` (only when False), ``also``, ``weakened`` and
+            ``fit`` only when set.
         """
         out = {
             "part": self.part,
@@ -215,6 +225,8 @@ class Verdict:
         }
         if not self.seen_moving:
             out["seen_moving"] = False
+        if self.also:
+            out["also"] = list(self.also)
         if self.weakened is not None:
             out["weakened"] = self.weakened
         if self.fit is not None:
@@ -250,6 +262,11 @@ class Verdict:
                 parts = ", ".join(map(_words, self.candidates))
                 what = f"one of {robot}'s parts ({parts}) is damaged"
             said = f"{what}; the observations cannot tell which {conf}"
+        if self.also:
+            parts = " and ".join(map(_words, self.also))
+            odds = ", ".join(f"{self.damage_probabilities[f]:.2f}" for f in self.also)
+            verb = "is" if len(self.also) == 1 else "are"
+            said += f"; its {parts} {verb} probably damaged too ({odds})"
         if self.weakened is not None:  # "unaffected" is the verdict's, as far as the record fits
             said += f"; its {_words(self.weakened)} is weakened" + (
                 ", its moves unaffected" if self.fit is None or self.fit.ok else ""
@@ -959,10 +976,11 @@ def verdict_from_draws(
 
     No part is damaged when that is at least as probable as not. Otherwise the verdict names
     the fewest parts — by decreasing probability of damage — that hold all but
-    :data:`COVERAGE_SLACK` of the probability that some part is damaged, plus every part more
-    probably damaged than not: one such part is the verdict, with the probability that it is
-    damaged; several are "one of these, cannot tell which", with the probability that one of
-    them is.
+    :data:`COVERAGE_SLACK` of the probability that some part is damaged: one such part is the
+    verdict, with the probability that it is damaged; several are "one of these, cannot tell
+    which", with the probability that one of them is. Other parts more probably damaged than
+    not are the verdict's :attr:`Verdict.also`: not alternatives to the parts named, which
+    the draws already tell, but damaged besides them.
 
     Parameters
     ----------
@@ -992,7 +1010,7 @@ def verdict_from_draws(
     chosen: list[int] = []
     covered = 0.0
     for k in order:
-        if covered >= (1 - p_none) - COVERAGE_SLACK and marginal[k] < 0.5:
+        if covered >= (1 - p_none) - COVERAGE_SLACK:
             break
         chosen.append(int(k))
         covered = float(weights @ damaged[:, chosen].any(axis=1))
