@@ -65,6 +65,8 @@ FITS = ModelFit((Check("moves", True, 0.4),))
         Verdict(None, 0.93, weakened="right_wheel", fit=FITS),
         Verdict("navigation", 0.6, fit=FAILED),
         Verdict(None, 0.7, fit=FAILED, seen_moving=False),
+        Verdict("left_wheel", 1.0, (), {"left_wheel": 1.0, "navigation": 0.62}, FITS),
+        Verdict("left_wheel", 0.99, (), {"left_wheel": 0.99, "right_wheel": 0.98, "floor": 0.7}),
     ],
 )
 def test_a_verdicts_record_reads_back_as_its_sentence(verdict):
@@ -75,6 +77,12 @@ def test_a_verdicts_record_reads_back_as_its_sentence(verdict):
 def test_a_verdict_sentence_says_what_the_record_says():
     assert verdict_sentence("J", Verdict("left_wheel", 0.974).to_dict()) == (
         "J's left wheel is damaged (confidence 0.97)"
+    )
+    probs = {"left_wheel": 0.99, "right_wheel": 0.98, "floor": 0.7}
+    besides = Verdict("left_wheel", 0.99, (), probs)
+    assert verdict_sentence("J", besides.to_dict()) == (
+        "J's left wheel is damaged (confidence 0.99); its right wheel and floor are probably "
+        "damaged too (0.98, 0.70)"
     )
     said = verdict_sentence("J", Verdict(None, 0.6, fit=FAILED).to_dict())
     assert said.startswith("no part of J is damaged (confidence 0.60)")
