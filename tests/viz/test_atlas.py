@@ -169,13 +169,20 @@ def test_a_part_said_damaged_besides_the_verdict_is_a_statement_of_its_own():
 
     def item(also, truth=("left_wheel",)):
         base = VerdictItem("physics", 1.0, "J:left_wheel", "J", 0, ("left_wheel",), 0.99, truth,
-                           True)  # fmt: skip
+                           True, also)  # fmt: skip
         return AtlasVerdict(base, "pose-csv", "boyd2-healthy", 450, "one wheel", 0.6, "ok", 450,
-                            ("", ""), also)  # fmt: skip
+                            ("", ""))  # fmt: skip
 
-    assert item((("navigation", 0.95),)).confident_false
-    assert not item((("navigation", 0.62),)).confident_false
-    assert not item((("right_wheel", 0.98),), ("left_wheel", "right_wheel")).confident_false
+    assert item((("navigation", 0.95),)).base.confident_false
+    assert not item((("navigation", 0.62),)).base.confident_false
+    assert not item((("right_wheel", 0.98),), ("left_wheel", "right_wheel")).base.confident_false
     assert item(()).named_alone and item((("navigation", 0.62),)).named_alone
     m = measures([item((("navigation", 0.95),)), item((("navigation", 0.62),))])
     assert (m.false, m.alone) == (1, 2)
+
+
+def test_a_stored_also_field_reads_back_as_parts_and_probabilities():
+    from mirl.viz.verdicts import parse_also
+
+    assert parse_also(None) == () and parse_also("") == ()
+    assert parse_also("navigation=0.622,floor=0.51") == (("navigation", 0.622), ("floor", 0.51))

@@ -5,9 +5,9 @@ atlas").
 
 The scoring is :mod:`mirl.viz.verdicts`'s: a verdict is right when it names a damaged part
 (alone or among its candidates) or "no part" of a healthy robot; a statement is *confidently
-false* when it is not right at a confidence of at least 0.9 (:attr:`VerdictItem.confident_false`),
-or when a part it says is damaged besides those it names is not, at a probability of at least 0.9
-(:attr:`AtlasVerdict.confident_false`); the expected calibration error is
+false* when it is not right at a confidence of at least 0.9, or when a part it says is damaged
+besides those it names is not, at a probability of at least 0.9
+(:attr:`VerdictItem.confident_false`); the expected calibration error is
 :func:`~mirl.viz.verdicts.expected_calibration_error`.
 """
 
@@ -28,6 +28,7 @@ from mirl.viz.verdicts import (
     CONFIDENT,
     VerdictItem,
     expected_calibration_error,
+    parse_also,
     reliability_table,
 )
 
@@ -76,9 +77,6 @@ class AtlasVerdict:
         Steps L saw the robot.
     commands : (str, str)
         The simulation and the learning that gave it.
-    also : tuple of (str, float), default ()
-        The parts the verdict says are damaged besides those it names, with their probability
-        of damage (:attr:`~mirl.learning.verdicts.Verdict.also`).
     """
 
     base: VerdictItem  # world, view, damage, robot, run, verdict, confidence, truth, right
@@ -90,18 +88,6 @@ class AtlasVerdict:
     fit: str | None  # the verdict's model check: "ok", why it failed, or None (none made)
     seen: int  # steps L saw the robot
     commands: tuple[str, str]  # the simulation and the learning that gave it
-    also: tuple[tuple[str, float], ...] = ()  # damaged besides the parts named, with P
-
-    @property
-    def also_false(self) -> bool:
-        """Whether the verdict says, at a probability of at least 0.9, that a part is damaged
-        besides those it names that is not: a confidently false statement of its own."""
-        return any(p >= CONFIDENT and f not in self.base.truth for f, p in self.also)
-
-    @property
-    def confident_false(self) -> bool:
-        """Whether the verdict, or a part it says is damaged besides, is confidently false."""
-        return self.base.confident_false or self.also_false
 
     @property
     def damaged(self) -> bool:
@@ -152,17 +138,15 @@ def atlas_items(gs: Sequence[Group]) -> list[AtlasVerdict]:
                         tuple(named.split(",")) if named else (), float(conf),
                         tuple(truth.split(",")) if truth else (),
                         bool(row[f"right.{path}.{robot}"]),
+                        parse_also(row.get(f"also.{path}.{robot}")),
                     )  # fmt: skip
                     fit = row.get(f"fit.{path}.{robot}")
-                    besides = str(row.get(f"also.{path}.{robot}") or "")
-                    also = [x.split("=") for x in besides.split(",") if x]
                     out.append(
                         AtlasVerdict(
                             base, path, c.scenario, c.obs_steps, fault_kind(faults), strength,
                             None if fit is None else str(fit), int(row.get(f"seen.{robot}", 0)),
                             (str(row.get("command.simulate", "")),
                              str(row.get(f"command.learn.{path}", ""))),
-                            tuple((f, float(v)) for f, v in also),
                         )
                     )  # fmt: skip
     return out
@@ -231,13 +215,13 @@ def measures(items: Sequence[AtlasVerdict]) -> Measures:
     checked = [a for a in items if a.fit is not None]
     return Measures(
         n=len(items),
-        false=sum(a.confident_false for a in items),
+        false=sum(a.base.confident_false for a in items),
         ece=expected_calibration_error([a.base for a in items]),
         damaged=len(damaged),
         alone=sum(a.named_alone for a in damaged),
         among=sum(a.named_among for a in damaged),
         healthy=len(healthy),
-        healthy_ok=sum(not a.confident_false for a in healthy),
+        healthy_ok=sum(not a.base.confident_false for a in healthy),
         checked=len(checked),
         misfit=sum(a.fit != "ok" for a in checked),
     )
@@ -399,14 +383,14 @@ def _worst_cells(items: Sequence[AtlasVerdict], k: int = 12, least: int = 4) -> 
 
 def _worst_verdicts(items: Sequence[AtlasVerdict], k: int = 10) -> str:
     """The most confident false statements, each with the commands that reproduce it."""
-    wrong = sorted((a for a in items if a.confident_false), key=lambda a: -a.base.confidence)
+    wrong = sorted((a for a in items if a.base.confident_false), key=lambda a: -a.base.confidence)
     if not wrong:
         return "No statement is confidently false."
     lines = []
     for a in wrong[:k]:
         said = " or ".join(a.base.verdict) or "no part"
-        if a.also:
-            said += "; besides, " + ", ".join(f"{f} at {p:.2f}" for f, p in a.also)
+        if a.base.also:
+            said += "; besides, " + ", ".join(f"{f} at {p:.2f}" for f, p in a.base.also)
         truth = ", ".join(a.base.truth) or "none"
         lines += [
             f"- {a.base.world}, {DATA_PATHS[a.path]}, {a.scenario}, view {a.base.observability:g}"

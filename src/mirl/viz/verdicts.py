@@ -23,6 +23,7 @@ from mirl.viz.aggregate import Group
 
 __all__ = [
     "VerdictItem",
+    "parse_also",
     "verdict_items",
     "EDGES",
     "reliability_table",
@@ -61,6 +62,9 @@ class VerdictItem:
         The robot's truly damaged parts (empty for a healthy robot).
     right : bool
         Whether the verdict is right (see the module's docstring).
+    also : tuple of (str, float), default ()
+        The parts the verdict says are damaged besides those it names, each with its
+        probability of damage (:attr:`~mirl.learning.verdicts.Verdict.also`).
     """
 
     world: str
@@ -72,6 +76,7 @@ class VerdictItem:
     confidence: float
     truth: tuple[str, ...]
     right: bool
+    also: tuple[tuple[str, float], ...] = ()  # damaged besides the parts named, with P
 
     @property
     def confident_wrong(self) -> bool:
@@ -82,13 +87,33 @@ class VerdictItem:
     def confident_false(self) -> bool:
         """A confident statement naming no damaged part: a part that is not damaged, candidates
         without a damaged one, or "no part" of a damaged robot (the calibration atlas's
-        measure; unlike :attr:`confident_wrong`, it counts a confident "no part" too)."""
-        return self.confidence >= CONFIDENT and not self.right
+        measure; unlike :attr:`confident_wrong`, it counts a confident "no part" too); or a
+        part said damaged besides the parts named, at a probability of at least 0.9, that is
+        not."""
+        wrong_besides = any(p >= CONFIDENT and f not in self.truth for f, p in self.also)
+        return (self.confidence >= CONFIDENT and not self.right) or wrong_besides
 
     @property
     def false_alarm(self) -> bool:
         """A healthy robot confidently said to be damaged."""
         return not self.truth and bool(self.verdict) and self.confidence >= CONFIDENT
+
+
+def parse_also(text: object) -> tuple[tuple[str, float], ...]:
+    """A stored ``also`` field (``PART=P`` comma-separated, empty or None for none) as pairs.
+
+    Parameters
+    ----------
+    text : object
+        The stored value.
+
+    Returns
+    -------
+    tuple of (str, float)
+        The parts and their probabilities of damage.
+    """
+    pairs = (x.split("=") for x in str(text or "").split(",") if x)
+    return tuple((f, float(v)) for f, v in pairs)
 
 
 def verdict_items(gs: Sequence[Group]) -> list[VerdictItem]:
@@ -99,7 +124,7 @@ def verdict_items(gs: Sequence[Group]) -> list[VerdictItem]:
     gs : sequence of Group
         The experiment's conditions and their stored rows; a row holds
         ``confidence.ROBOT``, ``verdict.ROBOT``, ``truth.ROBOT`` and ``right.ROBOT`` for each
-        robot with a verdict.
+        robot with a verdict, and ``also.ROBOT`` where it says parts are damaged besides.
 
     Returns
     -------
@@ -122,6 +147,7 @@ def verdict_items(gs: Sequence[Group]) -> list[VerdictItem]:
                         float(row[f"confidence.{robot}"]),
                         tuple(truth.split(",")) if truth else (),
                         bool(row[f"right.{robot}"]),
+                        parse_also(row.get(f"also.{robot}")),
                     )
                 )  # fmt: skip
     return out
