@@ -182,7 +182,9 @@ def test_a_part_said_damaged_besides_the_verdict_is_a_statement_of_its_own():
 
 
 def test_a_stored_also_field_reads_back_as_parts_and_probabilities():
-    from mirl.viz.verdicts import parse_also
+    from mirl.learning.verdicts import Verdict, also_field, parse_also_field
 
-    assert parse_also(None) == () and parse_also("") == ()
-    assert parse_also("navigation=0.622,floor=0.51") == (("navigation", 0.622), ("floor", 0.51))
+    assert parse_also_field(None) == () and parse_also_field("") == ()
+    v = Verdict("left_wheel", 1.0, (), {"left_wheel": 1.0, "navigation": 0.622, "floor": 0.51})
+    assert also_field(v) == "navigation=0.622,floor=0.51"
+    assert parse_also_field(also_field(v)) == (("navigation", 0.622), ("floor", 0.51))

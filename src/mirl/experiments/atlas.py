@@ -626,8 +626,8 @@ def verdict_metrics(
 ) -> dict[str, Any]:
     """Per robot of ``mirl learn --json``'s ``record`` that has a verdict: the parts it names
     (``verdict.PATH.R``, comma-separated; empty: no part), the parts it says are damaged besides
-    them with their probabilities (``also.PATH.R``, ``PART=P`` comma-separated, where there are
-    any: :attr:`~mirl.learning.verdicts.Verdict.also`), its confidence, whether it is right
+    them with their probabilities (``also.PATH.R``, where there are any:
+    :func:`~mirl.learning.verdicts.also_field`), its confidence, whether it is right
     against ``truth`` (:meth:`~mirl.learning.verdicts.Verdict.is_right`: it names a damaged
     part, or no part of a healthy robot), its model check (``fit.PATH.R``: ``"ok"`` or the
     reason it failed) where the verdict has one, and the observed moves no action explains
@@ -647,7 +647,7 @@ def verdict_metrics(
     dict
         The metrics, by ``KIND.PATH.ROBOT``.
     """
-    from mirl.learning.verdicts import Verdict
+    from mirl.learning.verdicts import Verdict, also_field
 
     out: dict[str, Any] = {}
     for robot, rec in record["robots"].items():
@@ -660,8 +660,7 @@ def verdict_metrics(
         )  # fmt: skip
         out[f"verdict.{path}.{robot}"] = ",".join(verdict.named)
         if verdict.also:
-            probs = verdict.damage_probabilities
-            out[f"also.{path}.{robot}"] = ",".join(f"{f}={probs[f]:g}" for f in verdict.also)
+            out[f"also.{path}.{robot}"] = also_field(verdict)
         out[f"confidence.{path}.{robot}"] = verdict.confidence
         out[f"right.{path}.{robot}"] = int(verdict.is_right(tuple(truth[robot])))
         fit = v.get("fit")

@@ -28,6 +28,7 @@ from mirl._registry import Registry
 from mirl.experiments.atlas import atlas_design, atlas_run
 from mirl.experiments.options import PAPER_GO_RULE, RunProtocol
 from mirl.learning.methods import METHODS
+from mirl.learning.verdicts import also_field
 from mirl.worlds import DEFAULT_WORLD, WORLDS
 
 __all__ = [
@@ -347,7 +348,7 @@ def _verdict_metrics(learned: Any, truth: Mapping[str, tuple[str, ...]]) -> dict
             continue
         out[f"verdict.{r.name}"] = ",".join(v.named)
         if v.also:
-            out[f"also.{r.name}"] = ",".join(f"{f}={v.damage_probabilities[f]:g}" for f in v.also)
+            out[f"also.{r.name}"] = also_field(v)
         out[f"confidence.{r.name}"] = float(v.confidence)
         out[f"truth.{r.name}"] = ",".join(truth[r.name])
         out[f"right.{r.name}"] = int(v.is_right(truth[r.name]))

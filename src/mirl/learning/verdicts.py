@@ -86,6 +86,8 @@ from mirl.world.maps import HEADING_DELTAS
 
 __all__ = [
     "Verdict",
+    "also_field",
+    "parse_also_field",
     "FeatureUncertainty",
     "PriorSpec",
     "LateralDrift",
@@ -274,6 +276,40 @@ class Verdict:
         if self.fit is not None and not self.fit.ok:
             said += f"; but {robot}'s record does not fit L's motion models: {self.fit.reason}"
         return said
+
+
+def also_field(verdict: Verdict) -> str:
+    """:attr:`Verdict.also` as a sweep stores it: ``PART=P`` comma-separated, P its probability
+    of damage (empty for none); :func:`parse_also_field` reads it back.
+
+    Parameters
+    ----------
+    verdict : Verdict
+        The verdict.
+
+    Returns
+    -------
+    str
+        The stored form.
+    """
+    return ",".join(f"{f}={verdict.damage_probabilities[f]:g}" for f in verdict.also)
+
+
+def parse_also_field(text: object) -> tuple[tuple[str, float], ...]:
+    """A stored :func:`also_field` (empty or None for none) as (part, probability) pairs.
+
+    Parameters
+    ----------
+    text : object
+        The stored value.
+
+    Returns
+    -------
+    tuple of (str, float)
+        The parts and their probabilities of damage.
+    """
+    pairs = (x.split("=") for x in str(text or "").split(",") if x)
+    return tuple((f, float(v)) for f, v in pairs)
 
 
 def _words(feature: str) -> str:

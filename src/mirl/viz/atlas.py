@@ -23,12 +23,12 @@ from matplotlib.figure import Figure
 
 from mirl.experiments.atlas import DATA_PATHS, POSE_PATHS, fault_kind, parse_damage
 from mirl.experiments.conditions import EXPERIMENTS, Condition
+from mirl.learning.verdicts import parse_also_field
 from mirl.viz.aggregate import Group
 from mirl.viz.verdicts import (
     CONFIDENT,
     VerdictItem,
     expected_calibration_error,
-    parse_also,
     reliability_table,
 )
 
@@ -138,7 +138,7 @@ def atlas_items(gs: Sequence[Group]) -> list[AtlasVerdict]:
                         tuple(named.split(",")) if named else (), float(conf),
                         tuple(truth.split(",")) if truth else (),
                         bool(row[f"right.{path}.{robot}"]),
-                        parse_also(row.get(f"also.{path}.{robot}")),
+                        parse_also_field(row.get(f"also.{path}.{robot}")),
                     )  # fmt: skip
                     fit = row.get(f"fit.{path}.{robot}")
                     out.append(

@@ -19,11 +19,11 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from mirl.learning.verdicts import parse_also_field
 from mirl.viz.aggregate import Group
 
 __all__ = [
     "VerdictItem",
-    "parse_also",
     "verdict_items",
     "EDGES",
     "reliability_table",
@@ -99,23 +99,6 @@ class VerdictItem:
         return not self.truth and bool(self.verdict) and self.confidence >= CONFIDENT
 
 
-def parse_also(text: object) -> tuple[tuple[str, float], ...]:
-    """A stored ``also`` field (``PART=P`` comma-separated, empty or None for none) as pairs.
-
-    Parameters
-    ----------
-    text : object
-        The stored value.
-
-    Returns
-    -------
-    tuple of (str, float)
-        The parts and their probabilities of damage.
-    """
-    pairs = (x.split("=") for x in str(text or "").split(",") if x)
-    return tuple((f, float(v)) for f, v in pairs)
-
-
 def verdict_items(gs: Sequence[Group]) -> list[VerdictItem]:
     """Every stored verdict of every run of ``gs``.
 
@@ -147,7 +130,7 @@ def verdict_items(gs: Sequence[Group]) -> list[VerdictItem]:
                         float(row[f"confidence.{robot}"]),
                         tuple(truth.split(",")) if truth else (),
                         bool(row[f"right.{robot}"]),
-                        parse_also(row.get(f"also.{robot}")),
+                        parse_also_field(row.get(f"also.{robot}")),
                     )
                 )  # fmt: skip
     return out
