@@ -3,6 +3,8 @@ on tracks that move in jumps, tracks that move smoothly, and tracks too noisy to
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -354,6 +356,18 @@ def test_the_rhythm_of_any_track_is_a_finite_ratio(times, step, seed):
     assert np.isfinite(strength) and strength >= 0
     still = np.zeros(len(t))
     assert rhythm_strength(t, still, still, still, step) == 0.0
+
+
+def test_stamps_a_few_ulps_apart_are_no_motion_and_raise_no_float_warning():
+    """Two poses 5e-324 s apart would move at ~1e308 cells a second; that span is left out
+    (no overflow warning) and the spans a tracker measures still give a strength."""
+    rng = np.random.default_rng(0)
+    t = np.concatenate([[0.0, 5e-324], 1.0 + np.arange(200.0)])  # a span per pose: lag 1
+    row, col, yaw = (rng.normal(0, 3, len(t)) for _ in range(3))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        strength = rhythm_strength(t, row, col, yaw, 2.0)
+    assert np.isfinite(strength) and strength > 0
 
 
 def test_converting_a_smooth_track_with_no_rhythm_warns_that_the_csv_loses_it(

@@ -684,7 +684,8 @@ def rhythm_strength(t, row, col, yaw, step: float) -> float:
     has no component at P·m/n for m ≥ 2. Computed by one FFT of the motion binned at a
     twentieth of the step or the poses' interval, whichever is shorter (a phase error of at most
     π/20), zero-padded to a quarter of a cycle's drift over the record between neighbouring
-    frequencies. A span over a gap of the track (a robot out of view) is left out.
+    frequencies. A span over a gap of the track (a robot out of view) is left out, and so is one
+    whose motion overflows (stamps a few ulps apart).
 
     Parameters
     ----------
@@ -713,9 +714,14 @@ def rhythm_strength(t, row, col, yaw, step: float) -> float:
     span_k = t[lag:] - t[:-lag]
     ok = (span_k > 0) & (span_k <= 1.5 * lag * interval)  # no gap inside the span
     safe = np.where(ok, span_k, 1.0)
-    speed = np.hypot(row[lag:] - row[:-lag], col[lag:] - col[:-lag]) / safe
-    turn = np.abs((yaw[lag:] - yaw[:-lag] + np.pi) % (2 * np.pi) - np.pi) / safe / (np.pi / 2)
-    a = (speed + turn)[ok]
+    # Stamps a few ulps apart give a motion beyond the floats (inf): no tracker measures that,
+    # so such a span is left out like one over a gap; finite motions keep their bits.
+    with np.errstate(over="ignore"):
+        speed = np.hypot(row[lag:] - row[:-lag], col[lag:] - col[:-lag]) / safe
+        turn = np.abs((yaw[lag:] - yaw[:-lag] + np.pi) % (2 * np.pi) - np.pi) / safe / (np.pi / 2)
+        motion = speed + turn
+    ok &= np.isfinite(motion)
+    a = motion[ok]
     at = (0.5 * (t[lag:] + t[:-lag]))[ok]
     if not len(a):
         return 0.0
