@@ -3,6 +3,8 @@ recognises is refused in one line that lists them."""
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from mirl.observations.sources import FORMATS, ROBOT_DATA_KINDS, input_format
@@ -34,3 +36,80 @@ def test_the_formats_are_a_table_tried_in_order():
     assert isinstance(FORMATS, Registry)
     assert FORMATS.names == ("bag", "grid-csv", "pose-csv")  # a bag first: it has no header
     assert FORMATS["pose-csv"].robot_data and not FORMATS["grid-csv"].robot_data
+
+
+@pytest.fixture(scope="module")
+def team_poses(tmp_path_factory):
+    """A pose CSV of boyd2's I and J (grid world, full view), and the same poses under a
+    tracker's names with a third robot the scenario does not have."""
+    from mirl.cli import main
+
+    d = tmp_path_factory.mktemp("poses")
+    plain = d / "p.csv"
+    assert main(["simulate", "--scenario", "boyd2", "--steps", "120", "--seed", "4",
+                 "--observability", "1", "--observations", str(d / "o.csv"),
+                 "--poses", str(plain)]) == 0  # fmt: skip
+    lines = plain.read_text().splitlines()
+    renamed = [lines[0]]
+    for line in lines[1:]:
+        t, robot, rest = line.split(",", 2)
+        renamed.append(f"{t},tb_{robot.lower()},{rest}")
+        if robot == "J":
+            renamed.append(f"{t},person,{rest}")
+    tracker = d / "tracker.csv"
+    tracker.write_text("\n".join(renamed) + "\n")
+    n_j = sum(1 for line in lines[1:] if line.split(",")[1] == "J")
+    return plain, tracker, n_j
+
+
+def test_topics_on_a_pose_csv_read_the_robots_they_name_as_on_a_bag(team_poses):
+    """``topics`` on a pose CSV reads the named robots under their scenario names, exactly as
+    the file with those names would be read, and counts the poses of the robots left out."""
+    from mirl.observations.sources import load_observations
+    from mirl.world.scenario import load_scenario
+
+    plain, tracker, n_j = team_poses
+    sc = load_scenario("boyd2")
+    want = load_observations(plain, sc)
+    got = load_observations(tracker, sc, topics={"tb_i": "I", "tb_j": "J"})
+    assert got.trajectories.robot_names == want.trajectories.robot_names == sc.robot_names
+    for i in range(len(sc.robot_names)):
+        assert (got.trajectories.state_series(sc.domain, i)
+                == want.trajectories.state_series(sc.domain, i)).all()  # fmt: skip
+    assert dict(got.left_out) == {"person": n_j} and not want.left_out
+    only_i = load_observations(tracker, sc, topics={"tb_i": "I"})
+    assert dict(only_i.left_out) == {"tb_j": n_j, "person": n_j}
+    traj = only_i.trajectories
+    assert (traj.state_series(sc.domain, traj.robot_names.index("J")) == -1).all()
+
+
+def test_a_pose_csv_robot_outside_the_scenario_or_topics_is_refused_in_one_line(team_poses):
+    from mirl.observations.poses import PoseError
+    from mirl.observations.sources import load_observations
+    from mirl.world.scenario import load_scenario
+
+    _, tracker, _ = team_poses
+    sc = load_scenario("boyd2")
+    with pytest.raises(PoseError, match="robot 'tb_i' is not in the scenario"):
+        load_observations(tracker, sc)
+    with pytest.raises(PoseError, match="no robot 'tb_k' in the file"):
+        load_observations(tracker, sc, topics={"tb_i": "I", "tb_k": "J"})
+
+
+def test_mirl_learn_says_which_robots_of_a_pose_csv_its_topics_left_out(team_poses, capsys):
+    from mirl.cli import main
+
+    plain, tracker, n_j = team_poses
+    assert main(["learn", "--scenario", "boyd2", "--observations", str(plain), "--json"]) == 0
+    want = capsys.readouterr()
+    code = main(["learn", "--scenario", "boyd2", "--observations", str(tracker), "--json",
+                 "--topic", "tb_i=I", "--topic", "tb_j=J"])  # fmt: skip
+    got = capsys.readouterr()
+    assert code == 0 and not want.err
+    assert got.err.count("mirl: warning:") == 1
+    assert f"not read, as no --topic names them: person ({n_j} poses)" in got.err
+    assert _but_path_and_times(got.out) == _but_path_and_times(want.out)
+
+
+def _but_path_and_times(out: str) -> dict:
+    return {k: v for k, v in json.loads(out).items() if k not in ("observations", "timings")}

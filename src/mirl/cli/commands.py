@@ -288,7 +288,7 @@ def _write_poses(args: argparse.Namespace, scenario, observations) -> None:
 def _read_observations(args: argparse.Namespace, scenario, observability=None):
     from mirl.observations.sources import load_observations
 
-    return load_observations(
+    loaded = load_observations(
         args.observations,
         scenario,
         topics=[parse_topic(t) for t in args.topic or []],
@@ -300,6 +300,10 @@ def _read_observations(args: argparse.Namespace, scenario, observability=None):
         observability=observability,
         same_frames=dict(parse_same_frame(t) for t in getattr(args, "same_frame", None) or []),
     )
+    if loaded.left_out:  # said, not dropped silently: a robot may be missing from --topic
+        robots = ", ".join(f"{name} ({n} poses)" for name, n in loaded.left_out.items())
+        warn(f"{args.observations}: not read, as no --topic names them: {robots}")
+    return loaded
 
 
 @command("convert")

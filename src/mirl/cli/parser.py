@@ -310,7 +310,8 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
         help="a pose topic and the scenario robot it is (repeatable), e.g. /tb_i/amcl_pose=I; "
         "a robot recorded only in the transforms is TF_TOPIC:CHILD_FRAME, e.g. "
         "/tf:base_footprint=I (composed up to the map frame, /tf_static included); "
-        "for a pose CSV, renames a robot of the file",
+        "for a pose CSV, NAME=ROBOT reads the file's robot NAME as ROBOT and, once given, "
+        "only the robots named (the others' poses are counted in a warning)",
     )
     g.add_argument(
         "--same-frame",

@@ -10,7 +10,7 @@ CSV (``t,robot,x,y,yaw`` or ``qz,qw``), and a bag (a ROS 1 ``.bag``, a ROS 2 bag
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -46,11 +46,15 @@ class LoadedObservations:
         The name of its format in :data:`FORMATS`: ``grid-csv``, ``pose-csv`` or ``bag``.
     discretised : Discretised, optional
         For pose data: the discretisation's counts and the cells L could see.
+    left_out : mapping of str to int, default {}
+        A pose CSV read with ``topics``: each robot of the file that no topic names, and its
+        poses, which were not read.
     """
 
     trajectories: Trajectories
     kind: str  # the name of its format in FORMATS: "grid-csv", "pose-csv" or "bag"
     discretised: Discretised | None = None  # for pose data: the counts and the visible cells
+    left_out: Mapping[str, int] = field(default_factory=dict)  # robot of the file -> its poses
 
     def visible_states(self, scenario: Scenario) -> np.ndarray | None:
         """The states L could see, for the learner.
@@ -86,6 +90,7 @@ class _ReadOptions:
     topics: dict[str, str]
     robot_names: tuple[str, ...]
     same_frames: Mapping[str, str] | None
+    left_out: dict[str, int] = field(default_factory=dict)  # the reader's: robot -> poses
 
 
 @dataclass(frozen=True)
@@ -134,7 +139,11 @@ def _read_pose_csv(path: Path, scenario: Scenario, options: _ReadOptions) -> Pos
     if options.same_frames:
         raise ValueError(f"{path}: `same_frames` applies to bags; a pose CSV has no frames")
     tracks = read_pose_csv(path)
-    return _rename(tracks, options.topics) if options.topics else tracks
+    if not options.topics:
+        return tracks
+    tracks, left_out = _select_robots(tracks, options.topics)
+    options.left_out.update(left_out)
+    return tracks
 
 
 def _read_grid_csv(path: Path, scenario: Scenario, options: _ReadOptions) -> Trajectories:
@@ -229,8 +238,13 @@ def load_observations(
     scenario : Scenario
         The scenario whose robots and map the observations are of.
     topics : mapping of str to str, or sequence of (str, str), optional
-        For a bag, topic → robot (required); for a pose CSV, an optional renaming of the file's
-        robot names.
+        For a bag, topic → robot (required). For a pose CSV, the file's robot → the scenario
+        robot it is: only the robots named are read (:attr:`LoadedObservations.left_out` counts
+        the others' poses); without it every robot of the file is read.
+
+        .. versionchanged:: 0.2.0
+           On a pose CSV it selects the robots it names, as on a bag (it renamed them and read
+           the others too).
     step_seconds : float or "auto", optional
         Pose data: seconds a decision step, or ``"auto"`` (the default, None): the robots' own
         pace (:func:`~mirl.observations.discretise.auto_step_seconds`).
@@ -302,16 +316,27 @@ def load_observations(
         drop_off_map=drop_off_map,
         visible=visible,
     )
-    return LoadedObservations(d.trajectories, fmt.name, d)
+    return LoadedObservations(d.trajectories, fmt.name, d, dict(options.left_out))
 
 
-def _rename(tracks: PoseTracks, mapping: Mapping[str, str]) -> PoseTracks:
+def _select_robots(
+    tracks: PoseTracks, mapping: Mapping[str, str]
+) -> tuple[PoseTracks, dict[str, int]]:
+    """The poses of the robots ``mapping`` names (file name -> scenario robot), renamed, as a
+    bag's topics are read; and the poses of each robot it does not name, left out."""
     for old in mapping:
         if old not in tracks.robot_names:
             raise PoseError(f"{tracks.source}: `topics` {old}=...: no robot '{old}' in the file")
-    names = [mapping.get(n, n) for n in tracks.robot_names]
-    merged: list[str] = list(dict.fromkeys(names))
-    lut = np.array([merged.index(n) for n in names], dtype=np.int64)
-    return PoseTracks(
-        tuple(merged), tracks.t, lut[tracks.robot], tracks.x, tracks.y, tracks.yaw, tracks.source
-    ).sorted()
+    counts = np.bincount(tracks.robot, minlength=len(tracks.robot_names))
+    left_out = {n: int(counts[i]) for i, n in enumerate(tracks.robot_names) if n not in mapping}
+    kept = [i for i, n in enumerate(tracks.robot_names) if n in mapping]
+    merged: list[str] = list(dict.fromkeys(mapping[tracks.robot_names[i]] for i in kept))
+    lut = np.full(len(tracks.robot_names), -1, dtype=np.int64)
+    for i in kept:
+        lut[i] = merged.index(mapping[tracks.robot_names[i]])
+    rows = lut[tracks.robot] >= 0
+    selected = PoseTracks(
+        tuple(merged), tracks.t[rows], lut[tracks.robot[rows]], tracks.x[rows], tracks.y[rows],
+        tracks.yaw[rows], tracks.source,
+    ).sorted()  # fmt: skip
+    return selected, left_out
