@@ -13,6 +13,7 @@ from mirl.learning.model_check import (
     check_moves,
     check_pace,
     check_pinned,
+    check_record_length,
     check_stalls,
     check_unexplained,
     held_back,
@@ -225,6 +226,42 @@ def test_a_feature_pinned_by_few_trials_fails():
     assert check_pinned({"navigation": 0.6}, [(("navigation",), 2, 3)]).ok
     # a healthy part at 1 on a short record claims nothing
     assert check_pinned({"floor": 1.0}, [(("floor",), 3, 3)]).ok
+
+
+# ---- few steps ----------------------------------------------------------------------------------
+def test_a_record_of_fewer_than_twenty_steps_fails_and_says_what_would_fix_it():
+    check = check_record_length(19)
+    assert not check.ok and "19 steps, fewer than 20" in check.reason
+    assert "longer" in check.fix
+    assert check_record_length(20).ok and check_record_length(400).ok
+
+
+def test_a_short_record_of_a_clean_robot_gets_no_confident_no_part(monkeypatch):
+    """A robot seen moving flawlessly on 15 steps: the steps alone would say "no part" at
+    high confidence, but a record that short cannot rule out what made it short."""
+    scenario = load_scenario("boyd2-healthy")
+    from mirl.simulation.grid import simulate
+
+    sim = simulate(scenario, 300, seed=1, observability=1.0, random_starts=True)
+    full = sim.observations.state_series(scenario.domain, 0)
+    labels = np.where(full >= 0, scenario.true_policy(0)[np.maximum(full, 0)], -1)
+    x = np.full_like(full, -1)
+    x[100:116] = full[100:116]  # 15 steps observed at both ends
+    probs = scenario.robots[0].feature_probabilities
+    short = robot_uncertainty(scenario.domain, RobotRecord(x, labels), probs, scenario.faults)
+    assert not short.verdict.fit.ok and "15 steps" in short.verdict.fit.reason
+    assert short.verdict.confidence < 0.9
+    import mirl.learning.verdicts as verdicts
+
+    monkeypatch.setattr(
+        verdicts, "check_record_length", lambda n: check_record_length(n, min_steps=0)
+    )
+    untempered = robot_uncertainty(scenario.domain, RobotRecord(x, labels), probs, scenario.faults)
+    assert untempered.verdict.part is None and untempered.verdict.confidence >= 0.9
+    monkeypatch.undo()
+    x[100:130] = full[100:130]  # 29 steps: the check passes
+    longer = robot_uncertainty(scenario.domain, RobotRecord(x, labels), probs, scenario.faults)
+    assert [c.name for c in longer.verdict.fit.checks if not c.ok] == []
 
 
 # ---- what a failed check does to the verdict -----------------------------------------------------

@@ -59,6 +59,7 @@ from mirl.learning.model_check import (
     check_moves,
     check_pace,
     check_pinned,
+    check_record_length,
     check_stalls,
     check_unexplained,
     held_back,
@@ -1625,6 +1626,7 @@ def robot_uncertainty(
         checks.append(check_pace(record.off_pace))
     if misfit.any():  # misfit steps are never failures of a part
         post = posterior(keep & ~misfit & ~in_the_way)
+    checks.append(check_record_length(int((keep & ~misfit & ~in_the_way).sum())))
     left_out = {
         "in another robot's way": int(in_the_way.sum()),
         "explained by no action": int(unexplained.sum()),
