@@ -1624,9 +1624,10 @@ def robot_uncertainty(
     checks.append(check_pinned(probabilities, counts))
     if record.off_pace is not None:
         checks.append(check_pace(record.off_pace))
+    used = keep & ~misfit & ~in_the_way  # the steps the verdict's evidence holds
     if misfit.any():  # misfit steps are never failures of a part
-        post = posterior(keep & ~misfit & ~in_the_way)
-    checks.append(check_record_length(int((keep & ~misfit & ~in_the_way).sum())))
+        post = posterior(used)
+    checks.append(check_record_length(int(used.sum())))
     left_out = {
         "in another robot's way": int(in_the_way.sum()),
         "explained by no action": int(unexplained.sum()),
@@ -1645,7 +1646,6 @@ def robot_uncertainty(
         verdict_from_draws(features, p, w, definition), post, features, p, w, definition
     )
     verdict = _common_parts_widened(verdict, post, features, p, w, definition)
-    used = keep & ~misfit & ~in_the_way
     groups = indistinguishable(plan_domain, s[used], lab[used])
     wheels_group = any(set(g) == set(WHEELS) for g in groups)
     # turns that need a wheel, but which one the step outcomes cannot say (a mirror and its
