@@ -231,9 +231,10 @@ def test_a_feature_pinned_by_few_trials_fails():
 # ---- few steps ----------------------------------------------------------------------------------
 def test_a_record_of_fewer_than_twenty_steps_fails_and_says_what_would_fix_it():
     check = check_record_length(19)
-    assert not check.ok and "19 steps, fewer than 20" in check.reason
+    assert not check.ok and "19 steps L saw from start to end, fewer than 20" in check.reason
     assert "longer" in check.fix
     assert check_record_length(20).ok and check_record_length(400).ok
+    assert "rests on 1 step L saw" in check_record_length(1).reason
 
 
 def test_a_short_record_of_a_clean_robot_gets_no_confident_no_part(monkeypatch):

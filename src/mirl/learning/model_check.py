@@ -615,8 +615,9 @@ def check_record_length(n_steps: int, *, min_steps: int = AUTO_MIN_MOVES) -> Che
         return Check("few steps", True)
     return Check(
         "few steps", False, None,
-        f"L saw it on {n_steps} steps, fewer than {min_steps}; a robot that fails its moves "
-        "comes into view less often, which those steps cannot show",
+        f"the verdict rests on {n_steps} {'step' if n_steps == 1 else 'steps'} L saw from start "
+        f"to end, fewer than {min_steps}; a robot that fails its moves comes into view less "
+        "often, which those steps cannot show",
         "watch it longer or see more of its route (a longer record, a wider view)",
     )  # fmt: skip
 
