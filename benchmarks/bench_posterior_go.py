@@ -9,9 +9,10 @@ Run i is ``run_episode(scenario, method, seed=run_seed(BASE, i))`` under the def
 ``adaptive`` go rule (today's decisions; it states both the posterior-averaged chance and its
 point models') and once with ``adaptive-posterior`` (``--rules`` picks). Each run is one JSON line
 (its outcome, go time, the stated chance, its 5–95 % interval, the point models' chance, the
-averaged chance before calibration, the fraction of states L sees and the run's CPU seconds); a
-run already in ``--out`` is not run again, so a long measurement can be split over processes
-(``--first``, ``--runs``) and resumed.
+averaged chance before calibration, the fraction of states L sees, the patrollers it had never
+seen when it went and the run's CPU seconds); a run already in ``--out`` is not run again, so a
+long measurement can be split over processes (``--first``, ``--runs``) and resumed. The report
+splits the runs where L went by whether it had seen every patroller.
 
 The report: per rule, success and timeouts; where L went, the mean stated chance (posterior and
 point) against the realised rate with standard errors, the Brier scores, and the deciles of the
@@ -154,7 +155,7 @@ def measure(args) -> None:
                     "cpu": r.timings["cpu"],
                     "method": args.method, "scenario": args.scenario, "world": args.world,
                     "observability": args.observability, "view": view,
-                    "obs_steps": args.obs_steps,
+                    "obs_steps": args.obs_steps, "never_seen": list(r.never_seen),
                 }  # fmt: skip
                 print(json.dumps(row), file=out, flush=True)
 
@@ -186,6 +187,13 @@ def report(rows: list[dict]) -> None:
         for name, x in (("posterior (stated)", s), ("point models'", pt)):
             print(f"| {name} | {x.mean():.3f} | {_mean_se(x - yw)} | "
                   f"{np.mean((x - yw) ** 2):.3f} |")  # fmt: skip
+        if all("never_seen" in r for r in went):  # the chance's assumption about a robot
+            unseen = np.array([bool(r["never_seen"]) for r in went])
+            for name, sel in (("every patroller seen", ~unseen), ("one never seen", unseen)):
+                if sel.sum() > 1:
+                    print(f"\n{name} when L went: {int(sel.sum())} runs, stated − realised "
+                          f"{_mean_se(s[sel] - yw[sel])}, point models' − realised "
+                          f"{_mean_se(pt[sel] - yw[sel])}")  # fmt: skip
         lo = np.array([r["interval"][0] for r in went])
         hi = np.array([r["interval"][1] for r in went])
         print(f"\nmean 5–95 % interval width {np.mean(hi - lo):.3f}; realised rate of runs whose "

@@ -81,6 +81,11 @@ def test_the_optional_keys_appear_when_set():
     assert r.watch_until_seen == d["watch_until_seen"] == 40
     assert d["predicted_success"] == 0.7
     assert d["relearns"] == [relearn.to_dict()]
+    assert d["never_seen"] == ["I", "J"]  # the run by hand saw nobody before it went at 310
+    seen_j = Trajectories(("I", "J"), *(np.array([v]) for v in (305, 1, 0, 1, 0)), horizon=311)
+    assert run_result(predicted_success=0.7, observations=seen_j).to_dict()["never_seen"] == ["I"]
+    late_i = Trajectories(("I", "J"), *(np.array([v]) for v in (311, 0, 0, 1, 0)), horizon=312)
+    assert run_result(predicted_success=0.7, observations=late_i).never_seen == ("I", "J")
     assert run_result(relearns=()).to_dict()["relearns"] == []  # re-learning, never needed
     assert run_result(protocol=RunProtocol.paper()).watch_until_seen is None  # a fixed time
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 
 import pytest
@@ -58,3 +59,22 @@ def test_the_office_runs_header_and_show_map_count_the_same_cells(capsys):
     assert code == 0
     header = capsys.readouterr().out.splitlines()[0]
     assert shown == _cells(header, r"\(\d+/(\d+) cells\)") == 951
+
+
+def test_a_chance_stated_without_seeing_a_patroller_says_what_it_assumes(capsys):
+    """Seed 0 at L's door, 300 observed steps: J never comes into view before L goes. The chance
+    L states then rests on where it supposes J, which its record cannot check; the report and
+    the JSON say so, and a run that saw every patroller says nothing of the kind."""
+    argv = ["run", "--method", "mirl", "--seed", "0", "--obs-steps", "300"]
+    assert main([*argv, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    unseen = {n for n, k in out["seen_steps"].items() if k == 0}
+    assert out["never_seen"] and set(out["never_seen"]) <= unseen
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    caveat = re.search(r"\(L had never seen ([A-Z, ]+) when it went: (.*?)\)", text, re.S)
+    assert caveat and caveat[1].split(", ") == out["never_seen"]
+    assert "can be far off" in caveat[2]
+    assert main([*argv, "--observability", "1", "--json"]) == 0
+    full = json.loads(capsys.readouterr().out)
+    assert full["go_time"] is not None and "never_seen" not in full

@@ -246,6 +246,17 @@ class RunResult:
     predicted_success_interval_averaged: tuple[float, float] | None = None  # ditto
 
     @property
+    def never_seen(self) -> tuple[str, ...]:
+        """The patrollers L had not seen once when it went (when it never went, by the end of
+        the run): its models of them are borrowed, not learned, and the chance it states takes
+        each to be somewhere out of its view, which nothing it saw can check (docs/design.md,
+        "A robot L never saw")."""
+        obs = self.observations
+        until = self.go_time if self.go_time is not None else self.end_time
+        seen = set(obs.robot[obs.t <= until].tolist())
+        return tuple(n for i, n in enumerate(self.robot_names) if i not in seen)
+
+    @property
     def watch_until_seen(self) -> int | None:
         """The protocol's watching rule (None: a fixed observation time)."""
         return None if self.protocol is None else self.protocol.watch_until_seen
@@ -258,8 +269,9 @@ class RunResult:
         dict
             The fields above (the learned models as their ``feature_intervals``,
             ``verdicts`` and ``lateral_drifts`` where a method gives them; the plan and the
-            observations left out), the detections and plan rounds as lists, and the world's
-            extras.
+            observations left out), the detections and plan rounds as lists, the world's
+            extras, and ``never_seen`` (:attr:`never_seen`) where L stated a chance and it is
+            not empty.
         """
         return {
             "scenario": self.scenario,
@@ -279,6 +291,9 @@ class RunResult:
                 predicted_success_interval_averaged=_listed(
                     self.predicted_success_interval_averaged
                 ),
+                never_seen=(list(self.never_seen) or None)
+                if self.predicted_success is not None
+                else None,
             ),
             "behavior_accuracy": self.behavior_accuracy,
             "behavior_accuracy_per_robot": self.behavior_accuracy_per_robot,

@@ -365,10 +365,21 @@ def _stated_lines(result: RunResult) -> list[str]:
         how = "under its models and belief"
     if drawn and point is not None:
         how += f"; {point:.2f} under its point models alone"
-    return [
+    lines = [
         f"went      at t = {result.go_time} ({result.go_time - (result.obs_steps - 1)} steps "
         f"after observing, {len(result.attempts)} planning rounds), expecting to get through "
         f"with probability {result.predicted_success:.2f}{spread}",
         f"          (P(goal reached unseen) along its plan: {how}; L goes when its chance now "
         "beats what it can expect by waiting until its deadline)",
     ]
+    never = result.never_seen
+    if never:  # the chance then rests on where L supposes them, which its record cannot check
+        names = ", ".join(never)
+        lines.append(_wrapped(
+            f"(L had never seen {names} when it went: its chance takes "
+            f"{'it' if len(never) == 1 else 'each'} to start anywhere out of view, with the "
+            "reward of the robots it saw and a motion no record informs — an assumption nothing "
+            "L saw can check; where a robot that never comes into view really patrols, the "
+            "chance can be far off)"
+        ))  # fmt: skip
+    return lines
