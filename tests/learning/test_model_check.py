@@ -3,6 +3,8 @@ records, the stall tail against simulation, and what a failed check does to the 
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -378,3 +380,42 @@ def test_a_record_at_its_tracker_s_interval_has_a_pace_when_one_robot_moves():
     assert no_pace_setter({**crawling, "K": (0, 19)}, 1.0) == reason  # K not judged
     assert no_pace_setter({"I": (15, 4)}, 2.0) == ""  # nobody seen long enough
     assert no_pace_setter({"I": (15, 4)}, 2.0, min_steps=10).startswith("at the tracker's")
+
+
+def test_a_step_the_user_gives_is_asked_of_the_robots_moves_as_the_tracker_s_interval_is():
+    """The same rule at a given step, named as such; the same record at a step where a robot
+    moves on most of its free steps has its pace."""
+    crawling = {"I": (15, 5), "J": (12, 9)}
+    reason = no_pace_setter(crawling, 0.5, given=True)
+    assert reason.startswith("at the step given (0.5 s)") and "I 15/20, J 12/21" in reason
+    assert no_pace_setter({**crawling, "K": (3, 30)}, 0.5, given=True) == ""
+
+
+@pytest.mark.parametrize("scenario", ["boyd2-healthy", "boydright"])
+def test_healthy_grid_robots_read_at_a_quarter_of_their_step_get_no_confident_part(
+    tmp_path, capsys, scenario
+):
+    """Grid robots decide every 2 s; read at a given 0.5 s they stay in their cells on three
+    steps of four, which counted as failures called every healthy robot damaged at confidence
+    1.00. The pace check now asks the given step as it asks a tracker's interval: the record
+    does not fit, and no healthy robot is called damaged with confidence. At the auto step the
+    check passes."""
+    from mirl.cli import main
+
+    poses = tmp_path / "poses.csv"
+    assert main(["simulate", "--scenario", scenario, "--steps", "300", "--seed", "2",
+                 "--observability", "1", "--poses", str(poses)]) == 0  # fmt: skip
+    capsys.readouterr()
+    learn = ["learn", "--scenario", scenario, "--observations", str(poses), "--json"]
+    assert main([*learn, "--step-seconds", "0.5"]) == 0
+    robots = json.loads(capsys.readouterr().out)["robots"]
+    truth = {r.name: r.feature_probabilities for r in load_scenario(scenario).robots}
+    for name, r in robots.items():
+        fit = r["verdict"]["fit"]
+        assert not fit["checks"]["pace"]["ok"] and "step given (0.5 s)" in fit["reason"]
+        names_a_part = bool(r["verdict"]["part"] or r["verdict"]["candidates"])
+        if min(truth[name].values()) >= 0.9 and names_a_part:  # a healthy robot called damaged
+            assert r["verdict"]["confidence"] < 0.9
+    assert main(learn) == 0  # the auto step: the robots' own pace
+    for r in json.loads(capsys.readouterr().out)["robots"].values():
+        assert r["verdict"]["fit"]["checks"]["pace"]["ok"]

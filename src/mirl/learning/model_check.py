@@ -651,10 +651,14 @@ def check_pace(off_pace: str) -> Check:
 
 
 def no_pace_setter(
-    steps: Mapping[str, tuple[int, int]], interval: float, min_steps: int = AUTO_MIN_MOVES
+    steps: Mapping[str, tuple[int, int]],
+    interval: float,
+    min_steps: int = AUTO_MIN_MOVES,
+    *,
+    given: bool = False,
 ) -> str:
-    """Why nothing in a record read at its tracker's interval moves at a healthy pace; empty
-    when a robot does.
+    """Why nothing in a record read at its tracker's interval, or at a step the user gave,
+    moves at a healthy pace; empty when a robot does.
 
     A sparse tracker's record is read one pose a step where no multiple of its interval keeps
     the robots' moves within one cell (:func:`~mirl.observations.discretise.auto_step_seconds`).
@@ -664,7 +668,9 @@ def no_pace_setter(
     (:func:`~mirl.observations.discretise.off_pace`): robots slowed down alike, or healthy
     robots slower than their tracker, whose unfinished moves read as failed ones. One robot
     crossing a cell on most of its free steps is the healthy pace the others' failures are
-    judged against.
+    judged against. A step the user gives is the robots' pace by their word, and the same
+    moves ask it: read at 0.5 s, healthy grid robots that decide every 2 s stay in their cells
+    on three steps of four, and every one of them would be called damaged at full confidence.
 
     Parameters
     ----------
@@ -673,10 +679,12 @@ def no_pace_setter(
         :func:`~mirl.learning.verdicts.held_by_others`) that kept its heading: those that
         stayed in its cell and those that moved to the next.
     interval : float
-        The tracker's interval (s), the record's step.
+        The record's step (s): the tracker's interval, or the step the user gave.
     min_steps : int, default AUTO_MIN_MOVES
         Fewer such steps do not judge a robot's pace (the auto step's own minimum,
         :data:`~mirl.observations.discretise.AUTO_MIN_MOVES`, 20).
+    given : bool, default False
+        Whether ``interval`` is a step the user gave rather than the tracker's interval.
 
     Returns
     -------
@@ -692,6 +700,13 @@ def no_pace_setter(
     if not judged or any(stay <= CRAWL_SHARE * n for stay, n in judged.values()):
         return ""
     shares = ", ".join(f"{name} {stay}/{n}" for name, (stay, n) in judged.items())
+    if given:
+        return (
+            f"at the step given ({interval:g} s), every robot stays in its cell on most of its "
+            f"free steps that keep their heading ({shares}): robots slowed down alike, or "
+            "healthy robots that decide less often than that — the poses cannot tell which, "
+            "and a move a robot had not finished by the step is a failed move"
+        )
     return (
         f"at the tracker's interval ({interval:g} s), the record's step, every robot stays in "
         f"its cell on most of its free steps that keep their heading ({shares}): robots "

@@ -657,8 +657,8 @@ def record_off_pace(
     """Why the step a record was read at may be no healthy robot's pace, for the model check's
     pace check (:func:`~mirl.learning.model_check.check_pace`): the poses' own reason
     (:attr:`~mirl.observations.trajectories.Trajectories.off_pace`), or, for a record read at
-    its tracker's interval, that no robot moves a cell on most of its free steps
-    (:func:`~mirl.learning.model_check.no_pace_setter`).
+    its tracker's interval or at a step the user gave, that no robot moves a cell on most of its
+    free steps (:func:`~mirl.learning.model_check.no_pace_setter`).
 
     Parameters
     ----------
@@ -674,12 +674,15 @@ def record_off_pace(
     str or None
         The reason; "" when nothing says so; None for grid states, which carry no pace.
     """
-    if observations.off_pace or observations.tracker_interval is None:
+    interval, given = observations.tracker_interval, observations.step_given
+    if observations.off_pace or (interval is None and given is None):
         return observations.off_pace
     steps = {
         observations.robot_names[i]: free_pace(domain, series, i) for i in range(len(series))
     }
-    return no_pace_setter(steps, observations.tracker_interval)
+    if interval is not None:
+        return no_pace_setter(steps, interval)
+    return no_pace_setter(steps, given, given=True)
 
 
 def beside_others(domain: PatrolDomain, series: Sequence[np.ndarray], robot: int) -> np.ndarray:

@@ -453,6 +453,7 @@ def discretise(
         traj,
         off_pace=off_pace(auto),
         tracker_interval=auto.seconds if auto is not None and auto.why == "poses" else None,
+        step_given=None if auto is not None else float(step_seconds),
     )
     vis = _visible_mask(visible, scenario, traj)
     n = len(tracks.robot_names)

@@ -66,6 +66,13 @@ class Trajectories:
         otherwise. The step is then the tracker's and may be no robot's pace, which the
         model check asks of the robots' moves
         (:func:`~mirl.learning.verdicts.record_off_pace`).
+    step_given : float, optional
+        Robot data only: the step (s) the record was read at where it was given, not chosen by
+        the auto step; None otherwise. A given step is the robots' pace by the user's word,
+        which the model check asks of the robots' moves as it asks the tracker's interval.
+
+        .. versionchanged:: 0.2.0
+           ``step_given`` is new.
     """
 
     robot_names: tuple[str, ...]
@@ -78,6 +85,7 @@ class Trajectories:
     lateral: np.ndarray | None = None
     off_pace: str | None = None
     tracker_interval: float | None = None
+    step_given: float | None = None
 
     def __len__(self) -> int:
         return len(self.t)
@@ -179,6 +187,7 @@ class Trajectories:
             None if self.lateral is None else self.lateral[mask],
             self.off_pace,
             self.tracker_interval,
+            self.step_given,
         )
 
     def truncate(self, steps: int) -> Trajectories:
