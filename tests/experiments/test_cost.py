@@ -55,3 +55,35 @@ def test_the_cli_refuses_before_any_work(capsys):
     with pytest.raises(SystemExit):
         main(["run", "--max-memory", "lots"])
     assert "is not a size" in capsys.readouterr().err
+
+
+def test_a_stray_late_row_is_a_long_learn_said_before_it_starts(tmp_path, capsys, monkeypatch):
+    """One row at t = 100 000 after a 450-step record makes the record 100 001 steps long, which
+    takes minutes to learn on boyd2 (0.9 ms a step measured) where the estimate said 3 s. The
+    estimate now counts the per-step work, says the wait before any work, in one warning that
+    names the file, the span and the rows' times; the record's own 450 steps say nothing."""
+    import mirl.learning.learn as learning
+
+    obs = tmp_path / "obs.csv"
+    assert main(["simulate", "--scenario", "boyd2", "--steps", "450", "--seed", "1",
+                 "--observations", str(obs)]) == 0  # fmt: skip
+    late = tmp_path / "late.csv"
+    late.write_text(obs.read_text() + "100000,I,0,4,2\n")
+    assert estimate_cost(load_scenario("boyd2"), "learn", steps=100_001).seconds > 100
+    capsys.readouterr()
+
+    class Stop(Exception):
+        pass
+
+    def stop(*args, **kwargs):
+        raise Stop
+
+    monkeypatch.setattr(learning, "learn", stop)  # the warning comes before any learning
+    with pytest.raises(Stop):
+        main(["learn", "--scenario", "boyd2", "--observations", str(late)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"mirl: warning: {late}: learning a record")
+    assert "100,001 steps" in err[0] and "to 100000" in err[0] and "min" in err[0]
+    with pytest.raises(Stop):
+        main(["learn", "--scenario", "boyd2", "--observations", str(obs)])
+    assert capsys.readouterr().err == ""

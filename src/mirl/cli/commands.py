@@ -504,7 +504,14 @@ def _learn(args: argparse.Namespace) -> int:
     loaded = _read_observations(args, scenario, observability=degree)
     obs = loaded.trajectories
     check_observations(args.observations, obs, scenario.domain)
-    _check_cost(args, scenario, "learn", obs.horizon)
+    estimate = _check_cost(args, scenario, "learn", obs.horizon)
+    from mirl.experiments.cost import LONG_SECONDS
+
+    if estimate.seconds > LONG_SECONDS and len(obs):  # say a long wait before it starts
+        warn(
+            f"{args.observations}: learning a record of {obs.horizon:,} steps (rows from t = "
+            f"{int(obs.t.min())} to {int(obs.t.max())}) on {estimate.describe()}"
+        )
     visible = loaded.visible_states(scenario)
     if visible is None:  # grid data (pose data's summary counts the rows outside the view)
         seen = scenario.domain.visible_states(degree)
@@ -552,13 +559,15 @@ def _scored_against_truth(args: argparse.Namespace, kind: str) -> bool:
     return kind not in ROBOT_DATA_KINDS
 
 
-def _check_cost(args: argparse.Namespace, scenario, command: str, steps: int) -> None:
+def _check_cost(args: argparse.Namespace, scenario, command: str, steps: int):
     """Refuse at once, in one line, a command whose estimated memory exceeds --max-memory
-    (docs/design.md, "Cost before work")."""
+    (docs/design.md, "Cost before work"); the estimate otherwise."""
     from mirl.experiments.cost import check_budget, default_max_memory, estimate_cost
 
     budget = args.max_memory if args.max_memory is not None else default_max_memory()
-    check_budget(scenario, estimate_cost(scenario, command, steps=steps), budget)
+    estimate = estimate_cost(scenario, command, steps=steps)
+    check_budget(scenario, estimate, budget)
+    return estimate
 
 
 def _options(args: argparse.Namespace, options: type[OptionsT]) -> OptionsT:

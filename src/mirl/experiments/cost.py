@@ -46,6 +46,12 @@ PLAN_BYTES_PER_STATE = 6_000
 # minutes.
 LEARN_SECONDS_PER_STATE = 3.0e-4
 LEARN_SECONDS_PER_STATE_STEP = 1.0e-7
+# seconds per robot and step of the record whatever the map: on a small map the per-step work of
+# the IRL's passes over the record outweighs the states' (boyd2, 124 states, 2 robots: 0.9 ms a
+# step measured from records of 2 000 to 10 000 steps, one stray row setting their length)
+LEARN_SECONDS_PER_ROBOT_STEP = 1.0e-3
+# an estimate longer than this is said before the work (`mirl learn`), not only in a refusal
+LONG_SECONDS = 60.0
 PLAN_SECONDS_PER_STATE_STEP = 1.5e-7
 
 
@@ -173,6 +179,7 @@ def estimate_cost(
     S_L = int((gm.patroller | gm.observer_only).sum()) * N_HEADINGS
     memory = BASE_MEMORY + LEARN_BYTES_PER_STATE * S * n
     seconds = (LEARN_SECONDS_PER_STATE + LEARN_SECONDS_PER_STATE_STEP * steps) * S * n
+    seconds += LEARN_SECONDS_PER_ROBOT_STEP * steps * n
     horizon = 0
     if command == "run":
         horizon = planning_horizon(scenario)

@@ -682,6 +682,7 @@ def record_off_pace(
     }
     if interval is not None:
         return no_pace_setter(steps, interval)
+    assert given is not None  # one of the two, by the test above
     return no_pace_setter(steps, given, given=True)
 
 
