@@ -126,6 +126,31 @@ def test_learn_transitions_from_pose_csv(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out) == a
 
 
+def test_damage_on_robot_data_only_where_learning_reads_the_truth(tmp_path, capsys):
+    """Robot data is scored against the observed moves: --damage (the truth) changes what
+    learn says only with --compare truth or with known-r-t (its labels are the true
+    policies'); anywhere else it is refused in one line."""
+    sim = ["simulate", "--scenario", "boyd2", "--steps", "60", "--seed", "1"]
+    poses = str(tmp_path / "p.csv")
+    assert main([*sim, "--observability", "1", "--poses", poses]) == 0
+    capsys.readouterr()
+    learn = ["learn", "--scenario", "boyd2", "--observations", poses, "--start-time", "0",
+             "--observability", "1", "--json"]  # fmt: skip
+    damage = ["--damage", "J:left_wheel=0.3"]
+    for method in ("mirl-t", "mirl", "known-r", "dbn-em"):
+        one_error_line(capsys, main([*learn, "--method", method, *damage]),
+                       "mirl learn: error: --damage J:left_wheel=0.3: changes nothing here: "
+                       f"{method} reads no truth", "--compare truth")  # fmt: skip
+    one_error_line(capsys, main([*learn, "--compare", "observed", "--method", "known-r",
+                                 *damage]), "changes nothing here")  # fmt: skip
+    for extra in (["--method", "known-r", "--compare", "truth"], ["--method", "known-r-t"]):
+        assert main([*learn, *extra]) == 0
+        plain = json.loads(capsys.readouterr().out)
+        assert main([*learn, *extra, *damage]) == 0
+        damaged = json.loads(capsys.readouterr().out)
+        assert damaged["robots"] != plain["robots"], extra  # it does change what learn says
+
+
 def test_bad_robot_data_one_line_exit_2(tmp_path, capsys):
     bag = write_bag(tmp_path / "b", records(True), fmt="mcap")
     base = ["convert", str(bag), str(tmp_path / "o.csv"), "--scenario", "boyd2"]

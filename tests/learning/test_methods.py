@@ -16,6 +16,8 @@ from mirl.learning.methods import (
     Method,
     check_method,
     get_method,
+    ruled_options,
+    unread_option,
 )
 
 
@@ -43,8 +45,42 @@ def test_what_each_row_implies():
     }
     # an option applies to exactly the methods whose transition source reads it
     for option in ("p", "em_init"):
-        readers = {s.name for s in TRANSITION_SOURCES.values() if s.option == option}
+        readers = {s.name for s in TRANSITION_SOURCES.values() if option in s.options}
         assert len(readers) == 1
+
+
+def test_which_methods_read_which_options():
+    """Read off learn() and run_episode: the IRL's options for a learned reward, the
+    relabelling's for mirl-t alone, the go rule for a method that plans, re-learning for one
+    that learns; every other option applies to every method."""
+    readers = {
+        option: {m for m in METHODS if unread_option(m, [option]) is None}
+        for option in sorted(ruled_options())
+    }
+    irl = {"mirl-t", "mirl", "dbn-em"}
+    assert readers == {
+        "em_init": {"dbn-em"},
+        "go_rule": set(METHODS) - {"random"},
+        "irl_options": irl,
+        "label_tol": {"mirl-t"},
+        "max_iterations": {"mirl-t"},
+        "n_restarts": irl,
+        "objective": irl,
+        "optimizer": irl,
+        "p": {"mirl", "known-r"},
+        "relearn": set(LEARNING_METHODS) - {"oracle"},
+    }
+    assert unread_option("known-r", ["obs_steps", "seed"]) is None  # ruled nowhere
+    assert {m for m in METHODS if METHODS[m].labels_by_truth} == {"known-r-t"}
+
+
+def test_the_refusal_names_the_readers_and_why():
+    assert unread_option("known-r", ["max_iterations"]) == (
+        "max_iterations",
+        "applies to the method mirl-t only, not known-r (it does not relabel the observed steps)",
+    )
+    option, problem = unread_option("known-r-t", ["p", "objective"])
+    assert option == "p" and problem.startswith("applies to the methods mirl and known-r only, ")
 
 
 def test_every_row_of_the_table_passes_its_check():

@@ -61,6 +61,30 @@ def test_an_option_that_changes_nothing_for_the_method_is_refused():
                     options.check_method(method.name)
 
 
+def test_an_option_set_away_from_its_default_for_a_method_that_never_reads_it_is_refused():
+    """The relabelling's limits (mirl-t alone) and the IRL's options (a learned reward) as p
+    and em_init: set for a method without them, refused; at their defaults, or listed as not
+    given by the command line, not."""
+    sc = load_scenario("boyd2")
+    obs = simulate(sc, 30, seed=1, observability=0.14).observations
+    for method, values in (
+        ("known-r", {"max_iterations": 2}),
+        ("known-r", {"objective": "counts"}),
+        ("known-r-t", {"optimizer": "nelder-mead"}),
+        ("known-r-t", {"label_tol": 0.5}),
+        ("mirl", {"max_iterations": 2}),
+        ("dbn-em", {"label_tol": 0.5}),
+    ):
+        (name,) = values
+        with pytest.raises(OptionError, match=f"`{name}` applies to the method"):
+            learn(obs, sc, method, options=values, score=False)
+        LearnOptions(**values).check_method("mirl-t")
+        LearnOptions(**values).check_method(method, given=[])  # the flags given: none
+    LearnOptions(max_iterations=5, objective="sequence").check_method("known-r")  # defaults
+    with pytest.raises(OptionError, match="`objective` applies to the methods mirl-t, mirl and"):
+        LearnOptions().check_method("known-r", given=["objective"])  # given, at its default
+
+
 def test_the_irl_options_are_kept_as_given():
     given = {"l2": 1e-3}
     o = LearnOptions(irl_options=given)
@@ -90,11 +114,23 @@ def test_every_source_learn_builds_has_a_builder():
     assert TRANSITION_BUILDERS["features"].labelled
 
 
+def test_labels_by_truth_is_what_learn_does():
+    """The methods whose learning reads the true policies (``--damage``'s truth) are those
+    whose first labels are the true policies' and whose models are learned from labels."""
+    from mirl.learning.learn import _true_policy_labels
+
+    for row in METHODS.values():
+        if row.learns:
+            reward, motion = REWARD_BUILDERS[row.reward], TRANSITION_BUILDERS[row.transitions]
+            by_truth = reward.first_labels is _true_policy_labels
+            assert row.labels_by_truth == (by_truth and (reward.labelled or motion.labelled))
+
+
 def test_learn_takes_options_or_a_mapping_the_same():
     sc = load_scenario("boyd2")
     obs = simulate(sc, 60, seed=1, observability=0.14).observations
-    a = learn(obs, sc, "mirl", options=LearnOptions(p=0.8, max_iterations=2), score=False)
-    b = learn(obs, sc, "mirl", options={"p": 0.8, "max_iterations": 2}, score=False)
+    a = learn(obs, sc, "mirl", options=LearnOptions(p=0.8, n_restarts=2), score=False)
+    b = learn(obs, sc, "mirl", options={"p": 0.8, "n_restarts": 2}, score=False)
     assert "p=0.8" in a.message and a.message == b.message
     for x, y in zip(a.robots, b.robots, strict=True):
         assert (x.weights == y.weights).all() and (x.policy == y.policy).all()

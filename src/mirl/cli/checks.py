@@ -26,6 +26,9 @@ __all__ = [
     "check_pose_flags",
     "check_poses_output",
     "check_experiment_flags",
+    "check_damage",
+    "damage_unread",
+    "check_damage_once",
     "check_observations",
     "check_visible",
     "feature_trials",
@@ -231,6 +234,90 @@ def check_experiment_flags(args) -> None:
             raise UsageError("--out: an empty path (leave --out out for results/NAME)")
         if os.path.exists(args.out) and not os.path.isdir(args.out):
             raise UsageError(f"--out {args.out}: is a file, not a directory")
+
+
+def damage_unread(command: str, args, *, scored: bool = False) -> str | None:
+    """Why ``--damage`` changes nothing for a command line, or None where it does: the one list
+    of the commands and inputs that never read the scenario's true feature probabilities it
+    sets. ``simulate`` and ``run`` simulate with them; ``learn`` reads them to score against
+    the truth and, with ``known-r-t``, to label the steps by the true policies; and
+    ``learn-transitions --labels true-policy`` labels by those policies.
+
+    Parameters
+    ----------
+    command : str
+        The sub-command.
+    args : argparse.Namespace
+        Its arguments (``learn``: ``method``; ``learn-transitions``: ``labels``).
+    scored : bool, default False
+        ``learn``: whether it scores against the scenario's truth (``--compare``).
+
+    Returns
+    -------
+    str or None
+        Why it changes nothing, after ``--damage ...: changes nothing here:``.
+    """
+    from mirl.learning.methods import METHODS
+    from mirl.learning.options import LABELLINGS
+
+    if command == "convert":
+        return "convert does not simulate, it places the poses on the map's cells and steps"
+    if command == "learn-transitions" and not LABELLINGS[args.labels].reads_truth:
+        return f"--labels {args.labels} labels the steps by what L saw, not by the truth"
+    if command == "learn" and not scored and not METHODS[args.method].labels_by_truth:
+        return (
+            f"{args.method} reads no truth and the record is scored against the observed "
+            "moves (--compare truth scores it against the damaged scenario)"
+        )
+    return None
+
+
+def check_damage(command: str, args, *, scored: bool = False) -> None:
+    """Refuse ``--damage`` where it changes nothing (:func:`damage_unread`).
+
+    Parameters
+    ----------
+    command : str
+        The sub-command.
+    args : argparse.Namespace
+        Its arguments (``damage``: the values given, or None).
+    scored : bool, default False
+        ``learn``: whether it scores against the scenario's truth.
+
+    Raises
+    ------
+    UsageError
+        If ``--damage`` was given and changes nothing.
+    """
+    if not getattr(args, "damage", None):
+        return
+    why = damage_unread(command, args, scored=scored)
+    if why is not None:
+        raise UsageError(f"--damage {args.damage[0]}: changes nothing here: {why}; leave it out")
+
+
+def check_damage_once(damage: list[tuple[str, str, float]]) -> None:
+    """Refuse a part damaged twice (the last would be kept silently), as a ``--topic`` given
+    twice is.
+
+    Parameters
+    ----------
+    damage : list of (str, str, float)
+        The ``--damage`` values parsed: robot, part, value.
+
+    Raises
+    ------
+    UsageError
+        Naming the robot's part and both values.
+    """
+    seen: dict[tuple[str, str], float] = {}
+    for robot, feature, value in damage:
+        if (robot, feature) in seen:
+            raise UsageError(
+                f"--damage {robot}:{feature} given twice ({robot}:{feature}="
+                f"{seen[(robot, feature)]:g} and {robot}:{feature}={value:g}); give it once"
+            )
+        seen[(robot, feature)] = value
 
 
 def check_observations(path, obs, domain) -> None:

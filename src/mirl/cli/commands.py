@@ -15,6 +15,8 @@ from mirl.cli.checks import (
     FIGURE_SUFFIXES,
     MIN_TRIALS,
     UsageError,
+    check_damage,
+    check_damage_once,
     check_distinct,
     check_experiment_flags,
     check_observations,
@@ -51,7 +53,9 @@ def _load_scenario(args: argparse.Namespace):
 
     scenario = load_scenario(args.scenario)
     world = _world(getattr(args, "world", DEFAULT_WORLD))
-    for text in getattr(args, "damage", None) or []:
+    texts = getattr(args, "damage", None) or []
+    check_damage_once([parse_damage(text) for text in texts])
+    for text in texts:
         robot, feature, p = parse_damage(text)
         try:  # what the value means is the world's: a success probability, a motor strength
             scenario = world.load().apply_damage(scenario, robot, feature, p)
@@ -312,6 +316,7 @@ def _convert(args: argparse.Namespace) -> int:
 
     check_distinct(("IN", args.input), ("OUT", args.output))
     check_output(args.output, "OUT")
+    check_damage("convert", args)
     scenario = _load_scenario(args)
     args.observations = args.input
     loaded = _read_observations(args, scenario)
@@ -361,6 +366,7 @@ def _learn_transitions(args: argparse.Namespace) -> int:
         perception_labels,
     )
 
+    check_damage("learn-transitions", args)
     scenario = _load_scenario(args)
     domain = scenario.domain
     obs = _read_observations(args, scenario).trajectories
@@ -453,10 +459,11 @@ def _run(args: argparse.Namespace) -> int:
         check_output(args.animate, "--animate", (".gif",))
     check_distinct(("--plot", args.plot), ("--animate", args.animate))
     learning = _options(args, LearnOptions)
-    learning.check_method(args.method)
+    learning.check_method(args.method, _given(args, LearnOptions))
     if args.obs_steps is not None and args.watch_until_seen is not None:
         raise UsageError("--obs-steps (a fixed time) and --watch-until-seen exclude each other")
     protocol = _options(args, RunProtocol)
+    protocol.check_method(args.method, _given(args, RunProtocol))
     if args.obs_steps is not None:  # a fixed observation time, as the experiments have
         protocol = protocol.replace(watch_until_seen=None)
     scenario = _load_scenario(args)
@@ -498,11 +505,13 @@ def _learn(args: argparse.Namespace) -> int:
     from mirl.learning.learn import learn
 
     options = _options(args, LearnOptions)
-    options.check_method(args.method)
+    options.check_method(args.method, _given(args, LearnOptions))
     scenario = _load_scenario(args)
     degree = scenario.observability if args.observability is None else args.observability
     loaded = _read_observations(args, scenario, observability=degree)
     obs = loaded.trajectories
+    truth = _scored_against_truth(args, loaded.kind)
+    check_damage("learn", args, scored=truth)  # robot data's kind is known once it is read
     check_observations(args.observations, obs, scenario.domain)
     estimate = _check_cost(args, scenario, "learn", obs.horizon)
     from mirl.experiments.cost import LONG_SECONDS
@@ -516,7 +525,6 @@ def _learn(args: argparse.Namespace) -> int:
     if visible is None:  # grid data (pose data's summary counts the rows outside the view)
         seen = scenario.domain.visible_states(degree)
         check_visible(args.observations, obs, scenario.domain, seen, degree)
-    truth = _scored_against_truth(args, loaded.kind)
     result = learn(
         obs,
         scenario,
@@ -579,6 +587,23 @@ def _options(args: argparse.Namespace, options: type[OptionsT]) -> OptionsT:
         if getattr(args, name, None) is not None
     }
     return options(**given)
+
+
+def _given(args: argparse.Namespace, options: type[Options]) -> list[str]:
+    """The options of ``options`` that some method does not read (their check needs to know)
+    whose flag the user gave, in their declared order: the parser leaves such a value flag
+    None when it is left out (:func:`mirl.cli.parser._option`), and a switch given turns its
+    declared default over. A default never counts as given."""
+    from mirl.learning.methods import ruled_options
+
+    ruled = ruled_options()
+    return [
+        name
+        for name, spec in options.__options__.items()
+        if name in ruled
+        and getattr(args, name, None) is not None
+        and (not isinstance(spec.default, bool) or getattr(args, name) != spec.default)
+    ]
 
 
 def print_json(obj) -> None:

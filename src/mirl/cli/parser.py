@@ -30,7 +30,7 @@ from mirl.cli.flags import (
     step_seconds_or_auto,
 )
 from mirl.experiments.options import RunProtocol, SweepOptions
-from mirl.learning.methods import LEARNING_METHODS, METHODS
+from mirl.learning.methods import LEARNING_METHODS, METHODS, ruled_options
 from mirl.learning.options import DEFAULT_P, EM_INITS, LABELLINGS, LearnOptions
 from mirl.world.actions import STEP_SECONDS
 from mirl.worlds import WORLDS
@@ -49,9 +49,11 @@ def _option(
     help: str | None = None,
 ) -> None:
     """Add the flag of option ``name`` of ``options``, built from its declaration: a switch
-    for a True/False option (its flag turns the declared default over), else a value checked
-    by the declaration, with its choices. ``default`` None leaves the option to the library
-    (the flag given or not: a check that it applies to the method needs to know)."""
+    for a True/False option (its flag turns the declared default over, so it was given when
+    its value is not the default), else a value checked by the declaration, with its choices.
+    ``default`` None leaves the option to the library (the flag given or not: a check that it
+    applies to the method needs to know), as for every option some method does not read
+    (:func:`~mirl.learning.methods.ruled_options`): a flag left out never counts as given."""
     spec = options.spec(name)
     assert spec.flag is not None, f"{options.__name__}.{name} has no flag"
     text = (spec.doc if help is None else help).replace("%", "%%")  # argparse formats help
@@ -59,6 +61,10 @@ def _option(
         action = "store_false" if spec.default else "store_true"
         sp.add_argument(spec.flag, dest=name, action=action, help=text)
         return
+    if default is _DECLARED and name in ruled_options():
+        default = None
+        if spec.default is not None:  # the help says what leaving it out means
+            text += f" (None: {spec.default})"
     sp.add_argument(
         spec.flag,
         dest=name,

@@ -15,6 +15,7 @@ from it at start-up.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass
 from importlib import import_module
 from typing import Any
@@ -30,6 +31,7 @@ from mirl._validation import (
     option,
     same_option,
 )
+from mirl.learning.methods import Method, unread_option
 from mirl.learning.options import LearnOptions
 from mirl.world.actions import STEP_SECONDS
 from mirl.worlds import DEFAULT_WORLD, WORLDS
@@ -254,6 +256,32 @@ class RunProtocol(Options):
                 f"must be at most max_obs_steps, the end of watching ({self.max_obs_steps} "
                 f"steps), got {self.watch_until_seen}",
             )
+
+    def check_method(self, method: Method | str, given: Iterable[str]) -> None:
+        """Refuse an option the user set for a method it changes nothing for, as
+        :meth:`~mirl.learning.options.LearnOptions.check_method` does (the table:
+        :data:`~mirl.learning.methods.PART_OPTIONS`): ``go_rule`` for a method that does not
+        plan (random), ``relearn`` for one that learns nothing (random, oracle).
+
+        Only the options ``given`` are checked, never the others' values: a sweep runs every
+        method under one protocol (the paper's value rule and learning once, for the random
+        baseline too), so only the command line, which knows the flags typed, refuses.
+
+        Parameters
+        ----------
+        method : Method or str
+            The method's row or name.
+        given : iterable of str
+            The options the user set.
+
+        Raises
+        ------
+        OptionError
+            Naming the option, the methods it applies to and why it does not apply to this one.
+        """
+        unread = unread_option(method, given)
+        if unread is not None:
+            raise self.refuse(*unread)
 
     @classmethod
     def paper(cls, **changes: Any) -> RunProtocol:

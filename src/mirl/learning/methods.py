@@ -12,6 +12,7 @@ The module imports nothing heavy, so the command line can build its parser from 
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -25,6 +26,9 @@ __all__ = [
     "ModelSource",
     "REWARD_SOURCES",
     "TRANSITION_SOURCES",
+    "PART_OPTIONS",
+    "ruled_options",
+    "unread_option",
 ]
 
 RewardSource = Literal["learned", "true", "none"]
@@ -48,34 +52,38 @@ class ModelSource:
     feature_probabilities : bool, default False
         Whether the models it gives carry per-feature success probabilities (a transition
         model made of ξ's features).
-    option : str, optional
-        The one option of :func:`~mirl.learning.learn.learn` it alone reads (``"p"``,
-        ``"em_init"``), which the command line refuses for a method without it.
+    options : tuple of str, default ()
+        The options of :func:`~mirl.learning.learn.learn` it alone reads (``("p",)`` for a fixed
+        T, the IRL's for a learned reward), refused for a method without it
+        (:func:`unread_option`).
     """
 
     name: str
     description: str
     built: bool
     feature_probabilities: bool = False
-    option: str | None = None
+    options: tuple[str, ...] = ()
 
 
 REWARD_SOURCES: Registry[ModelSource] = Registry(
     "reward source",
     (
-        ModelSource("learned", "occluded max-ent IRL and the weighing of equilibria", True),
+        ModelSource(
+            "learned", "occluded max-ent IRL and the weighing of equilibria", True,
+            options=("objective", "optimizer", "n_restarts", "irl_options"),
+        ),
         ModelSource("true", "the scenario's true rewards and played equilibrium", False),
         ModelSource("none", "no reward: the method does not plan", False),
     ),
-)
+)  # fmt: skip
 """Where a method's rewards and equilibrium come from (a :class:`Method`'s ``reward``)."""
 
 TRANSITION_SOURCES: Registry[ModelSource] = Registry(
     "transition source",
     (
         ModelSource("features", "mIRL*/T's transition-feature probabilities", True, True),
-        ModelSource("fixed-p", "one success probability p for every action", True, option="p"),
-        ModelSource("em", "tabular EM over a two-slice DBN", True, option="em_init"),
+        ModelSource("fixed-p", "one success probability p for every action", True, options=("p",)),
+        ModelSource("em", "tabular EM over a two-slice DBN", True, options=("em_init",)),
         ModelSource("true", "the scenario's true transition model", False, True),
         ModelSource("none", "no transition model: the method does not plan", False),
     ),
@@ -122,12 +130,12 @@ class Method:
     @property
     def uses_p(self) -> bool:
         """Whether the fixed success probability ``p`` applies."""
-        return TRANSITION_SOURCES[self.transitions].option == "p"
+        return "p" in TRANSITION_SOURCES[self.transitions].options
 
     @property
     def uses_em_init(self) -> bool:
         """Whether DBN-EM's initial transition model (``em_init``) applies."""
-        return TRANSITION_SOURCES[self.transitions].option == "em_init"
+        return "em_init" in TRANSITION_SOURCES[self.transitions].options
 
     @property
     def learns(self) -> bool:
@@ -139,6 +147,14 @@ class Method:
     def has_feature_probabilities(self) -> bool:
         """Whether its models carry per-feature success probabilities."""
         return TRANSITION_SOURCES[self.transitions].feature_probabilities
+
+    @property
+    def labels_by_truth(self) -> bool:
+        """Whether :func:`~mirl.learning.learn.learn` labels the observed steps with the
+        scenario's true policies (Known R/T): a true reward whose T is learned from labelled
+        steps. Those policies are optimal under the true T, so the scenario's true feature
+        probabilities (``--damage``'s) change what it learns."""
+        return self.reward == "true" and self.transitions == "features"
 
 
 def check_method(row: Method) -> None:
@@ -225,6 +241,80 @@ METHODS: Registry[Method] = Registry("method", _ROWS, check=check_method)
 
 LEARNING_METHODS: tuple[str, ...] = tuple(n for n, m in METHODS.items() if m.plans)
 """The methods :func:`~mirl.learning.learn.learn` accepts: those with models to build."""
+
+PART_OPTIONS: tuple[tuple[str, tuple[str, ...], str], ...] = (
+    ("relabels", ("max_iterations", "label_tol"), "it does not relabel the observed steps"),
+    ("plans", ("go_rule",), "it does not plan: it goes at a random time"),
+    ("learns", ("relearn",), "it learns no models: it is given them or needs none"),
+)
+"""The options one part of a method alone reads beyond its sources' (:attr:`ModelSource.options`):
+per part, the :class:`Method` attribute that says a method has it, the options (of
+:class:`~mirl.learning.options.LearnOptions` and :class:`~mirl.experiments.options.RunProtocol`)
+and why a method without it changes nothing for them. The relabelling rounds alone read their
+limits, a method that plans alone its go rule, one that learns alone whether it re-learns."""
+
+
+def _why_not(option: str, row: Method) -> str | None:
+    """Why ``row`` changes nothing for ``option`` (its source's or its part's words); None if it
+    reads it, or every method does (the table rules it nowhere)."""
+    for part, table in (("reward", REWARD_SOURCES), ("transitions", TRANSITION_SOURCES)):
+        if any(option in s.options for s in table.values()):
+            source = table[getattr(row, part)]
+            return None if option in source.options else f"its {part}: {source.description}"
+    for attribute, options, why in PART_OPTIONS:
+        if option in options:
+            return None if getattr(row, attribute) else why
+    return None
+
+
+def ruled_options() -> frozenset[str]:
+    """The options some method does not read (:func:`unread_option` refuses them for it): its
+    sources' and :data:`PART_OPTIONS`'.
+
+    Returns
+    -------
+    frozenset of str
+        The options' names.
+    """
+    sources = (*REWARD_SOURCES.values(), *TRANSITION_SOURCES.values())
+    return frozenset(
+        [o for s in sources for o in s.options] + [o for _, opts, _ in PART_OPTIONS for o in opts]
+    )
+
+
+def unread_option(method: Method | str, given: Iterable[str]) -> tuple[str, str] | None:
+    """The first of the ``given`` options that ``method`` never reads, with why: the one place
+    that says which options apply to which method (its sources' :attr:`ModelSource.options` and
+    :data:`PART_OPTIONS`), for :meth:`~mirl.learning.options.LearnOptions.check_method` and
+    :meth:`~mirl.experiments.options.RunProtocol.check_method`. A setting is never silently
+    ignored.
+
+    Parameters
+    ----------
+    method : Method or str
+        The method's row or name.
+    given : iterable of str
+        The options set (by the caller, or by the user's flags).
+
+    Returns
+    -------
+    tuple of (str, str) or None
+        The option and the problem, ``applies to the method mirl-t only, not known-r (it does
+        not relabel the observed steps)``; None when the method reads every one.
+    """
+    row = get_method(method) if isinstance(method, str) else method
+    for name in given:
+        why = _why_not(name, row)
+        if why is not None:
+            users = [m.name for m in METHODS.values() if _why_not(name, m) is None]
+            which = f"the method{'s' * (len(users) > 1)} {_and(users)}"
+            return name, f"applies to {which} only, not {row.name} ({why})"
+    return None
+
+
+def _and(names: Sequence[str]) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
 
 
 def get_method(name: str, known: tuple[str, ...] | None = None) -> Method:

@@ -9,20 +9,14 @@ that implement them (numpy and scipy). The module imports nothing heavy.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from types import MappingProxyType
 from typing import Any
 
 from mirl._registry import Registry, Strategy, check_entry_point
 from mirl._validation import Instance, Interval, OneOf, Options, option
-from mirl.learning.methods import (
-    METHODS,
-    REWARD_SOURCES,
-    TRANSITION_SOURCES,
-    Method,
-    get_method,
-)
+from mirl.learning.methods import METHODS, Method, unread_option
 
 __all__ = [
     "LearnOptions",
@@ -32,6 +26,7 @@ __all__ = [
     "Optimizer",
     "EM_INITS",
     "LABELLINGS",
+    "Labelling",
     "DEFAULT_P",
 ]
 
@@ -113,15 +108,37 @@ EM_INITS = Registry.of_choices("EM initialisation", {
 })  # fmt: skip
 """DBN-EM's initial transition models (:func:`~mirl.learning.dbn_em.initial_transitions`)."""
 
-LABELLINGS: Registry[Strategy] = Registry(
+@dataclass(frozen=True)
+class Labelling(Strategy):
+    """How ``mirl learn-transitions`` labels the observed steps with actions; ``load()`` gives
+    ``labels(scenario, series_list)``.
+
+    Parameters
+    ----------
+    name : str
+        What ``--labels`` takes.
+    description : str
+        What it does (``--labels``'s help).
+    entry_point : str
+        Its function, ``"module:function"``.
+    reads_truth : bool, default False
+        Whether it reads the scenario's true policies, which its true feature probabilities
+        (``--damage``'s) shape; ``--damage`` is refused with a labelling that does not.
+    """
+
+    reads_truth: bool = False
+
+
+LABELLINGS: Registry[Labelling] = Registry(
     "labelling",
     (
-        Strategy(
+        Labelling(
             "true-policy",
             "the scenario's true policies and played equilibrium label the steps (Known R/T)",
             "mirl.learning.transitions:true_policy_labels",
+            reads_truth=True,
         ),
-        Strategy(
+        Labelling(
             "perception",
             "each step is labelled with the action whose intended outcome L saw",
             "mirl.learning.transitions:perceived_labels",
@@ -145,15 +162,19 @@ class LearnOptions(Options):
         Success probability of every action, for the methods with a fixed T (``mirl``,
         ``known-r``; refused for the others). None: 0.9 (:data:`DEFAULT_P`).
     max_iterations : int in [1, 100], default 5
-        Rounds of relabelling at most.
+        Rounds of relabelling at most (``mirl-t`` only, the method that relabels; refused, set
+        away from its default, for the others).
     label_tol : float in [0, 1], default 0.01
         The relabelling has converged when a round changes at most this share of the labelled
         steps (those T is learned from); on long records a few labels can flip back and forth
-        for rounds, each a full refit (docs/design.md, "A looser stopping rule").
+        for rounds, each a full refit (docs/design.md, "A looser stopping rule"). ``mirl-t``
+        only, as ``max_iterations``.
     objective : {"sequence", "counts", "likelihood", "both"}, default "sequence"
         The IRL's objective (:class:`~mirl.learning.irl.OccludedMaxEntIRL`); the paper's is
         ``"counts"``. The defaults were picked by measured behaviour accuracy and speed (the
-        :mod:`mirl.learning.irl` docstring).
+        :mod:`mirl.learning.irl` docstring). The IRL's options (this, ``optimizer``,
+        ``n_restarts``, ``irl_options``) apply to the methods that learn the reward (``mirl-t``,
+        ``mirl``, ``dbn-em``); set for the others, they are refused.
     optimizer : {"lbfgs", "nelder-mead"}, default "lbfgs"
         The IRL's optimiser; the paper's is ``"nelder-mead"``.
     n_restarts : int >= 1, optional
@@ -247,35 +268,28 @@ class LearnOptions(Options):
             return int(self.n_restarts)
         return IRL_OPTIMIZERS[self.optimizer].restarts
 
-    def check_method(self, method: Method | str) -> None:
+    def check_method(self, method: Method | str, given: Iterable[str] | None = None) -> None:
         """Refuse an option set for a method it changes nothing for: an option that one source
-        of models alone reads (:data:`~mirl.learning.methods.TRANSITION_SOURCES`' ``option``:
-        ``p`` for a fixed T, ``em_init`` for DBN-EM) given for a method without that source. A
-        setting is never silently ignored.
+        of models alone reads (:attr:`~mirl.learning.methods.ModelSource.options`: ``p`` for a
+        fixed T, ``em_init`` for DBN-EM, the IRL's ``objective``, ``optimizer``, ``n_restarts``
+        and ``irl_options`` for a learned reward), or one part of a method alone
+        (:data:`~mirl.learning.methods.PART_OPTIONS`: ``max_iterations`` and ``label_tol`` for the
+        relabelling rounds), given for a method without it. A setting is never silently
+        ignored.
 
         Parameters
         ----------
         method : Method or str
             The method's row or name.
+        given : iterable of str, optional
+            The options the caller set (the command line: the flags given); by default those
+            that differ from their declared defaults (:meth:`changed`).
 
         Raises
         ------
         OptionError
-            Naming the option and the methods it applies to.
+            Naming the option, the methods it applies to and why it does not apply to this one.
         """
-        row = get_method(method) if isinstance(method, str) else method
-        for name, users in _readers().items():
-            if getattr(self, name) is not None and row.name not in users:
-                which = f"the method{'s' * (len(users) > 1)} {' and '.join(users)}"
-                raise self.refuse(name, f"applies to {which} only, not {row.name}")
-
-
-def _readers() -> dict[str, list[str]]:
-    """Per option that a source of models alone reads, the methods with that source."""
-    out: dict[str, list[str]] = {}
-    for table, part in ((REWARD_SOURCES, "reward"), (TRANSITION_SOURCES, "transitions")):
-        for source in table.values():
-            if source.option is not None:
-                users = [m.name for m in METHODS.values() if getattr(m, part) == source.name]
-                out.setdefault(source.option, []).extend(users)
-    return out
+        unread = unread_option(method, self.changed() if given is None else given)
+        if unread is not None:
+            raise self.refuse(*unread)
