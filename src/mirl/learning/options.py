@@ -283,7 +283,7 @@ class LearnOptions(Options):
             The method's row or name.
         given : iterable of str, optional
             The options the caller set (the command line: the flags given); by default those
-            that differ from their declared defaults (:meth:`changed`).
+            that differ from their declared defaults (``changed()``).
 
         Raises
         ------
