@@ -113,3 +113,31 @@ def test_mirl_learn_says_which_robots_of_a_pose_csv_its_topics_left_out(team_pos
 
 def _but_path_and_times(out: str) -> dict:
     return {k: v for k, v in json.loads(out).items() if k not in ("observations", "timings")}
+
+
+def test_a_bag_s_pose_topics_no_topic_names_are_said_not_dropped(tmp_path, capsys):
+    """An MCAP of two robots read with one --topic: the other robot's pose topic was left
+    unread without a word (a pose CSV's robots were said); now `learn` and `convert` name it
+    with its messages, and naming both topics says nothing."""
+    from mirl.cli import main
+    from mirl.observations.bags import bag_topics
+    from mirl.observations.sources import load_observations
+    from mirl.world.scenario import load_scenario
+
+    mcap = tmp_path / "p.mcap"
+    assert main(["simulate", "--scenario", "boyd2", "--steps", "300", "--seed", "1",
+                 "--poses", str(mcap)]) == 0  # fmt: skip
+    n_j = bag_topics(mcap)["/J/pose"][1]
+    assert n_j > 0
+    got = load_observations(mcap, load_scenario("boyd2"), topics={"/I/pose": "I"})
+    assert dict(got.left_out) == {"/J/pose": n_j}
+    capsys.readouterr()
+    both = ["--topic", "/I/pose=I", "--topic", "/J/pose=J"]
+    learn = ["learn", "--scenario", "boyd2", "--observations", str(mcap)]
+    convert = ["convert", str(mcap), str(tmp_path / "o.csv"), "--scenario", "boyd2"]
+    for argv in (learn, convert):
+        assert main([*argv, "--topic", "/I/pose=I"]) == 0
+        err = capsys.readouterr().err
+        assert f"not read, as no --topic names them: /J/pose ({n_j} poses)" in err
+        assert main([*argv, *both]) == 0
+        assert "not read" not in capsys.readouterr().err

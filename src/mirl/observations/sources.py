@@ -47,8 +47,8 @@ class LoadedObservations:
     discretised : Discretised, optional
         For pose data: the discretisation's counts and the cells L could see.
     left_out : mapping of str to int, default {}
-        A pose CSV read with ``topics``: each robot of the file that no topic names, and its
-        poses, which were not read.
+        Robot data read with ``topics``: each robot of a pose CSV, or each pose topic of a bag,
+        that no topic names, and its poses (messages), which were not read.
     """
 
     trajectories: Trajectories
@@ -130,9 +130,16 @@ def _read_bag(path: Path, scenario: Scenario, options: _ReadOptions) -> PoseTrac
             f"{path}: say which topic is which robot with `topics` TOPIC=ROBOT "
             f"(pose topics in the bag: {', '.join(poses) or 'none'})"
         )
-    return read_bag(
+    tracks = read_bag(
         path, options.topics, robot_names=options.robot_names, same_frames=options.same_frames
     )
+    # said, not dropped silently, as a pose CSV's robots are: a pose topic no `topics` names
+    # may be a robot the user forgot (topics of other types are cameras, maps, logs)
+    named = {topic.split(":", 1)[0] for topic in options.topics}
+    for topic, (msgtype, count) in bag_topics(path).items():
+        if msgtype in SUPPORTED_TYPES and topic not in named and count:
+            options.left_out[topic] = int(count)
+    return tracks
 
 
 def _read_pose_csv(path: Path, scenario: Scenario, options: _ReadOptions) -> PoseTracks:
