@@ -86,6 +86,9 @@ GOOD = "t,robot,row,col,heading\n0,I,0,8,2\n0,J,16,8,2\n"
         ("t,robot,row,heading\n0,I,0,2\n", "line 1: missing column 'col'"),
         (GOOD + "1,I,zero,7,2\n", "line 4: 'zero' is not an integer"),
         (GOOD + "1,I,0,7.5,2\n", "line 4: '7.5' is not an integer"),
+        # pyarrow's integer parser reads hexadecimal; a grid CSV's cells are decimal
+        (GOOD + "0x10,I,0,7,2\n", "line 4: '0x10' is not an integer"),
+        (GOOD + "1,I, 0X0,7,2\n", "line 4: '0X0' is not an integer"),
         (GOOD + "1,I,3,4,2\n", "line 4: cell (3,4) is not a hallway cell"),
         (GOOD + "1,I,0,0,2\n", "line 4: cell (0,0)"),  # L's room
         (GOOD + "1,I,40,1,2\n", "line 4: cell (40,1)"),  # off the map
@@ -101,6 +104,8 @@ GOOD = "t,robot,row,col,heading\n0,I,0,8,2\n0,J,16,8,2\n"
         "missing-column",
         "non-integer",
         "non-integer-float",
+        "hexadecimal",
+        "hexadecimal-spaced",
         "wall",
         "room",
         "off-map",

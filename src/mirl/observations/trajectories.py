@@ -305,6 +305,8 @@ def read_csv(
         return _read_csv_python(path, domain, robot_names, horizon)
     if any(h not in header for h in HEADER) or len(set(header)) != len(header):
         return _read_csv_python(path, domain, robot_names, horizon)
+    if _maybe_hex(path):  # pyarrow reads "0x10" as 16; the reference refuses it, naming the line
+        return _read_csv_python(path, domain, robot_names, horizon)
     types = {h: pa.int64() for h in HEADER} | {"robot": pa.string()}
     try:
         table = arrow_read(path, header, types)
@@ -344,6 +346,17 @@ def read_csv(
     return _sorted_checked(
         path, arr, lambda i: int(data_line_numbers(path)[i]), robot_names, horizon
     )
+
+
+_HEX_CELL = re.compile(rb"(?:^|,)[ \t]*[+-]?0[xX]", re.M)
+
+
+def _maybe_hex(path: Path) -> bool:
+    """Whether some cell of the file may be a hexadecimal number ("0x10"), which pyarrow's
+    integer parser accepts and the row-by-row reader refuses (a robot named "0x1" sends the
+    file to that reader too, which reads it as it should)."""
+    with open(path, "rb") as f:
+        return _HEX_CELL.search(f.read()) is not None
 
 
 def _shown(text: str, limit: int = 40) -> str:
