@@ -75,6 +75,19 @@ def test_a_conversion_with_no_steps_writes_nothing(tmp_path, capsys):
     assert main(argv) == 0 and out.read_text().count("\n") == 3
 
 
+def test_learning_from_poses_none_of_which_is_placed_says_why(tmp_path, capsys):
+    """`learn` said "no observations (a header and no rows)" of a pose file whose rows a late
+    --start-time had all left before step 0; it now says what `convert` says: none of its poses
+    was placed, why, and the watch's steps from that start."""
+    (tmp_path / "p.csv").write_text(POSES)
+    for argv in (["learn", "--scenario", "boyd2"], ["learn-transitions", "--scenario", "boyd2"]):
+        code = main([*argv, "--observations", str(tmp_path / "p.csv"), "--start-time=100"])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(err) == 1 and "header and no rows" not in err[0]
+        assert "nothing to learn from: none of its 2 poses was placed" in err[0]
+        assert "from t = 100.000 s" in err[0]
+
+
 def test_a_bag_in_capitals_is_told_as_a_bag(tmp_path, capsys):
     # it was read as a CSV; rosbags picks the storage by the suffix as written, so the one
     # line says to rename it, and the renamed file reads

@@ -320,14 +320,7 @@ def _convert(args: argparse.Namespace) -> int:
     scenario = _load_scenario(args)
     args.observations = args.input
     loaded = _read_observations(args, scenario)
-    if len(loaded.trajectories) == 0:  # an empty record is never what a conversion is for
-        d = loaded.discretised
-        why = (
-            _nothing_placed(d.report) + f" ({d.summary().splitlines()[0]})"
-            if d is not None
-            else "it has a header and no rows"
-        )
-        raise UsageError(f"{args.input}: nothing to convert: {why}")
+    _check_placed(args.input, loaded, "convert")  # an empty record is never what it is for
     loaded.trajectories.to_csv(args.output)
     traj, domain = loaded.trajectories, scenario.domain
     series = [traj.state_series(domain, i) for i in range(len(traj.robot_names))]
@@ -344,6 +337,18 @@ def _convert(args: argparse.Namespace) -> int:
         print(f"{args.input}: grid observations, {loaded.trajectories.horizon} steps")
     print(f"wrote {args.output} ({len(loaded.trajectories)} rows)")
     return 0
+
+
+def _check_placed(path, loaded, purpose: str) -> None:
+    """Refuse robot data of which no pose became an observation, saying why by the drops
+    counted and the watch (a start time after every pose shows as its steps from that time);
+    grid data with no rows is :func:`check_observations`'s."""
+    d = loaded.discretised
+    if len(loaded.trajectories) == 0 and d is not None:
+        why = _nothing_placed(d.report) + f" ({d.summary().splitlines()[0]})"
+        raise UsageError(f"{path}: nothing to {purpose}: {why}")
+    if len(loaded.trajectories) == 0 and purpose == "convert":
+        raise UsageError(f"{path}: nothing to convert: it has a header and no rows")
 
 
 def _nothing_placed(report) -> str:
@@ -369,7 +374,9 @@ def _learn_transitions(args: argparse.Namespace) -> int:
     check_damage("learn-transitions", args)
     scenario = _load_scenario(args)
     domain = scenario.domain
-    obs = _read_observations(args, scenario).trajectories
+    loaded = _read_observations(args, scenario)
+    _check_placed(args.observations, loaded, "learn from")
+    obs = loaded.trajectories
     check_observations(args.observations, obs, domain)
     series = [obs.state_series(domain, i) for i in range(len(scenario.robots))]
     labels = LABELLINGS[args.labels].load()(scenario, series)
@@ -512,6 +519,7 @@ def _learn(args: argparse.Namespace) -> int:
     obs = loaded.trajectories
     truth = _scored_against_truth(args, loaded.kind)
     check_damage("learn", args, scored=truth)  # robot data's kind is known once it is read
+    _check_placed(args.observations, loaded, "learn from")
     check_observations(args.observations, obs, scenario.domain)
     estimate = _check_cost(args, scenario, "learn", obs.horizon)
     from mirl.experiments.cost import LONG_SECONDS

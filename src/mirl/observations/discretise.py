@@ -819,12 +819,6 @@ def _watch(
             f"{tracks.source}: start time {start_time:g} s is not a time within "
             f"{MAX_POSE_TIME:g} s of 0 (epoch seconds or simulation time)"
         )
-    elif len(tracks) and start_time > float(tracks.t.max()) + step_seconds / 2:
-        # every pose before the watch: an empty record, refused by what emptied it
-        raise DiscretisationError(
-            f"{tracks.source}: `start_time` {start_time:g} s is after every pose (the last at "
-            f"t = {float(tracks.t.max()):.6g} s): nothing to read from it"
-        )
     if n_steps is None:
         last = float(tracks.t.max()) if len(tracks) else start_time
         n_steps = _steps_spanned(tracks, start_time, last, step_seconds)
