@@ -154,7 +154,7 @@ def test_learn_transitions_cli_json(tmp_path, capsys, boyd2):
     "content, problem",
     [
         ("t,robot,row,col\n0,I,0,1\n", "missing column 'heading'"),
-        ("t,robot,row,col,heading\n0,I,0,x,0\n", "line 2: 'x' is not an integer"),
+        ("t,robot,row,col,heading\n0,I,0,x,0\n", "line 2: column col: 'x' is not an integer"),
         ("t,robot,row,col,heading\n0,I,1,2,0\n", "line 2: cell (1,2) is not a hallway cell"),
         ("t,robot,row,col,heading\n0,K,0,1,0\n", "line 2: robot 'K' is not in the scenario"),
     ],

@@ -111,6 +111,19 @@ def test_hand_built_bag_every_step(bag, scenario, decode):
     assert (j.read, j.binned, j.snapped, j.dropped, j.observed_steps) == (4, 4, 0, 0, 4)
 
 
+def test_a_pose_topic_no_topic_names_is_left_out_with_its_messages(bag, scenario):
+    """In each bag format (ROS 1 names its types without /msg/), the pose topic no topic names
+    is counted in `left_out`, an Odometry as a PoseWithCovarianceStamped; /tb_i/scan (strings)
+    is not a robot and is not counted."""
+    from mirl.observations.sources import load_observations
+
+    got = load_observations(bag, scenario, topics={"/tb_i/amcl_pose": "I"})
+    assert dict(got.left_out) == {"/tb_j/odom": len(J_POSES)}
+    got = load_observations(bag, scenario, topics={"/tb_j/odom": "J"})
+    assert dict(got.left_out) == {"/tb_i/amcl_pose": len(I_POSES)}
+    assert dict(load_observations(bag, scenario, topics=TOPICS).left_out) == {}
+
+
 def _odometry_bag(tmp_path, fmt: str, frame_of) -> Path:
     ts = typestore(fmt != "ros1")
     recs = []

@@ -87,6 +87,11 @@ def test_nearest_pose_tolerance_and_gaps(scenario):
     # poses before the start or after n_steps are read but not binned
     d = discretise(p, scenario, start_time=12.0, n_steps=2)
     assert d.trajectories.t.tolist() == [0] and d.report[0].binned == 2
+    assert d.last_pose == 19.5  # read, not taken: what a later start is measured against
+    # a start after every pose: an empty record (the CLI names its --start-time by last_pose)
+    d = discretise(p, scenario, start_time=21.5)
+    assert len(d.trajectories) == 0 and d.last_pose == 19.5
+    assert discretise(poses([]), scenario).last_pose is None
 
 
 def test_snapping_dropping_and_errors(scenario):

@@ -65,6 +65,25 @@ def test_a_tf_only_bag_gives_the_robot_frame_in_the_map_frame(tmp_path, fmt):
     np.testing.assert_allclose(laser.y, 1.0 + d + 0.1, atol=1e-9)
 
 
+def test_only_pose_topics_are_said_left_out_not_other_tf_frames(tmp_path):
+    """A robot read from /tf leaves its other child frames (odom, laser: its own frames and
+    the localiser's) unread, and they are not robots, so they are not in `left_out`; a pose
+    topic beside it is, with its messages."""
+    from mirl.observations.sources import load_observations
+    from mirl.world.scenario import load_scenario
+
+    ts = typestore(True)
+    j = [("/J/pose", 100.0 + k, pose_message(ts, "stamped", 100.0 + k, 8.0, 0.0, 0.0))
+         for k in range(3)]  # fmt: skip
+    bag = write_bag(tmp_path / "b", sorted(_records(True) + j, key=lambda r: r[1]), fmt="mcap")
+    scenario = load_scenario("boyd2")
+    # the robot drives off boyd2's map: its poses are dropped, which does not matter here
+    got = load_observations(bag, scenario, topics={"/tf:base_link": "I"}, drop_off_map=True)
+    assert dict(got.left_out) == {"/J/pose": 3}
+    got = load_observations(bag, scenario, topics={"/J/pose": "J"})
+    assert dict(got.left_out) == {}
+
+
 def test_a_link_without_a_recent_transform_drops_and_counts_the_pose(tmp_path):
     recs = [
         r

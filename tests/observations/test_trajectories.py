@@ -84,11 +84,19 @@ GOOD = "t,robot,row,col,heading\n0,I,0,8,2\n0,J,16,8,2\n"
     "text, needle",
     [
         ("t,robot,row,heading\n0,I,0,2\n", "line 1: missing column 'col'"),
-        (GOOD + "1,I,zero,7,2\n", "line 4: 'zero' is not an integer"),
-        (GOOD + "1,I,0,7.5,2\n", "line 4: '7.5' is not an integer"),
+        (GOOD + "1,I,zero,7,2\n", "line 4: column row: 'zero' is not an integer"),
+        (GOOD + "1,I,0,7.5,2\n", "line 4: column col: '7.5' is not an integer"),
         # pyarrow's integer parser reads hexadecimal; a grid CSV's cells are decimal
-        (GOOD + "0x10,I,0,7,2\n", "line 4: '0x10' is not an integer"),
-        (GOOD + "1,I, 0X0,7,2\n", "line 4: '0X0' is not an integer"),
+        (GOOD + "0x10,I,0,7,2\n", "line 4: column t: '0x10' is not an integer"),
+        (GOOD + "1,I, 0X0,7,2\n", "line 4: column row: '0X0' is not an integer"),
+        # quoted, after a sign or on a line ended by a lone CR, pyarrow read 16 as well
+        (GOOD + '"0x10",I,0,7,2\n', "line 4: column t: '0x10' is not an integer"),
+        (GOOD + '1,I,0," +0x7",2\n', "line 4: column col: '+0x7' is not an integer"),
+        (GOOD.replace("\n", "\r") + "0x10,I,0,7,2\r", "line 4: column t: '0x10' is not"),
+        # other bases and forms Python's int() takes are not decimal either
+        (GOOD + "0b1,I,0,7,2\n", "line 4: column t: '0b1' is not an integer"),
+        (GOOD + "0o7,I,0,7,2\n", "line 4: column t: '0o7' is not an integer"),
+        (GOOD + "1,I,0,7,0_2\n", "line 4: column heading: '0_2' is not an integer"),
         (GOOD + "1,I,3,4,2\n", "line 4: cell (3,4) is not a hallway cell"),
         (GOOD + "1,I,0,0,2\n", "line 4: cell (0,0)"),  # L's room
         (GOOD + "1,I,40,1,2\n", "line 4: cell (40,1)"),  # off the map
@@ -106,6 +114,12 @@ GOOD = "t,robot,row,col,heading\n0,I,0,8,2\n0,J,16,8,2\n"
         "non-integer-float",
         "hexadecimal",
         "hexadecimal-spaced",
+        "hexadecimal-quoted",
+        "hexadecimal-quoted-signed",
+        "hexadecimal-cr-lines",
+        "binary",
+        "octal",
+        "underscore",
         "wall",
         "room",
         "off-map",
@@ -127,6 +141,16 @@ def test_errors_name_file_and_line(tmp_path, domain, text, needle):
     assert msg.startswith(f"{path}: ")
     assert needle in msg
     assert "\n" not in msg
+
+
+def test_decimal_cells_read_as_before(tmp_path, domain):
+    """Refusing other bases leaves every decimal form read as it was: a sign, leading zeros,
+    blanks and quotes around the digits."""
+    path = tmp_path / "ok.csv"
+    path.write_text(GOOD + '+1,I, 0 ,"07",+2\n"2", I ,-0,006,02\n')
+    tr = read_csv(path, domain, NAMES)
+    rows = zip(*(a.tolist() for a in (tr.t, tr.robot, tr.row, tr.col, tr.heading)), strict=True)
+    assert list(rows) == [(0, 0, 0, 8, 2), (0, 1, 16, 8, 2), (1, 0, 0, 7, 2), (2, 0, 0, 6, 2)]
 
 
 def test_beyond_horizon_and_missing_file(tmp_path, domain):

@@ -67,25 +67,62 @@ def test_a_conversion_with_no_steps_writes_nothing(tmp_path, capsys):
     (tmp_path / "p.csv").write_text(POSES)
     out = tmp_path / "out.csv"
     argv = ["convert", str(tmp_path / "p.csv"), str(out), "--scenario", "boyd2"]
-    assert main([*argv, "--start-time=100"]) == 2  # every pose before step 0
+    assert main([*argv, "--start-time=100"]) == 2  # every pose before step 0: the flag's
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"mirl convert: error: {tmp_path / 'p.csv'}: nothing to convert: --start-time 100 s is "
+        "after every pose (the last at t = 2 s)"
+    ]
+    # a start within the poses whose steps none lies near: the reason, counted
+    assert main([*argv, "--start-time=0.5", "--step-seconds=2", "--tolerance=0.1"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "nothing to convert: none of its 2 poses was placed" in err[0]
-    assert "dropped 2 no step within the tolerance" in err[0]  # the reason, counted
+    assert "dropped 2 no step within the tolerance" in err[0] and "--start-time" not in err[0]
     assert not out.exists()
     assert main(argv) == 0 and out.read_text().count("\n") == 3
 
 
 def test_learning_from_poses_none_of_which_is_placed_says_why(tmp_path, capsys):
     """`learn` said "no observations (a header and no rows)" of a pose file whose rows a late
-    --start-time had all left before step 0; it now says what `convert` says: none of its poses
-    was placed, why, and the watch's steps from that start."""
+    --start-time had all left before step 0; it now names the flag and the last pose's time,
+    as `convert` does, and says why by the drops when the start is not after every pose."""
     (tmp_path / "p.csv").write_text(POSES)
     for argv in (["learn", "--scenario", "boyd2"], ["learn-transitions", "--scenario", "boyd2"]):
         code = main([*argv, "--observations", str(tmp_path / "p.csv"), "--start-time=100"])
         err = capsys.readouterr().err.strip().splitlines()
         assert code == 2 and len(err) == 1 and "header and no rows" not in err[0]
+        assert err[0].endswith(
+            "p.csv: nothing to learn from: --start-time 100 s is after every pose (the last at "
+            "t = 2 s)"
+        )
+        late = ["--start-time=0.5", "--step-seconds=2", "--tolerance=0.1"]
+        code = main([*argv, "--observations", str(tmp_path / "p.csv"), *late])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(err) == 1
         assert "nothing to learn from: none of its 2 poses was placed" in err[0]
-        assert "from t = 100.000 s" in err[0]
+
+
+def test_a_start_time_after_every_pose_of_a_bag_names_the_flag(tmp_path, capsys):
+    """An MCAP's last read pose bounds --start-time as a pose CSV's does, for `learn` and
+    `convert`; the unread topic is not counted in the last pose's time."""
+    mcap = tmp_path / "p.mcap"
+    assert main(["simulate", "--scenario", "boyd2", "--steps", "30", "--seed", "1",
+                 "--poses", str(mcap)]) == 0  # fmt: skip
+    capsys.readouterr()
+    from mirl.observations.bags import read_bag
+
+    last = float(read_bag(mcap, {"/I/pose": "I"}).t.max())
+    flags = ["--topic", "/I/pose=I", "--start-time", "1e5"]
+    for argv in (
+        ["learn", "--scenario", "boyd2", "--observations", str(mcap)],
+        ["convert", str(mcap), str(tmp_path / "o.csv"), "--scenario", "boyd2"],
+    ):
+        assert main([*argv, *flags]) == 2
+        err = capsys.readouterr().err.strip().splitlines()[-1]  # after the left-out warning
+        assert err.endswith(
+            f"p.mcap: nothing to {'convert' if argv[0] == 'convert' else 'learn from'}: "
+            f"--start-time 100000 s is after every pose (the last at t = {last:g} s)"
+        )
 
 
 def test_a_bag_in_capitals_is_told_as_a_bag(tmp_path, capsys):

@@ -34,7 +34,10 @@ def test_utf8_bom_is_accepted(tmp_path, domain):
 @pytest.mark.parametrize(
     "tail, expected",
     [
-        ("1,I,0,99999999999999999999999,2\n", "line 4: 99999999999999999999999 is too large"),
+        (
+            "1,I,0,99999999999999999999999,2\n",
+            "line 4: column col: 99999999999999999999999 is too large",
+        ),
         ("1,I,0,7,-99999999999999999999999\n", "is too large"),
         (f"{10**12},I,0,7,2\n", f"line 4: time {10**12} is beyond the limit of {MAX_TIME}"),
         (f"{MAX_TIME},I,0,7,2\n", "is beyond the limit"),

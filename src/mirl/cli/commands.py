@@ -320,7 +320,8 @@ def _convert(args: argparse.Namespace) -> int:
     scenario = _load_scenario(args)
     args.observations = args.input
     loaded = _read_observations(args, scenario)
-    _check_placed(args.input, loaded, "convert")  # an empty record is never what it is for
+    # an empty record is never what a conversion is for
+    _check_placed(args.input, loaded, "convert", args.start_time)
     loaded.trajectories.to_csv(args.output)
     traj, domain = loaded.trajectories, scenario.domain
     series = [traj.state_series(domain, i) for i in range(len(traj.robot_names))]
@@ -339,16 +340,29 @@ def _convert(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_placed(path, loaded, purpose: str) -> None:
-    """Refuse robot data of which no pose became an observation, saying why by the drops
-    counted and the watch (a start time after every pose shows as its steps from that time);
-    grid data with no rows is :func:`check_observations`'s."""
+def _check_placed(path, loaded, purpose: str, start_time: float | None) -> None:
+    """Refuse robot data of which no pose became an observation, saying why: a --start-time
+    after every pose by the last pose's time, else by the drops counted and the watch; grid
+    data with no rows is :func:`check_observations`'s."""
     d = loaded.discretised
+    last = None if d is None else d.last_pose
+    if len(loaded.trajectories) == 0 and start_time is not None and last is not None:
+        if start_time > last:  # "no step within the tolerance" would not say it was the flag
+            raise UsageError(
+                f"{path}: nothing to {purpose}: --start-time {_seconds(start_time)} s is after "
+                f"every pose (the last at t = {_seconds(last)} s)"
+            )
     if len(loaded.trajectories) == 0 and d is not None:
         why = _nothing_placed(d.report) + f" ({d.summary().splitlines()[0]})"
         raise UsageError(f"{path}: nothing to {purpose}: {why}")
     if len(loaded.trajectories) == 0 and purpose == "convert":
         raise UsageError(f"{path}: nothing to convert: it has a header and no rows")
+
+
+def _seconds(t: float) -> str:
+    """A time in seconds to the millisecond, without trailing zeros: 100000, 899.9,
+    1700000000.25 (``:g`` would round an epoch time to 1.7e+09)."""
+    return f"{t:.3f}".rstrip("0").rstrip(".")
 
 
 def _nothing_placed(report) -> str:
@@ -375,7 +389,7 @@ def _learn_transitions(args: argparse.Namespace) -> int:
     scenario = _load_scenario(args)
     domain = scenario.domain
     loaded = _read_observations(args, scenario)
-    _check_placed(args.observations, loaded, "learn from")
+    _check_placed(args.observations, loaded, "learn from", args.start_time)
     obs = loaded.trajectories
     check_observations(args.observations, obs, domain)
     series = [obs.state_series(domain, i) for i in range(len(scenario.robots))]
@@ -519,7 +533,7 @@ def _learn(args: argparse.Namespace) -> int:
     obs = loaded.trajectories
     truth = _scored_against_truth(args, loaded.kind)
     check_damage("learn", args, scored=truth)  # robot data's kind is known once it is read
-    _check_placed(args.observations, loaded, "learn from")
+    _check_placed(args.observations, loaded, "learn from", args.start_time)
     check_observations(args.observations, obs, scenario.domain)
     estimate = _check_cost(args, scenario, "learn", obs.horizon)
     from mirl.experiments.cost import LONG_SECONDS

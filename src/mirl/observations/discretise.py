@@ -254,6 +254,11 @@ class Discretised:
         The cells L could see (see :func:`discretise`).
     auto_step : AutoStep or None, default None
         How the step was chosen when ``step_seconds="auto"``; None when it was given.
+    last_pose : float or None, default None
+        The time (s) of the latest pose read, whether or not a step took it; None when no pose
+        was read. A ``start_time`` after it leaves every pose before the watch.
+
+        .. versionadded:: 0.2.0
     """
 
     trajectories: Trajectories
@@ -263,6 +268,7 @@ class Discretised:
     tolerance: float
     visible: np.ndarray  # (rows, cols) bool: the cells L could see (see ``discretise``)
     auto_step: AutoStep | None = None  # how the step was chosen, when it was
+    last_pose: float | None = None  # the latest pose's time (s), taken or not
 
     def visible_states(self, scenario: Scenario) -> np.ndarray:
         """The states on visible cells, for :func:`mirl.learning.learn`'s ``visible``.
@@ -473,7 +479,8 @@ def discretise(
         replace(RobotCounts(name, *(c[i] for c in columns)), unplaced=tracks.unplaced.get(name, 0))
         for i, name in enumerate(tracks.robot_names)
     )
-    return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis, auto)
+    last = float(tracks.t.max()) if len(tracks) else None
+    return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis, auto, last)
 
 
 def auto_step_seconds(

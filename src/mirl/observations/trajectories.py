@@ -348,7 +348,9 @@ def read_csv(
     )
 
 
-_HEX_CELL = re.compile(rb"(?:^|,)[ \t]*[+-]?0[xX]", re.M)
+# a cell that starts with 0x after blanks, a sign or an opening quote, on any line ending:
+# pyarrow's integer parser reads it as hexadecimal, quoted or not (0x10 and "0x10" are 16)
+_HEX_CELL = re.compile(rb'(?:^|[,\r])[ \t]*"?[ \t]*[+-]?0[xX]', re.M)
 
 
 def _maybe_hex(path: Path) -> bool:
@@ -456,16 +458,25 @@ def _parse_rows(path: Path, reader, domain, robot_names, horizon) -> Trajectorie
             raise TrajectoryError(
                 f"{path}: line {lineno}: robot '{_shown(name)}' is not in the scenario ({known})"
             )
-        bad = next((v for v in (vals[0], *vals[2:]) if not _is_int(v)), None)
-        if bad is not None:
-            raise TrajectoryError(f"{path}: line {lineno}: '{_shown(bad)}' is not an integer")
-        long = next((v for v in (vals[0], *vals[2:]) if len(v) > 24), None)
+        numbers = (0, 2, 3, 4)  # the integer columns, by their place in HEADER
+        bad = next((i for i in numbers if not _is_int(vals[i])), None)
+        if bad is not None:  # decimal only: no 0x10, 6_0 or non-ASCII digits
+            raise TrajectoryError(
+                f"{path}: line {lineno}: column {HEADER[bad]}: '{_shown(vals[bad])}' is not an "
+                "integer"
+            )
+        long = next((i for i in numbers if len(vals[i]) > 24), None)
         if long is not None:  # past int64 anyway (and int() refuses 4 300 digits)
-            raise TrajectoryError(f"{path}: line {lineno}: '{_shown(long)}' is too large")
-        t, r, c, h = (int(vals[i]) for i in (0, 2, 3, 4))
-        big = next((v for v in (r, c, h) if abs(v) >= _MAX_CELL), None)
+            raise TrajectoryError(
+                f"{path}: line {lineno}: column {HEADER[long]}: '{_shown(vals[long])}' is too large"
+            )
+        t, r, c, h = (int(vals[i]) for i in numbers)
+        cells = zip(numbers[1:], (r, c, h), strict=True)
+        big = next((i for i, v in cells if abs(v) >= _MAX_CELL), None)
         if big is not None:
-            raise TrajectoryError(f"{path}: line {lineno}: {_shown(str(big))} is too large")
+            raise TrajectoryError(
+                f"{path}: line {lineno}: column {HEADER[big]}: {int(vals[big])} is too large"
+            )
         if not 0 <= t < MAX_TIME:
             raise TrajectoryError(f"{path}: line {lineno}: {_time_problem(t)}")
         if domain.state_index(r, c, h) < 0:
