@@ -344,19 +344,21 @@ def _check_placed(path, loaded, purpose: str, start_time: float | None) -> None:
     """Refuse robot data of which no pose became an observation, saying why: a --start-time
     after every pose by the last pose's time, else by the drops counted and the watch; grid
     data with no rows is :func:`check_observations`'s."""
+    if len(loaded.trajectories):
+        return
     d = loaded.discretised
-    last = None if d is None else d.last_pose
-    if len(loaded.trajectories) == 0 and start_time is not None and last is not None:
-        if start_time > last:  # "no step within the tolerance" would not say it was the flag
-            raise UsageError(
-                f"{path}: nothing to {purpose}: --start-time {_seconds(start_time)} s is after "
-                f"every pose (the last at t = {_seconds(last)} s)"
-            )
-    if len(loaded.trajectories) == 0 and d is not None:
-        why = _nothing_placed(d.report) + f" ({d.summary().splitlines()[0]})"
-        raise UsageError(f"{path}: nothing to {purpose}: {why}")
-    if len(loaded.trajectories) == 0 and purpose == "convert":
-        raise UsageError(f"{path}: nothing to convert: it has a header and no rows")
+    if d is None:  # grid data: learning's own check says it has no rows
+        if purpose == "convert":
+            raise UsageError(f"{path}: nothing to convert: it has a header and no rows")
+        return
+    if start_time is not None and d.last_pose is not None and start_time > d.last_pose:
+        # "no step within the tolerance" would not say it was the flag
+        raise UsageError(
+            f"{path}: nothing to {purpose}: --start-time {_seconds(start_time)} s is after "
+            f"every pose (the last at t = {_seconds(d.last_pose)} s)"
+        )
+    why = _nothing_placed(d.report) + f" ({d.summary().splitlines()[0]})"
+    raise UsageError(f"{path}: nothing to {purpose}: {why}")
 
 
 def _seconds(t: float) -> str:
