@@ -23,7 +23,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from mirl.envs.core import Episode
+from mirl.envs.core import Episode, check_episode_settings
 from mirl.planning.observer import observer_model
 from mirl.world.scenario import Scenario, as_scenario
 from mirl.worlds import DEFAULT_WORLD, get_world
@@ -70,16 +70,17 @@ class PenetrationEnv(gym.Env):
     observability : float, optional
         The fraction of the hallway L sees from its room; the scenario's by default.
     max_steps : int, default 1000
-        Steps after which an episode is truncated, at least 1.
+        Steps after which an episode is truncated, an integer of at least 1.
     goal_reward : float, default 1.0
-        The reward for reaching the goal unseen.
+        The reward for reaching the goal unseen, a finite number.
     detection_penalty : float, default 1.0
-        The penalty (a reward of minus it) for being seen.
+        The penalty (a reward of minus it) for being seen, a finite number.
 
     Raises
     ------
     ValueError
-        ``max_steps`` below 1, or an unknown world.
+        ``max_steps`` not an integer of at least 1, a reward that is not a finite number, or
+        an unknown world.
     ImportError
         A world that cannot run on this installation.
     """
@@ -96,8 +97,9 @@ class PenetrationEnv(gym.Env):
         goal_reward: float = 1.0,
         detection_penalty: float = 1.0,
     ) -> None:
-        if max_steps < 1:
-            raise ValueError(f"max_steps must be at least 1, got {max_steps}")
+        check_episode_settings(
+            "max_steps", max_steps, goal_reward=goal_reward, detection_penalty=detection_penalty
+        )
         self.scenario = as_scenario(scenario)
         self.world_class = get_world(world).load()
         self.model = observer_model(self.scenario)
