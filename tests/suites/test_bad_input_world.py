@@ -103,6 +103,11 @@ FEATURES = (
         ("[observer]", "[frame]\ncell_size = 1e308\n[observer]", "frame"),
         ("[observer]", "[frame]\norigin = [1e308, 0.0]\n[observer]", "frame"),
         ("[observer]", FEATURES.format(cell="[5, 5]") + "[observer]", "override[0].cells[0]"),
+        # --topic /J/pose=J=K read robot K, and --damage ' J:left_wheel=0.5' robot J: these
+        # robots could never be named on the command line
+        ('name = "J"', 'name = "J=K"', "robots[1].name"),
+        ('name = "J"', 'name = " J"', "robots[1].name"),
+        ('name = "J"', 'name = "J\\r"', "robots[1].name"),
     ],
 )
 def test_scenarios_that_cannot_be_meant(tmp_path, capsys, old, new, field):
