@@ -108,6 +108,9 @@ FEATURES = (
         ('name = "J"', 'name = "J=K"', "robots[1].name"),
         ('name = "J"', 'name = " J"', "robots[1].name"),
         ('name = "J"', 'name = "J\\r"', "robots[1].name"),
+        # an empty region made a feature that is 0 everywhere, whose weight learned nothing
+        ("cells = { from = [0, 2], to = [0, 8] }", "cells = []", "reward.features[1].cells"),
+        ("cells = [[0, 8], [16, 8]]", "cells = []", "reward.features[3].cells"),
     ],
 )
 def test_scenarios_that_cannot_be_meant(tmp_path, capsys, old, new, field):
