@@ -94,6 +94,11 @@ FEATURES = (
     'override = [{{ cells = [{cell}], remove = ["floor"] }}]\n'
 )
 
+NO_FEATURES = (
+    "[transition_features]\nfeatures = []\n"
+    "actions = { forward = [], turn_left = [], turn_right = [], stop = [] }\n"
+)
+
 
 @pytest.mark.parametrize(
     ("old", "new", "field"),
@@ -111,6 +116,8 @@ FEATURES = (
         # an empty region made a feature that is 0 everywhere, whose weight learned nothing
         ("cells = { from = [0, 2], to = [0, 8] }", "cells = []", "reward.features[1].cells"),
         ("cells = [[0, 8], [16, 8]]", "cells = []", "reward.features[3].cells"),
+        # `mirl run` on it stopped on a ZeroDivisionError traceback
+        ("[observer]", NO_FEATURES + "[observer]", "transition_features"),
     ],
 )
 def test_scenarios_that_cannot_be_meant(tmp_path, capsys, old, new, field):

@@ -75,7 +75,8 @@ class FeatureMap:
     Raises
     ------
     ValueError
-        A duplicate feature, an action without a subset, or an unknown action or feature name.
+        No feature, a duplicate feature, an action without a subset, or an unknown action or
+        feature name.
     """
 
     features: tuple[str, ...]
@@ -83,6 +84,8 @@ class FeatureMap:
     overrides: tuple[FeatureOverride, ...] = ()
 
     def __post_init__(self) -> None:
+        if not self.features:  # the learners' posteriors over the probabilities need one
+            raise ValueError("no transition features: ξ needs at least one (features = [...])")
         if len(set(self.features)) != len(self.features):
             raise ValueError(f"duplicate transition feature in {list(self.features)}")
         known = set(self.features)
