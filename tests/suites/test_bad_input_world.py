@@ -118,6 +118,23 @@ NO_FEATURES = (
         ("cells = [[0, 8], [16, 8]]", "cells = []", "reward.features[3].cells"),
         # `mirl run` on it stopped on a ZeroDivisionError traceback
         ("[observer]", NO_FEATURES + "[observer]", "transition_features"),
+        # overrides that changed no ξ(s, a) and loaded without a word
+        (
+            "[observer]",
+            FEATURES.format(cell="") + "[observer]",
+            "override[0].cells: expected at least 1",
+        ),
+        (
+            "[observer]",
+            FEATURES.format(cell="[0, 5]").replace("cells", "actions = [], cells") + "[observer]",
+            "override[0].actions: expected at least 1",
+        ),
+        (
+            "[observer]",
+            FEATURES.format(cell="[0, 5]").replace('remove = ["floor"]', "remove = []")
+            + "[observer]",
+            "override[0]: adds and removes no feature",
+        ),
     ],
 )
 def test_scenarios_that_cannot_be_meant(tmp_path, capsys, old, new, field):

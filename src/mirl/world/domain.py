@@ -218,9 +218,15 @@ class FeatureMap:
         for i, ov in enumerate(schema.array(data.get("override", []), f"{where}.override")):
             p = f"{where}.override[{i}]"
             ov = schema.table(ov, p, ("cells", "actions", "add", "remove"))
+            # an override on no cell, for no action or adding and removing nothing would
+            # change no ξ(s, a): written, it is a mistake, not a no-op to keep quiet about
+            add = _names(ov.get("add", []), f"{p}.add")
+            remove = _names(ov.get("remove", []), f"{p}.remove")
+            if not (add or remove):
+                raise schema.FieldError(p, "adds and removes no feature (give add or remove)")
             cells = None
             if "cells" in ov:
-                items = schema.array(ov["cells"], f"{p}.cells")
+                items = schema.array(ov["cells"], f"{p}.cells", min_length=1)
                 cells = tuple(
                     schema.cell(c, f"{p}.cells[{k}]", shape, frame=frame)
                     for k, c in enumerate(items)
@@ -228,9 +234,13 @@ class FeatureMap:
             overrides.append(
                 FeatureOverride(
                     cells=cells,
-                    actions=_names(ov["actions"], f"{p}.actions") if "actions" in ov else None,
-                    add=_names(ov.get("add", []), f"{p}.add"),
-                    remove=_names(ov.get("remove", []), f"{p}.remove"),
+                    actions=(
+                        _names(ov["actions"], f"{p}.actions", min_length=1)
+                        if "actions" in ov
+                        else None
+                    ),
+                    add=add,
+                    remove=remove,
                 )
             )
         try:
@@ -239,8 +249,9 @@ class FeatureMap:
             raise schema.FieldError(where, str(exc)) from None
 
 
-def _names(value, path: str) -> tuple[str, ...]:
-    return tuple(schema.string(v, f"{path}[{i}]") for i, v in enumerate(schema.array(value, path)))
+def _names(value, path: str, min_length: int = 0) -> tuple[str, ...]:
+    items = schema.array(value, path, min_length=min_length)
+    return tuple(schema.string(v, f"{path}[{i}]") for i, v in enumerate(items))
 
 
 DEFAULT_FEATURE_MAP = FeatureMap(
