@@ -113,6 +113,18 @@ NO_FEATURES = (
         ('name = "J"', 'name = "J=K"', "robots[1].name"),
         ('name = "J"', 'name = " J"', "robots[1].name"),
         ('name = "J"', 'name = "J\\r"', "robots[1].name"),
+        # `mirl learn` printed the unnamed feature's weight as "=7.522"
+        (
+            '{ name = "moved", kind = "moved" }',
+            '{ name = "", kind = "moved" }',
+            "reward.features[0].name",
+        ),
+        (
+            "[observer]",
+            FEATURES.format(cell="[0, 5]").replace('"floor"]\nactions', '"floor="]\nactions')
+            + "[observer]",
+            "transition_features.features[3]",
+        ),
         # an empty region made a feature that is 0 everywhere, whose weight learned nothing
         ("cells = { from = [0, 2], to = [0, 8] }", "cells = []", "reward.features[1].cells"),
         ("cells = [[0, 8], [16, 8]]", "cells = []", "reward.features[3].cells"),

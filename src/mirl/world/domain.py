@@ -210,7 +210,10 @@ class FeatureMap:
         data = schema.table(
             data, where, ("features", "actions", "override"), ("features", "actions")
         )
-        features = _names(data["features"], f"{where}.features")
+        features = tuple(
+            schema.name(v, f"{where}.features[{i}]", "transition feature")
+            for i, v in enumerate(schema.array(data["features"], f"{where}.features"))
+        )
         raw = data["actions"]  # any action names, but a table of them
         acts = schema.table(raw, f"{where}.actions", raw.keys() if isinstance(raw, dict) else ())
         actions = {a: _names(v, f"{where}.actions.{a}") for a, v in acts.items()}

@@ -337,7 +337,7 @@ def _feature(
     value: Any, path: str, shape: tuple[int, int], gridmap: GridMap | None
 ) -> RewardFeature:
     value = schema.table(value, path, ("name", "kind", *FIELDS), ("name", "kind"))
-    name = schema.string(value["name"], f"{path}.name")
+    name = schema.name(value["name"], f"{path}.name", "reward feature")
     kind = schema.string(value["kind"], f"{path}.kind", tuple(KINDS))
     for key in FIELDS:
         if key in value and key not in KINDS[kind].takes:

@@ -206,18 +206,10 @@ def read_robots(
     for i, rd in enumerate(items):
         where = f"robots[{i}]"
         rd = schema.table(rd, where, ("name", "start", "feature_probabilities", "weights"))
-        if "name" in rd:  # a name given must be usable (an empty one is refused below)
-            name = schema.string(rd["name"], f"{where}.name")
+        if "name" in rd:
+            name = schema.name(rd["name"], f"{where}.name", "robot")
         else:
             name = "IJKLMNOP"[i : i + 1] or f"R{i}"
-        # --damage ROBOT:FEATURE=P and --topic TOPIC=ROBOT split on these characters and strip
-        # the name, so a name with them, or with space at an end, could never be named there
-        if not name.strip() or name != name.strip() or any(ch in name for ch in ",:=\n\r"):
-            raise FieldError(
-                f"{where}.name",
-                f"{name!r} is not a usable robot name (it needs a character other than space, "
-                "none at either end, and none of , : = or a line break)",
-            )
         if "start" not in rd:
             raise FieldError(where, "missing field 'start'")
         start = schema.cell(
