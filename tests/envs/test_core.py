@@ -4,7 +4,9 @@ and the outcome is the world's detection and goal test."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from mirl.envs import PenetrationEnv, TeamEnv
 from mirl.envs.core import Episode
 from mirl.planning.observer import observer_model, shortest_path_policy
 from mirl.world.scenario import load_scenario
@@ -62,3 +64,29 @@ def test_the_outcome_is_the_worlds_detection_then_goal():
                 break
         seen.add(e.outcome)
     assert {"detected", "success"} <= seen
+
+
+@pytest.mark.parametrize(
+    ("env_class", "argument", "value"),
+    [
+        (PenetrationEnv, "max_steps", 2.5),
+        (PenetrationEnv, "max_steps", float("nan")),
+        (PenetrationEnv, "goal_reward", float("nan")),
+        (PenetrationEnv, "detection_penalty", float("inf")),
+        (TeamEnv, "max_cycles", 0),
+        (TeamEnv, "max_cycles", -3),
+        (TeamEnv, "max_cycles", 2.5),
+        (TeamEnv, "goal_reward", float("nan")),
+        (TeamEnv, "detection_reward", float("inf")),
+    ],
+)
+def test_an_episode_length_or_reward_that_cannot_be_meant_is_refused(env_class, argument, value):
+    """A length the environment would cut or that ends every episode at once, and a reward
+    that would reach every return as NaN or infinity, are refused by name."""
+    with pytest.raises(ValueError, match=f"`{argument}` must be"):
+        env_class("boyd2", **{argument: value})
+
+
+def test_the_environments_take_an_integer_length_of_any_integer_type():
+    assert PenetrationEnv("boyd2", max_steps=np.int64(3)).max_steps == 3
+    assert TeamEnv("boyd2", max_cycles=1).max_cycles == 1

@@ -90,6 +90,25 @@ def test_refuses_what_it_would_otherwise_default_or_drop():
         PenetrationEnv("boyd2", world="gird")
 
 
+@pytest.mark.parametrize(("seed", "max_steps", "actions"), [(0, 3, [3] * 3), (0, 300, [0] * 300)])
+def test_a_step_after_the_episode_ended_asks_for_reset(seed, max_steps, actions):
+    """After truncation (L waits 3 steps) or termination (L walks out at once), a step would
+    move the world on and recompute L's outcome; it is refused until the next reset."""
+    env = PenetrationEnv("boyd2", max_steps=max_steps)
+    env.reset(seed=seed)
+    for action in actions:
+        *_, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            break
+    assert terminated or truncated
+    t = env.episode.world.t
+    with pytest.raises(ResetNeeded, match="ended"):
+        env.step(3)
+    assert env.episode.world.t == t
+    env.reset(seed=seed)
+    env.step(3)  # a new episode steps again
+
+
 def test_steps_the_physics_world_through_the_same_contract():
     pytest.importorskip("mujoco")
     env = PenetrationEnv("boyd2", world="physics", max_steps=3)

@@ -11,6 +11,7 @@ import pytest
 
 from mirl.experiments.conditions import Condition, StoreError
 from mirl.experiments.store import (
+    ResultStore,
     RunRecord,
     check_store,
     load_results,
@@ -146,3 +147,18 @@ def test_another_sqlite_database_is_not_a_store(tmp_path):
     check_store(tmp_path / "missing.sqlite")  # nothing yet: a new store may be made there
     with pytest.raises(StoreError, match="no such results database"):
         load_results(tmp_path / "missing.sqlite")
+
+
+def test_a_store_has_one_writer_at_a_time(tmp_path):
+    """Two sweeps writing one store ran every run twice, and one with another base seed set
+    the store's seed under the other's rows; the second is refused until the first closes."""
+    path = tmp_path / "results.sqlite"
+    first = open_store(path, "fig4a", 7, resume=False)
+    with pytest.raises(StoreError, match="another sweep is writing to it"):
+        open_store(path, "fig4a", 8, resume=True)
+    assert first.meta()["base_seed"] == "7"
+    reader = ResultStore(path, read_only=True)  # `mirl report` reads while a sweep writes
+    assert reader.count() == 0
+    reader.close()
+    first.close()
+    open_store(path, "fig4a", 7, resume=True).close()

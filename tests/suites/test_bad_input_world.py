@@ -94,6 +94,11 @@ FEATURES = (
     'override = [{{ cells = [{cell}], remove = ["floor"] }}]\n'
 )
 
+NO_FEATURES = (
+    "[transition_features]\nfeatures = []\n"
+    "actions = { forward = [], turn_left = [], turn_right = [], stop = [] }\n"
+)
+
 
 @pytest.mark.parametrize(
     ("old", "new", "field"),
@@ -103,6 +108,45 @@ FEATURES = (
         ("[observer]", "[frame]\ncell_size = 1e308\n[observer]", "frame"),
         ("[observer]", "[frame]\norigin = [1e308, 0.0]\n[observer]", "frame"),
         ("[observer]", FEATURES.format(cell="[5, 5]") + "[observer]", "override[0].cells[0]"),
+        # --topic /J/pose=J=K read robot K, and --damage ' J:left_wheel=0.5' robot J: these
+        # robots could never be named on the command line
+        ('name = "J"', 'name = "J=K"', "robots[1].name"),
+        ('name = "J"', 'name = " J"', "robots[1].name"),
+        ('name = "J"', 'name = "J\\r"', "robots[1].name"),
+        # `mirl learn` printed the unnamed feature's weight as "=7.522"
+        (
+            '{ name = "moved", kind = "moved" }',
+            '{ name = "", kind = "moved" }',
+            "reward.features[0].name",
+        ),
+        (
+            "[observer]",
+            FEATURES.format(cell="[0, 5]").replace('"floor"]\nactions', '"floor="]\nactions')
+            + "[observer]",
+            "transition_features.features[3]",
+        ),
+        # an empty region made a feature that is 0 everywhere, whose weight learned nothing
+        ("cells = { from = [0, 2], to = [0, 8] }", "cells = []", "reward.features[1].cells"),
+        ("cells = [[0, 8], [16, 8]]", "cells = []", "reward.features[3].cells"),
+        # `mirl run` on it stopped on a ZeroDivisionError traceback
+        ("[observer]", NO_FEATURES + "[observer]", "transition_features"),
+        # overrides that changed no ξ(s, a) and loaded without a word
+        (
+            "[observer]",
+            FEATURES.format(cell="") + "[observer]",
+            "override[0].cells: expected at least 1",
+        ),
+        (
+            "[observer]",
+            FEATURES.format(cell="[0, 5]").replace("cells", "actions = [], cells") + "[observer]",
+            "override[0].actions: expected at least 1",
+        ),
+        (
+            "[observer]",
+            FEATURES.format(cell="[0, 5]").replace('remove = ["floor"]', "remove = []")
+            + "[observer]",
+            "override[0]: adds and removes no feature",
+        ),
     ],
 )
 def test_scenarios_that_cannot_be_meant(tmp_path, capsys, old, new, field):

@@ -282,6 +282,13 @@ def test_from_dict_missing_key_and_duplicate_feature():
         _xi(SPEC_SUBSETS, features=(*FEATURES, "floor"))
 
 
+def test_a_feature_map_without_features_is_refused():
+    """With no feature, every learner's posterior over the probabilities had no dimension
+    (`mirl run` stopped on a ZeroDivisionError)."""
+    with pytest.raises(ValueError, match="no transition features"):
+        FeatureMap.from_dict({"features": [], "actions": {a: [] for a in SPEC_SUBSETS}})
+
+
 # --------------------------------------------------------------------------- success probabilities
 
 

@@ -230,3 +230,14 @@ def test_shipped_scenarios_keep_the_paper_features(name):
     )
     for r in sc.robots:
         np.testing.assert_array_equal(r.weights, [1.0, 0.05, 0.05, 0.3])
+
+
+@pytest.mark.parametrize("text", ["", "  ", " J", "J ", "J=K", "a:b", "a,b", "two\nlines", "J\r"])
+def test_a_name_the_command_line_cannot_give_is_refused(text):
+    """--damage ROBOT:FEATURE=P and --topic TOPIC=ROBOT split on , : = and strip what they
+    read, and a report prints name=value: such a name could never be given or read back."""
+    from mirl.world import schema
+
+    with pytest.raises(schema.FieldError, match=r"robots\[0\]\.name: .* is not a usable robot"):
+        schema.name(text, "robots[0].name", "robot")
+    assert schema.name("left wheel", "f", "transition feature") == "left wheel"

@@ -13,11 +13,38 @@ from typing import Any
 
 import numpy as np
 
+from mirl._validation import Interval, check_argument
 from mirl.planning.observer import ObserverModel
 from mirl.world.scenario import Scenario
 from mirl.worlds import RunSetup, RunWorld, World
 
-__all__ = ["Episode"]
+__all__ = ["Episode", "check_episode_settings"]
+
+
+def check_episode_settings(length_name: str, length: Any, **rewards: Any) -> None:
+    """Refuse an episode length or a reward the environments could only truncate or propagate.
+
+    A fractional length would be cut, one below 1 would end every episode at its first step,
+    and a NaN or infinite reward would reach every learner's returns. Both environments check
+    their constructors' arguments here.
+
+    Parameters
+    ----------
+    length_name : str
+        The length argument's name (``max_steps``, ``max_cycles``), for the message.
+    length : int
+        Steps after which an episode is truncated: an integer, at least 1.
+    **rewards : float
+        Each reward argument by name: a finite number.
+
+    Raises
+    ------
+    OptionError
+        One of them is not what it must be; the message names it.
+    """
+    check_argument(length_name, length, Interval(int, 1, None))
+    for name, value in rewards.items():
+        check_argument(name, value, Interval(float))
 
 
 class Episode:

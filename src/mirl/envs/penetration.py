@@ -23,7 +23,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from mirl.envs.core import Episode
+from mirl.envs.core import Episode, check_episode_settings
 from mirl.planning.observer import observer_model
 from mirl.world.scenario import Scenario, as_scenario
 from mirl.worlds import DEFAULT_WORLD, get_world
@@ -70,16 +70,17 @@ class PenetrationEnv(gym.Env):
     observability : float, optional
         The fraction of the hallway L sees from its room; the scenario's by default.
     max_steps : int, default 1000
-        Steps after which an episode is truncated, at least 1.
+        Steps after which an episode is truncated, an integer of at least 1.
     goal_reward : float, default 1.0
-        The reward for reaching the goal unseen.
+        The reward for reaching the goal unseen, a finite number.
     detection_penalty : float, default 1.0
-        The penalty (a reward of minus it) for being seen.
+        The penalty (a reward of minus it) for being seen, a finite number.
 
     Raises
     ------
     ValueError
-        ``max_steps`` below 1, or an unknown world.
+        ``max_steps`` not an integer of at least 1, a reward that is not a finite number, or
+        an unknown world.
     ImportError
         A world that cannot run on this installation.
     """
@@ -96,8 +97,9 @@ class PenetrationEnv(gym.Env):
         goal_reward: float = 1.0,
         detection_penalty: float = 1.0,
     ) -> None:
-        if max_steps < 1:
-            raise ValueError(f"max_steps must be at least 1, got {max_steps}")
+        check_episode_settings(
+            "max_steps", max_steps, goal_reward=goal_reward, detection_penalty=detection_penalty
+        )
         self.scenario = as_scenario(scenario)
         self.world_class = get_world(world).load()
         self.model = observer_model(self.scenario)
@@ -110,6 +112,8 @@ class PenetrationEnv(gym.Env):
         self.observation_space = observation_space(self.scenario)
         self.action_space = spaces.Discrete(len(OBSERVER_ACTIONS))
         self.episode: Episode | None = None  # step() before the first reset() has none
+        # an ended episode's world would step on, and L's outcome would be recomputed
+        self._ended = False
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Start an episode: patrollers at random states of their patrol cycles, L in its room.
@@ -129,6 +133,7 @@ class PenetrationEnv(gym.Env):
             ``t`` (0) and the patrollers' true states.
         """
         super().reset(seed=seed)
+        self._ended = False
         self.episode = Episode(
             self.world_class, self.scenario, self.model, self.observability,
             int(self.np_random.integers(2**63 - 1)),
@@ -162,13 +167,16 @@ class PenetrationEnv(gym.Env):
         Raises
         ------
         gymnasium.error.ResetNeeded
-            :meth:`reset` was never called.
+            :meth:`reset` was never called, or not since the episode ended (terminated or
+            truncated).
         ValueError
             An action outside the action space.
         """
         episode = self.episode
         if episode is None:
             raise ResetNeeded("call reset() before step()")
+        if self._ended:
+            raise ResetNeeded("the episode has ended (terminated or truncated): call reset()")
         if not self.action_space.contains(action):
             raise ValueError(f"action {action!r} is not in {self.action_space}")
         episode.step(int(action))  # OBSERVER_ACTIONS index ACTIONS: wait is L's stop action
@@ -177,5 +185,6 @@ class PenetrationEnv(gym.Env):
         terminated = episode.outcome is not None
         t = episode.world.t
         truncated = not terminated and t >= self.max_steps
+        self._ended = terminated or truncated
         info = {"t": t, "outcome": episode.outcome, "patroller_states": episode.patroller_states}
         return episode.observer_view(), reward, terminated, truncated, info

@@ -24,7 +24,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from mirl.envs.core import Episode
+from mirl.envs.core import Episode, check_episode_settings
 from mirl.envs.penetration import OBSERVER_ACTIONS, observation_space
 from mirl.planning.observer import observer_model
 from mirl.world.domain import ACTIONS
@@ -48,18 +48,19 @@ class TeamEnv(ParallelEnv):
     observability : float, optional
         The fraction of the hallway L sees from its room; the scenario's by default.
     max_cycles : int, default 500
-        Steps after which an episode is truncated.
+        Steps after which an episode is truncated, an integer of at least 1.
     goal_reward : float, default 1.0
-        L's reward for reaching the goal unseen.
+        L's reward for reaching the goal unseen, a finite number.
     detection_penalty : float, default 1.0
-        L's penalty for being seen.
+        L's penalty for being seen, a finite number.
     detection_reward : float, default 1.0
-        Every patroller's bonus when some patroller sees L.
+        Every patroller's bonus when some patroller sees L, a finite number.
 
     Raises
     ------
     ValueError
-        A patroller named ``L``, an unknown world, or one whose patrollers cannot take actions.
+        ``max_cycles`` not an integer of at least 1, a reward that is not a finite number, a
+        patroller named ``L``, an unknown world, or one whose patrollers cannot take actions.
     """
 
     metadata = {"render_modes": [], "name": "mirl_team_v0"}
@@ -75,6 +76,10 @@ class TeamEnv(ParallelEnv):
         detection_penalty: float = 1.0,
         detection_reward: float = 1.0,
     ) -> None:
+        check_episode_settings(
+            "max_cycles", max_cycles, goal_reward=goal_reward,
+            detection_penalty=detection_penalty, detection_reward=detection_reward,
+        )  # fmt: skip
         sc = as_scenario(scenario)
         if OBSERVER in sc.robot_names:
             raise ValueError(f"a patroller may not be named '{OBSERVER}' (L's agent name)")

@@ -7,12 +7,13 @@ import csv
 import json
 import os
 import sqlite3
+import sys
 import time
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from mirl._version import package_version
 from mirl.experiments.conditions import (
@@ -114,12 +115,55 @@ CREATE TABLE IF NOT EXISTS sessions (
 """
 
 
+def _writer_lock(path: Path) -> IO[bytes]:
+    """An exclusive lock on ``path``'s sidecar ``<name>.lock``, held until the handle closes.
+
+    Two sweeps writing one store ran every run twice, and one started with another base seed
+    before the first had committed a run set the store's seed while the first's rows stayed.
+    The operating system releases the lock when its process ends, however it ends, so a killed
+    sweep never blocks its resume.
+
+    Parameters
+    ----------
+    path : Path
+        The database file.
+
+    Returns
+    -------
+    file object
+        The open lock file; closing it releases the lock.
+
+    Raises
+    ------
+    StoreError
+        Another process holds the lock.
+    """
+    handle = open(path.with_name(path.name + ".lock"), "a+b")  # held open: it is the lock
+    try:
+        if sys.platform == "win32":
+            import msvcrt
+
+            msvcrt.locking(handle.fileno(), msvcrt.LK_NBLCK, 1)
+        else:
+            import fcntl
+
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        handle.close()
+        raise StoreError(
+            f"{path}: another sweep is writing to it; wait until it ends, or choose another "
+            "directory (`out`)"
+        ) from None
+    return handle
+
+
 class ResultStore:
     """``results.sqlite``: ``runs`` (one row per finished (condition, run); JSON columns for
     metrics, feature probabilities and timings), ``meta`` (experiment, base seed) and
     ``sessions`` (workers, runs and wall time of each invocation, for throughput).
 
-    Only the parent process writes; each run is one ``BEGIN IMMEDIATE … COMMIT`` with
+    Only the parent process writes, and only one process at a time: a writer holds a lock on
+    ``<path>.lock`` until :meth:`close`. Each run is one ``BEGIN IMMEDIATE … COMMIT`` with
     ``INSERT OR IGNORE`` on the primary key, so a kill leaves the database consistent and a
     re-delivered result can never duplicate a row.
 
@@ -130,14 +174,25 @@ class ResultStore:
     read_only : bool, default False
         Open it so that nothing, not even SQLite's journal files, changes it (``mirl
         report``).
+
+    Raises
+    ------
+    StoreError
+        Another process writes to it (not with ``read_only``).
     """
 
     def __init__(self, path: str | Path, *, read_only: bool = False) -> None:
         self.path = Path(path)
+        self._lock: IO[bytes] | None = None
         if read_only:  # `mirl report`: reading results never changes them
             self.con = _read_only(self.path)
             return
-        self.con = sqlite3.connect(self.path, isolation_level=None, timeout=60)
+        self._lock = _writer_lock(self.path)
+        try:
+            self.con = sqlite3.connect(self.path, isolation_level=None, timeout=60)
+        except BaseException:
+            self._lock.close()
+            raise
         self.con.execute("PRAGMA journal_mode=WAL")
         # WAL + NORMAL: a committed run survives a killed process (only an OS crash could
         # lose the last commits), at a fraction of FULL's fsync cost
@@ -325,8 +380,10 @@ class ResultStore:
         return len(rows)
 
     def close(self) -> None:
-        """Close the connection."""
+        """Close the connection, and release the writer's lock."""
         self.con.close()
+        if self._lock is not None:
+            self._lock.close()
 
 
 _FIXED_COLUMNS = (

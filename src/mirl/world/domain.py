@@ -75,7 +75,8 @@ class FeatureMap:
     Raises
     ------
     ValueError
-        A duplicate feature, an action without a subset, or an unknown action or feature name.
+        No feature, a duplicate feature, an action without a subset, or an unknown action or
+        feature name.
     """
 
     features: tuple[str, ...]
@@ -83,6 +84,8 @@ class FeatureMap:
     overrides: tuple[FeatureOverride, ...] = ()
 
     def __post_init__(self) -> None:
+        if not self.features:  # the learners' posteriors over the probabilities need one
+            raise ValueError("no transition features: ξ needs at least one (features = [...])")
         if len(set(self.features)) != len(self.features):
             raise ValueError(f"duplicate transition feature in {list(self.features)}")
         known = set(self.features)
@@ -207,7 +210,10 @@ class FeatureMap:
         data = schema.table(
             data, where, ("features", "actions", "override"), ("features", "actions")
         )
-        features = _names(data["features"], f"{where}.features")
+        features = tuple(
+            schema.name(v, f"{where}.features[{i}]", "transition feature")
+            for i, v in enumerate(schema.array(data["features"], f"{where}.features"))
+        )
         raw = data["actions"]  # any action names, but a table of them
         acts = schema.table(raw, f"{where}.actions", raw.keys() if isinstance(raw, dict) else ())
         actions = {a: _names(v, f"{where}.actions.{a}") for a, v in acts.items()}
@@ -215,9 +221,15 @@ class FeatureMap:
         for i, ov in enumerate(schema.array(data.get("override", []), f"{where}.override")):
             p = f"{where}.override[{i}]"
             ov = schema.table(ov, p, ("cells", "actions", "add", "remove"))
+            # an override on no cell, for no action or adding and removing nothing would
+            # change no ξ(s, a): written, it is a mistake, not a no-op to keep quiet about
+            add = _names(ov.get("add", []), f"{p}.add")
+            remove = _names(ov.get("remove", []), f"{p}.remove")
+            if not (add or remove):
+                raise schema.FieldError(p, "adds and removes no feature (give add or remove)")
             cells = None
             if "cells" in ov:
-                items = schema.array(ov["cells"], f"{p}.cells")
+                items = schema.array(ov["cells"], f"{p}.cells", min_length=1)
                 cells = tuple(
                     schema.cell(c, f"{p}.cells[{k}]", shape, frame=frame)
                     for k, c in enumerate(items)
@@ -225,9 +237,13 @@ class FeatureMap:
             overrides.append(
                 FeatureOverride(
                     cells=cells,
-                    actions=_names(ov["actions"], f"{p}.actions") if "actions" in ov else None,
-                    add=_names(ov.get("add", []), f"{p}.add"),
-                    remove=_names(ov.get("remove", []), f"{p}.remove"),
+                    actions=(
+                        _names(ov["actions"], f"{p}.actions", min_length=1)
+                        if "actions" in ov
+                        else None
+                    ),
+                    add=add,
+                    remove=remove,
                 )
             )
         try:
@@ -236,8 +252,9 @@ class FeatureMap:
             raise schema.FieldError(where, str(exc)) from None
 
 
-def _names(value, path: str) -> tuple[str, ...]:
-    return tuple(schema.string(v, f"{path}[{i}]") for i, v in enumerate(schema.array(value, path)))
+def _names(value, path: str, min_length: int = 0) -> tuple[str, ...]:
+    items = schema.array(value, path, min_length=min_length)
+    return tuple(schema.string(v, f"{path}[{i}]") for i, v in enumerate(items))
 
 
 DEFAULT_FEATURE_MAP = FeatureMap(

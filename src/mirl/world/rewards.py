@@ -286,7 +286,7 @@ def read_region(
     Raises
     ------
     FieldError
-        A malformed entry or a cell off the map, naming its field path.
+        A malformed entry, an empty list or a cell off the map, naming its field path.
     """
     frame = None if gridmap is None else gridmap.frame
     if isinstance(value, dict) and set(value) - {"x", "y"}:
@@ -294,7 +294,8 @@ def read_region(
     if isinstance(value, dict):  # one point in metres
         return (schema.cell(value, path, shape, frame=frame),)
     out: list[tuple[int, int]] = []
-    for i, item in enumerate(schema.array(value, path)):
+    # an empty region's feature is 0 in every state: its weight could never be learned
+    for i, item in enumerate(schema.array(value, path, min_length=1)):
         if isinstance(item, dict) and set(item) - {"x", "y"}:
             out.extend(_rectangle(item, f"{path}[{i}]", shape, gridmap))
         else:
@@ -336,7 +337,7 @@ def _feature(
     value: Any, path: str, shape: tuple[int, int], gridmap: GridMap | None
 ) -> RewardFeature:
     value = schema.table(value, path, ("name", "kind", *FIELDS), ("name", "kind"))
-    name = schema.string(value["name"], f"{path}.name")
+    name = schema.name(value["name"], f"{path}.name", "reward feature")
     kind = schema.string(value["kind"], f"{path}.kind", tuple(KINDS))
     for key in FIELDS:
         if key in value and key not in KINDS[kind].takes:

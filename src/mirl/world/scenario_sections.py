@@ -206,12 +206,10 @@ def read_robots(
     for i, rd in enumerate(items):
         where = f"robots[{i}]"
         rd = schema.table(rd, where, ("name", "start", "feature_probabilities", "weights"))
-        if "name" in rd:  # a name given must be usable (an empty one is refused below)
-            name = schema.string(rd["name"], f"{where}.name")
+        if "name" in rd:
+            name = schema.name(rd["name"], f"{where}.name", "robot")
         else:
             name = "IJKLMNOP"[i : i + 1] or f"R{i}"
-        if not name.strip() or any(ch in name for ch in ",:\n"):
-            raise FieldError(f"{where}.name", f"{name!r} is not a usable robot name")
         if "start" not in rd:
             raise FieldError(where, "missing field 'start'")
         start = schema.cell(

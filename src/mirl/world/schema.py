@@ -25,6 +25,7 @@ __all__ = [
     "number",
     "integer",
     "string",
+    "name",
     "array",
     "cell",
 ]
@@ -196,6 +197,44 @@ def string(value: Any, path: str, choices: Iterable[str] | None = None) -> str:
         if value not in allowed:
             raise FieldError(path, f"'{value}' is not one of {', '.join(allowed)}")
     return value
+
+
+# --damage ROBOT:FEATURE=P and --topic TOPIC=ROBOT split on these characters and strip what
+# they read; a report prints name=value
+_NAME_BREAKERS = ",:=\n\r"
+
+
+def name(value: Any, path: str, what: str) -> str:
+    """A name of a robot or a feature: one the command line can give and a report can print.
+
+    Parameters
+    ----------
+    value : object
+        The value read.
+    path : str
+        Its field path.
+    what : str
+        What it names ("robot", "reward feature"), for the message.
+
+    Returns
+    -------
+    str
+        The name.
+
+    Raises
+    ------
+    FieldError
+        Not a string; empty or only space; space at either end; or with ``,``, ``:``, ``=`` or
+        a line break.
+    """
+    text = string(value, path)
+    if not text.strip() or text != text.strip() or any(ch in text for ch in _NAME_BREAKERS):
+        raise FieldError(
+            path,
+            f"{text!r} is not a usable {what} name (it needs a character other than space, "
+            "none at either end, and none of , : = or a line break)",
+        )
+    return text
 
 
 def array(value: Any, path: str, *, length: int | None = None, min_length: int = 0) -> list:
