@@ -244,3 +244,37 @@ def test_visibility_order_is_computed_on_first_use_only(monkeypatch):
     assert moved.visibility_order is order and len(calls) == 1  # kept
     given = parse_map("L..\n#.#\n.G.\n")
     assert given.with_observer((0, 0), (2, 1)) is given  # unchanged map: the same object
+
+
+def test_free_pieces_join_side_adjacent_free_cells():
+    """Two rooms joined by a corridor are one piece; a cell touching them only diagonally, and
+    a room behind a wall, are pieces of their own (brute force: flood fill by hand)."""
+    from collections import deque
+
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        free = rng.random((7, 9)) < 0.55
+        gm = GridMap(
+            name="rand", patroller=free, observer_only=np.zeros_like(free),
+            observer_start=tuple(np.argwhere(free)[0]), goals=((0, 0),),
+            visibility_order=np.zeros((0, 2), dtype=int),
+        )  # fmt: skip
+        pieces = gm.free_pieces()
+        assert (pieces[~free] == -1).all()
+        seen = np.zeros_like(free)
+        for start in map(tuple, np.argwhere(free)):
+            if seen[start]:
+                continue
+            todo, members = deque([start]), []
+            seen[start] = True
+            while todo:
+                r, c = todo.popleft()
+                members.append((r, c))
+                for dr, dc in ((0, 1), (1, 0), (0, -1), (-1, 0)):
+                    q = (r + dr, c + dc)
+                    if 0 <= q[0] < 7 and 0 <= q[1] < 9 and free[q] and not seen[q]:
+                        seen[q] = True
+                        todo.append(q)
+            labels = {int(pieces[m]) for m in members}
+            assert len(labels) == 1
+            assert (pieces == labels.pop()).sum() == len(members)

@@ -169,6 +169,33 @@ def test_map_path_relative_to_scenario(tmp_path):
     assert sc.map.n_patroller_cells == 31
 
 
+def test_a_goal_l_cannot_reach_is_refused(tmp_path):
+    """boyd2 with its long hallway walled off at row 5: L's goal (9, 1) lies beyond the wall."""
+    (tmp_path / "maps").mkdir()
+    rows = (Path(__file__).parents[2] / "src/mirl/data/maps/boyd2.txt").read_text().splitlines()
+    rows[5] = "#" * len(rows[5])
+    (tmp_path / "maps" / "cut.txt").write_text("\n".join(rows) + "\n")
+    text = GOOD.replace('map = "boyd2"', 'map = "maps/cut.txt"')
+    with pytest.raises(ScenarioError, match=r"observer\.goal.*cannot be reached from L's start"):
+        load_scenario(write(tmp_path, text))
+    # the same goal on the side of the wall L starts on loads
+    sc = load_scenario(write(tmp_path, text + "\n[observer]\ngoal = [3, 1]\n"))
+    assert sc.goal == (3, 1)
+
+
+def test_unnamed_patrollers_are_named_around_the_observer(tmp_path):
+    """Four unnamed robots are I, J, K and M: L is the observer's name, which no patroller
+    takes (a robot named L is refused)."""
+    blocks = "".join(
+        f"[[robots]]\nstart = [{r}, {c}, {h}]\n"
+        for r, c, h in ((0, 8, 2), (16, 8, 2), (3, 1, 3), (12, 1, 1))
+    )
+    sc = load_scenario(write(tmp_path, GOOD.split("[[robots]]")[0] + blocks))
+    assert sc.robot_names == ("I", "J", "K", "M")
+    with pytest.raises(ScenarioError, match=r"robots\[1\]\.name.*observer's name"):
+        load_scenario(write(tmp_path, GOOD.replace('name = "J"', 'name = "L"')))
+
+
 def robots_block(n: int) -> str:
     return "\n".join(f'[[robots]]\nname = "R{i}"\nstart = [{i + 1}, 1, 3]\n' for i in range(n))
 

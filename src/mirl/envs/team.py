@@ -29,11 +29,12 @@ from mirl.envs.penetration import OBSERVER_ACTIONS, observation_space
 from mirl.planning.observer import observer_model
 from mirl.world.domain import ACTIONS
 from mirl.world.scenario import Scenario, as_scenario
+from mirl.world.scenario_sections import OBSERVER_NAME
 from mirl.worlds import DEFAULT_WORLD, get_world
 
 __all__ = ["TeamEnv", "OBSERVER"]
 
-OBSERVER = "L"
+OBSERVER = OBSERVER_NAME
 
 
 class TeamEnv(ParallelEnv):

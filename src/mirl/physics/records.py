@@ -9,10 +9,11 @@ import numpy as np
 from mirl.observations.poses import PoseTracks
 from mirl.observations.trajectories import Trajectories
 from mirl.world.domain import PatrolDomain
+from mirl.world.scenario_sections import OBSERVER_NAME
 
 __all__ = ["Records", "OBSERVER"]
 
-OBSERVER = "L"
+OBSERVER = OBSERVER_NAME
 
 
 class Records:

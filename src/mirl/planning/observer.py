@@ -255,7 +255,8 @@ def observer_model(scenario: Scenario, *, failure: float = OBSERVER_FAILURE) -> 
     start = int(heads[np.argmin(dist[heads])])
     if not np.isfinite(dist[start]):
         raise ValueError(
-            f"{scenario.source}: L's goal {scenario.goal} is unreachable from its start"
+            f"{scenario.source}: observer.goal {scenario.goal} is unreachable from L's start "
+            f"{scenario.observer_start}"
         )
     return ObserverModel(dom, T, goal, start, D, failure)
 

@@ -238,6 +238,32 @@ class GridMap:
         """Cells L may occupy: hallway plus rooms."""
         return self.patroller | self.observer_only
 
+    def free_pieces(self) -> np.ndarray:
+        """The connected pieces of the free cells: side-adjacent free cells, the moves a robot
+        can make, join a piece.
+
+        Returns
+        -------
+        ndarray of int, shape (rows, cols)
+            Each free cell's piece (0, 1, …), -1 on walls.
+        """
+        from scipy.sparse import coo_array
+        from scipy.sparse.csgraph import connected_components
+
+        free = self.free
+        index = np.full(free.shape, -1)
+        index[free] = np.arange(int(free.sum()))
+        right = free[:, :-1] & free[:, 1:]
+        down = free[:-1, :] & free[1:, :]
+        a = np.concatenate([index[:, :-1][right], index[:-1, :][down]])
+        b = np.concatenate([index[:, 1:][right], index[1:, :][down]])
+        n = int(free.sum())
+        graph = coo_array((np.ones(len(a)), (a, b)), shape=(n, n))
+        _, labels = connected_components(graph, directed=False)
+        out = np.full(free.shape, -1)
+        out[free] = labels
+        return out
+
     @property
     def patroller_cells(self) -> np.ndarray:
         """(n, 2) patroller cells in row-major order."""

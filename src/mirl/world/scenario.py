@@ -544,6 +544,15 @@ def _observer(data: Any, gridmap: GridMap) -> tuple[tuple[int, int], tuple[int, 
         spots[key] = (int(spot[0]), int(spot[1]))
     if spots["start"] == spots["goal"]:
         raise schema.FieldError("observer.goal", f"{list(spots['goal'])} is L's start cell")
+    # L drives between side-adjacent free cells (its room's and the hallways'): a goal in
+    # another connected piece of the map is one no plan reaches
+    pieces = gridmap.free_pieces()
+    if pieces[spots["start"]] != pieces[spots["goal"]]:
+        raise schema.FieldError(
+            "observer.goal",
+            f"{list(spots['goal'])} cannot be reached from L's start {list(spots['start'])}: "
+            "no path of free cells joins them",
+        )
     return spots["start"], spots["goal"]
 
 

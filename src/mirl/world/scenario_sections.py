@@ -34,6 +34,12 @@ __all__ = [
 PLAYED = ("stop", "go")  # the equilibrium met robots play by default: the paper's (row stops)
 TRUE_WEIGHTS = {"moved": 1.0, "upper_hallway": 0.05, "lower_hallway": 0.05, "turn_around": 0.3}
 MAX_ROBOTS = 26  # a team, not a crowd: every pair is checked for meetings each step
+OBSERVER_NAME = "L"
+"""The observer's name: L's rows in a pose CSV, its agent in :class:`~mirl.envs.TeamEnv`; no
+patroller may take it."""
+UNNAMED_ROBOTS = "IJKMNOPQ"
+"""The names of patrollers a scenario leaves unnamed, in order (the paper's I and J on, skipping
+:data:`OBSERVER_NAME`); ``R8``, ``R9`` … after them."""
 FieldError = schema.FieldError
 
 
@@ -209,7 +215,7 @@ def read_robots(
         if "name" in rd:
             name = schema.name(rd["name"], f"{where}.name", "robot")
         else:
-            name = "IJKLMNOP"[i : i + 1] or f"R{i}"
+            name = UNNAMED_ROBOTS[i : i + 1] or f"R{i}"
         if "start" not in rd:
             raise FieldError(where, "missing field 'start'")
         start = schema.cell(
@@ -231,6 +237,10 @@ def read_robots(
             raise FieldError(f"{where}.weights", f"no weight for reward feature '{missing[0]}'")
         if name in [r.name for r in robots]:
             raise FieldError(f"{where}.name", f"duplicate robot name '{name}'")
+        if name == OBSERVER_NAME:
+            raise FieldError(
+                f"{where}.name", f"'{name}' is the observer's name; a patroller needs another"
+            )
         robots.append(RobotSpec(name, start, probs, np.array([w[k] for k in names])))
     return tuple(robots)
 
