@@ -45,6 +45,9 @@ def test_the_good_ros_map_loads(tmp_path, capsys):
         (GOOD_YAML, b"P5\n9000 9000\n255\n" + b"\xfe" * 100, ("9000 x 9000", "64 M pixels")),
         (GOOD_YAML.replace("0.5", "1.0e+308"), None, ("m.yaml", "'resolution'")),
         (GOOD_YAML.replace("[0.0, 0.0", "[1.0e+300, 0.0"), None, ("m.yaml", "'origin'")),
+        # a misspelt threshold left the map at the default 0.196 without a word
+        (GOOD_YAML + "free_tresh: 0.5\n", None, ("m.yaml", "unknown key 'free_tresh'")),
+        (GOOD_YAML + "mirl_goal: [[1, 1]]\n", None, ("m.yaml", "unknown key 'mirl_goal'")),
     ],
 )
 def test_ros_maps_that_cannot_be_used(tmp_path, capsys, body, pgm, needles):

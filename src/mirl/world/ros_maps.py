@@ -53,6 +53,11 @@ __all__ = [
 DEFAULT_CELL_SIZE = 0.5
 
 _MODES = ("trinary", "scale", "raw")
+YAML_KEYS = (
+    "image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode",
+    "mirl_observer_start", "mirl_goals",
+)  # fmt: skip
+"""The keys a map YAML may have: ROS map_server's and mirl's two for L's start and goals."""
 # 64 M pixels: a 400 m x 400 m building at map_server's usual 5 cm a pixel (real maps are a few
 # thousand pixels a side); a header claiming more is refused before the pixels are decoded
 MAX_MAP_PIXELS = 64 * 2**20
@@ -277,6 +282,11 @@ def load_ros_map(
     path = Path(yaml_path)
     data = _read_yaml(path)
 
+    unknown = [k for k in data if k not in YAML_KEYS]
+    if unknown:  # a misspelt key would leave its setting at the default without a word
+        raise MapError(
+            f"{path}: unknown key {unknown[0]!r} (a map YAML's keys: {', '.join(YAML_KEYS)})"
+        )
     if "image" not in data:
         raise MapError(f"{path}: missing key 'image'")
     if not isinstance(data["image"], str) or not data["image"]:

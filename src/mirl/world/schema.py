@@ -282,8 +282,8 @@ def cell(
 
     A negative index must never wrap around to the other side. With a map ``frame``, a position
     may also be a point in metres: ``{x, y}`` for a cell, ``{x, y, yaw}`` (yaw in degrees, rounded
-    to the nearest heading) for a state; it is read as the cell whose centre is nearest and must
-    lie on the grid.
+    to the nearest heading; one halfway between two is refused) for a state; it is read as the
+    cell whose centre is nearest and must lie on the grid.
 
     Parameters
     ----------
@@ -350,4 +350,6 @@ def _metric_cell(value: dict, path: str, shape, n: int, frame: MapFrame) -> tupl
     if n == 2:
         return (r, c)
     yaw = number(value["yaw"], f"{path}.yaw")
+    if abs(yaw % 90.0 - 45.0) < 1e-9:  # no nearest heading: rounding would pick one unsaid
+        raise FieldError(f"{path}.yaw", f"{yaw:g}° is halfway between two headings")
     return (r, c, int(round(yaw / 90.0)) % 4)
