@@ -53,3 +53,30 @@ def test_a_report_without_figures_says_so(tmp_path, capsys):
     assert main(["report", str(tmp_path)]) == 0
     said = capsys.readouterr().out.splitlines()
     assert said[0] == f"wrote {tmp_path / 'report.md'}" and "no figures" in said[1]
+
+
+def test_a_report_of_an_interrupted_sweep_says_what_is_missing(tmp_path):
+    """A sweep stopped before its last runs (emulated by deleting two stored runs) is reported
+    short of what it was asked for; finished, and resumed with fewer runs, it is not."""
+    import sqlite3
+
+    _tiny(tmp_path, "table1")
+    report = tmp_path / "table1" / "report.md"
+    write_report_and_figures(tmp_path / "table1")
+    assert "missing" not in report.read_text()
+    con = sqlite3.connect(tmp_path / "table1" / "results.sqlite")
+    n = con.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
+    with con:
+        con.execute(
+            "DELETE FROM runs WHERE rowid IN (SELECT rowid FROM runs WHERE run = 1 LIMIT 2)"
+        )
+    con.close()
+    write_report_and_figures(tmp_path / "table1")
+    assert f"2 of the {n} runs the sweep was asked for are missing" in report.read_text()
+    fake = replace(EXPERIMENTS["table1"], run_function=selftest_run)
+    run_experiment(fake, tmp_path / "table1", ONE | {"runs": 1, "resume": True}, **QUIET)
+    write_report_and_figures(tmp_path / "table1")
+    assert "2 of the" in report.read_text()  # still asked for 2 runs a condition
+    run_experiment(fake, tmp_path / "table1", ONE | {"runs": 2, "resume": True}, **QUIET)
+    write_report_and_figures(tmp_path / "table1")
+    assert "missing" not in report.read_text()

@@ -221,6 +221,9 @@ def run_experiment(
         ]
         planned = runs * len(exp.conditions)
         already = planned - len(tasks)
+        # what the sweep was asked for, so that a report of an interrupted one says it is short
+        asked = max(planned, int(store.meta().get("planned_runs", 0)))
+        store.set_meta(planned_runs=str(asked))
         client = _dask_client(dask_scheduler) if dask_scheduler else nullcontext()
         stack.enter_context(client)
         n_workers = workers if dask_scheduler is None else _dask_threads(client)

@@ -4,6 +4,7 @@ tables, and the sweep's throughput."""
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -94,7 +95,8 @@ def report_markdown(
         f"{', '.join(versions)}"
         + (" (**rows from different code versions**)" if len(versions) > 1 else "")
         + (f" and {', '.join(depends)} (the rows of a world that depends on it)" if depends else "")
-        + f". Throughput: {_throughput(sessions)}.",
+        + f". Throughput: {_throughput(sessions)}."
+        + _missing(meta, len(rows)),
         "",
     ]
     protocols = sorted({g.condition.protocol for g in gs if g.condition.method in METHODS})
@@ -113,6 +115,18 @@ def report_markdown(
         "",
     ]
     return "\n".join(head + [body] + tail)
+
+
+def _missing(meta: Mapping[str, str], stored: int) -> str:
+    """The sentence saying how many runs the sweep was asked for and does not hold (an
+    interrupted sweep), or nothing."""
+    planned = int(meta.get("planned_runs", 0))
+    if stored >= planned:
+        return ""
+    return (
+        f" **{planned - stored} of the {planned} runs the sweep was asked for are missing**: "
+        "it was interrupted (`mirl experiment NAME --resume --out DIR` finishes it)."
+    )
 
 
 def _span(ns: list[int]) -> str:
