@@ -636,6 +636,37 @@ def test_both_wheels_are_not_ruled_out_for_navigation_or_floor():
     assert named_wheel == 3
 
 
+@pytest.mark.parametrize(("paper_weight", "widened"), [(0.03, True), (0.005, False)])
+def test_a_model_the_record_does_not_rule_out_widens_a_common_part(paper_weight, widened):
+    """The draws say the floor is damaged; a model whose turns need a wheel (both wheels then
+    fail every move, as the floor does) held at 0.03 of the weight is not ruled out, and the
+    wheels join the verdict with their pooled probability; at 0.005 it is (odds under 1 : 99)."""
+    from mirl.learning.motion_models import MotionPosterior, candidate_models
+    from mirl.learning.verdicts import NOT_RULED_OUT, _common_parts_widened
+
+    scenario = load_scenario("boyd2")
+    fm = scenario.domain.feature_map
+    pair = ("paper/uniform", "free-turns/uniform")
+    models = tuple(m for m in candidate_models(fm) if m.name in pair)
+    assert [m.name for m in models] == ["paper/uniform", "free-turns/uniform"]
+    assert NOT_RULED_OUT <= 0.03 and 0.005 < NOT_RULED_OUT
+    post = MotionPosterior(
+        fm.features, models, np.array([paper_weight, 1 - paper_weight]), draws=()
+    )
+    rng = np.random.default_rng(0)
+    p = rng.uniform(0.9, 1.0, (200, 4))
+    p[:, 3] = rng.uniform(0.5, 0.7, 200)  # the floor, damaged in every draw
+    p[:50, 0] = 0.6  # the left wheel damaged in a quarter of them
+    w = np.full(200, 1 / 200)
+    floor = Verdict("floor", 1.0, (), {})
+    out = _common_parts_widened(floor, post, fm.features, p, w, scenario.faults)
+    if widened:
+        assert set(out.named) == {"floor", "left_wheel", "right_wheel"}
+        assert out.confidence == pytest.approx(1.0)
+    else:
+        assert out == floor
+
+
 def test_a_robot_s_free_pace_counts_its_stays_and_moves_alone_that_keep_its_heading():
     """Steps that stay in the cell and steps that move one cell, keeping the heading; turns,
     steps with an unseen end and steps with another robot in the way are not counted."""
