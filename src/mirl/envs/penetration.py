@@ -112,8 +112,6 @@ class PenetrationEnv(gym.Env):
         self.observation_space = observation_space(self.scenario)
         self.action_space = spaces.Discrete(len(OBSERVER_ACTIONS))
         self.episode: Episode | None = None  # step() before the first reset() has none
-        # an ended episode's world would step on, and L's outcome would be recomputed
-        self._ended = False
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Start an episode: patrollers at random states of their patrol cycles, L in its room.
@@ -133,7 +131,6 @@ class PenetrationEnv(gym.Env):
             ``t`` (0) and the patrollers' true states.
         """
         super().reset(seed=seed)
-        self._ended = False
         self.episode = Episode(
             self.world_class, self.scenario, self.model, self.observability,
             int(self.np_random.integers(2**63 - 1)),
@@ -175,7 +172,8 @@ class PenetrationEnv(gym.Env):
         episode = self.episode
         if episode is None:
             raise ResetNeeded("call reset() before step()")
-        if self._ended:
+        # an ended episode's world would step on, and L's outcome would be recomputed
+        if episode.outcome is not None or episode.world.t >= self.max_steps:
             raise ResetNeeded("the episode has ended (terminated or truncated): call reset()")
         if not self.action_space.contains(action):
             raise ValueError(f"action {action!r} is not in {self.action_space}")
@@ -185,6 +183,5 @@ class PenetrationEnv(gym.Env):
         terminated = episode.outcome is not None
         t = episode.world.t
         truncated = not terminated and t >= self.max_steps
-        self._ended = terminated or truncated
         info = {"t": t, "outcome": episode.outcome, "patroller_states": episode.patroller_states}
         return episode.observer_view(), reward, terminated, truncated, info

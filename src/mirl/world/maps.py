@@ -251,13 +251,13 @@ class GridMap:
         from scipy.sparse.csgraph import connected_components
 
         free = self.free
+        n = int(free.sum())
         index = np.full(free.shape, -1)
-        index[free] = np.arange(int(free.sum()))
+        index[free] = np.arange(n)
         right = free[:, :-1] & free[:, 1:]
         down = free[:-1, :] & free[1:, :]
         a = np.concatenate([index[:, :-1][right], index[:-1, :][down]])
         b = np.concatenate([index[:, 1:][right], index[1:, :][down]])
-        n = int(free.sum())
         graph = coo_array((np.ones(len(a)), (a, b)), shape=(n, n))
         _, labels = connected_components(graph, directed=False)
         out = np.full(free.shape, -1)
