@@ -11,6 +11,7 @@ import pytest
 from mirl.learning.model_check import (
     ALPHA,
     CRAWL_SHARE,
+    PACE_SETTER,
     check_jams,
     check_moves,
     check_pace,
@@ -336,6 +337,16 @@ def test_a_record_at_no_pace_fails_and_says_what_fixes_it():
     assert check.misfit.size == 0  # which stays a healthy robot would have completed, none says
 
 
+def test_a_crawl_at_the_step_given_asks_for_more_than_the_step_again():
+    """A team that crawls at the step the user gave is told no step alone: asked for "the
+    decision interval" it would be given the same step and refused the same way."""
+    reason = no_pace_setter({"I": (15, 5), "J": (12, 9)}, 2.0, given=True)
+    check = check_pace(reason, step_given=True)
+    assert not check.ok and check.fix == PACE_SETTER and check.reason == reason
+    assert "if the step given is not it" in check.fix and "crossing a cell" in check.fix
+    assert check_pace(reason).fix != PACE_SETTER  # read at a step mirl chose: the step fits
+
+
 @pytest.mark.parametrize(("robot", "wheel"), [("J", "left_wheel"), ("I", "right_wheel")])
 def test_a_damaged_robot_s_record_at_no_pace_claims_nothing_with_confidence(robot, wheel):
     """A wheel at 0.5, fully seen: named with confidence from a record at its pace (the pace
@@ -413,6 +424,7 @@ def test_healthy_grid_robots_read_at_a_quarter_of_their_step_get_no_confident_pa
     for name, r in robots.items():
         fit = r["verdict"]["fit"]
         assert not fit["checks"]["pace"]["ok"] and "step given (0.5 s)" in fit["reason"]
+        assert PACE_SETTER in fit["fix"]  # not the step again: the user gave it
         names_a_part = bool(r["verdict"]["part"] or r["verdict"]["candidates"])
         if min(truth[name].values()) >= 0.9 and names_a_part:  # a healthy robot called damaged
             assert r["verdict"]["confidence"] < 0.9

@@ -320,6 +320,7 @@ def _round_setup(
         em_init,
         lateral=lateral,
         off_pace=record_off_pace(domain, observations, series),
+        step_given=observations.step_given is not None,
     )
 
 
@@ -362,6 +363,7 @@ def _uncertainties(
         record = robot_record(
             domain, setup.series, labels, i, lateral=lateral[i],
             reach=setup.scenario.detect_distance, off_pace=setup.off_pace,
+            step_given=setup.step_given,
         )  # fmt: skip
         out.append(
             robot_uncertainty(
@@ -575,6 +577,7 @@ class RoundSetup:
     em_init: str = "intended"
     lateral: list[np.ndarray | None] | None = None  # per robot (horizon,) offsets, or None
     off_pace: str | None = None  # why its step may be no healthy pace (poses; None: grid)
+    step_given: bool = False  # whether the user gave the record's step (poses)
     warm_start: LearnResult | None = None  # an earlier solution to start from
     models: list[MotionModel] | None = None  # per robot, the motion model T is learned under
 

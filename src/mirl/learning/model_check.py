@@ -91,6 +91,7 @@ __all__ = [
     "check_pinned",
     "check_record_length",
     "check_pace",
+    "PACE_SETTER",
     "CRAWL_SHARE",
     "no_pace_setter",
     "stay_runs",
@@ -623,7 +624,18 @@ def check_record_length(n_steps: int, *, min_steps: int = AUTO_MIN_MOVES) -> Che
 
 
 # ---- pace ---------------------------------------------------------------------------------------
-def check_pace(off_pace: str) -> Check:
+PACE_SETTER = (
+    "the robots' decision interval as `step_seconds`, if the step given is not it; if it is, a "
+    "robot seen in the same record crossing a cell on most of its free steps, for no step tells "
+    "robots slowed down alike from healthy ones that decide less often"
+)
+"""What fits a record whose every robot crawls at the step the user gave (:func:`no_pace_setter`):
+the robots' decision interval where the step given is not it (a step too short for them), and
+where it is, only a robot moving at a healthy pace beside them; asking for the step again would
+send the user round in a circle."""
+
+
+def check_pace(off_pace: str, *, step_given: bool = False) -> Check:
     """The record's step against the robots' pace (module doc).
 
     Parameters
@@ -632,6 +644,9 @@ def check_pace(off_pace: str) -> Check:
         Why the record's step may be no healthy robot's pace
         (:attr:`~mirl.observations.trajectories.Trajectories.off_pace`); empty when nothing
         says so.
+    step_given : bool, default False
+        Whether the user gave the record's step. Then the remedy says what fits where the
+        step given is the robots' decision interval too (:data:`PACE_SETTER`).
 
     Returns
     -------
@@ -646,7 +661,7 @@ def check_pace(off_pace: str) -> Check:
         False,
         None,
         off_pace,
-        "the robots' decision interval as `step_seconds`",
+        PACE_SETTER if step_given else "the robots' decision interval as `step_seconds`",
     )
 
 

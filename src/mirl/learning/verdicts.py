@@ -1197,6 +1197,9 @@ class RobotRecord:
         Why the record's step may be no healthy robot's pace (empty: nothing says so), from
         poses; None from grid states
         (:attr:`~mirl.observations.trajectories.Trajectories.off_pace`).
+    step_given : bool, default False
+        Whether the user gave the record's step (``step_seconds``): then the step is no remedy
+        for a failed pace check (:func:`~mirl.learning.model_check.check_pace`).
     """
 
     series: np.ndarray
@@ -1206,6 +1209,7 @@ class RobotRecord:
     held: np.ndarray | None = None
     beside: np.ndarray | None = None
     off_pace: str | None = None
+    step_given: bool = False
 
 
 def robot_record(
@@ -1217,11 +1221,13 @@ def robot_record(
     lateral: np.ndarray | None = None,
     reach: float = 6.0,
     off_pace: str | None = None,
+    step_given: bool = False,
 ) -> RobotRecord:
     """Robot ``robot``'s :class:`RobotRecord` from every robot's series (-1 unseen) and
     labels; ``reach`` is how far (cells) a robot reacts to another coming the other way (the
-    patrollers' detection distance), for the drift's company; ``off_pace`` the record's
-    (:attr:`RobotRecord.off_pace`)."""
+    patrollers' detection distance), for the drift's company; ``off_pace`` and
+    ``step_given`` the record's (:attr:`RobotRecord.off_pace`,
+    :attr:`RobotRecord.step_given`)."""
     return RobotRecord(
         np.asarray(series[robot]),
         np.asarray(labels[robot]),
@@ -1230,6 +1236,7 @@ def robot_record(
         held_by_others(domain, series, robot),
         beside_others(domain, series, robot),
         off_pace,
+        step_given,
     )
 
 
@@ -1642,7 +1649,7 @@ def robot_uncertainty(
     counts = count_subsets(plan_domain, s[keep], lab[keep], s_next[keep]).observations()
     checks.append(check_pinned(probabilities, counts))
     if record.off_pace is not None:
-        checks.append(check_pace(record.off_pace))
+        checks.append(check_pace(record.off_pace, step_given=record.step_given))
     used = keep & ~misfit & ~in_the_way  # the steps the verdict's evidence holds
     if misfit.any():  # misfit steps are never failures of a part
         post = posterior(used)
