@@ -27,6 +27,10 @@ FLAG_ERRORS = [
     (["run", "--em-init", "zeros"], "argument --em-init: unknown EM initialisation 'zeros' "
      "(known: intended, uniform)"),
     (["run", "--seed", "-1"], "argument --seed: must be an integer in [0, 2^63 - 1], got -1"),
+    (["run", "--max-memory", "-1G"], "argument --max-memory: '-1G' is not a size such as 4G"),
+    (["run", "--observability", "-inf"], "argument --observability: must be a number in [0, 1], "
+     "got -inf"),
+    (["run", "--p", "-.5"], "argument --p: must be a number in [0, 1], got -0.5"),
     (["run", "--method", "mirl_t"], "argument --method: unknown method 'mirl_t' (did you mean "
      "'mirl-t' or 'mirl'? known: mirl-t, mirl, known-r-t, known-r, dbn-em, random, oracle)"),
     (["run", "--world", "phisics"], "argument --world: unknown world 'phisics' (did you mean "

@@ -52,6 +52,10 @@ class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         return super()._get_help_string(action)
 
 
+_NUMBER_LIKE = re.compile(r"-(\d|\.\d|inf|nan)", re.IGNORECASE)
+"""A command-line string that starts like a negative number: a value, never a flag."""
+
+
 class OneLineParser(argparse.ArgumentParser):
     """An ArgumentParser that shows defaults in help and reports a bad flag in one line naming
     its sub-command: an unknown flag or an unknown choice with the nearest known ones.
@@ -106,6 +110,16 @@ class OneLineParser(argparse.ArgumentParser):
         if message:
             sys.stderr.write(message)
         raise SystemExit(status)
+
+    def _parse_optional(self, arg_string: str) -> Any:
+        # argparse takes a value that starts with "-" for a flag unless it is a plain negative
+        # number, so "--max-memory -1G" or "--observability -inf" were refused as "expected
+        # one argument" of a flag that was given one; no mirl flag starts with a digit, a
+        # point, inf or nan, so such a string is a value, which the flag's own check refuses
+        # by name.
+        if _NUMBER_LIKE.match(arg_string):
+            return None
+        return super()._parse_optional(arg_string)
 
     def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> Any:  # type: ignore[override]
         """As argparse's, but an unrecognised argument is refused by the sub-command it was
