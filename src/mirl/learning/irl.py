@@ -59,6 +59,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import OptimizeResult, minimize
 
+from mirl._estimator import EstimatorParams
 from mirl._registry import Registry
 from mirl.learning.options import IRL_OBJECTIVES as OBJECTIVES
 from mirl.learning.options import IRL_OPTIMIZERS as OPTIMIZERS
@@ -140,7 +141,7 @@ class IRLProblem:
 
 
 # ---- the estimator -----------------------------------------------------------------------------
-class OccludedMaxEntIRL:
+class OccludedMaxEntIRL(EstimatorParams):
     """Max-entropy IRL for one robot from an occluded trajectory (mIRL*, Sec. 2 of the paper).
 
     The estimator holds how it fits; the problem (the robot's features, T, discount and L's
@@ -148,7 +149,9 @@ class OccludedMaxEntIRL:
 
     .. versionchanged:: 0.2.0
        The problem's data (``features``, ``transitions``, ``discount``, ``visible``) moved from
-       the constructor to :meth:`fit`, as an :class:`IRLProblem`.
+       the constructor to :meth:`fit`, as an :class:`IRLProblem`. ``get_params``,
+       ``set_params`` (validated as the constructor validates) and a ``repr`` of the settings
+       that differ from the defaults (:class:`mirl._estimator.EstimatorParams`).
 
     Parameters
     ----------

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mirl._estimator import EstimatorParams
 from mirl.world.domain import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, PatrolDomain
 from mirl.world.game import Equilibrium, game_action_to_action, meeting
 from mirl.world.motion import ERROR_MODELS, transition_matrix
@@ -248,7 +249,7 @@ def count_subsets(
     )
 
 
-class TransitionFeatureLearner:
+class TransitionFeatureLearner(EstimatorParams):
     """mIRL*/T as an estimator: transition-feature probabilities from labelled observed steps.
 
     By maximum entropy (Eq. 4), then the full transition function (Eq. 5).
@@ -276,14 +277,21 @@ class TransitionFeatureLearner:
     Raises
     ------
     ValueError
-        An unknown error model.
+        An unknown error model or method.
+
+    .. versionchanged:: 0.2.0
+        An unknown ``method`` is refused here rather than by ``fit``; ``get_params``,
+        ``set_params`` and a ``repr`` of the settings (:class:`mirl._estimator.EstimatorParams`).
     """
 
     def __init__(
         self, domain: PatrolDomain, error_model: str = "uniform", method: str = "maxent"
     ) -> None:
+        from mirl.learning.feature_solver import FEATURE_SOLVERS  # scipy.optimize: lazily
+
         if error_model not in ERROR_MODELS:
             raise ValueError(f"unknown error model '{error_model}' (known: {ERROR_MODELS})")
+        FEATURE_SOLVERS.lookup(method)  # an unknown method: refused here, not at fit
         self.domain = domain
         self.error_model = error_model
         self.method = method
