@@ -117,7 +117,7 @@ def test_local_dask_scheduler_gives_the_same_rows(tmp_path, reference):
         host="127.0.0.1", protocol="tcp", n_workers=1, threads_per_worker=2,
         processes=False, dashboard_address=None,
     ) as cluster:  # fmt: skip
-        options = sweep(runs=10, dask_scheduler=cluster.scheduler_address)
+        options = sweep(runs=10, workers=None, dask_scheduler=cluster.scheduler_address)
         summary = run_experiment("selftest", tmp_path, options, **QUIET)
     assert summary.workers == 2
     assert comparable(load_results(tmp_path)[1]) == reference
