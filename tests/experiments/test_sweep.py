@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from mirl._validation import OptionError
 from mirl.cli import main
 from mirl.experiments.conditions import EXPERIMENTS, Condition, StoreError, run_seed, selftest_run
 from mirl.experiments.store import load_results
@@ -109,6 +110,17 @@ def _count(db: Path) -> int:
             con.close()
     except sqlite3.OperationalError:  # table not created yet
         return 0
+
+
+def test_a_dask_scheduler_that_does_not_answer_is_named(tmp_path, monkeypatch):
+    distributed = pytest.importorskip("distributed")
+
+    def refused(address, timeout):
+        raise TimeoutError(f"Timed out trying to connect to tcp://{address} after {timeout}")
+
+    monkeypatch.setattr(distributed, "Client", refused)
+    with pytest.raises(OptionError, match=r"^`dask_scheduler` 127.0.0.1:1: no Dask scheduler"):
+        run_experiment("selftest", tmp_path, {"runs": 1, "dask_scheduler": "127.0.0.1:1"})
 
 
 def test_local_dask_scheduler_gives_the_same_rows(tmp_path, reference):

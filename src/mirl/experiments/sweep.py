@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from mirl._blas import one_blas_thread
+from mirl._validation import OptionError
 from mirl.experiments.conditions import (
     OUTCOMES,
     Condition,
@@ -280,7 +281,11 @@ def _results(
 def _dask_client(address: str):
     from distributed import Client
 
-    return Client(address, timeout="30s")
+    try:
+        return Client(address, timeout="30s")
+    except OSError as exc:  # no scheduler there: say which option named it
+        problem = f"{address}: no Dask scheduler answered ({exc})"
+        raise OptionError("dask_scheduler", problem) from None
 
 
 def _dask_threads(client: Any) -> int:
