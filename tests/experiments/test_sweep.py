@@ -112,6 +112,27 @@ def _count(db: Path) -> int:
         return 0
 
 
+def test_a_resume_under_another_protocol_is_refused_not_mixed_in(tmp_path):
+    # its runs would be stored under new keys beside the others and reported as the same rows
+    from mirl.experiments.conditions import in_world, with_protocol
+    from mirl.experiments.sweep import _check_same_grid
+
+    fig4b = EXPERIMENTS["fig4b"]
+    started = with_protocol(fig4b, "adaptive", True)  # mirl experiment's default
+    stored = {(c.key, 0) for c in started.conditions}
+    _check_same_grid(started, stored, tmp_path)  # the same grid: resumed
+    _check_same_grid(started, stored | {(started.conditions[0].key, 1)}, tmp_path)
+    cases = [
+        (with_protocol(fig4b, "adaptive", False), "relearn=True, not relearn=False as asked"),
+        (with_protocol(fig4b, "value", True), "go_rule='adaptive', not go_rule='value' as asked"),
+        (in_world(started, "physics"), "world='grid', not world='physics' as asked (`world`)"),
+    ]
+    for asked, needle in cases:
+        with pytest.raises(StoreError, match="holds runs of fig4b with") as info:
+            _check_same_grid(asked, stored, tmp_path)
+        assert needle in str(info.value)
+
+
 def test_a_dask_scheduler_that_does_not_answer_is_named(tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")
 
