@@ -111,6 +111,24 @@ def test_mirl_learn_says_which_robots_of_a_pose_csv_its_topics_left_out(team_pos
     assert _but_path_and_times(got.out) == _but_path_and_times(want.out)
 
 
+def test_an_observability_the_visible_cells_override_is_refused(team_poses, capsys):
+    # with visible given, the degree would change nothing but the report's label
+    from mirl.cli import main
+    from mirl.observations.sources import load_observations
+    from mirl.world.scenario import load_scenario
+
+    plain, _, _ = team_poses
+    sc = load_scenario("boyd2")
+    with pytest.raises(ValueError, match="^`observability` sets the cells L could see, and "):
+        load_observations(plain, sc, visible="observed", observability=0.5)
+    assert load_observations(plain, sc, visible="observed").discretised is not None
+    code = main(["learn", "--scenario", "boyd2", "--observations", str(plain),
+                 "--visible", "observed", "--observability", "0.5"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1
+    assert "--observability sets the cells L could see, and --visible gives them" in err
+
+
 def _but_path_and_times(out: str) -> dict:
     return {k: v for k, v in json.loads(out).items() if k not in ("observations", "timings")}
 

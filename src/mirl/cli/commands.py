@@ -531,7 +531,7 @@ def _learn(args: argparse.Namespace) -> int:
     options.check_method(args.method, _given(args, LearnOptions))
     scenario = _load_scenario(args)
     degree = scenario.observability if args.observability is None else args.observability
-    loaded = _read_observations(args, scenario, observability=degree)
+    loaded = _read_observations(args, scenario, observability=args.observability)
     obs = loaded.trajectories
     truth = _scored_against_truth(args, loaded.kind)
     check_damage("learn", args, scored=truth)  # robot data's kind is known once it is read
