@@ -94,6 +94,10 @@ def test_a_pose_csv_robot_outside_the_scenario_or_topics_is_refused_in_one_line(
         load_observations(tracker, sc)
     with pytest.raises(PoseError, match="no robot 'tb_k' in the file"):
         load_observations(tracker, sc, topics={"tb_i": "I", "tb_k": "J"})
+    # a robot the scenario lacks is named as the mapping's, as a bag's topic's (it asked for
+    # `tb_k=ROBOT`, pointing at the file's robots)
+    with pytest.raises(PoseError, match=r"`topics` tb_i=K: robot 'K' is not in the scenario \("):
+        load_observations(tracker, sc, topics={"tb_i": "K"})
 
 
 def test_mirl_learn_says_which_robots_of_a_pose_csv_its_topics_left_out(team_poses, capsys):

@@ -148,6 +148,12 @@ def _read_pose_csv(path: Path, scenario: Scenario, options: _ReadOptions) -> Pos
     tracks = read_pose_csv(path)
     if not options.topics:
         return tracks
+    for name, robot in options.topics.items():  # as a bag's topic: named, not the file's robot
+        if robot not in options.robot_names:
+            known = ", ".join(options.robot_names)
+            raise PoseError(
+                f"{path}: `topics` {name}={robot}: robot '{robot}' is not in the scenario ({known})"
+            )
     tracks, left_out = _select_robots(tracks, options.topics)
     options.left_out.update(left_out)
     return tracks
