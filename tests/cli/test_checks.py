@@ -122,9 +122,11 @@ def test_a_pose_output_is_a_file_or_bag_the_world_writes(tmp_path):
     (tmp_path / "old.mcap").write_bytes(b"")
     with pytest.raises(UsageError, match="not overwriting an MCAP file"):
         check_poses_output(str(tmp_path / "old.mcap"), "grid")
-    (tmp_path / "taken").mkdir()
-    with pytest.raises(UsageError, match="cannot create a bag directory there"):
+    (tmp_path / "taken").mkdir()  # the message says why: it exists, not that it cannot be
+    with pytest.raises(UsageError, match="taken: exists already, not overwriting a bag direc"):
         check_poses_output(str(tmp_path / "taken"), "grid")
+    with pytest.raises(UsageError, match="cannot create a bag directory there"):
+        check_poses_output(str(tmp_path / "nowhere" / "bag"), "grid")
 
 
 def test_an_experiment_directory_is_a_directory(tmp_path):

@@ -62,6 +62,13 @@ FLAG_ERRORS = [
     ([*LEARN, "--max-iteratoins", "3"], "unrecognized argument --max-iteratoins (did you mean "
      "--max-iterations?)"),
     (["run", "extra"], "unrecognized argument extra (see mirl run --help)"),
+    # argparse keeps the last of a flag given twice: the first setting would go without a word
+    (["run", "--seed", "1", "--seed", "2"], "argument --seed: given twice (--seed 1 and --seed "
+     "2); give it once"),
+    (["simulate", "--scenario", "boyd2", "--scenario", "boydright"], "argument --scenario: given "
+     "twice (--scenario boyd2 and --scenario boydright); give it once"),
+    (["simulate", "--pose-noise", "0.1", "2", "--pose-noise", "0.1", "3"], "argument "
+     "--pose-noise: given twice (--pose-noise 0.1 2.0 and --pose-noise 0.1 3.0); give it once"),
 ]  # fmt: skip
 
 
@@ -74,6 +81,11 @@ def test_a_bad_flag_is_one_line_naming_the_command_and_the_flag(capsys, argv, te
     lines = err.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in err, err
     assert lines[0].startswith(f"mirl {argv[0]}: error: {text}"), lines[0]
+
+
+def test_a_flag_given_twice_with_one_value_is_that_value():
+    args = build_parser().parse_args(["run", "--seed", "3", "--seed", "3", "--json"])
+    assert args.seed == 3 and not hasattr(args, "_mirl_given")
 
 
 def test_every_option_flag_that_takes_a_value_has_its_refusal_above():

@@ -89,6 +89,13 @@ def test_simulate_poses_and_round_trip_json(tmp_path, capsys):
     # read at the robots' own pace, which is the simulation's 2 s
     assert all(res.pop("step_seconds") == 2.0 for res in results[1:])
     assert all("the robots' pace" in res.pop("step_chosen") for res in results[1:])
+    # and say, as the text summary does, what became of every pose: each step L saw is one
+    rows = len((d / "o.csv").read_text().splitlines()) - 1
+    for res in results[1:]:
+        counts = res.pop("poses")
+        assert sum(c["observed_steps"] for c in counts.values()) == rows
+        for c in counts.values():
+            assert c["read"] == c["observed_steps"] + sum(c["dropped"].values())
 
     # everything learned from grid states is the same from poses (the posterior weighs the
     # drift too)
@@ -123,7 +130,13 @@ def test_learn_transitions_from_pose_csv(tmp_path, capsys):
     assert main([*base, str(tmp_path / "o.csv")]) == 0
     a = json.loads(capsys.readouterr().out)
     assert main([*base, str(tmp_path / "p.csv"), "--start-time", "0"]) == 0
-    assert json.loads(capsys.readouterr().out) == a
+    got = capsys.readouterr()
+    assert json.loads(got.out) == a
+    # the poses' summary (the step chosen, the poses dropped) is said, on stderr beside JSON
+    assert got.err.startswith(f"{tmp_path / 'p.csv'}: 190 steps of 2 s from t = 0.000 s")
+    assert main(base[:-2] + ["--observations", str(tmp_path / "p.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "  I: " in out and "poses read" in out and "dropped: " in out
 
 
 def test_damage_on_robot_data_only_where_learning_reads_the_truth(tmp_path, capsys):

@@ -84,6 +84,21 @@ def test_a_sweep_that_cannot_run_is_refused_by_name(values, needle):
     assert needle in str(info.value)
 
 
+@pytest.mark.parametrize(
+    ("values", "needle"),
+    [
+        ({"workers": 4, "dask_scheduler": "127.0.0.1:8786"}, "`workers` sets local processes"),
+        ({"progress": False, "progress_every": 3}, "`progress_every` spaces the progress lines"),
+    ],
+)
+def test_an_option_another_makes_unread_is_refused(values, needle):
+    # the cluster runs on all its threads, and no progress means no progress lines to space
+    with pytest.raises(OptionError) as info:
+        SweepOptions(**values)
+    assert needle in str(info.value)
+    SweepOptions(**{k: v for k, v in values.items() if k in ("dask_scheduler", "progress")})
+
+
 @pytest.mark.parametrize("address", ["127.0.0.1:8786", "tcp://sched:1", "[::1]:65535"])
 def test_a_dask_address_is_accepted(address):
     assert SweepOptions(dask_scheduler=address).dask_scheduler == address

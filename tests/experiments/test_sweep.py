@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from mirl._validation import OptionError
 from mirl.cli import main
 from mirl.experiments.conditions import EXPERIMENTS, Condition, StoreError, run_seed, selftest_run
 from mirl.experiments.store import load_results
@@ -111,13 +112,45 @@ def _count(db: Path) -> int:
         return 0
 
 
+def test_a_resume_under_another_protocol_is_refused_not_mixed_in(tmp_path):
+    # its runs would be stored under new keys beside the others and reported as the same rows
+    from mirl.experiments.conditions import in_world, with_protocol
+    from mirl.experiments.sweep import _check_same_grid
+
+    fig4b = EXPERIMENTS["fig4b"]
+    started = with_protocol(fig4b, "adaptive", True)  # mirl experiment's default
+    stored = {(c.key, 0) for c in started.conditions}
+    _check_same_grid(started, stored, tmp_path)  # the same grid: resumed
+    _check_same_grid(started, stored | {(started.conditions[0].key, 1)}, tmp_path)
+    cases = [
+        (with_protocol(fig4b, "adaptive", False), "relearn=True, not relearn=False as asked"),
+        (with_protocol(fig4b, "value", True), "go_rule='adaptive', not go_rule='value' as asked"),
+        (in_world(started, "physics"), "world='grid', not world='physics' as asked (`world`)"),
+    ]
+    for asked, needle in cases:
+        with pytest.raises(StoreError, match="holds runs of fig4b with") as info:
+            _check_same_grid(asked, stored, tmp_path)
+        assert needle in str(info.value)
+
+
+def test_a_dask_scheduler_that_does_not_answer_is_named(tmp_path, monkeypatch):
+    distributed = pytest.importorskip("distributed")
+
+    def refused(address, timeout):
+        raise TimeoutError(f"Timed out trying to connect to tcp://{address} after {timeout}")
+
+    monkeypatch.setattr(distributed, "Client", refused)
+    with pytest.raises(OptionError, match=r"^`dask_scheduler` 127.0.0.1:1: no Dask scheduler"):
+        run_experiment("selftest", tmp_path, {"runs": 1, "dask_scheduler": "127.0.0.1:1"})
+
+
 def test_local_dask_scheduler_gives_the_same_rows(tmp_path, reference):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(
         host="127.0.0.1", protocol="tcp", n_workers=1, threads_per_worker=2,
         processes=False, dashboard_address=None,
     ) as cluster:  # fmt: skip
-        options = sweep(runs=10, dask_scheduler=cluster.scheduler_address)
+        options = sweep(runs=10, workers=None, dask_scheduler=cluster.scheduler_address)
         summary = run_experiment("selftest", tmp_path, options, **QUIET)
     assert summary.workers == 2
     assert comparable(load_results(tmp_path)[1]) == reference

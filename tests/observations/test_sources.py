@@ -94,6 +94,10 @@ def test_a_pose_csv_robot_outside_the_scenario_or_topics_is_refused_in_one_line(
         load_observations(tracker, sc)
     with pytest.raises(PoseError, match="no robot 'tb_k' in the file"):
         load_observations(tracker, sc, topics={"tb_i": "I", "tb_k": "J"})
+    # a robot the scenario lacks is named as the mapping's, as a bag's topic's (it asked for
+    # `tb_k=ROBOT`, pointing at the file's robots)
+    with pytest.raises(PoseError, match=r"`topics` tb_i=K: robot 'K' is not in the scenario \("):
+        load_observations(tracker, sc, topics={"tb_i": "K"})
 
 
 def test_mirl_learn_says_which_robots_of_a_pose_csv_its_topics_left_out(team_poses, capsys):
@@ -109,6 +113,24 @@ def test_mirl_learn_says_which_robots_of_a_pose_csv_its_topics_left_out(team_pos
     assert got.err.count("mirl: warning:") == 1
     assert f"not read, as no --topic names them: person ({n_j} poses)" in got.err
     assert _but_path_and_times(got.out) == _but_path_and_times(want.out)
+
+
+def test_an_observability_the_visible_cells_override_is_refused(team_poses, capsys):
+    # with visible given, the degree would change nothing but the report's label
+    from mirl.cli import main
+    from mirl.observations.sources import load_observations
+    from mirl.world.scenario import load_scenario
+
+    plain, _, _ = team_poses
+    sc = load_scenario("boyd2")
+    with pytest.raises(ValueError, match="^`observability` sets the cells L could see, and "):
+        load_observations(plain, sc, visible="observed", observability=0.5)
+    assert load_observations(plain, sc, visible="observed").discretised is not None
+    code = main(["learn", "--scenario", "boyd2", "--observations", str(plain),
+                 "--visible", "observed", "--observability", "0.5"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1
+    assert "--observability sets the cells L could see, and --visible gives them" in err
 
 
 def _but_path_and_times(out: str) -> dict:

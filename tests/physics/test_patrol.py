@@ -51,6 +51,21 @@ def test_straight_drive_covers_expected_distance(healthy):
     assert abs(end[0] - 1.0) < 0.05  # straight
 
 
+@pytest.mark.parametrize(("pair_played", "yields"), [({}, 0), ({(0, 1): ("go", "stop")}, 1)])
+def test_met_robots_play_their_pair_s_own_equilibrium(healthy, monkeypatch, pair_played, yields):
+    # [[game.pairs]] as the grid simulator plays it; the scenario's `played` (I stops) otherwise
+    from dataclasses import replace
+
+    from mirl.world.actions import STOP
+
+    scenario = replace(healthy, pair_played=pair_played)
+    w = PhysicalWorld(scenario, seed=0, observer=False)
+    monkeypatch.setattr("mirl.physics.patrol.meeting", lambda *args: True)
+    s, acts = w.decide()
+    own = w.policies[np.arange(2), s]
+    assert acts[yields] == STOP and acts[1 - yields] == own[1 - yields] != STOP
+
+
 @pytest.mark.parametrize(("wheel", "sign"), [("left_wheel", 1), ("right_wheel", -1)])
 def test_weak_wheel_veers_to_its_side(healthy, wheel, sign):
     cfg = PhysicsConfig().with_strength("I", wheel, 0.6)

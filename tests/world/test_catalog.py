@@ -54,6 +54,14 @@ def test_a_text_file_loads_under_its_stem(tmp_path):
     assert m.shape == (2, 4) and m.observer_start == (0, 0) and m.goals == ((0, 3),)
 
 
+def test_a_text_file_saved_with_a_bom_or_blank_lines_around_loads(tmp_path):
+    # Windows editors write a BOM (read in CSVs too); blank lines above the map hold no cells
+    path = tmp_path / "tiny.txt"
+    path.write_bytes(b"\xef\xbb\xbf\r\n; a note\r\nL..G\r\n#..#\r\n\r\n")
+    m = load_map(path)
+    assert m.shape == (2, 4) and m.observer_start == (0, 0) and m.goals == ((0, 3),)
+
+
 def test_office_names_are_generated_and_other_names_fall_through():
     office = load_map("office-20x24-s3")
     assert office.shape == (20, 24) and office.source.startswith("generated office map")

@@ -117,6 +117,8 @@ def test_parse_roundtrip():
         ("L..\n.GL\n", "exactly one 'L'"),
         ("L..\n...\n", "no goal"),
         ("", "empty"),
+        ("; a comment\nL..\n.G\n", "line 3 has 2 cells"),  # the file's line, comments counted
+        ("; a comment\nL..\n\n.G.\n", "line 3 has 0 cells"),
     ],
 )
 def test_malformed_maps_name_file_and_problem(tmp_path, text, problem):

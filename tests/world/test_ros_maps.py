@@ -186,6 +186,10 @@ def test_ros_errors(tmp_path):
     bad.write_text("- just\n- a list\n")
     assert "mapping" in _ros_error(bad)
 
+    # safe_load keeps the last of a key given twice: an edit above a forgotten line is refused
+    bad.write_text("image: a.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nresolution: 0.1\n")
+    assert _ros_error(bad).endswith("line 4: key 'resolution' given twice; give it once")
+
     yml = _write_ros(tmp_path, px, extra=lg)
     data = yaml.safe_load(yml.read_text())
     for key in ("image", "resolution", "origin"):

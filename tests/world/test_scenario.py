@@ -150,6 +150,13 @@ def test_good_toml_loads_with_defaults(tmp_path):
     np.testing.assert_allclose(sc.robots[0].weights, [1.0, 0.05, 0.05, 0.3])
 
 
+def test_a_toml_saved_with_a_bom_loads(tmp_path):
+    # Windows editors write a BOM; tomllib alone calls it an invalid statement at line 1
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + textwrap.dedent(GOOD).encode())
+    assert load_scenario(path).name == "tiny"
+
+
 def test_a_file_s_defaults_are_the_scenario_s_fields(tmp_path):
     """A key a file leaves out takes the default the Scenario dataclass declares (one home)."""
     from dataclasses import fields

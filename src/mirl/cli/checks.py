@@ -211,7 +211,9 @@ def check_poses_output(path: str | None, world: str) -> None:
         check_output(out, "--poses")
         if out.suffix.lower() == ".mcap" and out.exists():  # the writer never overwrites one
             raise UsageError(f"--poses {out}: exists already, not overwriting an MCAP file")
-    elif not (out.parent.is_dir() and os.access(out.parent, os.W_OK)) or out.exists():
+    elif out.exists():  # the bag writer never writes into an existing directory
+        raise UsageError(f"--poses {out}: exists already, not overwriting a bag directory")
+    elif not (out.parent.is_dir() and os.access(out.parent, os.W_OK)):
         raise UsageError(f"--poses {out}: cannot create a bag directory there")
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -396,6 +397,7 @@ def _learn_transitions(args: argparse.Namespace) -> int:
     check_observations(args.observations, obs, domain)
     series = [obs.state_series(domain, i) for i in range(len(scenario.robots))]
     labels = LABELLINGS[args.labels].load()(scenario, series)
+    _say_placed(args, loaded)
     learned = {}
     for i, name in enumerate(scenario.robot_names):
         t, s, s_next = observed_steps(series[i])
@@ -524,14 +526,14 @@ def _run(args: argparse.Namespace) -> int:
 
 @command("learn")
 def _learn(args: argparse.Namespace) -> int:
-    from mirl.cli.learn_report import learn_record, pace_record, print_learn
+    from mirl.cli.learn_report import learn_record, pace_record, poses_record, print_learn
     from mirl.learning.learn import learn
 
     options = _options(args, LearnOptions)
     options.check_method(args.method, _given(args, LearnOptions))
     scenario = _load_scenario(args)
     degree = scenario.observability if args.observability is None else args.observability
-    loaded = _read_observations(args, scenario, observability=degree)
+    loaded = _read_observations(args, scenario, observability=args.observability)
     obs = loaded.trajectories
     truth = _scored_against_truth(args, loaded.kind)
     check_damage("learn", args, scored=truth)  # robot data's kind is known once it is read
@@ -571,13 +573,24 @@ def _learn(args: argparse.Namespace) -> int:
         }
     out = learn_record(result, scenario, str(args.observations), obs.horizon, degree, agreement)
     out.update(pace_record(loaded.discretised))
-    if args.json:
+    out.update(poses_record(loaded.discretised))
+    if args.json:  # the summary's counts, as `poses` (poses_record)
         print_json(out)
     else:
-        if loaded.discretised is not None:
-            print(f"{args.observations}: " + loaded.discretised.summary())
+        _say_placed(args, loaded)
         print_learn(out, result, scenario)
     return 0
+
+
+def _say_placed(args: argparse.Namespace, loaded) -> None:
+    """Pose data's discretisation summary (the step chosen, each robot's poses read, binned,
+    snapped and dropped by reason), never left out: on stdout before a text report, on stderr
+    beside ``--json``'s one object where that has no place for it (``learn-transitions``)."""
+    if loaded.discretised is not None:
+        print(
+            f"{args.observations}: " + loaded.discretised.summary(),
+            file=sys.stderr if args.json else sys.stdout,
+        )
 
 
 def _scored_against_truth(args: argparse.Namespace, kind: str) -> bool:

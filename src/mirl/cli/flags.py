@@ -53,6 +53,29 @@ class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 
 
 _NUMBER_LIKE = re.compile(r"-(\d|\.\d|inf|nan)", re.IGNORECASE)
+_GIVEN = "_mirl_given"  # the namespace's record of the flags given, removed after parsing
+
+
+class _StoreOnce(argparse._StoreAction):
+    """argparse's ``store``, refusing a flag given twice with two values: argparse keeps the
+    last silently, so ``--seed 1 ... --seed 2`` would drop a setting without a word."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        given = namespace.__dict__.setdefault(_GIVEN, {})
+        if self.dest in given and given[self.dest][1] != values:
+            first, before = given[self.dest]
+            raise argparse.ArgumentError(
+                self,
+                f"given twice ({first} {_typed(before)} and {option_string} {_typed(values)}); "
+                "give it once",
+            )
+        given[self.dest] = (option_string, values)
+        super().__call__(parser, namespace, values, option_string)
+
+
+def _typed(values: Any) -> str:
+    """A flag's value(s) as they read on a command line."""
+    return " ".join(map(str, values)) if isinstance(values, list) else str(values)
 """A command-line string that starts like a negative number: a value, never a flag."""
 
 
@@ -72,6 +95,8 @@ class OneLineParser(argparse.ArgumentParser):
     def __init__(self, *args, **kwargs) -> None:
         kwargs.setdefault("formatter_class", _HelpFormatter)
         super().__init__(*args, **kwargs)
+        self.register("action", None, _StoreOnce)
+        self.register("action", "store", _StoreOnce)
 
     def error(self, message: str) -> NoReturn:
         """Refuse the command line in one line naming this parser's command, exit code 2.
@@ -138,6 +163,7 @@ class OneLineParser(argparse.ArgumentParser):
             The parsed flags and arguments.
         """
         parsed, extra = self.parse_known_args(args, namespace)
+        vars(parsed).pop(_GIVEN, None)
         if extra:
             parser = self._chosen(parsed)
             parser.error(parser.unrecognized(extra))

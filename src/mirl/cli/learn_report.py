@@ -150,6 +150,42 @@ def pace_record(discretised) -> dict:
     }
 
 
+def poses_record(discretised) -> dict:
+    """What became of pose data's poses: the counts of the text summary, for ``--json``.
+
+    Parameters
+    ----------
+    discretised : Discretised or None
+        The discretised pose data; None for grid data.
+
+    Returns
+    -------
+    dict
+        ``poses``: per robot the poses read, binned, snapped, the steps observed (and outside
+        L's view) and the poses dropped by reason; ``{}`` for grid data.
+    """
+    if discretised is None:
+        return {}
+    return {
+        "poses": {
+            c.robot: {
+                "read": c.read + c.unplaced,
+                "binned": c.binned,
+                "snapped": c.snapped,
+                "observed_steps": c.observed_steps,
+                "outside_visible": c.outside_visible,
+                "dropped": {  # RobotCounts.drops()'s reasons
+                    "off_map": c.dropped,
+                    "no_step": c.no_step,
+                    "duplicate": c.duplicates,
+                    "unplaced": c.unplaced,
+                },
+            }
+            for c in discretised.report
+        }
+    }
+
+
 def drift_line(record: dict) -> str:
     """A lateral drift's JSON record (:meth:`~mirl.learning.verdicts.LateralDrift.to_dict`)
     in words.

@@ -347,7 +347,7 @@ class SweepOptions(Options):
     runs : int in [1, 100000], optional
         Runs per condition; by default the experiment's (200 for the paper's).
     workers : int in [1, 1024], optional
-        Local worker processes; by default one per CPU.
+        Local worker processes; by default one per CPU (refused with ``dask_scheduler``).
     resume : bool, default False
         Skip the runs the results directory holds, retry its failed ones; without it a directory
         that holds runs is refused.
@@ -359,7 +359,7 @@ class SweepOptions(Options):
         A progress bar on a terminal, else progress lines.
     progress_every : int in [1, 100000], optional
         When stderr is not a terminal, a progress line every this many runs; by default about
-        every 5 % of the sweep.
+        every 5 % of the sweep (refused without ``progress``).
     world : str, default "grid"
         The world every condition runs in (:data:`~mirl.worlds.WORLDS`).
     go_rule, relearn : str, bool
@@ -404,6 +404,21 @@ class SweepOptions(Options):
     go_rule: str = same_option(RunProtocol, "go_rule")
     relearn: bool = same_option(RunProtocol, "relearn")
     em_init: str | None = same_option(LearnOptions, "em_init")
+
+    def _check(self) -> None:
+        # an option another one makes unread is refused, as the command line refuses flags
+        # that would be ignored: the cluster runs on all its threads, and quiet prints nothing
+        if self.dask_scheduler is not None and self.workers is not None:
+            raise self.refuse(
+                "workers",
+                "sets local processes, and `dask_scheduler` runs on every thread of the "
+                "cluster instead: give one of them",
+            )
+        if not self.progress and self.progress_every is not None:
+            raise self.refuse(
+                "progress_every", "spaces the progress lines, which `progress` turns off: "
+                "give one of them",
+            )  # fmt: skip
 
     @property
     def n_workers(self) -> int:

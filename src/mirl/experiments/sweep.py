@@ -13,16 +13,18 @@ import time
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import ExitStack, nullcontext
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 from mirl._blas import one_blas_thread
+from mirl._validation import OptionError
 from mirl.experiments.conditions import (
     OUTCOMES,
     Condition,
     Experiment,
     RunFunction,
+    StoreError,
     _maybe_float,
     code_version,
     get_experiment,
@@ -31,8 +33,9 @@ from mirl.experiments.conditions import (
     with_em_init,
     with_protocol,
 )
-from mirl.experiments.options import SweepOptions
+from mirl.experiments.options import PAPER_GO_RULE, SweepOptions
 from mirl.experiments.store import RunRecord, open_store
+from mirl.learning.options import EM_INITS
 from mirl.worlds import get_world
 
 __all__ = ["Summary", "run_experiment", "conditions_of"]
@@ -209,6 +212,7 @@ def run_experiment(
     emit = log or (lambda msg: print(msg, file=sys.stderr))
     with ExitStack() as stack:
         stack.callback(store.close)
+        _check_same_grid(exp, store.finished_keys(), out / "results.sqlite")
         retried = store.delete_errors()
         if retried:
             emit(f"{exp.name}: retrying {retried} runs that failed before")
@@ -252,6 +256,38 @@ def run_experiment(
         return summary
 
 
+# what a sweep's options set on every condition; the other fields are the experiment's grid
+_PROTOCOL_FIELDS = ("world", "go_rule", "relearn", "em_init")
+
+
+def _check_same_grid(exp: Experiment, stored: set[tuple[str, int]], db: Path) -> None:
+    """Refuse a resumed sweep whose conditions are not the stored runs': under another world,
+    go rule, re-learning or DBN-EM start, its runs would be stored beside them under new keys
+    and reported in the same tables as the same methods, none of them skipped."""
+    keys = {c.key for c in exp.conditions}
+    other = sorted({key for key, _ in stored} - keys)
+    if not other:
+        return
+    was = Condition.from_key(other[0])
+    grid = {k: v for k, v in asdict(was).items() if k not in _PROTOCOL_FIELDS}
+    same = [c for c in exp.conditions if {k: getattr(c, k) for k in grid} == grid]
+    if not same:
+        raise StoreError(f"{db} holds runs of conditions {exp.name} does not have ({other[0]})")
+    now = same[0]
+    diff = [f for f in _PROTOCOL_FIELDS if getattr(was, f) != getattr(now, f)]
+    unset = {"go_rule": PAPER_GO_RULE, "em_init": EM_INITS.names[0]}  # None: the default
+
+    def values(c: Condition) -> str:
+        return ", ".join(f"{f}={getattr(c, f) or unset.get(f, getattr(c, f))!r}" for f in diff)
+
+    shown, asked = values(was), values(now)
+    flags = ", ".join(f"`{f}`" for f in diff)
+    raise StoreError(
+        f"{db} holds runs of {exp.name} with {shown}, not {asked} as asked ({flags}); resume it "
+        "as it was started, or choose another directory (`out`)"
+    )
+
+
 def _results(
     exp: Experiment, tasks: list[tuple[Condition, int, int]], workers: int, scheduler: str | None
 ) -> Iterator[RunRecord]:
@@ -280,7 +316,11 @@ def _results(
 def _dask_client(address: str):
     from distributed import Client
 
-    return Client(address, timeout="30s")
+    try:
+        return Client(address, timeout="30s")
+    except OSError as exc:  # no scheduler there: say which option named it
+        problem = f"{address}: no Dask scheduler answered ({exc})"
+        raise OptionError("dask_scheduler", problem) from None
 
 
 def _dask_threads(client: Any) -> int:

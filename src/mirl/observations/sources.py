@@ -148,6 +148,12 @@ def _read_pose_csv(path: Path, scenario: Scenario, options: _ReadOptions) -> Pos
     tracks = read_pose_csv(path)
     if not options.topics:
         return tracks
+    for name, robot in options.topics.items():  # as a bag's topic: named, not the file's robot
+        if robot not in options.robot_names:
+            known = ", ".join(options.robot_names)
+            raise PoseError(
+                f"{path}: `topics` {name}={robot}: robot '{robot}' is not in the scenario ({known})"
+            )
     tracks, left_out = _select_robots(tracks, options.topics)
     options.left_out.update(left_out)
     return tracks
@@ -270,7 +276,8 @@ def load_observations(
         ``observability`` along the map's visibility order; ``"observed"``: every cell a robot
         was observed on; or a (rows, cols) bool mask.
     observability : float, optional
-        Pose data: the degree ``visible`` defaults to; the scenario's by default.
+        Pose data: the degree ``visible`` defaults to; the scenario's by default (refused with
+        ``visible``, which it would not change).
     same_frames : mapping of str to str, optional
         Bags: frames that coincide (frame -> frame), so that topics recorded in both may be
         mixed (:func:`~mirl.observations.bags.read_bag`).
@@ -309,6 +316,11 @@ def load_observations(
         grid = fmt.read(path, scenario, options)
         assert isinstance(grid, Trajectories)
         return LoadedObservations(grid, fmt.name)
+    if visible is not None and observability is not None:  # one would be ignored
+        raise ValueError(
+            "`observability` sets the cells L could see, and `visible` gives them: give one of "
+            "them"
+        )
     tracks = fmt.read(path, scenario, options)
     assert isinstance(tracks, PoseTracks)
     if visible is None:

@@ -123,8 +123,11 @@ class PhysicalWorld:
             if policies is None
             else np.asarray(policies)
         )
-        eq = scenario.played_equilibrium
-        self._eq = (np.asarray(eq.row, float), np.asarray(eq.col, float))
+        # each pair's own equilibrium ([[game.pairs]]), else the scenario's, as on the grid
+        self._eq = {}
+        for i, j in scenario.pairs:
+            eq = scenario.pair_equilibrium(i, j)
+            self._eq[i, j] = (np.asarray(eq.row, float), np.asarray(eq.col, float))
         loc, meas, game, start = np.random.SeedSequence(int(seed)).spawn(4)
         self._loc_rng = np.random.default_rng(loc)
         self._meas_rng = np.random.default_rng(meas)
@@ -473,8 +476,8 @@ class PhysicalWorld:
         for i in range(self.n):
             for j in range(i + 1, self.n):
                 if meeting(self.domain, s[i], s[j], own[i], own[j]):
-                    gi = self._draw(self._eq[0])
-                    gj = self._draw(self._eq[1])
+                    gi = self._draw(self._eq[i, j][0])
+                    gj = self._draw(self._eq[i, j][1])
                     acts[i] = game_action_to_action(gi, own[i])
                     acts[j] = game_action_to_action(gj, own[j])
         return s, acts

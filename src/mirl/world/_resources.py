@@ -36,7 +36,8 @@ def read_shipped_or_file(
             data = fh.read(MAX_FILE_BYTES + 1)
         if len(data) > MAX_FILE_BYTES:
             raise error(f"{path}: more than the limit of 64 MB for a {kind}")
-        text = data.decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")  # as read_text
+        # a BOM (Windows editors write one) is dropped, as in a CSV; line ends as read_text's
+        text = data.decode("utf-8-sig").replace("\r\n", "\n").replace("\r", "\n")
         return text, str(path), path
     except FileNotFoundError:
         raise error(f"{path}: no such file (shipped {kind}s: {', '.join(shipped)})") from None

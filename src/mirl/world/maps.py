@@ -538,9 +538,17 @@ def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> Grid
         An empty or ragged map, an unknown character, not exactly one ``L``, no goal, fewer than
         two hallway cells, or a map larger than :data:`MAX_MAP_SIDE` on a side.
     """
-    lines = [ln.rstrip("\r\n") for ln in text.splitlines() if not ln.startswith(";")]
-    while lines and not lines[-1].strip():
-        lines.pop()
+    # (line number in the text, line): errors name the text's own line, comments counted
+    numbered = [
+        (i, ln.rstrip("\r\n"))
+        for i, ln in enumerate(text.splitlines(), 1)
+        if not ln.startswith(";")
+    ]
+    while numbered and not numbered[-1][1].strip():
+        numbered.pop()
+    while numbered and not numbered[0][1].strip():  # blank lines above the map, as below it
+        numbered.pop(0)
+    lines = [ln for _, ln in numbered]
     if not lines:
         raise MapError(f"{source}: map is empty")
     width = len(lines[0])
@@ -549,7 +557,7 @@ def parse_map(text: str, *, name: str = "map", source: str = "<memory>") -> Grid
             f"{source}: map of {len(lines)}x{width} cells is larger than the limit of "
             f"{MAX_MAP_SIDE}x{MAX_MAP_SIDE}"
         )
-    for i, ln in enumerate(lines, 1):
+    for i, ln in numbered:
         if len(ln) != width:
             raise MapError(f"{source}: line {i} has {len(ln)} cells, expected {width}")
         bad = set(ln) - _LEGEND

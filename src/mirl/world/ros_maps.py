@@ -149,6 +149,32 @@ def discretise_free_mask(free_px: np.ndarray, resolution: float, cell_size: floa
     return cells
 
 
+class _KeyTwice(Exception):
+    """A key given twice in one YAML mapping (its name and 1-based line)."""
+
+
+def _unique_key_loader() -> type:
+    """PyYAML's SafeLoader refusing a key given twice in a mapping: safe_load keeps the last
+    silently, so an edited ``resolution:`` above a forgotten one would place the map wrongly."""
+    import yaml
+
+    class UniqueKeyLoader(yaml.SafeLoader):
+        def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":  # << merges: later keys override
+                    continue
+                key = self.construct_object(key_node, deep=deep)
+                if not isinstance(key, str | int | float):  # unhashable: SafeLoader refuses it
+                    continue
+                if key in seen:
+                    raise _KeyTwice(key, key_node.start_mark.line + 1)
+                seen.add(key)
+            return super().construct_mapping(node, deep)
+
+    return UniqueKeyLoader
+
+
 def _read_yaml(path: Path) -> dict[str, Any]:
     import yaml
 
@@ -159,7 +185,10 @@ def _read_yaml(path: Path) -> dict[str, Any]:
     except (OSError, UnicodeDecodeError) as exc:
         raise MapError(f"{path}: cannot read map YAML ({_one_line(exc)})") from None
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text, Loader=_unique_key_loader())  # a SafeLoader
+    except _KeyTwice as exc:
+        key, line = exc.args
+        raise MapError(f"{path}: line {line}: key '{key}' given twice; give it once") from None
     except yaml.YAMLError as exc:
         raise MapError(f"{path}: invalid YAML ({_one_line(exc)})") from None
     except RecursionError:  # PyYAML's composer recurses once per nesting level
