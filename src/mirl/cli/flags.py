@@ -53,6 +53,7 @@ class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 
 
 _NUMBER_LIKE = re.compile(r"-(\d|\.\d|inf|nan)", re.IGNORECASE)
+"""A command-line string that starts like a negative number: a value, never a flag."""
 _GIVEN = "_mirl_given"  # the namespace's record of the flags given, removed after parsing
 
 
@@ -76,7 +77,6 @@ class _StoreOnce(argparse._StoreAction):
 def _typed(values: Any) -> str:
     """A flag's value(s) as they read on a command line."""
     return " ".join(map(str, values)) if isinstance(values, list) else str(values)
-"""A command-line string that starts like a negative number: a value, never a flag."""
 
 
 class OneLineParser(argparse.ArgumentParser):
