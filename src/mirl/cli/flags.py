@@ -163,7 +163,7 @@ class OneLineParser(argparse.ArgumentParser):
             The parsed flags and arguments.
         """
         parsed, extra = self.parse_known_args(args, namespace)
-        vars(parsed).pop(_GIVEN, None)
+        parsed.__dict__.pop(_GIVEN, None)
         if extra:
             parser = self._chosen(parsed)
             parser.error(parser.unrecognized(extra))
