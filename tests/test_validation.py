@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -24,6 +25,7 @@ from mirl._validation import (
     Satisfies,
     check_argument,
     option,
+    parse_number,
     same_option,
     unknown_name,
 )
@@ -202,3 +204,36 @@ def test_a_float_interval_accepts_finite_numbers_above_its_low(value, low):
     iv = Interval(float, low, None)
     assert iv.accepts(value) == (math.isfinite(value) and value >= low)
     assert iv.accepts(int(low) + 1) == (int(low) + 1 >= low)  # an int is a number too
+
+
+@given(st.floats(allow_nan=False))
+def test_parse_number_reads_every_float_python_writes(x):
+    assert parse_number(repr(x)) == x
+    assert parse_number(f"  {x!r} ") == x
+
+
+@given(st.integers())
+def test_parse_number_reads_every_integer_python_writes(n):
+    assert parse_number(str(n), int) == n
+
+
+@pytest.mark.parametrize(
+    ("text", "kind", "message"),
+    [
+        ("0.7_5", float, "'0.7_5' is not a number"),  # Python's float reads 0.75
+        ("1_000", int, "'1_000' is not an integer"),  # Python's int reads 1000
+        ("1e-400", float, "'1e-400' is too small for a float, which would read it as 0"),
+        ("٣", int, "'٣' is not an integer"),  # a digit of another script: int reads 3
+        ("0x10", int, "'0x10' is not an integer"),
+        ("2.5", int, "'2.5' is not an integer"),
+        ("", float, "'' is not a number"),
+    ],
+)
+def test_parse_number_refuses_what_the_files_refuse(text, kind, message):
+    with pytest.raises(ValueError, match=re.escape(message)):
+        parse_number(text, kind)
+
+
+def test_parse_number_keeps_zero_nan_and_infinity():
+    assert parse_number("0e5") == 0.0 and parse_number("-0.000") == 0.0
+    assert math.isnan(parse_number("nan")) and parse_number("-inf") == -math.inf

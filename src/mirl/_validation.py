@@ -29,6 +29,7 @@ import dataclasses
 import functools
 import math
 import numbers
+import re
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -51,9 +52,56 @@ __all__ = [
     "Options",
     "check_argument",
     "unknown_name",
+    "parse_number",
 ]
 
 OptionsT = TypeVar("OptionsT", bound="Options")
+
+_INTEGER = re.compile(r"\s*[+-]?\d+\s*", re.ASCII)
+_DECIMAL = re.compile(
+    r"\s*[+-]?(?:(?P<mantissa>\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|inf|infinity|nan)\s*",
+    re.IGNORECASE | re.ASCII,
+)
+
+
+def parse_number(text: str, kind: type = float) -> int | float:
+    """A number as a command line or a data file writes one.
+
+    Python's ``int`` and ``float`` also read ``0.7_5`` as 0.75 and ``1e-400`` as 0.0; the CSV
+    readers refuse the first, and the second is a setting the user did not give. Both are
+    refused here, so that a flag reads numbers as mirl's files do.
+
+    Parameters
+    ----------
+    text : str
+        The text: an optional sign, digits with an optional point and exponent (``inf`` and
+        ``nan`` for a float); surrounding spaces are allowed.
+    kind : {float, int}, default float
+        What it must be.
+
+    Returns
+    -------
+    int or float
+        The number.
+
+    Raises
+    ------
+    ValueError
+        ``'0.7_5' is not a number``; ``'1e-400' is too small for a float, which would read it
+        as 0``.
+    """
+    if kind is int:
+        if not _INTEGER.fullmatch(text):
+            raise ValueError(f"'{text}' is not an integer")
+        return int(text)
+    match = _DECIMAL.fullmatch(text)
+    if match is None:
+        raise ValueError(f"'{text}' is not a number")
+    value = float(text)
+    mantissa = match.group("mantissa") or ""
+    if value == 0.0 and mantissa.strip("0.") != "":
+        raise ValueError(f"'{text.strip()}' is too small for a float, which would read it as 0")
+    return value
 
 
 class OptionError(ValueError, TypeError):
@@ -184,11 +232,7 @@ class Interval(Constraint):
         return what if self.kind is int else "a finite number"
 
     def convert(self, text: str) -> Any:
-        try:
-            return int(text.strip()) if self.kind is int else float(text)
-        except ValueError:
-            what = "an integer" if self.kind is int else "a number"
-            raise ValueError(f"'{text}' is not {what}") from None
+        return parse_number(text, self.kind)
 
 
 SEED = Interval(int, 0, 2**63 - 1, text="an integer in [0, 2^63 - 1]")

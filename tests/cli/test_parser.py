@@ -31,6 +31,10 @@ FLAG_ERRORS = [
     (["run", "--observability", "-inf"], "argument --observability: must be a number in [0, 1], "
      "got -inf"),
     (["run", "--p", "-.5"], "argument --p: must be a number in [0, 1], got -0.5"),
+    (["run", "--observability", "0.1_4"], "argument --observability: '0.1_4' is not a number"),
+    (["run", "--observability", "1e-400"], "argument --observability: '1e-400' is too small for a "
+     "float, which would read it as 0"),
+    (["run", "--obs-steps", "1_000"], "argument --obs-steps: '1_000' is not an integer"),
     (["run", "--method", "mirl_t"], "argument --method: unknown method 'mirl_t' (did you mean "
      "'mirl-t' or 'mirl'? known: mirl-t, mirl, known-r-t, known-r, dbn-em, random, oracle)"),
     (["run", "--world", "phisics"], "argument --world: unknown world 'phisics' (did you mean "

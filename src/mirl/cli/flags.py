@@ -13,7 +13,15 @@ from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from mirl._registry import did_you_mean
-from mirl._validation import SEED, Constraint, Interval, OptionError, Spec, unknown_name
+from mirl._validation import (
+    SEED,
+    Constraint,
+    Interval,
+    OptionError,
+    Spec,
+    parse_number,
+    unknown_name,
+)
 from mirl.experiments.options import RunProtocol, SweepOptions
 from mirl.learning.options import LearnOptions
 
@@ -479,11 +487,14 @@ def parse_damage(text: str) -> tuple[str, str, float]:
     try:
         robot, rest = text.split(":", 1)
         feature, value = rest.split("=", 1)
-        return robot.strip(), feature.strip(), float(value)
     except ValueError:
         raise ValueError(
             f"--damage '{text}': expected ROBOT:FEATURE=P, e.g. J:left_wheel=0.7"
         ) from None
+    try:
+        return robot.strip(), feature.strip(), float(parse_number(value))
+    except ValueError as exc:
+        raise ValueError(f"--damage '{text}': {exc}") from None
 
 
 # The library's errors name a parameter in backquotes (`step_seconds`); the command line says
