@@ -228,6 +228,9 @@ def test_report_takes_the_database_file_and_names_any_other_file(tmp_path, capsy
     assert main(["report", str(other)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "a file, not an experiment's results directory" in err
+    assert main(["report", str(tmp_path / "no-such-run")]) == 2  # a mistyped directory
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.rstrip().endswith("no-such-run: no such directory"), err
 
 
 @pytest.mark.parametrize("world", ["grid", "physics"])

@@ -209,6 +209,8 @@ def write_report_and_figures(directory: str | Path) -> WrittenReport:
         root = root.parent  # the database itself names its directory
     elif root.exists() and not root.is_dir():
         raise StoreError(f"{root}: a file, not an experiment's results directory")
+    elif not root.exists():
+        raise StoreError(f"{root}: no such directory")
     dbs = _databases(root) if root.is_dir() else []
     if not dbs:
         raise StoreError(f"{root}: no results.sqlite here or in its sub-directories")
