@@ -86,6 +86,21 @@ def test_policy_labels_use_the_equilibrium_at_an_evident_meeting(boyd2):
     assert labels[0][0] == FORWARD and labels[0][1] == -1
 
 
+@pytest.mark.parametrize(("pair_played", "stops"), [({}, 0), ({(0, 1): ("go", "stop")}, 1)])
+def test_true_policy_labels_play_each_pair_s_own_equilibrium(boyd2, pair_played, stops):
+    """Known R/T's labels at a meeting follow the pair's [[game.pairs]] equilibrium, as the
+    simulators play it; without one, the scenario's `played` (stop/go: I stops)."""
+    from dataclasses import replace
+
+    from mirl.learning.transitions import true_policy_labels
+
+    scenario = replace(boyd2, pair_played=pair_played)
+    d = scenario.domain
+    i_s, j_s = idx(d, 5, 1, 3), idx(d, 6, 1, 1)  # they would swap cells: a meeting
+    labels = true_policy_labels(scenario, [np.array([i_s]), np.array([j_s])])
+    assert labels[stops][0] == STOP and labels[1 - stops][0] == FORWARD
+
+
 def test_learner_recovers_exact_rates_from_deterministic_counts(boyd2):
     """Counts built so that every subset's success rate equals the product of known p."""
     d = boyd2.domain

@@ -95,6 +95,7 @@ from mirl.learning.transitions import (
     observed_steps,
     perceived_labels,
     policy_labels,
+    true_policy_labels,
 )
 from mirl.learning.verdicts import (
     FeatureUncertainty,
@@ -844,9 +845,7 @@ def _true_rewards(setup: RoundSetup, transitions, labels, trace: LoopTrace):
 
 def _true_policy_labels(setup: RoundSetup) -> list[np.ndarray]:
     """Per robot (horizon,) labels by the true policies and the played equilibrium."""
-    scenario = setup.scenario
-    policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
-    return policy_labels(setup.domain, setup.series, policies, scenario.played_equilibrium)
+    return true_policy_labels(setup.scenario, setup.series)
 
 
 def _feature_transitions(setup: RoundSetup, labels, options: LearnOptions):

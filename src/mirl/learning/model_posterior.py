@@ -43,7 +43,12 @@ from mirl.learning.irl import IRLProblem, OccludedMaxEntIRL
 from mirl.learning.methods import REWARD_SOURCES, get_method
 from mirl.learning.results import LearnResult, RobotModel
 from mirl.learning.soft_policy import soft_policy_iteration
-from mirl.learning.transitions import observed_steps, perception_labels, policy_labels
+from mirl.learning.transitions import (
+    observed_steps,
+    perception_labels,
+    policy_labels,
+    true_policy_labels,
+)
 from mirl.learning.verdicts import failure_dispersion, posterior_draws
 from mirl.mdp import TabularMDP, value_iteration
 from mirl.world.motion import transition_matrix
@@ -289,8 +294,7 @@ def _labels(
             out.append(lab)
         return out
     if true_reward:
-        policies = [scenario.true_policy(i) for i in range(len(series))]
-        return policy_labels(scenario.domain, series, policies, scenario.played_equilibrium)
+        return true_policy_labels(scenario, series)
     policies = [r.policy for r in learned.robots]
     return policy_labels(scenario.domain, series, policies, learned.equilibrium)
 

@@ -6,7 +6,7 @@ these probabilities define (Eq. 5) is :mod:`mirl.world.motion`.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -87,6 +87,7 @@ def policy_labels(
     series_list: Sequence[np.ndarray],
     policies: Sequence[np.ndarray],
     equilibrium: Equilibrium,
+    pair_equilibria: Mapping[tuple[int, int], Equilibrium] | None = None,
 ) -> list[np.ndarray]:
     """Label every observed time step of every robot with the action its policy prescribes.
 
@@ -106,6 +107,9 @@ def policy_labels(
         Each robot's (learned or true) policy.
     equilibrium : Equilibrium
         The equilibrium the robots play when they meet.
+    pair_equilibria : mapping of (int, int) to Equilibrium, optional
+        A pair's own equilibrium (robots i < j), where it is not ``equilibrium`` (a scenario's
+        ``[[game.pairs]]``).
 
     Returns
     -------
@@ -120,12 +124,13 @@ def policy_labels(
         lab[seen] = np.asarray(pol)[x[seen]]
         labels.append(lab)
     own = [lab.copy() for lab in labels]
-    game_choice = (int(np.argmax(equilibrium.row)), int(np.argmax(equilibrium.col)))
     for i in range(len(series)):
         for j in range(i + 1, len(series)):
             both = np.flatnonzero((series[i] >= 0) & (series[j] >= 0))
             if both.size == 0:
                 continue
+            eq = (pair_equilibria or {}).get((i, j), equilibrium)
+            game_choice = (int(np.argmax(eq.row)), int(np.argmax(eq.col)))
             met = meeting(domain, series[i][both], series[j][both], own[i][both], own[j][both])
             t = both[met]
             labels[i][t] = game_action_to_action(np.full(t.size, game_choice[0]), own[i][t])
@@ -193,7 +198,7 @@ def perceived_labels(scenario: Scenario, series_list: Sequence[np.ndarray]) -> l
 
 def true_policy_labels(scenario: Scenario, series_list: Sequence[np.ndarray]) -> list[np.ndarray]:
     """Per robot, every observed step labelled by the scenario's true policies and played
-    equilibrium (:func:`policy_labels`; the Known R/T setting); a row of
+    equilibria, each pair's own (:func:`policy_labels`; the Known R/T setting); a row of
     :data:`~mirl.learning.options.LABELLINGS`.
 
     Parameters
@@ -209,7 +214,10 @@ def true_policy_labels(scenario: Scenario, series_list: Sequence[np.ndarray]) ->
         Per robot the labels, -1 at unobserved steps.
     """
     policies = [scenario.true_policy(i) for i in range(len(scenario.robots))]
-    return policy_labels(scenario.domain, series_list, policies, scenario.played_equilibrium)
+    pairs = {p: scenario.pair_equilibrium(*p) for p in scenario.pairs}
+    return policy_labels(
+        scenario.domain, series_list, policies, scenario.played_equilibrium, pairs
+    )
 
 
 def count_subsets(
