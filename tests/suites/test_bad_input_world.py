@@ -150,6 +150,24 @@ NO_FEATURES = (
             + "[observer]",
             "override[0]: adds and removes no feature",
         ),
+        # an override that adds a feature its actions have already (forward has the floor)
+        (
+            "[observer]",
+            FEATURES.format(cell="[0, 5]").replace(
+                'remove = ["floor"]', 'actions = ["forward"], add = ["floor"]'
+            )
+            + "[observer]",
+            "transition_features: override 1 changes no action's features on its cells",
+        ),
+        # ... and a feature no action depends on, whose probability would stay at its prior
+        (
+            "[observer]",
+            FEATURES.format(cell="[0, 5]").replace(
+                'features = ["left_wheel"', 'features = ["carpet", "left_wheel"', 1
+            )
+            + "[observer]",
+            "transition_features: transition feature 'carpet' is in no action's subset",
+        ),
     ],
 )
 def test_scenarios_that_cannot_be_meant(tmp_path, capsys, old, new, field):

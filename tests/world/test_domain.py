@@ -465,3 +465,23 @@ def test_feature_map_without_takes_features_out_of_some_actions():
     assert fm.features == DEFAULT_FEATURE_MAP.features
     with pytest.raises(ValueError, match="unknown transition feature 'wheel'"):
         DEFAULT_FEATURE_MAP.without(("wheel",), ("forward",))
+
+
+def test_a_written_override_is_asked_whether_it_changes_a_subset_after_those_before_it():
+    """Adding back on one cell what an earlier override removed everywhere changes ξ there;
+    adding what the actions have already, or removing on a cell what an earlier override took
+    away there, changes nothing and is refused. A reduced map (``without``) is not asked."""
+
+    def table(*overrides):
+        return {"features": list(FEATURES), "actions": SPEC_SUBSETS, "override": list(overrides)}
+
+    drop = {"actions": ["stop"], "remove": ["floor"]}
+    back = {"cells": [[5, 1]], "actions": ["stop"], "add": ["floor"]}
+    FeatureMap.from_dict(table(drop, back))  # stop on (5, 1) has the floor again
+    with pytest.raises(ValueError, match="override 2 changes no action's features"):
+        FeatureMap.from_dict(table(drop, {**back, "add": [], "remove": ["floor"]}))
+    with pytest.raises(ValueError, match="override 1 changes no action's features"):
+        FeatureMap.from_dict(table({"actions": ["forward"], "add": ["floor"]}))
+    turns_only = {**SPEC_SUBSETS, "forward": ["navigation", "floor"]}  # the wheels turn only
+    fm = FeatureMap.from_dict({"features": list(FEATURES), "actions": turns_only})
+    fm.without(["left_wheel", "right_wheel"], ["turn_left", "turn_right"])  # no wheel left: kept

@@ -494,7 +494,9 @@ def parse_damage(text: str) -> tuple[str, str, float]:
     try:
         return robot.strip(), feature.strip(), float(parse_number(value))
     except ValueError as exc:
-        raise ValueError(f"--damage '{text}': {exc}") from None
+        raise ValueError(
+            f"--damage '{text}': {exc} (expected ROBOT:FEATURE=P, e.g. J:left_wheel=0.7)"
+        ) from None
 
 
 # The library's errors name a parameter in backquotes (`step_seconds`); the command line says

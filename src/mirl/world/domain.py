@@ -247,9 +247,40 @@ class FeatureMap:
                 )
             )
         try:
-            return cls(features, actions, tuple(overrides))
+            fm = cls(features, actions, tuple(overrides))
+            fm._check_written()
         except ValueError as exc:
             raise schema.FieldError(where, str(exc)) from None
+        return fm
+
+    def _check_written(self) -> None:
+        """Refuse what a written table cannot mean: an override that changes no ξ(s, a) on its
+        cells (it adds features its actions have there and removes ones they lack, after the
+        overrides before it), and a feature no action depends on anywhere (no step could tell
+        its probability, which would stay at its prior). Only a table a user wrote is asked:
+        a reduced map (:meth:`without`) may leave either, meaning what its world means."""
+        named = sorted({tuple(c) for ov in self.overrides if ov.cells for c in ov.cells})
+        keys: list[tuple | None] = [None, *named]  # None: every cell no override names
+        sets = {(k, a): set(self.action_subsets[a]) for k in keys for a in ACTIONS}
+        for i, ov in enumerate(self.overrides):
+            changed = False
+            for k in keys if ov.cells is None else [tuple(c) for c in ov.cells]:
+                for a in ov.actions or ACTIONS:
+                    new = (sets[k, a] | set(ov.add)) - set(ov.remove)
+                    changed |= new != sets[k, a]
+                    sets[k, a] = new
+            if not changed:
+                raise ValueError(
+                    f"override {i + 1} changes no action's features on its cells: they have "
+                    "every feature it adds and none it removes there already"
+                )
+        used = set().union(*sets.values())
+        for f in self.features:
+            if f not in used:
+                raise ValueError(
+                    f"transition feature '{f}' is in no action's subset on any cell: no step "
+                    "could tell its probability"
+                )
 
 
 def _names(value, path: str, min_length: int = 0) -> tuple[str, ...]:
