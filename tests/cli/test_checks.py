@@ -60,6 +60,20 @@ def test_an_output_that_cannot_be_written_is_refused_naming_the_flag(tmp_path, n
         check_output(path, "--plot", checks.FIGURE_SUFFIXES)
 
 
+@pytest.mark.parametrize("name", ["t.json", "o.MCAP", "o.yaml", "o.parquet"])
+def test_a_csv_output_named_as_another_format_is_refused(tmp_path, capsys, name):
+    """`--truth t.json` wrote CSV into t.json; every reader would take the name at its word."""
+    from mirl.cli import main
+
+    assert checks.check_csv_output(tmp_path / "o.txt", "--truth") == tmp_path / "o.txt"
+    path = tmp_path / name
+    argv = ["simulate", "--scenario", "boyd2", "--steps", "3", "--truth", str(path)]
+    assert main(argv) == 2 and not path.exists()
+    err = capsys.readouterr().err.strip()
+    assert err == f"mirl simulate: error: --truth {path}: mirl writes it as CSV, which a " \
+        f"{path.suffix} name would misname (name it .csv)", err
+
+
 def test_an_output_in_a_directory_that_cannot_be_written_is_refused(tmp_path, monkeypatch):
     monkeypatch.setattr(os, "access", lambda path, mode: False)  # as for a user without rights
     with pytest.raises(UsageError, match="not writable"):

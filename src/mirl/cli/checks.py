@@ -22,6 +22,7 @@ __all__ = [
     "MIN_TRIALS",
     "warn",
     "check_output",
+    "check_csv_output",
     "check_distinct",
     "check_pose_flags",
     "check_poses_output",
@@ -60,6 +61,43 @@ def warn(message: str) -> None:
         One line, naming the file or flag it is about.
     """
     print(f"mirl: warning: {message}", file=sys.stderr)
+
+
+OTHER_FORMATS = (
+    ".json", ".mcap", ".bag", ".db3", ".yaml", ".yml", ".toml", ".sqlite", ".parquet", ".png",
+    ".pdf", ".svg", ".gif",
+)  # fmt: skip
+"""Suffixes that name a format other than CSV: a CSV written under one would be misread."""
+
+
+def check_csv_output(path: str | Path, flag: str) -> Path:
+    """:func:`check_output` for a file mirl writes as CSV, refusing a name whose suffix says
+    another format (``--truth t.json``), which every reader of it would take at its word.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    flag : str
+        The flag (or argument) that named it, for the message.
+
+    Returns
+    -------
+    Path
+        ``path``, as a :class:`~pathlib.Path`.
+
+    Raises
+    ------
+    UsageError
+        Its suffix names another format, or :func:`check_output` refuses it.
+    """
+    p = Path(path)
+    if p.suffix.lower() in OTHER_FORMATS:
+        raise UsageError(
+            f"{flag} {p}: mirl writes it as CSV, which a {p.suffix} name would misname "
+            "(name it .csv)"
+        )
+    return check_output(p, flag)
 
 
 def check_output(path: str | Path, flag: str, suffixes: tuple[str, ...] | None = None) -> Path:

@@ -16,6 +16,7 @@ from mirl.cli.checks import (
     FIGURE_SUFFIXES,
     MIN_TRIALS,
     UsageError,
+    check_csv_output,
     check_damage,
     check_damage_once,
     check_distinct,
@@ -193,7 +194,7 @@ def _simulate(args: argparse.Namespace) -> int:
     check_distinct(*outputs, ("--poses", args.poses))
     for flag, path in outputs:
         if path:
-            check_output(path, flag)
+            check_csv_output(path, flag)
     check_poses_output(args.poses, args.world)
     scenario = _load_scenario(args)
     world = _world(args.world).load()
@@ -316,7 +317,7 @@ def _convert(args: argparse.Namespace) -> int:
     from mirl.learning.verdicts import record_off_pace
 
     check_distinct(("IN", args.input), ("OUT", args.output))
-    check_output(args.output, "OUT")
+    check_csv_output(args.output, "OUT")
     check_damage("convert", args)
     scenario = _load_scenario(args)
     args.observations = args.input
