@@ -454,3 +454,14 @@ def test_a_misspelt_or_malformed_world_section_is_refused_when_loaded(tmp_path):
         load_scenario(_with_section(tmp_path, "", top="physics = 3"))
     with pytest.raises(ValueError, match="unknown world section 'phyiscs'"):
         load_scenario("boyd2").section("phyiscs")
+
+
+@pytest.mark.parametrize("name", ["boyd2.txt", "turtlebot3_world.yaml"])
+def test_a_map_given_as_a_scenario_is_named_as_a_map(name):
+    """A map where a scenario goes failed as TOML, naming a key at line 1 and nothing else."""
+    from importlib import resources
+
+    path = resources.files("mirl.data.maps") / name
+    with pytest.raises(ScenarioError, match=f"{name} looks like a map, not a scenario") as info:
+        load_scenario(str(path))
+    assert f'map = "{name}"' in str(info.value) and "\n" not in str(info.value)

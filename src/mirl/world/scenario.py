@@ -486,7 +486,21 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     text, source, path = read_shipped_or_file(
         name_or_path, "scenarios", ".toml", ScenarioError, "scenario"
     )
-    return _from_text(text, source, base=None if path is None else path.parent)
+    try:
+        return _from_text(text, source, base=None if path is None else path.parent)
+    except ScenarioError as exc:
+        if path is None or path.suffix.lower() not in MAP_SUFFIXES:
+            raise
+        # a map given where a scenario goes fails as TOML or as a scenario without its fields,
+        # neither of which says what the file is
+        raise ScenarioError(
+            f"{exc}; {path.name} looks like a map, not a scenario: a scenario is a .toml file "
+            f'that names its map (map = "{path.name}")'
+        ) from None
+
+
+MAP_SUFFIXES = (".txt", ".yaml", ".yml", ".pgm")
+"""Suffixes of map files (text maps and ROS map_server maps), which a scenario file is not."""
 
 
 def _from_text(text: str, source: str, base: Path | None) -> Scenario:
