@@ -188,8 +188,20 @@ def test_rows_outside_the_view_are_warned_about_once_and_none_visible_refused(do
     assert err.count("\n") == 1
     assert "2 of 2 observed rows lie on cells L cannot see at observability 0.5" in err
     visible[:] = True
-    check_visible("o.csv", obs, domain, visible, 1.0)
+    full = observations([(t, i, r, c, h) for t in (0, 1) for i in (0, 1)])
+    check_visible("o.csv", full, domain, visible, 1.0)
     assert capsys.readouterr().err == ""
+
+
+def test_robots_missing_from_a_record_that_claims_full_view_are_warned_about(domain, capsys):
+    """At full view a robot missing from a step was out of a view that has no outside: a grid
+    CSV recorded at L's door, learned with `--observability 1`, was taken without a word."""
+    r, c, h = (int(x) for x in domain.states[0])
+    obs = observations([(0, 0, r, c, h), (1, 1, r, c, h)])  # I missing at 1, J at 0
+    check_visible("o.csv", obs, domain, np.ones(domain.n_states, dtype=bool), 1.0)
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "L sees every cell at observability 1, yet the robots are " \
+        "missing from 2 of 4 robot-steps (first: I at t=1)" in err, err
 
 
 def test_warnings_are_one_line_on_stderr(capsys):

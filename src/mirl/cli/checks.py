@@ -422,6 +422,21 @@ def check_visible(path, obs, domain, visible: np.ndarray, degree: float) -> None
     """
     import numpy as np  # here: building the command line loads no numpy
 
+    if np.all(visible) and len(obs):
+        # the mirror image: a robot missing from a step was out of L's view, and at this view
+        # there is no out of view
+        seen = np.zeros((len(obs.robot_names), obs.horizon), dtype=bool)
+        seen[obs.robot, obs.t] = True
+        missing = ~seen
+        if missing.any():
+            r, t = np.unravel_index(int(np.argmax(missing)), missing.shape)
+            warn(
+                f"{path}: L sees every cell at observability {degree:g}, yet the robots are "
+                f"missing from {int(missing.sum())} of {missing.size} robot-steps (first: "
+                f"{obs.robot_names[r]} at t={int(t)}): the record was made at a narrower view; "
+                "give its --observability (or --visible observed)"
+            )
+        return
     outside = ~np.asarray(visible, dtype=bool)[obs.states(domain)]
     if not outside.any():
         return
