@@ -4,6 +4,8 @@ world, experiment or sub-command gets the nearest known one; help lists every ex
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from mirl.cli import main
@@ -90,6 +92,14 @@ def test_a_bad_flag_is_one_line_naming_the_command_and_the_flag(capsys, argv, te
 def test_a_flag_given_twice_with_one_value_is_that_value():
     args = build_parser().parse_args(["run", "--seed", "3", "--seed", "3", "--json"])
     assert args.seed == 3 and not hasattr(args, "_mirl_given")
+
+    # a value that is not equal to itself (nan, where a flag's type lets it through) is still
+    # one value given twice
+    from mirl.cli.flags import OneLineParser
+
+    parser = OneLineParser(prog="t")
+    parser.add_argument("--x", type=float)
+    assert math.isnan(parser.parse_args(["--x", "nan", "--x", "nan"]).x)
 
 
 def test_every_option_flag_that_takes_a_value_has_its_refusal_above():

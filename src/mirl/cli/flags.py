@@ -71,7 +71,9 @@ class _StoreOnce(argparse._StoreAction):
 
     def __call__(self, parser, namespace, values, option_string=None) -> None:
         given = namespace.__dict__.setdefault(_GIVEN, {})
-        if self.dest in given and given[self.dest][1] != values:
+        # compared as written back: nan is not equal to itself, and a value given twice is
+        # one setting whatever it is
+        if self.dest in given and _typed(given[self.dest][1]) != _typed(values):
             first, before = given[self.dest]
             raise argparse.ArgumentError(
                 self,
