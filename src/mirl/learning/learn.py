@@ -844,7 +844,7 @@ def _true_rewards(setup: RoundSetup, transitions, labels, trace: LoopTrace):
 
 
 def _true_policy_labels(setup: RoundSetup) -> list[np.ndarray]:
-    """Per robot (horizon,) labels by the true policies and the played equilibrium."""
+    """Per robot (horizon,) labels by the true policies and each pair's played equilibrium."""
     return true_policy_labels(setup.scenario, setup.series)
 
 
