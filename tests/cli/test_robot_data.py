@@ -211,3 +211,20 @@ def test_bad_robot_data_one_line_exit_2(tmp_path, capsys):
     learn = ["learn-transitions", "--scenario", "boyd2", "--observations", str(grid)]
     one_error_line(capsys, main([*learn, "--step-seconds", "1"]), grid, "--step-seconds")
     one_error_line(capsys, main([*learn[:-1], str(tmp_path / "x.txt")]), "x.txt")
+
+
+def test_a_pose_csv_with_yaws_in_degrees_is_refused_in_one_line(tmp_path, capsys):
+    sim = ["simulate", "--scenario", "boyd2", "--steps", "200", "--seed", "1"]
+    assert main([*sim, "--observability", "1", "--poses", str(tmp_path / "p.csv")]) == 0
+    lines = (tmp_path / "p.csv").read_text().splitlines()
+    head = lines[0].split(",")
+    assert head == ["t", "robot", "x", "y", "yaw"]
+    rows = [line.split(",") for line in lines[1:]]
+    degrees = [",".join([*r[:4], repr(math.degrees(float(r[4])))]) for r in rows]
+    (tmp_path / "deg.csv").write_text("\n".join([lines[0], *degrees]) + "\n")
+    capsys.readouterr()
+    learn = ["learn", "--scenario", "boyd2", "--start-time", "0", "--observations"]
+    assert main([*learn, str(tmp_path / "p.csv")]) == 0
+    capsys.readouterr()
+    code = main([*learn, str(tmp_path / "deg.csv")])
+    one_error_line(capsys, code, "deg.csv", "read as degrees: give yaw in radians")

@@ -212,3 +212,30 @@ def test_lateral_offset_is_left_of_the_heading_and_snapped_poses_have_none(scena
     # selecting rows keeps the offsets with them; grid records have none
     assert tr.select(tr.t >= 1).lateral.tolist()[:2] == tr.lateral[1:3].tolist()
     assert simulate(scenario, 20, seed=0).observations.lateral_series(0) is None
+
+
+def _in_degrees(p: PoseTracks) -> PoseTracks:
+    return dataclasses.replace(p, yaw=np.rad2deg(p.yaw))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_yaws_in_degrees_are_refused_and_radians_are_not(scenario, seed):
+    """Yaws written in degrees would be read as radians, headings pointing nowhere in
+    particular; the refusal names the share of moves each reading points along."""
+    obs = simulate(scenario, 300, seed=seed, observability=1.0).observations
+    p = poses_from_trajectories(obs, scenario, rate_hz=10.0, sigma_xy=0.05,
+                                sigma_yaw_degrees=5.0, seed=seed)  # fmt: skip
+    assert same(discretise(p, scenario, start_time=0.0, n_steps=obs.horizon).trajectories, obs)
+    with pytest.raises(DiscretisationError, match=r"read as degrees: give yaw in radians"):
+        discretise(_in_degrees(p), scenario, start_time=0.0, n_steps=obs.horizon)
+
+
+def test_yaws_that_fit_neither_reading_are_left_to_the_model_check(scenario):
+    """A tracker that writes no heading (every yaw 0) and too few moves are not refused."""
+    obs = simulate(scenario, 300, seed=0, observability=1.0).observations
+    p = poses_from_trajectories(obs, scenario, rate_hz=10.0, seed=0)
+    flat = dataclasses.replace(p, yaw=np.zeros_like(p.yaw))
+    d = discretise(flat, scenario, start_time=0.0, n_steps=obs.horizon)
+    assert (d.trajectories.heading == 0).all()
+    short = discretise(_in_degrees(p), scenario, start_time=0.0, n_steps=8)  # < 20 moves
+    assert short.trajectories.horizon == 8

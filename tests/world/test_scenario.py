@@ -391,6 +391,9 @@ def test_ros_scenario_rectangle_in_metres_keeps_hallway_cells(tmp_path):
         # a diagonal yaw has no nearest heading; rounding picked east without a word
         ("start = { x = 1.75, y = 0.5, yaw = 180 }", "start = { x = 1.75, y = 0.5, yaw = -135 }",
          "robots[0].start.yaw", "-135° is halfway between two headings"),
+        # a yaw beyond a turn either way is a slip, not a heading (1e300 % 90 is 0)
+        ("start = { x = 1.75, y = 0.5, yaw = 180 }", "start = { x = 1.75, y = 0.5, yaw = 1e300 }",
+         "robots[0].start.yaw", "360"),
         ("to = { x = 1.75, y = 0.5 }", "to = { x = 1.25, y = 0.0 }",
          "reward.features[1].cells.to", "not a hallway cell"),
         ("cell_size = 0.5", "cell_size = 0.01", "frame.cell_size",

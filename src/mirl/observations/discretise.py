@@ -57,6 +57,11 @@ SNAP_CELLS = 0.5
 # no clock's; checked before arithmetic that would overflow on 1e300
 MAX_XY = 2 * MAX_FRAME_ORIGIN
 MAX_POSE_TIME = 1e11
+# yaws in degrees (:func:`_check_yaw_units`): judged on this many moves, refused when at least
+# this share of them agrees with the yaws read as degrees, and this much more than as radians
+YAW_UNITS_MIN_MOVES = 20
+YAW_UNITS_DEGREES_AT_LEAST = 0.85
+YAW_UNITS_MARGIN = 0.2
 
 
 AUTO_LONG_MOVES = 0.01
@@ -443,6 +448,7 @@ def discretise(
         )
     chosen = _nearest_per_step(tracks, k, dt, binned & ok, n_steps)
     heading = heading_of_yaw(tracks.yaw[chosen])
+    _check_yaw_units(tracks, chosen, k[chosen], row[chosen], col[chosen], heading)
     traj = Trajectories(
         tracks.robot_names,
         k[chosen],
@@ -481,6 +487,55 @@ def discretise(
     )
     last = float(tracks.t.max()) if len(tracks) else None
     return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis, auto, last)
+
+
+def _check_yaw_units(tracks: PoseTracks, chosen, k, row, col, heading) -> None:
+    """Refuse yaws written in degrees: they are read as radians, and would give every robot
+    headings that do not point where it drives.
+
+    A moving robot's yaw points along its moves (a differential drive does not move sideways).
+    Over the record's moves to a neighbouring cell at consecutive steps, the heading at either
+    end is counted as agreeing when it points along the move. Yaws in radians agree on most
+    moves; degrees read as radians point nowhere in particular (about 4 in 10 agree by chance
+    when they are noisy; exact multiples of 90° agree where 0°, 90° and −90° alias onto their
+    own heading, 3 in 4). Radians read as degrees are all within 3° of east, so they agree only
+    on moves east. The refusal asks for both signs — nearly all moves agree as degrees, and
+    clearly more than as radians — on :data:`YAW_UNITS_MIN_MOVES` moves or more, so a record
+    whose yaws fit neither reading (a frame with y pointing south, a robot driven backwards,
+    a tracker that writes no heading) is left to the model check.
+    """
+    moves = []
+    robot = tracks.robot[chosen]
+    for i in range(len(tracks.robot_names)):
+        at = np.flatnonzero(robot == i)  # sorted by step
+        if len(at) < 2:
+            continue
+        a, b = at[:-1], at[1:]
+        dr, dc = row[b] - row[a], col[b] - col[a]
+        step = (k[b] - k[a] == 1) & (np.abs(dr) + np.abs(dc) == 1)
+        a, b, dr, dc = a[step], b[step], dr[step], dc[step]
+        # the heading whose delta is the move: 0 east (0, 1), 1 north (−1, 0), 2 west, 3 south
+        direction = np.select([dc == 1, dr == -1, dc == -1], [0, 1, 2], 3)
+        moves.append((a, b, direction))
+    if not moves:
+        return
+    a = np.concatenate([m[0] for m in moves])
+    b = np.concatenate([m[1] for m in moves])
+    direction = np.concatenate([m[2] for m in moves])
+    if len(direction) < YAW_UNITS_MIN_MOVES:
+        return
+
+    def agree(h: np.ndarray) -> float:
+        return float(np.mean((h[a] == direction) | (h[b] == direction)))
+
+    as_radians = agree(heading)
+    as_degrees = agree(heading_of_yaw(np.deg2rad(tracks.yaw[chosen])))
+    if as_degrees >= YAW_UNITS_DEGREES_AT_LEAST and as_degrees - as_radians >= YAW_UNITS_MARGIN:
+        raise DiscretisationError(
+            f"{tracks.source}: the yaws point along the robots' moves on {as_radians:.0%} of "
+            f"their {len(direction)} moves to a neighbouring cell read as radians and on "
+            f"{as_degrees:.0%} read as degrees: give yaw in radians"
+        )
 
 
 def auto_step_seconds(

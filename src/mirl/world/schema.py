@@ -349,7 +349,9 @@ def _metric_cell(value: dict, path: str, shape, n: int, frame: MapFrame) -> tupl
         raise FieldError(path, f"x = {x:g}, y = {y:g} m is off the map{where}")
     if n == 2:
         return (r, c)
-    yaw = number(value["yaw"], f"{path}.yaw")
+    # degrees, one turn either way: beyond it a yaw is more likely a slip (a radian count,
+    # an exponent) than a heading meant, and 1e300 % 90 is no heading of any kind
+    yaw = number(value["yaw"], f"{path}.yaw", low=-360.0, high=360.0)
     if abs(yaw % 90.0 - 45.0) < 1e-9:  # no nearest heading: rounding would pick one unsaid
         raise FieldError(f"{path}.yaw", f"{yaw:g}° is halfway between two headings")
     return (r, c, int(round(yaw / 90.0)) % 4)
