@@ -26,6 +26,14 @@ run only learns. Cases:
 ``office-right``   physics, office, K's right motor at 0.5, full view, grid CSV
 ``two-true-poses``  physics, boyd2-healthy, I's right and J's left motor at 0.6, the true 10 Hz
                    poses at the auto step (a smooth track of a team slowed down alike)
+``amcl-healthy``   physics, boyd2-healthy, no damage, the true poses as Nav2's AMCL publishes
+                   them (:func:`amcl_stream`: a pose once the robot has moved 0.25 m or turned
+                   0.2 rad, with a localisation error), at the auto step
+``amcl-healthy-1s``  the same at ``--step-seconds 1``, as the issue's TurtleBot record was read
+``amcl-left``      the same stream, I's left motor at 0.6
+``amcl-right``     the same stream of ``boydright`` (J's right motor at 0.5)
+``amcl-two``       the same stream, I's right and J's left motor at 0.6
+``amcl-two-1s``    the same at ``--step-seconds 1``
 =================  ===========================================================================
 
 Per case and robot it prints the verdict, its confidence, whether it is (confidently) false,
@@ -57,7 +65,9 @@ class Case:
     world: str  # "grid" or "physics"
     damage: tuple[str, ...]  # --damage values
     truth: dict[str, tuple[str, ...]]  # robot -> damaged parts
-    data: str  # "grid" (obs.csv), "poses" (L's pose CSV), "true-poses" (10 Hz true poses)
+    # "grid" (obs.csv), "poses" (L's pose CSV), "true-poses" (10 Hz true poses), "amcl" (the
+    # true poses as AMCL publishes them)
+    data: str
     observability: float
     learn_flags: tuple[str, ...] = ()
 
@@ -96,8 +106,51 @@ CASES = {
         Case("two-true-poses", "boyd2-healthy", "physics",
              ("I:right_wheel=0.6", "J:left_wheel=0.6"),
              {"I": ("right_wheel",), "J": ("left_wheel",)}, "true-poses", 1.0),
+        # a localiser's event-triggered poses: none while a robot stands, irregular while it moves
+        Case("amcl-healthy", "boyd2-healthy", "physics", (), {"I": (), "J": ()}, "amcl", 1.0),
+        Case("amcl-healthy-1s", "boyd2-healthy", "physics", (), {"I": (), "J": ()}, "amcl", 1.0,
+             ("--step-seconds", "1")),
+        Case("amcl-left", "boyd2-healthy", "physics", ("I:left_wheel=0.6",),
+             {"I": ("left_wheel",), "J": ()}, "amcl", 1.0),
+        Case("amcl-right", "boydright", "physics", ("J:right_wheel=0.5",),
+             {"I": (), "J": ("right_wheel",)}, "amcl", 1.0),
+        Case("amcl-two", "boyd2-healthy", "physics", ("I:right_wheel=0.6", "J:left_wheel=0.6"),
+             {"I": ("right_wheel",), "J": ("left_wheel",)}, "amcl", 1.0),
+        Case("amcl-two-1s", "boyd2-healthy", "physics", ("I:right_wheel=0.6", "J:left_wheel=0.6"),
+             {"I": ("right_wheel",), "J": ("left_wheel",)}, "amcl", 1.0, ("--step-seconds", "1")),
     )
 }  # fmt: skip
+
+AMCL_MIN_D, AMCL_MIN_A = 0.25, 0.2
+"""Nav2 AMCL's defaults ``update_min_d`` (m) and ``update_min_a`` (rad): it publishes a pose
+only after a filter update, which waits for that much motion."""
+AMCL_SIGMA_XY, AMCL_SIGMA_YAW = 0.03, np.deg2rad(2.0)
+"""The localisation error added to each published pose (m, rad)."""
+
+
+def amcl_stream(tracks: PoseTracks, seed: int) -> PoseTracks:
+    """``tracks`` as AMCL would publish them: per robot the first pose, then each pose at
+    which the robot has moved :data:`AMCL_MIN_D` or turned :data:`AMCL_MIN_A` since the last
+    one published, with Gaussian error."""
+    rng = np.random.default_rng(seed)
+    keep = np.zeros(len(tracks), dtype=bool)
+    for r in range(len(tracks.robot_names)):
+        idx = np.flatnonzero(tracks.robot == r)
+        idx = idx[np.argsort(tracks.t[idx], kind="stable")]
+        last = None
+        for i in idx:  # a loop, for each pose depends on the last one published
+            if last is None or (
+                np.hypot(tracks.x[i] - tracks.x[last], tracks.y[i] - tracks.y[last]) >= AMCL_MIN_D
+                or abs(np.angle(np.exp(1j * (tracks.yaw[i] - tracks.yaw[last])))) >= AMCL_MIN_A
+            ):
+                keep[i], last = True, i
+    sel = tracks.select(keep)
+    n = len(sel)
+    return PoseTracks(
+        sel.robot_names, sel.t, sel.robot, sel.x + rng.normal(0, AMCL_SIGMA_XY, n),
+        sel.y + rng.normal(0, AMCL_SIGMA_XY, n), sel.yaw + rng.normal(0, AMCL_SIGMA_YAW, n),
+        sel.source,
+    )  # fmt: skip
 
 
 def run_cli(argv: list[str]) -> str:
@@ -124,7 +177,7 @@ def simulated(case: Case, seed: int, work: Path) -> Path:
         if case.world == "physics":
             argv += ["--poses", str(poses)]
         run_cli(argv)
-    if case.data != "true-poses":
+    if case.data in ("grid", "poses"):
         return {"grid": obs, "poses": poses}[case.data]
     robots = folder / "robots.true.csv"  # the patrollers' true poses, L's own left out
     if not robots.exists():
@@ -135,7 +188,12 @@ def simulated(case: Case, seed: int, work: Path) -> Path:
         write_pose_csv(
             PoseTracks(names, sel.t, index[sel.robot], sel.x, sel.y, sel.yaw, sel.source), robots
         )
-    return robots
+    if case.data == "true-poses":
+        return robots
+    amcl = folder / "robots.amcl.csv"
+    if not amcl.exists():
+        write_pose_csv(amcl_stream(read_pose_csv(robots), seed), amcl)
+    return amcl
 
 
 def learned(case: Case, data: Path) -> dict:
