@@ -140,8 +140,10 @@ def test_a_dask_scheduler_that_does_not_answer_is_named(tmp_path, monkeypatch):
         raise TimeoutError(f"Timed out trying to connect to tcp://{address} after {timeout}")
 
     monkeypatch.setattr(distributed, "Client", refused)
+    out = tmp_path / "sweep"
     with pytest.raises(OptionError, match=r"^`dask_scheduler` 127.0.0.1:1: no Dask scheduler"):
-        run_experiment("selftest", tmp_path, {"runs": 1, "dask_scheduler": "127.0.0.1:1"})
+        run_experiment("selftest", out, {"runs": 1, "dask_scheduler": "127.0.0.1:1"})
+    assert not out.exists()  # nothing of a sweep that never started is left behind
 
 
 def test_local_dask_scheduler_gives_the_same_rows(tmp_path, reference):

@@ -12,7 +12,7 @@ import sys
 import time
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Mapping
-from contextlib import ExitStack, nullcontext
+from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -207,10 +207,12 @@ def run_experiment(
     workers, resume, dask_scheduler = opts.n_workers, opts.resume, opts.dask_scheduler
     base_seed, progress, progress_every = opts.base_seed, opts.progress, opts.progress_every
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    store = open_store(out / "results.sqlite", exp.name, base_seed, resume=resume)
     emit = log or (lambda msg: print(msg, file=sys.stderr))
     with ExitStack() as stack:
+        # the cluster first: an address no scheduler answers leaves no store behind
+        client = stack.enter_context(_dask_client(dask_scheduler)) if dask_scheduler else None
+        out.mkdir(parents=True, exist_ok=True)
+        store = open_store(out / "results.sqlite", exp.name, base_seed, resume=resume)
         stack.callback(store.close)
         _check_same_grid(exp, store.finished_keys(), out / "results.sqlite")
         retried = store.delete_errors()
@@ -228,9 +230,7 @@ def run_experiment(
         # what the sweep was asked for, so that a report of an interrupted one says it is short
         asked = max(planned, int(store.meta().get("planned_runs", 0)))
         store.set_meta(planned_runs=str(asked))
-        client = _dask_client(dask_scheduler) if dask_scheduler else nullcontext()
-        stack.enter_context(client)
-        n_workers = workers if dask_scheduler is None else _dask_threads(client)
+        n_workers = workers if client is None else _dask_threads(client)
         summary = Summary(exp.name, out, planned, already, 0, 0.0, n_workers)
         emit(
             f"{exp.name}: {len(exp.conditions)} conditions × {runs} runs; {already} done, "
