@@ -126,3 +126,22 @@ def test_its_patrollers_take_no_given_actions(healthy):
         world.step(patroller_actions=np.zeros(2, dtype=int))
     assert world.t == 0 and len(world.true) == 1
     assert PhysicsRunWorld.version().startswith("mujoco.")
+
+
+def test_a_simulation_outside_the_calibrated_cells_says_so(tmp_path):
+    """Narrow cells (robots touch or wedge against walls) or many wall contacts get a note;
+    the shipped 1 m cells with few contacts do not."""
+    from importlib.resources import files
+
+    from mirl.worlds.physics import CALIBRATED_CELL, WALL_CONTACTS_NOTED, out_of_calibration
+
+    text = (files("mirl.data") / "scenarios" / "boyd2-healthy.toml").read_text()
+    narrow = tmp_path / "narrow.toml"
+    narrow.write_text(text.replace("\n[observer]", "\n[frame]\ncell_size = 0.75\n\n[observer]", 1))
+    shipped, small = load_scenario("boyd2-healthy"), load_scenario(narrow)
+    assert small.map.frame.cell_size < CALIBRATED_CELL <= shipped.map.frame.cell_size
+    assert out_of_calibration(shipped, 20, 900) == ()
+    (note,) = out_of_calibration(small, 20, 900)
+    assert "0.75 m cells touched walls 20 times in 900 robot-steps" in note
+    many = int(WALL_CONTACTS_NOTED * 900) + 1
+    assert "calibrated on 1 m cells" in out_of_calibration(shipped, many, 900)[0]

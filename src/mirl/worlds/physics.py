@@ -26,6 +26,7 @@ from mirl.physics.config import (
     with_motor_strength,
 )
 from mirl.physics.patrol import PhysicalWorld
+from mirl.physics.robot import KOBUKI
 from mirl.world.scenario import Scenario
 from mirl.worlds.contract import (
     Detection,
@@ -93,6 +94,50 @@ class PhysicsExtras:
         """
         strengths = self.world.cfg.motor_strength
         return any(s < 1 for ws in strengths.values() for s in ws.values())
+
+
+CALIBRATED_CELL = 0.9
+"""Metres: cells narrower than this are outside what the world's calibration measured (1 m
+cells). With robots 0.354 m across, boyd2-healthy at 0.75 m cells touched walls 0.23–0.34 times a
+robot-step against 0.01–0.02 at 1 m (two seeds each, 450 steps); on a real map at 0.4–0.5 m cells
+healthy robots wedged or scraped and their records read as damaged ones'."""
+WALL_CONTACTS_NOTED = 0.1
+"""Wall contacts per robot and step above which a simulation's summary says so, whatever the
+cell size: five times the most measured at 1 m cells."""
+
+
+def out_of_calibration(scenario: Scenario, wall_contacts: int, robot_steps: int) -> tuple[str, ...]:
+    """A note when the simulation is outside what the world's calibration measured: cells
+    narrower than :data:`CALIBRATED_CELL`, or robots that touched walls more than
+    :data:`WALL_CONTACTS_NOTED` times a robot-step. The controller drives a robot to its cell's
+    centre, so in a narrow cell beside a wall a robot touches or wedges against it, and its
+    steps there fail by contact, not by its motors: a record whose failures a healthy robot's
+    verdict then blames on its parts.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    wall_contacts : int
+        The simulation's contacts between a robot and a wall.
+    robot_steps : int
+        Robots × steps simulated.
+
+    Returns
+    -------
+    tuple of str
+        The note in one line, or nothing.
+    """
+    cell = scenario.map.frame.cell_size
+    many = robot_steps > 0 and wall_contacts > WALL_CONTACTS_NOTED * robot_steps
+    if cell >= CALIBRATED_CELL and not many:
+        return ()
+    return (
+        f"note: robots {2 * KOBUKI.base_radius:g} m across in {cell:g} m cells touched walls "
+        f"{wall_contacts} times in {robot_steps} robot-steps; the world is calibrated on 1 m "
+        "cells, and where a robot touches or wedges against a wall its steps fail by contact, "
+        "not by its motors, which a verdict on its record cannot tell from damage",
+    )
 
 
 def _strengths(cfg: PhysicsConfig) -> str:
@@ -194,9 +239,10 @@ class PhysicsRunWorld:
         cfg = world.cfg
         poses = MeasuredPoses(world.observed_tracks(), world.true_tracks(), cfg.control_hz)
         contacts = f"contacts: {world.contacts} between robots, {world.wall_contacts} with walls"
+        note = out_of_calibration(scenario, world.wall_contacts, world.n * steps)
         return Simulation(
             world.observations(), world.truth(), world.degree, conditions=_strengths(cfg),
-            step_seconds=cfg.step_seconds, report=(contacts,), poses=poses,
+            step_seconds=cfg.step_seconds, report=(contacts, *note), poses=poses,
         )  # fmt: skip
 
     @staticmethod
