@@ -145,3 +145,20 @@ def test_a_simulation_outside_the_calibrated_cells_says_so(tmp_path):
     assert "0.75 m cells touched walls 20 times in 900 robot-steps" in note
     many = int(WALL_CONTACTS_NOTED * 900) + 1
     assert "calibrated on 1 m cells" in out_of_calibration(shipped, many, 900)[0]
+
+
+def test_a_run_on_narrow_cells_carries_the_note_in_its_report_and_json(tmp_path):
+    from importlib.resources import files
+
+    from mirl.planning.observer import observer_model
+
+    text = (files("mirl.data") / "scenarios" / "boyd2-healthy.toml").read_text()
+    narrow = tmp_path / "narrow.toml"
+    narrow.write_text(text.replace("\n[observer]", "\n[frame]\ncell_size = 0.75\n\n[observer]", 1))
+    scenario = load_scenario(narrow)
+    world = PhysicsRunWorld(
+        RunSetup(scenario, observer_model(scenario), 0.14, 0, np.random.SeedSequence(0))
+    )
+    extras = world.extras()
+    (note,) = extras.notes()
+    assert "0.75 m cells" in note and extras.to_dict()["notes"] == [note]

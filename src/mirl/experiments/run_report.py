@@ -282,6 +282,14 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         "",
         _observed_line(result),
     ]
+    if result.extras is not None:  # a world's own word on its run (one outside its calibration)
+        import textwrap
+
+        lines += [
+            textwrap.fill(note.removeprefix("note: "), 96, initial_indent="world     ",
+                          subsequent_indent=" " * 10)
+            for note in result.extras.notes()
+        ]  # fmt: skip
     learned = result.learned
     has_features = any(result.feature_probabilities.values())
     if learned is not None and not has_features:

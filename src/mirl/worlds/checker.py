@@ -112,6 +112,9 @@ def _record(w: RunWorld, sc: Scenario, model: ObserverModel, need) -> tuple:
         json.dumps(extras.to_dict())  # a run's JSON record takes it
         need(isinstance(extras.truth(), str | None), "extras().truth() is a str or None")
         need(isinstance(extras.damaged(), bool | None), "extras().damaged() is a bool or None")
+        notes = extras.notes()
+        need(isinstance(notes, tuple) and all(isinstance(n, str) for n in notes),
+             "extras().notes() is a tuple of str")  # fmt: skip
     lateral = None if w.seen_lateral is None else w.seen_lateral[-1].tobytes()
     return (w.t, seen.tobytes(), true.tobytes(), lateral, int(s), detections, goal)
 

@@ -107,6 +107,11 @@ class WorldExtras(Protocol):
         """Whether some part is really damaged in this world (None: as in the scenario)."""
         ...
 
+    def notes(self) -> tuple[str, ...]:
+        """What the run report says of the world's run beyond its truth, one line each (a run
+        outside what the world's calibration measured)."""
+        ...
+
 
 class RunWorld(Protocol):
     """A world as a run sees it: the patrollers moving, L watching from its room, then L moving.

@@ -60,13 +60,14 @@ class PhysicsExtras:
         Returns
         -------
         dict
-            ``world``, ``mujoco``, ``contacts`` and ``wall_contacts``.
+            ``world``, ``mujoco``, ``contacts``, ``wall_contacts`` and ``notes``.
         """
         return {
             "world": "physics",
             "mujoco": self.mujoco,
             "contacts": self.world.contacts,
             "wall_contacts": self.world.wall_contacts,
+            "notes": list(self.notes()),
         }
 
     def truth(self) -> str:
@@ -83,6 +84,18 @@ class PhysicsExtras:
         strengths = self.world.cfg.motor_strength
         weak = [f"{r}:{w}={s:g}" for r, ws in strengths.items() for w, s in ws.items() if s < 1]
         return f"physics, motor strength: {', '.join(weak) or 'all motors healthy'}"
+
+    def notes(self) -> tuple[str, ...]:
+        """The run outside the cells the world is calibrated on, if it is
+        (:func:`out_of_calibration`).
+
+        Returns
+        -------
+        tuple of str
+            The note, or nothing.
+        """
+        w = self.world
+        return out_of_calibration(w.scenario, w.wall_contacts, w.n * (w.t + 1))
 
     def damaged(self) -> bool:
         """Whether some motor is weaker than a healthy one.
