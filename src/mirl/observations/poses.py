@@ -2,7 +2,8 @@
 frame) as columns of numpy arrays, with CSV input and output.
 
 A pose CSV has the header ``t,robot,x,y,yaw`` or ``t,robot,x,y,qz,qw`` (a planar quaternion:
-yaw = 2·atan2(qz, qw)); other columns are ignored. It is read with ``pyarrow.csv`` (vectorised
+yaw = 2·atan2(qz, qw)), or ``qx,qy,qz,qw`` (a full quaternion, its yaw read as a bag's is);
+other columns are ignored. It is read with ``pyarrow.csv`` (vectorised
 C++; see :mod:`mirl.observations` for the measurements). Every problem is a one-line
 :class:`PoseError` naming the file and, where there is one, the line.
 """
@@ -335,7 +336,8 @@ def _read_arrow_csv(path: Path, header: list[str], columns: dict, numeric: set[s
 
 
 def read_pose_csv(path: str | Path) -> PoseTracks:
-    """Read a ``t,robot,x,y,yaw`` (or ``t,robot,x,y,qz,qw``) file; rows sorted by (robot, t).
+    """Read a ``t,robot,x,y,yaw`` (or ``t,robot,x,y,qz,qw``, or ``qx,qy,qz,qw``) file; rows
+    sorted by (robot, t).
 
     Parameters
     ----------
@@ -351,9 +353,9 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
     ------
     PoseError
         Naming the file and line: a missing or repeated column, both ``yaw`` and ``qz``/``qw``
-        or neither, a non-number, a missing, NaN or infinite value, an empty robot name, or a
-        quaternion with qz = qw = 0 or a component beyond :data:`MAX_QUATERNION`; or a file
-        that does not exist or cannot be read.
+        or neither, one of ``qx``/``qy`` without the other, a non-number, a missing, NaN or
+        infinite value, an empty robot name, or a quaternion whose components are all 0 or one
+        beyond :data:`MAX_QUATERNION`; or a file that does not exist or cannot be read.
     """
     import pyarrow as pa
     import pyarrow.compute as pc
@@ -371,7 +373,16 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
     if "yaw" in header:
         angles = ["yaw"]
     elif "qz" in header and "qw" in header:
-        angles = ["qz", "qw"]
+        # a full quaternion's qx, qy are read, as a bag's are: dropping them misreads a tilted
+        # or upside-down body (a motion-capture frame with z down has qz = qw = 0)
+        full = "qx" in header or "qy" in header
+        if full and not ("qx" in header and "qy" in header):
+            given, missing = ("qx", "qy") if "qx" in header else ("qy", "qx")
+            raise PoseError(
+                f"{path}: line 1: a quaternion with '{given}' needs '{missing}' too (give "
+                "qx,qy,qz,qw, or qz,qw alone for a planar one)"
+            )
+        angles = ["qx", "qy", "qz", "qw"] if full else ["qz", "qw"]
     else:
         raise PoseError(f"{path}: line 1: need a 'yaw' column or 'qz' and 'qw' columns")
     numeric = ["t", "x", "y", *angles]
@@ -395,18 +406,24 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
     if "yaw" in cols:
         yaw = cols["yaw"]
     else:
-        far = far_quaternion(np.column_stack([cols["qz"], cols["qw"]]))
+        quaternion = np.column_stack([cols[c] for c in angles])
+        which = " or ".join(", ".join(angles).rsplit(", ", 1))
+        far = far_quaternion(quaternion)
         if far.any():
             row = int(np.argmax(far))
             raise PoseError(
-                f"{path}: line {_line_of(path, row)}: qz or qw beyond ±{MAX_QUATERNION:g} "
+                f"{path}: line {_line_of(path, row)}: {which} beyond ±{MAX_QUATERNION:g} "
                 "(a quaternion's components lie in [-1, 1])"
             )
-        zero = cols["qz"] ** 2 + cols["qw"] ** 2 < 1e-12
+        zero = (quaternion**2).sum(axis=1) < 1e-12
         if zero.any():
             row = int(np.argmax(zero))
-            raise PoseError(f"{path}: line {_line_of(path, row)}: qz = qw = 0 is no orientation")
-        yaw = 2.0 * np.arctan2(cols["qz"], cols["qw"])
+            every = " = ".join(angles)
+            raise PoseError(f"{path}: line {_line_of(path, row)}: {every} = 0 is no orientation")
+        if "qx" in cols:
+            yaw = yaw_from_quaternion(cols["qx"], cols["qy"], cols["qz"], cols["qw"])
+        else:
+            yaw = 2.0 * np.arctan2(cols["qz"], cols["qw"])
     return PoseTracks(
         tuple(names),
         cols["t"],
