@@ -272,6 +272,15 @@ def test_bare_mcap_file_is_read(tmp_path):
     assert read_bag(bare, TOPICS).counts().tolist() == [6, 4]
 
 
+def test_a_bag_directory_is_read_whatever_its_name(tmp_path):
+    """A ROS 2 bag directory is told by its metadata.yaml: a dot and capitals in its name are
+    no suffix to rename (only a file's suffix tells rosbags its storage)."""
+    path = write_bag(tmp_path / "b", records(True), fmt="mcap")
+    named = path.rename(tmp_path / "patrol.RobotsIJ")
+    assert read_bag(named, TOPICS).counts().tolist() == [6, 4]
+    assert set(bag_topics(named)) == {"/tb_i/amcl_pose", "/tb_j/odom", "/tb_i/scan"}
+
+
 def test_zero_quaternion_is_an_error(tmp_path):
     ts = typestore(True)
     recs = [("/p", t, pose_message(ts, "stamped", t, 1.0, 0.0, 0.0)) for t in (1.0, 2.0)]

@@ -87,7 +87,9 @@ def _reader(path: Path):
 
     if not path.exists():
         raise BagError(f"{path}: no such file or directory")
-    if path.suffix != path.suffix.lower():  # rosbags tells the storage by the suffix as written
+    # rosbags tells a file's storage by its suffix as written; a ROS 2 bag directory by its
+    # metadata.yaml, whatever its name (a dot in it is no suffix: run.RobotA)
+    if not path.is_dir() and path.suffix != path.suffix.lower():
         raise BagError(
             f"{path}: rosbags reads bags by their lower-case suffix; rename it to "
             f"{path.with_suffix(path.suffix.lower()).name}"
