@@ -190,6 +190,10 @@ def test_write_mcap_round_trip(tmp_path):
         np.testing.assert_allclose(back.yaw, tracks.yaw, atol=1e-12)
     with pytest.raises(BagError, match="exists already"):
         write_mcap(tracks, tmp_path / "poses.mcap")
+    # a name read_bag would refuse is refused before anything is written
+    with pytest.raises(BagError, match="lower-case suffix; name it more.mcap$"):
+        write_mcap(tracks, tmp_path / "more.MCAP")
+    assert not (tmp_path / "more.MCAP").exists()
 
 
 # ---- bad data: one line naming the file and topic ------------------------------------------

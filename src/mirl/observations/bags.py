@@ -514,7 +514,8 @@ def write_mcap(
     Raises
     ------
     BagError
-        Negative stamps, non-finite poses, or a path that exists already.
+        Negative stamps, non-finite poses, a path that exists already, or one ending in
+        ``.mcap`` in capitals (which :func:`read_bag` would refuse).
     """
     from rosbags.rosbag2 import StoragePlugin, Writer
 
@@ -525,7 +526,12 @@ def write_mcap(
         raise BagError(f"{path}: cannot write NaN or infinite poses")
     if path.exists():
         raise BagError(f"{path}: exists already, not overwriting")
-    bare = path.suffix.lower() == ".mcap"
+    if path.suffix.lower() == ".mcap" and path.suffix != ".mcap":  # read_bag would refuse it
+        raise BagError(
+            f"{path}: an MCAP file is read by its lower-case suffix; name it "
+            f"{path.with_suffix('.mcap').name}"
+        )
+    bare = path.suffix == ".mcap"
     tmp = Path(tempfile.mkdtemp(prefix=".mirl-", dir=path.parent)) if bare else None
     target = path if tmp is None else tmp / path.stem
     typestore = _typestore(True)
