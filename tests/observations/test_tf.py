@@ -120,6 +120,21 @@ def test_topics_in_different_frames_are_refused_unless_related(tmp_path):
     assert tracks.frames == {"I": "map", "J": "odom"}
 
 
+def test_a_same_frames_pair_no_frame_read_is_in_is_refused(tmp_path):
+    """`same_frames` naming a frame that no topic read is in and no transform names would
+    change nothing (a misspelt frame, or another bag's): refused, naming the frames read."""
+    ts = typestore(True)
+    recs = [("/a", 1.0, pose_message(ts, "stamped", 1.0, 1.0, 0, 0, frame="map"))]
+    bag = write_bag(tmp_path / "b", recs, fmt="mcap")
+    with pytest.raises(BagError, match=r"`same_frames` odm=map: no pose topic read is in frame "
+                       r"'odm' .*\(frames read: 'map'\)"):  # fmt: skip
+        read_bag(bag, {"/a": "I"}, same_frames={"odm": "map"})
+    assert len(read_bag(bag, {"/a": "I"}, same_frames={"map": "odom"})) == 1
+    tf_bag = write_bag(tmp_path / "tf", _records(True), fmt="mcap")
+    with pytest.raises(BagError, match="frames read: 'base_link', 'laser', 'map', 'odom'"):
+        read_bag(tf_bag, {"/tf:base_link": "I"}, same_frames={"odm": "map"})
+
+
 def test_an_off_map_pose_names_its_frame(tmp_path):
     from mirl.observations.discretise import DiscretisationError, discretise
     from mirl.world.scenario import load_scenario
