@@ -98,8 +98,11 @@ def test_a_link_without_a_recent_transform_drops_and_counts_the_pose(tmp_path):
 
 def test_tf_errors_name_the_frames(tmp_path):
     bag = write_bag(tmp_path / "b", _records(True, with_localiser=False), fmt="mcap")
-    with pytest.raises(BagError, match="not below the map frame 'map'.*odom"):
+    with pytest.raises(BagError, match=r"not below the map frame 'map'.*\(it reaches odom -> "
+                       r"base_link\)"):  # fmt: skip
         read_bag(bag, {"/tf:base_link": "I"})
+    with pytest.raises(BagError, match=r"\(it reaches odom -> base_link -> laser\)"):
+        read_bag(bag, {"/tf:laser": "I"})
     # saying that odom is the map frame places the robot in odom's coordinates
     tracks = read_bag(bag, {"/tf:base_link": "I"}, same_frames={"odom": "map"})
     np.testing.assert_allclose(tracks.x, 0.2 * np.arange(51), atol=1e-9)
