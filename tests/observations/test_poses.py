@@ -84,6 +84,7 @@ def test_a_full_quaternion_is_read_as_a_bag_reads_it(tmp_path):
         ("t,robot,x,y,yaw\n1,I,2,3,0\n2,I,,3,0\n", "line 3: column x: missing, NaN"),
         ("t,robot,x,y,yaw\n1,I,2,3,0\n2,I,1,3\n", "line 3: expected 5 cells"),
         ("t,robot,x,y,yaw\n1, ,2,3,0\n", "line 2: empty robot name"),
+        ("\ufefft,robot,x,y,yaw\n1,I,2,3,0\nabc,I,2,3,0\n", "line 3: column t: 'abc' is not"),
         ("", "file is empty"),
         ("t,robot,x,y,qz,qw\n1,I,2,3,0,1\n2,I,2,3,0,0\n", "line 3: qz = qw = 0"),
         ("t,robot,x,y,qz,qw\n1,I,2,3,0,1\n2,I,2,3,0,1e300\n", "line 3: qz or qw beyond"),
@@ -94,7 +95,7 @@ def test_a_full_quaternion_is_read_as_a_bag_reads_it(tmp_path):
 )
 def test_errors_name_file_and_line(tmp_path, text, where):
     path = tmp_path / "bad.csv"
-    path.write_text(text)
+    path.write_text(text, encoding="utf-8")
     with pytest.raises(PoseError) as e:
         read_pose_csv(path)
     msg = str(e.value)

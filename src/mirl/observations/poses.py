@@ -303,8 +303,8 @@ def _first_bad_line(path: Path, columns: list[str], numeric: set[str]) -> str:
     """Describe the first row that pyarrow could not parse (error path only)."""
     import csv
 
-    with open(path, newline="") as fh:
-        reader = csv.reader(fh)
+    with open(path, newline="", encoding="utf-8-sig") as fh:  # as csv_header reads it: a BOM
+        reader = csv.reader(fh)  # before the first column would hide that column's values
         header = [h.strip() for h in next(reader, [])]
         idx = {c: header.index(c) for c in columns if c in header}
         for lineno, rec in enumerate(reader, start=2):
