@@ -85,6 +85,8 @@ def test_a_full_quaternion_is_read_as_a_bag_reads_it(tmp_path):
         ("t,robot,x,y,yaw\n1,I,2,3,0\n2,I,1,3\n", "line 3: expected 5 cells"),
         ("t,robot,x,y,yaw\n1, ,2,3,0\n", "line 2: empty robot name"),
         ("\ufefft,robot,x,y,yaw\n1,I,2,3,0\nabc,I,2,3,0\n", "line 3: column t: 'abc' is not"),
+        ("t,robot,x,y,yaw\n1,I,2,3,0\n2,I,1_000,3,0\n", "line 3: column x: '1_000' is not a"),
+        ("t,robot,x,y,yaw\n1,I,2,3,0\n2,I,2,\uff13,0\n", "line 3: column y: '\uff13' is not a"),
         ("", "file is empty"),
         ("t,robot,x,y,qz,qw\n1,I,2,3,0,1\n2,I,2,3,0,0\n", "line 3: qz = qw = 0"),
         ("t,robot,x,y,qz,qw\n1,I,2,3,0,1\n2,I,2,3,0,1e300\n", "line 3: qz or qw beyond"),

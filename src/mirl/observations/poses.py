@@ -299,6 +299,16 @@ def _line_of(path: Path, row: int) -> int:
     return int(lines[row]) if row < len(lines) else row + 2
 
 
+def _is_number(text: str) -> bool:
+    """Whether pyarrow reads ``text`` as a float: as ``float`` does, but ASCII digits only and
+    no underscores (``1_000``, ``１``), which ``float`` accepts and pyarrow refuses."""
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return text.isascii() and "_" not in text
+
+
 def _first_bad_line(path: Path, columns: list[str], numeric: set[str]) -> str:
     """Describe the first row that pyarrow could not parse (error path only)."""
     import csv
@@ -313,11 +323,8 @@ def _first_bad_line(path: Path, columns: list[str], numeric: set[str]) -> str:
             if len(rec) != len(header):
                 return f"line {lineno}: expected {len(header)} cells, got {len(rec)}"
             for c, i in idx.items():
-                if c in numeric:
-                    try:
-                        float(rec[i])
-                    except ValueError:
-                        return f"line {lineno}: column {c}: '{rec[i].strip()}' is not a number"
+                if c in numeric and not _is_number(rec[i]):
+                    return f"line {lineno}: column {c}: '{rec[i].strip()}' is not a number"
     return "cannot parse"
 
 
