@@ -17,10 +17,12 @@ from pathlib import Path
 import numpy as np
 
 from mirl.observations._csv import (
+    NotText,
     arrow_read,
     csv_header,
     data_line_numbers,
     repeated_column,
+    text_lines,
     write_columns,
 )
 
@@ -313,8 +315,10 @@ def _first_bad_line(path: Path, columns: list[str], numeric: set[str]) -> str:
     """Describe the first row that pyarrow could not parse (error path only)."""
     import csv
 
-    with open(path, newline="", encoding="utf-8-sig") as fh:  # as csv_header reads it: a BOM
-        reader = csv.reader(fh)  # before the first column would hide that column's values
+    # decoded line by line (a BOM dropped, as csv_header reads it): pyarrow refuses a byte that
+    # is not UTF-8 anywhere, and the message names its line
+    reader = csv.reader(text_lines(path))
+    try:
         header = [h.strip() for h in next(reader, [])]
         idx = {c: header.index(c) for c in columns if c in header}
         for lineno, rec in enumerate(reader, start=2):
@@ -325,6 +329,8 @@ def _first_bad_line(path: Path, columns: list[str], numeric: set[str]) -> str:
             for c, i in idx.items():
                 if c in numeric and not _is_number(rec[i]):
                     return f"line {lineno}: column {c}: '{rec[i].strip()}' is not a number"
+    except NotText as exc:
+        return str(exc)
     return "cannot parse"
 
 
