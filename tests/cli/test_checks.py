@@ -141,6 +141,10 @@ def test_a_pose_output_is_a_file_or_bag_the_world_writes(tmp_path):
         check_poses_output(str(tmp_path / "taken"), "grid")
     with pytest.raises(UsageError, match="cannot create a bag directory there"):
         check_poses_output(str(tmp_path / "nowhere" / "bag"), "grid")
+    for world in ("grid", "physics"):  # mirl would refuse to read it back
+        with pytest.raises(UsageError, match=r"lower-case suffix .*; name it poses\.mcap$"):
+            check_poses_output(str(tmp_path / "poses.MCAP"), world)
+    assert not (tmp_path / "poses.MCAP").exists()
 
 
 def test_an_experiment_directory_is_a_directory(tmp_path):

@@ -190,6 +190,10 @@ def test_write_mcap_round_trip(tmp_path):
         np.testing.assert_allclose(back.yaw, tracks.yaw, atol=1e-12)
     with pytest.raises(BagError, match="exists already"):
         write_mcap(tracks, tmp_path / "poses.mcap")
+    # a name read_bag would refuse is refused before anything is written
+    with pytest.raises(BagError, match="lower-case suffix; name it more.mcap$"):
+        write_mcap(tracks, tmp_path / "more.MCAP")
+    assert not (tmp_path / "more.MCAP").exists()
 
 
 # ---- bad data: one line naming the file and topic ------------------------------------------
@@ -270,6 +274,15 @@ def test_bare_mcap_file_is_read(tmp_path):
     bare = tmp_path / "copy.mcap"
     shutil.copy(inner, bare)
     assert read_bag(bare, TOPICS).counts().tolist() == [6, 4]
+
+
+def test_a_bag_directory_is_read_whatever_its_name(tmp_path):
+    """A ROS 2 bag directory is told by its metadata.yaml: a dot and capitals in its name are
+    no suffix to rename (only a file's suffix tells rosbags its storage)."""
+    path = write_bag(tmp_path / "b", records(True), fmt="mcap")
+    named = path.rename(tmp_path / "patrol.RobotsIJ")
+    assert read_bag(named, TOPICS).counts().tolist() == [6, 4]
+    assert set(bag_topics(named)) == {"/tb_i/amcl_pose", "/tb_j/odom", "/tb_i/scan"}
 
 
 def test_zero_quaternion_is_an_error(tmp_path):

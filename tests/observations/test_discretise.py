@@ -94,6 +94,20 @@ def test_nearest_pose_tolerance_and_gaps(scenario):
     assert discretise(poses([]), scenario).last_pose is None
 
 
+def test_a_tolerance_over_half_a_step_is_refused_not_ignored(scenario):
+    """A pose is a candidate for its nearest step only, so a tolerance past half a step would
+    change nothing while the summary stated it: refused, naming the step (and, at
+    ``"auto"``, that the step was chosen); half a step exactly is the default's value."""
+    p = poses([(10.0, 0, 1, 0, 0), (11.9, 0, 2, 0, 0), (19.5, 0, 4, 0, 0)])
+    refused = "`tolerance` 1.5 s is more than half the step of 2 s: "
+    with pytest.raises(DiscretisationError, match=refused):
+        discretise(p, scenario, start_time=10.0, tolerance=1.5)
+    with pytest.raises(DiscretisationError, match="chosen from the robots' pace"):
+        discretise(p, scenario, step_seconds="auto", tolerance=1.5)
+    d = discretise(p, scenario, start_time=10.0, tolerance=1.0)
+    assert d.tolerance == 1.0 and d.trajectories.t.tolist() == [0, 1, 5]
+
+
 def test_snapping_dropping_and_errors(scenario):
     # (0, 3) is hallway, (1, 3) wall; x = col, y = -row
     p = poses([(0.0, 0, 3.0, -0.95, 0.0), (2.0, 0, 3.4, -1.2, 0.0), (4.0, 0, 12.0, 0.0, 0.0)])

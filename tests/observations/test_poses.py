@@ -59,6 +59,21 @@ def test_quaternion_columns_spaces_and_blank_lines(tmp_path):
     np.testing.assert_allclose(yaw_from_quaternion(0, 0, -3 * q, 3 * q), -math.pi / 2)
 
 
+def test_a_full_quaternion_is_read_as_a_bag_reads_it(tmp_path):
+    """qx, qy beside qz, qw are read, not ignored: a body tilted or upside down (a motion-capture
+    frame with z down, whose qz and qw are 0) gets the yaw a bag's reader gives it."""
+    path = tmp_path / "q.csv"
+    rows = [(0, 0.5, 0.3, 0.8), (1, 0, 0, 0), (math.sqrt(0.5), 0.5, 0.5, 0)]
+    path.write_text(
+        "t,robot,x,y,qx,qy,qz,qw\n"
+        + "".join(f"{k},I,1,2,{','.join(map(str, q))}\n" for k, q in enumerate(rows))
+    )
+    tr = read_pose_csv(path)
+    expected = [yaw_from_quaternion(*q) for q in rows]
+    np.testing.assert_allclose(tr.yaw, expected, atol=1e-12)
+    assert abs(tr.yaw[1]) < 1e-12 and abs(tr.yaw[2] - math.pi / 2) < 1e-12  # rolled, not refused
+
+
 @pytest.mark.parametrize(
     "text, where",
     [
@@ -69,14 +84,20 @@ def test_quaternion_columns_spaces_and_blank_lines(tmp_path):
         ("t,robot,x,y,yaw\n1,I,2,3,0\n2,I,,3,0\n", "line 3: column x: missing, NaN"),
         ("t,robot,x,y,yaw\n1,I,2,3,0\n2,I,1,3\n", "line 3: expected 5 cells"),
         ("t,robot,x,y,yaw\n1, ,2,3,0\n", "line 2: empty robot name"),
+        ("\ufefft,robot,x,y,yaw\n1,I,2,3,0\nabc,I,2,3,0\n", "line 3: column t: 'abc' is not"),
+        ("t,robot,x,y,yaw\n1,I,2,3,0\n2,I,1_000,3,0\n", "line 3: column x: '1_000' is not a"),
+        ("t,robot,x,y,yaw\n1,I,2,3,0\n2,I,2,\uff13,0\n", "line 3: column y: '\uff13' is not a"),
         ("", "file is empty"),
         ("t,robot,x,y,qz,qw\n1,I,2,3,0,1\n2,I,2,3,0,0\n", "line 3: qz = qw = 0"),
         ("t,robot,x,y,qz,qw\n1,I,2,3,0,1\n2,I,2,3,0,1e300\n", "line 3: qz or qw beyond"),
+        ("t,robot,x,y,qx,qz,qw\n1,I,2,3,0,0,1\n", "line 1: a quaternion with 'qx' needs 'qy'"),
+        ("t,robot,x,y,qx,qy,qz,qw\n1,I,2,3,0,0,0,0\n", "line 2: qx = qy = qz = qw = 0"),
+        ("t,robot,x,y,qx,qy,qz,qw\n1,I,2,3,2e6,0,0,1\n", "line 2: qx, qy, qz or qw beyond"),
     ],
 )
 def test_errors_name_file_and_line(tmp_path, text, where):
     path = tmp_path / "bad.csv"
-    path.write_text(text)
+    path.write_text(text, encoding="utf-8")
     with pytest.raises(PoseError) as e:
         read_pose_csv(path)
     msg = str(e.value)

@@ -21,6 +21,25 @@ def test_each_format_recognises_its_files(tmp_path):
     assert set(ROBOT_DATA_KINDS) == {f.name for f in FORMATS.values() if f.robot_data}
 
 
+def test_a_csv_is_recognised_by_its_header_whatever_bytes_its_rows_hold(tmp_path):
+    """A byte that is not UTF-8 on a later line (a name in Latin-1) is that line's problem:
+    the file is still told by its header, and the reader names the line (not "not a file of
+    observations", nor "line 1"); one in the header makes the file no CSV."""
+    from mirl.observations.poses import PoseError, read_pose_csv
+
+    pose = tmp_path / "p.csv"
+    pose.write_bytes(b"t,robot,x,y,yaw\n0,I,0.0,1.0,0.0\n1,J\xfc,0.0,1.0,0.0\n")
+    grid = tmp_path / "g.csv"
+    grid.write_bytes(b"t,robot,row,col,heading\n0,I,0,1,0\n1,J\xfc,0,1,0\n")
+    assert input_format(pose).name == "pose-csv" and input_format(grid).name == "grid-csv"
+    with pytest.raises(PoseError, match=r"p.csv: line 3: not UTF-8 text \(byte 0xfc at offset"):
+        read_pose_csv(pose)
+    header = tmp_path / "h.csv"
+    header.write_bytes(b"t,robot,x,y,yaw\xff\n0,I,0.0,1.0,0.0\n")
+    with pytest.raises(TrajectoryError, match="not a file of observations mirl reads"):
+        input_format(header)
+
+
 def test_a_file_no_format_recognises_is_refused_naming_them_all(tmp_path):
     other = tmp_path / "o.csv"
     other.write_text("time,who,where\n0,I,1\n")

@@ -98,8 +98,11 @@ def test_a_link_without_a_recent_transform_drops_and_counts_the_pose(tmp_path):
 
 def test_tf_errors_name_the_frames(tmp_path):
     bag = write_bag(tmp_path / "b", _records(True, with_localiser=False), fmt="mcap")
-    with pytest.raises(BagError, match="not below the map frame 'map'.*odom"):
+    with pytest.raises(BagError, match=r"not below the map frame 'map'.*\(it reaches odom -> "
+                       r"base_link\)"):  # fmt: skip
         read_bag(bag, {"/tf:base_link": "I"})
+    with pytest.raises(BagError, match=r"\(it reaches odom -> base_link -> laser\)"):
+        read_bag(bag, {"/tf:laser": "I"})
     # saying that odom is the map frame places the robot in odom's coordinates
     tracks = read_bag(bag, {"/tf:base_link": "I"}, same_frames={"odom": "map"})
     np.testing.assert_allclose(tracks.x, 0.2 * np.arange(51), atol=1e-9)
@@ -118,6 +121,21 @@ def test_topics_in_different_frames_are_refused_unless_related(tmp_path):
         read_bag(bag, {"/a": "I", "/b": "J"})
     tracks = read_bag(bag, {"/a": "I", "/b": "J"}, same_frames={"odom": "map"})
     assert tracks.frames == {"I": "map", "J": "odom"}
+
+
+def test_a_same_frames_pair_no_frame_read_is_in_is_refused(tmp_path):
+    """`same_frames` naming a frame that no topic read is in and no transform names would
+    change nothing (a misspelt frame, or another bag's): refused, naming the frames read."""
+    ts = typestore(True)
+    recs = [("/a", 1.0, pose_message(ts, "stamped", 1.0, 1.0, 0, 0, frame="map"))]
+    bag = write_bag(tmp_path / "b", recs, fmt="mcap")
+    with pytest.raises(BagError, match=r"`same_frames` odm=map: no pose topic read is in frame "
+                       r"'odm' .*\(frames read: 'map'\)"):  # fmt: skip
+        read_bag(bag, {"/a": "I"}, same_frames={"odm": "map"})
+    assert len(read_bag(bag, {"/a": "I"}, same_frames={"map": "odom"})) == 1
+    tf_bag = write_bag(tmp_path / "tf", _records(True), fmt="mcap")
+    with pytest.raises(BagError, match="frames read: 'base_link', 'laser', 'map', 'odom'"):
+        read_bag(tf_bag, {"/tf:base_link": "I"}, same_frames={"odm": "map"})
 
 
 def test_an_off_map_pose_names_its_frame(tmp_path):

@@ -232,8 +232,9 @@ def check_poses_output(path: str | None, world: str) -> None:
     Raises
     ------
     UsageError
-        If the suffix is not one the world writes, the file cannot be written, an MCAP file
-        exists already, or the bag directory cannot be created.
+        If the suffix is not one the world writes (``.MCAP`` in capitals included: the reader
+        would refuse it), the file cannot be written, an MCAP file exists already, or the bag
+        directory cannot be created.
     """
     if not path:
         return
@@ -245,6 +246,11 @@ def check_poses_output(path: str | None, world: str) -> None:
             + (" or a bag directory (no suffix); ROS 1 bags are read, not written" if "" in kinds
                else "")
         )  # fmt: skip
+    if out.suffix.lower() == ".mcap" and out.suffix != ".mcap":  # one mirl could not read back
+        raise UsageError(
+            f"--poses {out}: an MCAP file is read by its lower-case suffix (rosbags tells its "
+            f"storage by it); name it {out.with_suffix('.mcap').name}"
+        )
     if out.suffix:
         check_output(out, "--poses")
         if out.suffix.lower() == ".mcap" and out.exists():  # the writer never overwrites one

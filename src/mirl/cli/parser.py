@@ -346,7 +346,8 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
         type=non_negative_float,
         default=None,
         metavar="SECONDS",
-        help="a step takes the nearest pose within this (default: half a step)",
+        help="a step takes the nearest pose within this, at most half a step (default: half a "
+        "step)",
     )
     g.add_argument(
         "--drop-off-map",

@@ -3,6 +3,8 @@ one thread, and the file line of a data row (for messages; only on the error pat
 
 from __future__ import annotations
 
+import codecs
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -13,12 +15,21 @@ BLOCK_BYTES = 1 << 22
 HEADER_BYTES = 1 << 16  # a header is read up to this many characters
 
 
+def _first_line(path: Path) -> str:
+    """The file's first line (up to :data:`HEADER_BYTES`), a UTF-8 BOM dropped. Decoded alone:
+    a text-mode read decodes a whole buffer, so a byte that is not UTF-8 on a later line would
+    be blamed on the header. Raises OSError and UnicodeDecodeError."""
+    with open(path, "rb") as fh:
+        raw = fh.readline(HEADER_BYTES)
+    # final=False: a character cut by the byte limit is no decoding error
+    return codecs.getincrementaldecoder("utf-8-sig")().decode(raw, final=False)
+
+
 def csv_header(path: Path, error) -> list[str]:
     """The stripped, unquoted header names; ``error`` for a missing, unreadable or empty file,
     or one that is not UTF-8 text."""
     try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:  # a UTF-8 BOM is accepted
-            first = fh.readline(HEADER_BYTES)
+        first = _first_line(path)  # a UTF-8 BOM is accepted
     except FileNotFoundError:
         raise error(f"{path}: no such file") from None
     except UnicodeDecodeError as exc:
@@ -35,12 +46,30 @@ def not_text(exc: UnicodeDecodeError) -> str:
     return f"not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset {exc.start}), so no CSV"
 
 
+class NotText(ValueError):
+    """A line of a file that is not UTF-8 text: its 1-based number and the decoding error."""
+
+    def __init__(self, line: int, exc: UnicodeDecodeError) -> None:
+        super().__init__(f"line {line}: {not_text(exc)}")
+        self.line, self.exc = line, exc
+
+
+def text_lines(path: Path) -> Iterator[str]:
+    """The file's lines decoded one by one (a UTF-8 BOM dropped), for ``csv.reader``; raises
+    :class:`NotText` naming the first line that is not UTF-8."""
+    with open(path, "rb") as fh:
+        for lineno, raw in enumerate(fh, start=1):
+            try:
+                yield raw.decode("utf-8-sig" if lineno == 1 else "utf-8")
+            except UnicodeDecodeError as exc:
+                raise NotText(lineno, exc) from None
+
+
 def is_text(path: Path) -> bool:
     """Whether the start of ``path`` decodes as UTF-8 (an image or an archive does not). A file
     that cannot be opened counts as text: :func:`csv_header` then says why it cannot be read."""
     try:
-        with open(path, encoding="utf-8-sig") as fh:
-            fh.readline(HEADER_BYTES)
+        _first_line(path)
     except UnicodeDecodeError:
         return False
     except OSError:

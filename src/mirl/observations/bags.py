@@ -87,7 +87,9 @@ def _reader(path: Path):
 
     if not path.exists():
         raise BagError(f"{path}: no such file or directory")
-    if path.suffix != path.suffix.lower():  # rosbags tells the storage by the suffix as written
+    # rosbags tells a file's storage by its suffix as written; a ROS 2 bag directory by its
+    # metadata.yaml, whatever its name (a dot in it is no suffix: run.RobotA)
+    if not path.is_dir() and path.suffix != path.suffix.lower():
         raise BagError(
             f"{path}: rosbags reads bags by their lower-case suffix; rename it to "
             f"{path.with_suffix(path.suffix.lower()).name}"
@@ -158,7 +160,8 @@ def read_bag(
         ``"fast"`` (vectorised, checked against rosbags) or ``"rosbags"`` (one ``deserialize``
         call per message).
     same_frames : mapping of str to str, optional
-        Frames that coincide (frame -> the frame it coincides with).
+        Frames that coincide (frame -> the frame it coincides with); each first frame must be
+        one a topic read is in or a transform read names.
     map_frame : str, default "map"
         The frame TF chains are composed up to.
 
@@ -194,7 +197,9 @@ def read_bag(
     try:
         with reader:
             available = reader.topics
-            parts = _tf_parts(path, reader, tf_robots, same, map_frame) if tf_robots else []
+            parts, tf_frames = (
+                _tf_parts(path, reader, tf_robots, same, map_frame) if tf_robots else ([], set())
+            )
             for topic in topics:
                 if topic not in available:
                     have = ", ".join(sorted(available)) or "none"
@@ -225,6 +230,7 @@ def read_bag(
                     part = replace(part, frames={robot: frame})
                 parts.append(part)
             _check_one_frame(path, topic_frames, same, map_frame if tf_robots else None)
+            _check_same_frames_used(path, same, set(topic_frames.values()) | tf_frames)
     except BagError:
         raise
     except Exception as exc:  # truncated or corrupt bag: rosbags, struct, zstd, lz4 errors
@@ -254,9 +260,25 @@ def _check_one_frame(
     )
 
 
-def _tf_parts(path: Path, reader, tf_robots, same, map_frame: str) -> list[PoseTracks]:
+def _check_same_frames_used(path: Path, same: Mapping[str, str], frames: set[str]) -> None:
+    """Refuse a ``same_frames`` pair whose first frame nothing read is in (no pose topic, no
+    transform): it would change nothing, and is most likely a misspelt frame or another bag's."""
+    for frame, other in same.items():
+        if frame not in frames:
+            read = ", ".join(f"'{f}'" for f in sorted(frames)) or "none"
+            raise BagError(
+                f"{path}: `same_frames` {frame}={other}: no pose topic read is in frame "
+                f"'{frame}' and no transform read names it (frames read: {read}), so it would "
+                "change nothing"
+            )
+
+
+def _tf_parts(
+    path: Path, reader, tf_robots, same, map_frame: str
+) -> tuple[list[PoseTracks], set[str]]:
     """Each TF robot's track, composed through the bag's transforms (:mod:`mirl.observations.
-    tf`); a robot frame the transforms never mention is an error naming the frames they do."""
+    tf`); a robot frame the transforms never mention is an error naming the frames they do.
+    Also every frame the transforms name."""
     available = reader.topics
     tf_topics = {split_tf_topic(t)[0] for t in tf_robots}  # type: ignore[index]
     for topic in sorted(tf_topics):
@@ -304,7 +326,7 @@ def _tf_parts(path: Path, reader, tf_robots, same, map_frame: str) -> list[PoseT
                 {robot: unplaced},
             )  # fmt: skip
         )
-    return parts
+    return parts, set(transforms.parent) | set(transforms.parent.values())
 
 
 def _check(path: Path, topic: str, robot: str, cols: np.ndarray) -> PoseTracks:
@@ -512,7 +534,8 @@ def write_mcap(
     Raises
     ------
     BagError
-        Negative stamps, non-finite poses, or a path that exists already.
+        Negative stamps, non-finite poses, a path that exists already, or one ending in
+        ``.mcap`` in capitals (which :func:`read_bag` would refuse).
     """
     from rosbags.rosbag2 import StoragePlugin, Writer
 
@@ -523,7 +546,12 @@ def write_mcap(
         raise BagError(f"{path}: cannot write NaN or infinite poses")
     if path.exists():
         raise BagError(f"{path}: exists already, not overwriting")
-    bare = path.suffix.lower() == ".mcap"
+    if path.suffix.lower() == ".mcap" and path.suffix != ".mcap":  # read_bag would refuse it
+        raise BagError(
+            f"{path}: an MCAP file is read by its lower-case suffix; name it "
+            f"{path.with_suffix('.mcap').name}"
+        )
+    bare = path.suffix == ".mcap"
     tmp = Path(tempfile.mkdtemp(prefix=".mirl-", dir=path.parent)) if bare else None
     target = path if tmp is None else tmp / path.stem
     typestore = _typestore(True)

@@ -388,7 +388,7 @@ def discretise(
         The steps of the watch; by default up to the step nearest the last pose.
     tolerance : float, optional
         How far (s) from a step's time a pose may lie and still be its candidate; half a step
-        by default.
+        by default, and at most half a step (a pose is a candidate for its nearest step only).
     drop_off_map : bool, default False
         Drop (and count) poses more than half a cell from the hallway instead of refusing them.
     visible : ndarray of bool of shape (rows, cols), "observed" or None, default None
@@ -405,9 +405,9 @@ def discretise(
     ------
     DiscretisationError
         A robot the scenario does not have; a step that is not positive or ``"auto"``; a
-        negative tolerance; a NaN, infinite or far-off pose; a start time or number of steps
-        out of range; or a pose more than half a cell from the hallway without
-        ``drop_off_map``.
+        negative tolerance or one over half the step; a NaN, infinite or far-off pose; a start
+        time or number of steps out of range; or a pose more than half a cell from the hallway
+        without ``drop_off_map``.
     ValueError
         A ``visible`` that is neither None, ``"observed"`` nor a mask of the map's shape.
     """
@@ -424,6 +424,7 @@ def discretise(
         auto = auto_step_seconds(tracks, scenario, start_time=start_time)
         step_seconds = auto.seconds
     tracks, tol = _checked(tracks, scenario, step_seconds, tolerance)
+    _check_tolerance(tracks.source, tol, step_seconds, auto is not None)
     start_time, n_steps = _watch(tracks, start_time, n_steps, step_seconds)
 
     # time: nearest step and the distance to it
@@ -931,6 +932,20 @@ def _checked(tracks: PoseTracks, scenario: Scenario, step_seconds: float, tolera
             f"{tracks.t[i]:.6g} s is beyond the limits of {MAX_XY:g} m and {MAX_POSE_TIME:g} s"
         )
     return tracks, tol
+
+
+def _check_tolerance(src: str, tol: float, step_seconds: float, chosen: bool) -> None:
+    """Refuse a tolerance over half a step: a pose is a candidate for its nearest step only (so
+    that no pose is used twice), which already lies within half a step, so a larger tolerance
+    would change nothing while the summary stated it."""
+    half = step_seconds / 2.0
+    if tol > half * (1 + 1e-12):
+        which = " chosen from the robots' pace (give `step_seconds` to choose it)" if chosen else ""
+        raise DiscretisationError(
+            f"{src}: `tolerance` {tol:g} s is more than half the step of {step_seconds:g} s"
+            f"{which}: a pose counts only for its nearest step, never one farther than "
+            f"{half:g} s; give a tolerance of at most {half:g} s"
+        )
 
 
 def _nearest_per_step(tracks: PoseTracks, k, dt, keep, n_steps: int) -> np.ndarray:

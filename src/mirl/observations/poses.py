@@ -2,7 +2,8 @@
 frame) as columns of numpy arrays, with CSV input and output.
 
 A pose CSV has the header ``t,robot,x,y,yaw`` or ``t,robot,x,y,qz,qw`` (a planar quaternion:
-yaw = 2·atan2(qz, qw)); other columns are ignored. It is read with ``pyarrow.csv`` (vectorised
+yaw = 2·atan2(qz, qw)), or ``qx,qy,qz,qw`` (a full quaternion, its yaw read as a bag's is);
+other columns are ignored. It is read with ``pyarrow.csv`` (vectorised
 C++; see :mod:`mirl.observations` for the measurements). Every problem is a one-line
 :class:`PoseError` naming the file and, where there is one, the line.
 """
@@ -16,10 +17,12 @@ from pathlib import Path
 import numpy as np
 
 from mirl.observations._csv import (
+    NotText,
     arrow_read,
     csv_header,
     data_line_numbers,
     repeated_column,
+    text_lines,
     write_columns,
 )
 
@@ -298,12 +301,24 @@ def _line_of(path: Path, row: int) -> int:
     return int(lines[row]) if row < len(lines) else row + 2
 
 
+def _is_number(text: str) -> bool:
+    """Whether pyarrow reads ``text`` as a float: as ``float`` does, but ASCII digits only and
+    no underscores (``1_000``, ``１``), which ``float`` accepts and pyarrow refuses."""
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return text.isascii() and "_" not in text
+
+
 def _first_bad_line(path: Path, columns: list[str], numeric: set[str]) -> str:
     """Describe the first row that pyarrow could not parse (error path only)."""
     import csv
 
-    with open(path, newline="") as fh:
-        reader = csv.reader(fh)
+    # decoded line by line (a BOM dropped, as csv_header reads it): pyarrow refuses a byte that
+    # is not UTF-8 anywhere, and the message names its line
+    reader = csv.reader(text_lines(path))
+    try:
         header = [h.strip() for h in next(reader, [])]
         idx = {c: header.index(c) for c in columns if c in header}
         for lineno, rec in enumerate(reader, start=2):
@@ -312,11 +327,10 @@ def _first_bad_line(path: Path, columns: list[str], numeric: set[str]) -> str:
             if len(rec) != len(header):
                 return f"line {lineno}: expected {len(header)} cells, got {len(rec)}"
             for c, i in idx.items():
-                if c in numeric:
-                    try:
-                        float(rec[i])
-                    except ValueError:
-                        return f"line {lineno}: column {c}: '{rec[i].strip()}' is not a number"
+                if c in numeric and not _is_number(rec[i]):
+                    return f"line {lineno}: column {c}: '{rec[i].strip()}' is not a number"
+    except NotText as exc:
+        return str(exc)
     return "cannot parse"
 
 
@@ -335,7 +349,8 @@ def _read_arrow_csv(path: Path, header: list[str], columns: dict, numeric: set[s
 
 
 def read_pose_csv(path: str | Path) -> PoseTracks:
-    """Read a ``t,robot,x,y,yaw`` (or ``t,robot,x,y,qz,qw``) file; rows sorted by (robot, t).
+    """Read a ``t,robot,x,y,yaw`` (or ``t,robot,x,y,qz,qw``, or ``qx,qy,qz,qw``) file; rows
+    sorted by (robot, t).
 
     Parameters
     ----------
@@ -351,9 +366,9 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
     ------
     PoseError
         Naming the file and line: a missing or repeated column, both ``yaw`` and ``qz``/``qw``
-        or neither, a non-number, a missing, NaN or infinite value, an empty robot name, or a
-        quaternion with qz = qw = 0 or a component beyond :data:`MAX_QUATERNION`; or a file
-        that does not exist or cannot be read.
+        or neither, one of ``qx``/``qy`` without the other, a non-number, a missing, NaN or
+        infinite value, an empty robot name, or a quaternion whose components are all 0 or one
+        beyond :data:`MAX_QUATERNION`; or a file that does not exist or cannot be read.
     """
     import pyarrow as pa
     import pyarrow.compute as pc
@@ -371,7 +386,16 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
     if "yaw" in header:
         angles = ["yaw"]
     elif "qz" in header and "qw" in header:
-        angles = ["qz", "qw"]
+        # a full quaternion's qx, qy are read, as a bag's are: dropping them misreads a tilted
+        # or upside-down body (a motion-capture frame with z down has qz = qw = 0)
+        full = "qx" in header or "qy" in header
+        if full and not ("qx" in header and "qy" in header):
+            given, missing = ("qx", "qy") if "qx" in header else ("qy", "qx")
+            raise PoseError(
+                f"{path}: line 1: a quaternion with '{given}' needs '{missing}' too (give "
+                "qx,qy,qz,qw, or qz,qw alone for a planar one)"
+            )
+        angles = ["qx", "qy", "qz", "qw"] if full else ["qz", "qw"]
     else:
         raise PoseError(f"{path}: line 1: need a 'yaw' column or 'qz' and 'qw' columns")
     numeric = ["t", "x", "y", *angles]
@@ -395,18 +419,24 @@ def read_pose_csv(path: str | Path) -> PoseTracks:
     if "yaw" in cols:
         yaw = cols["yaw"]
     else:
-        far = far_quaternion(np.column_stack([cols["qz"], cols["qw"]]))
+        quaternion = np.column_stack([cols[c] for c in angles])
+        which = " or ".join(", ".join(angles).rsplit(", ", 1))
+        far = far_quaternion(quaternion)
         if far.any():
             row = int(np.argmax(far))
             raise PoseError(
-                f"{path}: line {_line_of(path, row)}: qz or qw beyond ±{MAX_QUATERNION:g} "
+                f"{path}: line {_line_of(path, row)}: {which} beyond ±{MAX_QUATERNION:g} "
                 "(a quaternion's components lie in [-1, 1])"
             )
-        zero = cols["qz"] ** 2 + cols["qw"] ** 2 < 1e-12
+        zero = (quaternion**2).sum(axis=1) < 1e-12
         if zero.any():
             row = int(np.argmax(zero))
-            raise PoseError(f"{path}: line {_line_of(path, row)}: qz = qw = 0 is no orientation")
-        yaw = 2.0 * np.arctan2(cols["qz"], cols["qw"])
+            every = " = ".join(angles)
+            raise PoseError(f"{path}: line {_line_of(path, row)}: {every} = 0 is no orientation")
+        if "qx" in cols:
+            yaw = yaw_from_quaternion(cols["qx"], cols["qy"], cols["qz"], cols["qw"])
+        else:
+            yaw = 2.0 * np.arctan2(cols["qz"], cols["qw"])
     return PoseTracks(
         tuple(names),
         cols["t"],

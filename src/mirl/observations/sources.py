@@ -268,7 +268,7 @@ def load_observations(
         Pose data: the time of step 0; the first pose's if None.
     tolerance : float, optional
         Pose data: how far (seconds) from a step's time a pose may be and still count for it;
-        half a step if None.
+        half a step if None, and at most half a step.
     drop_off_map : bool, default False
         Pose data: drop poses off the hallway (counted) instead of refusing the file.
     visible : str or ndarray of bool, optional

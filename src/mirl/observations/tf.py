@@ -147,7 +147,8 @@ class Transforms:
         while frame != map_frame:
             parent = self.parent.get(frame)
             if parent is None or parent in seen:
-                path = " -> ".join([*(p for p, _ in reversed(links)), frame][::-1])
+                # the frames walked, top first as TF writes a link (parent -> child)
+                path = " -> ".join([*(p for p, _ in reversed(links)), child])
                 raise ValueError(
                     f"frame '{child}' is not below the map frame '{map_frame}' in the bag's "
                     f"transforms (it reaches {path or child}); record the localiser's "
