@@ -228,3 +228,22 @@ def test_a_pose_csv_with_yaws_in_degrees_is_refused_in_one_line(tmp_path, capsys
     capsys.readouterr()
     code = main([*learn, str(tmp_path / "deg.csv")])
     one_error_line(capsys, code, "deg.csv", "read as degrees: give yaw in radians")
+
+
+def test_learn_on_the_observed_cells_reports_that_view_not_the_degree(tmp_path, capsys):
+    poses = str(tmp_path / "p.csv")
+    assert main(["simulate", "--scenario", "boyd2", "--steps", "200", "--seed", "1",
+                 "--poses", poses]) == 0  # fmt: skip
+    capsys.readouterr()
+    learn = ["learn", "--scenario", "boyd2", "--observations", poses, "--start-time", "0"]
+    assert main([*learn, "--visible", "observed", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["visible"] == "observed"
+    assert out["observability"] == pytest.approx(4 / 31)  # the 4 cells seen, not the 0.14 given
+    assert main([*learn, "--json"]) == 0
+    plain = json.loads(capsys.readouterr().out)
+    assert plain["observability"] == 0.14 and "visible" not in plain
+    assert main([*learn, "--visible", "observed"]) == 0
+    assert "L's view: the cells the robots were observed on, 0.129 of the hallway" in (
+        capsys.readouterr().out
+    )

@@ -572,7 +572,12 @@ def _learn(args: argparse.Namespace) -> int:
             )
             for i, r in enumerate(result.robots)
         }
+    if args.visible == "observed" and visible is not None:
+        # the view learned under is the cells the robots were seen on, not the degree's
+        degree = float(visible.mean())
     out = learn_record(result, scenario, str(args.observations), obs.horizon, degree, agreement)
+    if args.visible == "observed":
+        out["visible"] = "observed"
     out.update(pace_record(loaded.discretised))
     out.update(poses_record(loaded.discretised))
     if args.json:  # the summary's counts, as `poses` (poses_record)

@@ -77,7 +77,9 @@ def learn_record(
     Returns
     -------
     dict
-        ``method``, ``scenario``, ``observations``, ``steps``, ``observability``, ``robots``
+        ``method``, ``scenario``, ``observations``, ``steps``, ``observability`` (with
+        ``--visible observed`` the share of the patrollers' states on the cells seen, and the
+        caller adds ``visible``), ``robots``
         (per robot its weights, feature probabilities, behaviour accuracy and, where learned,
         intervals, medians, motion models and verdict), ``equilibrium`` (label, strategies and
         each candidate's weight), ``iterations``, ``label_changes``, ``pair_equilibria`` (teams
@@ -362,9 +364,15 @@ def print_learn(out: dict, result, scenario) -> None:
         The scenario it was learned on.
     """
     robots = out["robots"]
+    view = f"observability {out['observability']:g}"
+    if out.get("visible") == "observed":  # learned under the cells seen, not the degree's
+        view = (
+            "L's view: the cells the robots were observed on, "
+            f"{out['observability']:.3g} of the hallway"
+        )
     print(
         f"{result.method} on {scenario.name}: {out['observations']} ({out['steps']} steps, "
-        f"observability {out['observability']:g})"
+        f"{view})"
     )
     for name, r in robots.items():
         print(f"robot {name}")
