@@ -60,8 +60,9 @@ class TeamEnv(ParallelEnv):
     Raises
     ------
     ValueError
-        ``max_cycles`` not an integer of at least 1, a reward that is not a finite number, a
-        patroller named ``L``, an unknown world, or one whose patrollers cannot take actions.
+        ``max_cycles`` not an integer of at least 1, an ``observability`` that is not a number
+        in [0, 1], a reward that is not a finite number, a patroller named ``L``, an unknown
+        world, or one whose patrollers cannot take actions.
     """
 
     metadata = {"render_modes": [], "name": "mirl_team_v0"}
@@ -78,7 +79,7 @@ class TeamEnv(ParallelEnv):
         detection_reward: float = 1.0,
     ) -> None:
         check_episode_settings(
-            "max_cycles", max_cycles, goal_reward=goal_reward,
+            "max_cycles", max_cycles, observability, goal_reward=goal_reward,
             detection_penalty=detection_penalty, detection_reward=detection_reward,
         )  # fmt: skip
         sc = as_scenario(scenario)
