@@ -24,6 +24,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
+from mirl._validation import SEED, check_argument
 from mirl.envs.core import Episode, check_episode_settings
 from mirl.envs.penetration import OBSERVER_ACTIONS, observation_space
 from mirl.planning.observer import observer_model
@@ -151,7 +152,7 @@ class TeamEnv(ParallelEnv):
 
         Parameters
         ----------
-        seed : int, optional
+        seed : int in [0, 2^63 - 1], optional
             Fixes the patrollers' starts and every outcome; a fresh one if None.
         options : dict, optional
             Unused (PettingZoo's signature).
@@ -162,7 +163,14 @@ class TeamEnv(ParallelEnv):
             Per agent.
         infos : dict of str to dict
             Per agent, empty.
+
+        Raises
+        ------
+        OptionError
+            A seed that is not an integer in [0, 2^63 - 1] (a ValueError): it would be cut
+            (``1.5``), parsed (``"3"``) or fail inside numpy (``-1``).
         """
+        check_argument("seed", seed, SEED, None)
         if seed is None:
             seed = int(np.random.SeedSequence().generate_state(1)[0])
         self.episode = Episode(
