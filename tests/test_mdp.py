@@ -642,3 +642,27 @@ def test_tabular_mdp_normalises_inputs():
 def test_tabular_mdp_rejects(T, R, gamma, match):
     with pytest.raises(ValueError, match=match):
         TabularMDP(T, R, gamma)
+
+
+def test_tabular_mdp_and_value_iteration_refuse_what_no_sweep_can_use():
+    """A NaN or infinite reward ran all 10 000 sweeps into NaNs (with RuntimeWarnings), a
+    string discount failed as a comparison, ``tol=0`` or ``-1`` could never be met,
+    ``max_iter=-3`` reported -3 iterations, and an (S+1,) start failed inside numpy."""
+    T = np.eye(2)
+    for R, needle in [([[np.nan], [0.0]], r"R\(s=0, a=0\) = nan"), ([[0.0], [np.inf]], "s=1")]:
+        with pytest.raises(ValueError, match=f"rewards contain non-finite values: .*{needle}"):
+            TabularMDP(T, R, 0.5)
+    with pytest.raises(ValueError, match=r"discount must be in \[0, 1\), got '0.5'"):
+        TabularMDP(T, np.zeros((2, 1)), "0.5")
+    mdp = TabularMDP(T, np.zeros((2, 1)), 0.5)
+    for kwargs, needle in [
+        ({"tol": 0.0}, "`tol` must be a number > 0"),
+        ({"tol": -1.0}, "`tol` must be a number > 0"),
+        ({"max_iter": -3}, "`max_iter` must be an integer >= 0"),
+        ({"max_iter": 2.5}, "`max_iter` must be an integer >= 0"),
+        ({"initial_values": np.zeros(3)}, r"`initial_values` must be 2 finite numbers.*\(3,\)"),
+        ({"initial_values": [np.nan, 0.0]}, "`initial_values` must be 2 finite numbers"),
+    ]:
+        with pytest.raises(ValueError, match=needle):
+            vi(mdp, **kwargs)
+    assert vi(mdp, initial_values=[1, 2], max_iter=0).iterations == 0

@@ -7,6 +7,7 @@ solver is vectorised over states: one sparse mat-vec per sweep, no Python loop o
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -14,6 +15,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
+from mirl._validation import Interval, OptionError, check_argument
 from mirl.sparse import csr_block_matvec
 
 __all__ = [
@@ -102,6 +104,10 @@ class TabularMDP:
         rewards = np.asarray(self.rewards, dtype=float)
         if rewards.ndim != 2:
             raise ValueError(f"rewards must be (S, A), got shape {rewards.shape}")
+        if not np.isfinite(rewards).all():  # value iteration would run every sweep to NaNs
+            s, a = np.argwhere(~np.isfinite(rewards))[0]
+            bad = rewards[s, a]
+            raise ValueError(f"rewards contain non-finite values: R(s={s}, a={a}) = {bad}")
         object.__setattr__(self, "rewards", rewards)
         object.__setattr__(
             self, "transitions", validate_transitions(self.transitions, rewards.shape[1])
@@ -110,8 +116,9 @@ class TabularMDP:
             raise ValueError(
                 f"transitions have {self.transitions.shape[1]} states, rewards {rewards.shape[0]}"
             )
-        if not 0.0 <= self.discount < 1.0:
-            raise ValueError(f"discount must be in [0, 1), got {self.discount}")
+        real = isinstance(self.discount, numbers.Real) and not isinstance(self.discount, bool)
+        if not (real and 0.0 <= self.discount < 1.0):
+            raise ValueError(f"discount must be in [0, 1), got {self.discount!r}")
 
     @property
     def n_states(self) -> int:
@@ -195,8 +202,23 @@ def value_iteration(
     -------
     SolveResult
         V, Q, the greedy policy (the lowest-index optimal action) and whether it converged.
+
+    Raises
+    ------
+    OptionError
+        A ``tol`` that is not a positive number (no sweep could meet it), a ``max_iter`` that
+        is not an integer >= 0, or ``initial_values`` not S finite numbers (a ValueError).
     """
+    check_argument("tol", tol, Interval(float, 0.0, None, open_low=True))
+    check_argument("max_iter", max_iter, Interval(int, 0, None))
     S, A = mdp.n_states, mdp.n_actions
+    if initial_values is not None:
+        start = np.asarray(initial_values)
+        if start.shape != (S,) or start.dtype.kind not in "iuf" or not np.isfinite(start).all():
+            raise OptionError(
+                "initial_values", f"must be {S} finite numbers, one per state, got shape "
+                f"{start.shape} and dtype {start.dtype}"
+            )  # fmt: skip
     T_as = actions_first(mdp.transitions, A)
     R_as = np.ascontiguousarray(mdp.rewards.T)
     # a copy: the sweeps below write into V's buffer

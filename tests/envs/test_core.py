@@ -87,6 +87,16 @@ def test_an_episode_length_or_reward_that_cannot_be_meant_is_refused(env_class, 
         env_class("boyd2", **{argument: value})
 
 
+@pytest.mark.parametrize("env_class", [PenetrationEnv, TeamEnv])
+@pytest.mark.parametrize("value", [2.0, -0.1, float("nan"), "0.5", True])
+def test_a_view_that_cannot_be_meant_is_refused_when_the_environment_is_made(env_class, value):
+    """``observability=2.0`` was accepted by the constructor and refused by the first
+    ``reset`` without the argument's name; ``"0.5"`` and True were taken as numbers."""
+    with pytest.raises(ValueError, match=r"`observability` must be a number in \[0, 1\] or None"):
+        env_class("boyd2", observability=value)
+    assert env_class("boyd2", observability=np.float32(0.5)).observability == 0.5
+
+
 def test_the_environments_take_an_integer_length_of_any_integer_type():
     assert PenetrationEnv("boyd2", max_steps=np.int64(3)).max_steps == 3
     assert TeamEnv("boyd2", max_cycles=1).max_cycles == 1

@@ -68,6 +68,19 @@ def test_refuses_what_it_would_otherwise_default_or_drop():
     np.testing.assert_array_equal(obs["L"]["observer"], expected["L"]["observer"])
 
 
+@pytest.mark.parametrize("seed", [-1, 1.5, "3", True])
+def test_a_seed_that_is_no_seed_is_refused_by_name(seed):
+    """``reset(seed=1.5)`` ran seed 1 and ``"3"`` seed 3; ``-1`` failed inside numpy
+    ("expected non-negative integer"). PenetrationEnv's gymnasium refuses them too."""
+    env = TeamEnv("boyd2")
+    with pytest.raises(ValueError, match=r"`seed` must be an integer in \[0, 2\^63 - 1\]"):
+        env.reset(seed=seed)
+    assert env.agents == []  # nothing started
+    a, _ = env.reset(seed=np.int64(3))
+    b, _ = TeamEnv("boyd2").reset(seed=3)
+    np.testing.assert_array_equal(a["I"], b["I"])
+
+
 def test_a_world_whose_patrollers_take_no_actions_is_refused():
     pytest.importorskip("mujoco")
     with pytest.raises(ValueError, match="world 'physics': its patrollers drive by their own"):

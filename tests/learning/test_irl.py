@@ -207,6 +207,34 @@ def test_bad_inputs_are_rejected(expert):
         OccludedMaxEntIRL().fit(IRLProblem(phi, T, 0.9), np.full(10, -1))
 
 
+@pytest.mark.parametrize(
+    ("setting", "needle"),
+    [
+        ({"n_restarts": 2.5}, "n_restarts must be an integer, got 2.5"),
+        ({"n_restarts": True}, "n_restarts must be an integer, got True"),
+        ({"max_evaluations": 10.5}, "max_evaluations must be an integer, got 10.5"),
+        ({"temperature": "1"}, "temperature must be a finite number, got '1'"),
+        ({"temperature": np.inf}, "temperature must be a finite number, got inf"),
+        ({"l2": np.inf}, "l2 must be a finite number, got inf"),
+        ({"tol": np.inf}, "tol must be a finite number or None, got inf"),
+        ({"random_state": -1}, r"random_state must be an integer in \[0, 2\^63 - 1\], a numpy"),
+        ({"random_state": "x"}, "random_state must be .*, got 'x'"),
+    ],
+)
+def test_settings_of_the_wrong_kind_are_refused_by_the_constructor(expert, setting, needle):
+    """A fractional number of starts or evaluations ran (scipy took ``maxfun=10.5``), a string
+    failed as a comparison, an infinite temperature fitted nothing, and a bad seed was found
+    only by ``fit``: each is now refused where the settings are checked, set_params too."""
+    with pytest.raises(ValueError, match=needle):
+        OccludedMaxEntIRL(**setting)
+    est = OccludedMaxEntIRL()
+    with pytest.raises(ValueError, match=needle):
+        est.set_params(**setting)
+    assert est.get_params() == OccludedMaxEntIRL().get_params()
+    kept = OccludedMaxEntIRL(n_restarts=np.int64(2), random_state=np.random.default_rng(0))
+    assert kept.n_restarts == 2  # numpy's integers and a Generator are settings
+
+
 def test_a_problem_that_does_not_fit_together_is_refused_where_it_is_made(expert):
     T, _, phi, *_ = expert
     for kwargs, needle in (

@@ -94,6 +94,27 @@ def test_the_irl_options_are_kept_as_given():
         o.irl_options["l2"] = 2.0  # type: ignore[index]
 
 
+@pytest.mark.parametrize(
+    ("irl_options", "needle"),
+    [
+        ({"objective": "counts"}, "`irl_options` may not set 'objective', an option of Learn"),
+        ({"n_restarts": 3}, "may not set 'n_restarts'"),
+        ({"random_state": 1}, "may not set 'random_state': learn()'s own random_state"),
+        ({"anchr": "first"}, "unknown estimator option 'anchr' (did you mean 'anchor'?"),
+        ({"max_evaluations": 10.5}, "estimator refuses: max_evaluations must be an integer"),
+        ({"l2": -1}, "estimator refuses: l2 must be at least 0, got -1"),
+    ],
+)
+def test_irl_options_are_checked_when_the_options_are_made(irl_options, needle):
+    """``objective`` in irl_options silently overrode ``objective=``; an unknown keyword or a
+    second ``random_state`` was a TypeError from the estimator's call once learning had
+    started, and ``max_evaluations=10.5`` ran. Each is one OptionError naming irl_options."""
+    with pytest.raises(OptionError) as info:
+        LearnOptions(objective="likelihood", irl_options=irl_options)
+    assert needle in str(info.value)
+    assert LearnOptions(irl_options={"anchor": "reentry", "l2": 0.0}).irl_options["l2"] == 0.0
+
+
 def test_the_vocabularies_are_tables():
     assert set(IRL_OBJECTIVES) == {"counts", "likelihood", "both", "sequence"}
     assert set(IRL_OPTIMIZERS) == {"nelder-mead", "lbfgs"}

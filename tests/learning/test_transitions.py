@@ -133,6 +133,23 @@ def test_learner_validates_input(boyd2):
         TransitionFeatureLearner(d, error_model="teleport")
 
 
+def test_learner_refuses_a_domain_or_steps_it_would_misread(boyd2):
+    """A domain by name was accepted and failed in fit() as an AttributeError; states 3.7 or
+    booleans were truncated to indices and counted."""
+    with pytest.raises(TypeError, match="domain must be a mirl.PatrolDomain, got <class 'str'>"):
+        TransitionFeatureLearner("boyd2")
+    learner = TransitionFeatureLearner(boyd2.domain)
+    for s, a, s_next, needle in [
+        ([3.7], [0], [4], "s must be integer indices, got dtype float64"),
+        ([3], [True], [4], "a must be integer indices, got dtype bool"),
+        ([3], [0], ["4"], "s_next must be integer indices"),
+    ]:
+        with pytest.raises(ValueError, match=needle):
+            learner.fit(s, a, s_next)
+    assert not hasattr(learner, "counts_")
+    assert learner.fit(np.array([3], np.int32), [0], [4]).counts_.trials.sum() == 1
+
+
 def test_learn_transitions_cli_json(tmp_path, capsys, boyd2):
     obs = tmp_path / "o.csv"
     assert (

@@ -177,3 +177,52 @@ def test_trajectory_helpers(domain):
 
 def test_error_is_value_error():
     assert issubclass(TrajectoryError, ValueError)
+
+
+def _made(**changes):
+    """A two-row record made in Python, with ``changes`` to its fields."""
+    fields = dict(robot_names=NAMES, t=[0, 1], robot=[0, 1], row=[0, 0], col=[4, 3],
+                  heading=[2, 2], horizon=3)  # fmt: skip
+    return Trajectories(**(fields | changes))
+
+
+def test_a_record_made_in_python_takes_lists_as_arrays(domain):
+    tr = _made()
+    assert tr.t.dtype.kind == "i"
+    assert tr.state_series(domain, 1).tolist() == [-1, domain.state_index(0, 3, 2), -1]
+    empty = _made(t=[], robot=[], row=[], col=[], heading=[])  # np.array([]) is float
+    assert len(empty) == 0 and empty.t.dtype.kind == "i"
+
+
+@pytest.mark.parametrize(
+    ("changes", "needle"),
+    [
+        ({"robot": [0, 2]}, r"row 1: robot 2 is not in \[0, 2\) \(robot_names: I, J\)"),
+        ({"t": [0, 3]}, r"row 1: t 3 is not in \[0, 3\)"),
+        ({"t": [-1, 1]}, r"row 0: t -1 is not in"),
+        ({"heading": [2, 7]}, r"row 1: heading 7 is not in \[0, 4\)"),
+        ({"col": [4.0, 3.5]}, "col must be a 1-D array of integers, got dtype float64"),
+        ({"row": [[0, 0]]}, r"row must be a 1-D array of integers, got shape \(1, 2\)"),
+        ({"heading": [2]}, "heading has 1 rows, t has 2"),
+        ({"horizon": 3.0}, "horizon must be an integer, got 3.0"),
+        ({"horizon": 10**9}, r"horizon must be in \[0, 1000000\]"),
+        ({"robot_names": "IJ"}, "robot_names must be a sequence of str"),
+        ({"lateral": [0.1]}, r"lateral must have shape \(2,\)"),
+    ],
+)
+def test_a_record_made_in_python_is_checked_as_a_file_is(changes, needle):
+    """A robot index or a time outside the record was dropped without a word (the robot then
+    learned as never seen) or failed deep inside numpy; each is now named."""
+    with pytest.raises(TrajectoryError, match=needle):
+        _made(**changes)
+
+
+def test_from_states_refuses_what_is_no_state_index(domain):
+    for states, needle in [
+        (np.array([[0, -5]]), r"states\[0, 1\] = -5 is not a state index"),
+        (np.array([[0, domain.n_states]]), "is not a state index"),
+        (np.array([[0.0, 1.5]]), "must be a \\(T, N\\) array of integers"),
+        (np.array([0, 1]), "must be a \\(T, N\\) array of integers"),
+    ]:
+        with pytest.raises(TrajectoryError, match=needle):
+            Trajectories.from_states(domain, NAMES, states)

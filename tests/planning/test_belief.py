@@ -84,6 +84,38 @@ def test_an_unknown_mode_is_the_table_s_error():
         BeliefFilter(sc.domain, oracle_models(sc), mode="joint")
 
 
+def test_arguments_it_cannot_work_with_are_refused_by_name():
+    """A view or models of another map failed at the first product, a heading noise of 2 made
+    likelihoods negative, and ``update`` took -7 as "not seen", 3.7 as state 3 and 9999 as
+    an IndexError; each is refused naming the argument, and a refused update moves nothing."""
+    sc = _scenario(CORRIDOR, [(0, 1, 0), (0, 5, 2)])
+    other = _scenario("L.G....\n", [(0, 1, 0), (0, 5, 2)])  # one cell longer
+    learned, S = oracle_models(sc), sc.domain.n_states
+    for kwargs, error, needle in [
+        ({"visible": np.ones(S + 1, bool)}, ValueError, rf"visible must have shape \({S},\)"),
+        ({"heading_noise": 2.0}, ValueError, r"`heading_noise` must be a number in \[0, 1\]"),
+        ({"learned": oracle_models(other)}, ValueError, "model of P0 is not of this domain's 20"),
+        ({"learned": None}, TypeError, "learned must be a mirl.LearnResult"),
+    ]:
+        with pytest.raises(error, match=needle):
+            BeliefFilter(sc.domain, **({"learned": learned} | kwargs))
+    f = BeliefFilter(sc.domain, learned)
+    with pytest.raises(ValueError, match="marginals.. before any update"):
+        f.marginals()
+    for observed, needle in [
+        ([-7, UNSEEN], r"observed\[0\] = -7 is not a state index"),
+        ([0, S], rf"observed\[1\] = {S} is not a state index in \[0, {S}\)"),
+        ([3.7, UNSEEN], "observed must be 2 integers, one per robot, got shape .2,. and dtype f"),
+        ([UNSEEN], r"observed must be 2 integers, one per robot, got shape \(1,\)"),
+    ]:
+        with pytest.raises(ValueError, match=needle):
+            f.update(observed)
+        assert f.t == -1 and f.belief is None
+    f.update(np.array([NOT_WATCHING, UNSEEN], dtype=np.int32))
+    with pytest.raises(ValueError, match="`steps` must be an integer >= 0"):
+        f.predict(-1, observer_model(sc))
+
+
 def test_the_three_forms_agree_on_two_robots():
     """The pair, the tensor and (with no meeting possible) the factored marginals are one
     belief in three shapes: updates and predictions agree."""

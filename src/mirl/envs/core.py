@@ -21,12 +21,16 @@ from mirl.worlds import RunSetup, RunWorld, World
 __all__ = ["Episode", "check_episode_settings"]
 
 
-def check_episode_settings(length_name: str, length: Any, **rewards: Any) -> None:
-    """Refuse an episode length or a reward the environments could only truncate or propagate.
+def check_episode_settings(
+    length_name: str, length: Any, observability: Any = None, **rewards: Any
+) -> None:
+    """Refuse an episode length, a view or a reward the environments could only truncate or
+    propagate.
 
     A fractional length would be cut, one below 1 would end every episode at its first step,
-    and a NaN or infinite reward would reach every learner's returns. Both environments check
-    their constructors' arguments here.
+    a view outside [0, 1] was refused only by the first ``reset`` (and ``"0.5"`` taken as a
+    number), and a NaN or infinite reward would reach every learner's returns. Both
+    environments check their constructors' arguments here.
 
     Parameters
     ----------
@@ -34,6 +38,8 @@ def check_episode_settings(length_name: str, length: Any, **rewards: Any) -> Non
         The length argument's name (``max_steps``, ``max_cycles``), for the message.
     length : int
         Steps after which an episode is truncated: an integer, at least 1.
+    observability : float, optional
+        The share of the hallway L sees: a number in [0, 1], or None (the scenario's).
     **rewards : float
         Each reward argument by name: a finite number.
 
@@ -43,6 +49,7 @@ def check_episode_settings(length_name: str, length: Any, **rewards: Any) -> Non
         One of them is not what it must be; the message names it.
     """
     check_argument(length_name, length, Interval(int, 1, None))
+    check_argument("observability", observability, Interval(float, 0.0, 1.0), None)
     for name, value in rewards.items():
         check_argument(name, value, Interval(float))
 

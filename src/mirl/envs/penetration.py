@@ -79,8 +79,8 @@ class PenetrationEnv(gym.Env):
     Raises
     ------
     ValueError
-        ``max_steps`` not an integer of at least 1, a reward that is not a finite number, or
-        an unknown world.
+        ``max_steps`` not an integer of at least 1, an ``observability`` that is not a number
+        in [0, 1], a reward that is not a finite number, or an unknown world.
     ImportError
         A world that cannot run on this installation.
     """
@@ -98,8 +98,9 @@ class PenetrationEnv(gym.Env):
         detection_penalty: float = 1.0,
     ) -> None:
         check_episode_settings(
-            "max_steps", max_steps, goal_reward=goal_reward, detection_penalty=detection_penalty
-        )
+            "max_steps", max_steps, observability,
+            goal_reward=goal_reward, detection_penalty=detection_penalty,
+        )  # fmt: skip
         self.scenario = as_scenario(scenario)
         self.world_class = get_world(world).load()
         self.model = observer_model(self.scenario)

@@ -24,6 +24,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
+from mirl._validation import SEED, check_argument
 from mirl.envs.core import Episode, check_episode_settings
 from mirl.envs.penetration import OBSERVER_ACTIONS, observation_space
 from mirl.planning.observer import observer_model
@@ -60,8 +61,9 @@ class TeamEnv(ParallelEnv):
     Raises
     ------
     ValueError
-        ``max_cycles`` not an integer of at least 1, a reward that is not a finite number, a
-        patroller named ``L``, an unknown world, or one whose patrollers cannot take actions.
+        ``max_cycles`` not an integer of at least 1, an ``observability`` that is not a number
+        in [0, 1], a reward that is not a finite number, a patroller named ``L``, an unknown
+        world, or one whose patrollers cannot take actions.
     """
 
     metadata = {"render_modes": [], "name": "mirl_team_v0"}
@@ -78,7 +80,7 @@ class TeamEnv(ParallelEnv):
         detection_reward: float = 1.0,
     ) -> None:
         check_episode_settings(
-            "max_cycles", max_cycles, goal_reward=goal_reward,
+            "max_cycles", max_cycles, observability, goal_reward=goal_reward,
             detection_penalty=detection_penalty, detection_reward=detection_reward,
         )  # fmt: skip
         sc = as_scenario(scenario)
@@ -150,7 +152,7 @@ class TeamEnv(ParallelEnv):
 
         Parameters
         ----------
-        seed : int, optional
+        seed : int in [0, 2^63 - 1], optional
             Fixes the patrollers' starts and every outcome; a fresh one if None.
         options : dict, optional
             Unused (PettingZoo's signature).
@@ -161,7 +163,14 @@ class TeamEnv(ParallelEnv):
             Per agent.
         infos : dict of str to dict
             Per agent, empty.
+
+        Raises
+        ------
+        OptionError
+            A seed that is not an integer in [0, 2^63 - 1] (a ValueError): it would be cut
+            (``1.5``), parsed (``"3"``) or fail inside numpy (``-1``).
         """
+        check_argument("seed", seed, SEED, None)
         if seed is None:
             seed = int(np.random.SeedSequence().generate_state(1)[0])
         self.episode = Episode(

@@ -52,6 +52,7 @@ Interactions (meetings, equilibria) are :mod:`mirl.learning.equilibria`.
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -189,8 +190,9 @@ class OccludedMaxEntIRL(EstimatorParams):
     Raises
     ------
     ValueError
-        If a choice is not a name its table holds (the nearest suggested), or ``temperature``,
-        ``l2``, ``n_restarts``, ``max_evaluations`` or ``tol`` is out of its range.
+        If a choice is not a name its table holds (the nearest suggested), ``temperature``,
+        ``l2`` or ``tol`` is not a finite number, ``n_restarts`` or ``max_evaluations`` not
+        an integer, any of them is out of its range, or ``random_state`` is no seed.
 
     Attributes
     ----------
@@ -233,6 +235,30 @@ class OccludedMaxEntIRL(EstimatorParams):
             (gradient, GRADIENTS),
         ):
             table.lookup(value)  # an unknown name: UnknownNameError (a ValueError), one line
+        # the kind of each number first: a fractional count of starts or evaluations ran (and
+        # scipy took maxfun=10.5), a string failed as a comparison, an infinite temperature or
+        # L2 weight gave a meaningless fit, and a bad seed was found only by fit()
+        for name, got, kind, what in (
+            ("temperature", temperature, numbers.Real, "a finite number"),
+            ("l2", l2, numbers.Real, "a finite number"),
+            ("max_evaluations", max_evaluations, numbers.Integral, "an integer"),
+            ("n_restarts", n_restarts, numbers.Integral, "an integer"),
+            ("tol", tol, numbers.Real, "a finite number or None"),
+        ):
+            if name == "tol" and got is None:
+                continue
+            if isinstance(got, bool) or not isinstance(got, kind) or not np.isfinite(got):
+                raise ValueError(f"{name} must be {what}, got {got!r}")
+        seeded = isinstance(random_state, numbers.Integral) and 0 <= random_state < 2**63
+        if not (
+            random_state is None
+            or isinstance(random_state, np.random.Generator)
+            or (seeded and not isinstance(random_state, bool))
+        ):
+            raise ValueError(
+                "random_state must be an integer in [0, 2^63 - 1], a numpy Generator or None, "
+                f"got {random_state!r}"
+            )
         for name, got, ok, needed in (
             ("temperature", temperature, temperature > 0, "positive"),
             ("l2", l2, l2 >= 0, "at least 0"),

@@ -15,7 +15,7 @@ from types import MappingProxyType
 from typing import Any
 
 from mirl._registry import Registry, Strategy, check_entry_point
-from mirl._validation import Instance, Interval, OneOf, Options, option
+from mirl._validation import Instance, Interval, OneOf, Options, option, unknown_name
 from mirl.learning.methods import METHODS, Method, unread_option
 
 __all__ = [
@@ -234,6 +234,40 @@ class LearnOptions(Options):
     def _check(self) -> None:
         if self.irl_options is not None:  # a read-only copy: the options stay as they were made
             object.__setattr__(self, "irl_options", MappingProxyType(dict(self.irl_options)))
+            self._check_irl_options()
+
+    def _check_irl_options(self) -> None:
+        """Refuse what the estimator would refuse only once learning had started (an unknown
+        keyword, a bad value, ``random_state`` twice), and a setting these options make
+        themselves, which the mapping would silently override (``objective``)."""
+        assert self.irl_options is not None
+        own = ("objective", "optimizer", "n_restarts")
+        key = next((k for k in own if k in self.irl_options), None)
+        if key is not None:
+            raise self.refuse(
+                "irl_options",
+                f"may not set '{key}', an option of {type(self).__name__} itself (give "
+                f"{key}=... beside irl_options)",
+            )
+        if "random_state" in self.irl_options:
+            raise self.refuse(
+                "irl_options",
+                "may not set 'random_state': learn()'s own random_state seeds the IRL of every "
+                "robot and round",
+            )
+        from mirl.learning.irl import OccludedMaxEntIRL  # scipy: only when options are given
+
+        try:
+            OccludedMaxEntIRL(**self.irl_options)
+        except TypeError:  # an unexpected keyword
+            known = [n for n in OccludedMaxEntIRL().get_params() if n not in (*own, "random_state")]
+            name = next(k for k in self.irl_options if k not in known)
+            raise self.refuse(
+                "irl_options", unknown_name("estimator option", name, known)
+            ) from None
+        except ValueError as exc:
+            problem = f"holds a setting the estimator refuses: {exc}"
+            raise self.refuse("irl_options", problem) from None
 
     @property
     def in_effect_default(self) -> bool:

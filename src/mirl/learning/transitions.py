@@ -286,6 +286,8 @@ class TransitionFeatureLearner(EstimatorParams):
     ------
     ValueError
         An unknown error model or method.
+    TypeError
+        A ``domain`` that is not a :class:`~mirl.world.domain.PatrolDomain`.
 
     .. versionchanged:: 0.2.0
         An unknown ``method`` is refused here rather than by ``fit``; ``get_params``,
@@ -297,6 +299,8 @@ class TransitionFeatureLearner(EstimatorParams):
     ) -> None:
         from mirl.learning.feature_solver import FEATURE_SOLVERS  # scipy.optimize: lazily
 
+        if not isinstance(domain, PatrolDomain):  # found by fit() as an AttributeError
+            raise TypeError(f"domain must be a mirl.PatrolDomain, got {type(domain)}")
         if error_model not in ERROR_MODELS:
             raise ValueError(f"unknown error model '{error_model}' (known: {ERROR_MODELS})")
         FEATURE_SOLVERS.lookup(method)  # an unknown method: refused here, not at fit
@@ -324,11 +328,15 @@ class TransitionFeatureLearner(EstimatorParams):
         Raises
         ------
         ValueError
-            Arrays of different lengths, or indices out of range.
+            Arrays of different lengths, of other than integers, or indices out of range.
         """
         from mirl.learning.feature_solver import solve_feature_probabilities
 
-        s, a, s_next = (np.asarray(v, dtype=int) for v in (s, a, s_next))
+        given = [np.asarray(v) for v in (s, a, s_next)]
+        for name, v in zip(("s", "a", "s_next"), given, strict=True):
+            if v.size and v.dtype.kind not in "iu":  # 3.7 would be truncated to state 3
+                raise ValueError(f"{name} must be integer indices, got dtype {v.dtype}")
+        s, a, s_next = (v.astype(int) for v in given)
         if not (s.shape == a.shape == s_next.shape):
             raise ValueError("s, a and s_next must have the same length")
         S = self.domain.n_states

@@ -5,6 +5,7 @@ output. Reading validates every row against the scenario and reports the file, l
 from __future__ import annotations
 
 import csv
+import numbers
 import re
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -86,6 +87,48 @@ class Trajectories:
     off_pace: str | None = None
     tracker_interval: float | None = None
     step_given: float | None = None
+
+    def __post_init__(self) -> None:
+        # A record made in Python, not read from a file, is checked here as the readers check
+        # theirs: a row of a robot or a time outside the record would otherwise be dropped
+        # without a word (learned as a robot never seen) or fail deep inside numpy. Lists are
+        # taken as arrays; fractional numbers are refused rather than truncated.
+        names = self.robot_names
+        if isinstance(names, str) or not all(isinstance(n, str) for n in names):
+            raise TrajectoryError(f"robot_names must be a sequence of str, got {names!r}")
+        object.__setattr__(self, "robot_names", tuple(names))
+        horizon = self.horizon
+        if isinstance(horizon, bool) or not isinstance(horizon, numbers.Integral):
+            raise TrajectoryError(f"horizon must be an integer, got {horizon!r}")
+        if not 0 <= horizon <= MAX_TIME:
+            raise TrajectoryError(f"horizon must be in [0, {MAX_TIME}] steps, got {horizon}")
+        object.__setattr__(self, "horizon", int(horizon))
+        n = None
+        for name in HEADER:
+            column = np.asarray(getattr(self, name))
+            if column.size == 0:  # np.array([]) is float: an empty column of any type is empty
+                column = column.astype(np.int64)
+            if column.ndim != 1 or column.dtype.kind not in "iu":
+                got = f"shape {column.shape}" if column.ndim != 1 else f"dtype {column.dtype}"
+                raise TrajectoryError(f"{name} must be a 1-D array of integers, got {got}")
+            if n is not None and len(column) != n:
+                raise TrajectoryError(f"{name} has {len(column)} rows, t has {n}")
+            n = len(column)
+            object.__setattr__(self, name, column)
+        for name, high in (("t", self.horizon), ("robot", len(self.robot_names)), ("heading", 4)):
+            column = getattr(self, name)
+            bad = np.flatnonzero((column < 0) | (column >= high))
+            if bad.size:
+                i = int(bad[0])
+                raise TrajectoryError(
+                    f"row {i}: {name} {int(column[i])} is not in [0, {high})"
+                    + (f" (robot_names: {', '.join(self.robot_names)})" if name == "robot" else "")
+                )
+        if self.lateral is not None:
+            lateral = np.asarray(self.lateral, dtype=float)
+            if lateral.shape != (n,):
+                raise TrajectoryError(f"lateral must have shape ({n},), got {lateral.shape}")
+            object.__setattr__(self, "lateral", lateral)
 
     def __len__(self) -> int:
         return len(self.t)
@@ -234,8 +277,26 @@ class Trajectories:
         -------
         Trajectories
             The observed rows, horizon ``T + t0``.
+
+        Raises
+        ------
+        TrajectoryError
+            ``states`` not a (T, N) array of integers in [-1, S).
         """
         states = np.asarray(states)
+        if states.ndim != 2 or (states.size and states.dtype.kind not in "iu"):
+            raise TrajectoryError(
+                f"states must be a (T, N) array of integers, got shape {states.shape} and "
+                f"dtype {states.dtype}"
+            )
+        bad = (states < -1) | (states >= domain.n_states)
+        if bad.any():  # -5 would be read as unobserved, 9999 fail inside numpy
+            tt, rr = np.argwhere(bad)[0]
+            raise TrajectoryError(
+                f"states[{tt}, {rr}] = {states[tt, rr]} is not a state index in "
+                f"[0, {domain.n_states}) or -1 (unobserved)"
+            )
+        states = states.astype(np.int64, copy=False)
         tt, rr = np.nonzero(states >= 0)
         rch = domain.states[states[tt, rr]]
         lat = None if lateral is None else np.asarray(lateral, dtype=float)[tt, rr]

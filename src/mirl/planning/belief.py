@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from mirl._registry import Registry
+from mirl._validation import Interval, check_argument
 from mirl.learning.results import LearnResult
 from mirl.mdp import policy_matrix
 from mirl.planning.observer import ObserverModel
@@ -733,7 +734,10 @@ class BeliefFilter:
     ------
     ValueError
         A mode for another number of robots or that contradicts ``joint``; an exact joint of
-        more than 20 000 000 states.
+        more than 20 000 000 states; a ``visible`` that is not (S,), a ``heading_noise``
+        outside [0, 1], or models of another map than ``domain``'s.
+    TypeError
+        ``learned`` that is not a :class:`~mirl.learning.results.LearnResult`.
     """
 
     def __init__(
@@ -747,9 +751,23 @@ class BeliefFilter:
         max_joint_states: int = 60_000,
         mode: str | None = None,
     ) -> None:
+        if not isinstance(learned, LearnResult):
+            raise TypeError(f"learned must be a mirl.LearnResult, got {type(learned)}")
         self.domain = domain
         self.n_robots = n = len(learned.robots)
         self.n_states = S = domain.n_states
+        # checked here, not where the first product fails: another map's models or view, and a
+        # heading noise that would make the evidence's likelihoods negative
+        if visible is not None and np.shape(visible) != (S,):
+            shape = np.shape(visible)
+            raise ValueError(f"visible must have shape ({S},), one per state, got {shape}")
+        check_argument("heading_noise", heading_noise, Interval(float, 0.0, 1.0))
+        for r in learned.robots:
+            if np.shape(r.policy) != (S,) or np.shape(r.transitions) != (S * domain.n_actions, S):
+                raise ValueError(
+                    f"learned's model of {r.name} is not of this domain's {S} states: a policy "
+                    f"of shape {np.shape(r.policy)} and transitions of {np.shape(r.transitions)}"
+                )
         self.visible = np.zeros(S, bool) if visible is None else np.asarray(visible, bool)
         self.heading_noise = float(heading_noise)
         form = _chosen_form(n, S, joint, max_joint_states, mode)
@@ -797,7 +815,8 @@ class BeliefFilter:
             Each robot's state distribution.
         """
         b = self.belief if belief is None else belief
-        assert b is not None, "no belief yet: call update() first"
+        if b is None:
+            raise ValueError("marginals() before any update(): the filter has no belief yet")
         return self.form.marginals(b)
 
     def update(self, observed) -> None:
@@ -827,8 +846,27 @@ class BeliefFilter:
         -------
         list of ndarray of shape (S,)
             One likelihood per robot.
+
+        Raises
+        ------
+        ValueError
+            ``observed`` not N integers in [-2, S): a state past the map failed inside numpy,
+            one below -2 was taken as "not seen", and 3.7 as state 3.
         """
-        return [self._evidence(int(o)) for o in np.asarray(observed, dtype=int)]
+        obs = np.asarray(observed)
+        if obs.shape != (self.n_robots,) or (obs.size and obs.dtype.kind not in "iu"):
+            raise ValueError(
+                f"observed must be {self.n_robots} integers, one per robot, got shape "
+                f"{obs.shape} and dtype {obs.dtype}"
+            )
+        bad = (obs < NOT_WATCHING) | (obs >= self.n_states)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValueError(
+                f"observed[{i}] = {obs[i]} is not a state index in [0, {self.n_states}), "
+                f"{UNSEEN} (not seen) or {NOT_WATCHING} (not watching)"
+            )
+        return [self._evidence(int(o)) for o in obs]
 
     def propagate(self, belief: np.ndarray) -> np.ndarray:
         """``belief`` (in this filter's form) one step later, without evidence.
@@ -904,8 +942,10 @@ class BeliefFilter:
         Raises
         ------
         ValueError
-            No belief yet (:meth:`update` was never called) and none given.
+            No belief yet (:meth:`update` was never called) and none given; ``steps`` not an
+            integer of at least 0.
         """
+        check_argument("steps", steps, Interval(int, 0, None))
         if belief is None:
             belief, t = self.belief, self.t
         if belief is None:
