@@ -85,3 +85,11 @@ def test_a_world_whose_patrollers_take_no_actions_is_refused():
     pytest.importorskip("mujoco")
     with pytest.raises(ValueError, match="world 'physics': its patrollers drive by their own"):
         TeamEnv("boyd2", world="physics")
+
+
+def test_unknown_agents_are_refused_by_name():
+    env = TeamEnv("boyd2")
+    assert env.render_mode is None  # PettingZoo reads it
+    for space in (env.observation_space, env.action_space):
+        with pytest.raises(KeyError, match="no agent 'X': the agents are I, J, L"):
+            space("X")

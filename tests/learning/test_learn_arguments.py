@@ -41,6 +41,9 @@ def test_a_scenario_name_is_the_scenario(record):
         ({"options": 3}, TypeError, "`options` must be a LearnOptions"),
         ({"method": "mirl-t", "options": {"p": 0.5}}, ValueError, "`p` applies to the methods"),
         ({"random_state": 2**63}, ValueError, r"`random_state` must be an integer in \[0, 2\^63"),
+        ({"observability": "0.5"}, ValueError, "`observability`"),
+        ({"observability": 1.5}, ValueError, "`observability`"),
+        ({"score": "no"}, ValueError, "`score`"),
     ],
 )
 def test_bad_arguments_are_named(record, change, error, needle):

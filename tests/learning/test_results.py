@@ -71,7 +71,7 @@ def test_the_truth_as_a_result(boyd2):
     assert j.verdict is not None and j.verdict.named == ("left_wheel",)  # boyd2's damaged wheel
     assert truth.pair_equilibrium(0, 1) == boyd2.pair_equilibrium(0, 1)
     assert oracle_models(boyd2, method="known-r-t").method == "known-r-t"
-    with pytest.raises(KeyError):
+    with pytest.raises(KeyError, match="no robot 'L': the robots are I, J"):
         truth.robot("L")
 
 

@@ -58,6 +58,27 @@ def test_an_unknown_hazard_model_is_the_table_s_error():
         solve_observer_mdp(model, belief.predict(4, model), hazard="markow")
 
 
+@pytest.mark.parametrize(
+    "argument, value",
+    [("window", -1), ("window", 2.5), ("goal_reward", float("nan")),
+     ("detection_penalty", float("inf")), ("min_value", "0"), ("keep_values", "no")],
+)  # fmt: skip
+def test_arguments_the_plan_cannot_use_are_refused_naming_them(argument, value):
+    sc = _scenario(CORRIDOR, [(0, 4, 0)])
+    model = observer_model(sc)
+    pred = _random_prediction(model, 6, 0)
+    with pytest.raises(ValueError, match=f"^`{argument}`"):
+        solve_observer_mdp(model, pred, **{argument: value})
+    assert solve_observer_mdp(model, pred, window=np.int64(2)).go_values.shape == (3,)
+
+
+def test_observer_model_takes_a_scenario_by_name_as_the_other_entry_points_do():
+    from mirl.world.scenario import load_scenario
+
+    by_name = observer_model("boyd2")
+    assert by_name.start_state == observer_model(load_scenario("boyd2")).start_state
+
+
 # ---- backward induction --------------------------------------------------------------------------
 def _allowed(model, s: int, a: int) -> bool:
     """The start-cell rule: there L may only leave (or, facing a wall, turn)."""

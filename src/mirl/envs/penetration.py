@@ -122,7 +122,8 @@ class PenetrationEnv(gym.Env):
         seed : int, optional
             Seeds ``np_random`` and through it the world and L's failures.
         options : dict, optional
-            Unused (Gymnasium's signature).
+            Accepted and unused: the environment has no reset options, and Gymnasium's
+            convention (and its wrappers) pass options through to every environment.
 
         Returns
         -------

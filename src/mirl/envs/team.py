@@ -67,6 +67,7 @@ class TeamEnv(ParallelEnv):
     """
 
     metadata = {"render_modes": [], "name": "mirl_team_v0"}
+    render_mode = None  # nothing to render; PettingZoo's API test reads the attribute
 
     def __init__(
         self,
@@ -124,7 +125,7 @@ class TeamEnv(ParallelEnv):
         gymnasium.spaces.Space
             A patroller's own (row, col, heading) box, or L's ``Dict``.
         """
-        return self._obs_spaces[agent]
+        return self._obs_spaces[_known(agent, self._obs_spaces)]
 
     def action_space(self, agent: str) -> spaces.Space:
         """An agent's action space.
@@ -139,7 +140,7 @@ class TeamEnv(ParallelEnv):
         gymnasium.spaces.Discrete
             The four patroller actions, or L's four moves.
         """
-        return self._act_spaces[agent]
+        return self._act_spaces[_known(agent, self._act_spaces)]
 
     def _observations(self, episode: Episode) -> dict[str, Any]:
         states = self.scenario.domain.states[episode.patroller_states].astype(np.int64)
@@ -155,7 +156,8 @@ class TeamEnv(ParallelEnv):
         seed : int in [0, 2^63 - 1], optional
             Fixes the patrollers' starts and every outcome; a fresh one if None.
         options : dict, optional
-            Unused (PettingZoo's signature).
+            Accepted and unused: the environment has no reset options, and PettingZoo's API
+            test resets with ``{"options": 1}``, which an environment must take.
 
         Returns
         -------
@@ -256,3 +258,10 @@ class TeamEnv(ParallelEnv):
         if done or truncated:
             self.agents = []
         return result
+
+
+def _known(agent: str, spaces_of: dict) -> str:
+    """``agent`` if it is one of the environment's, else a KeyError naming the agents."""
+    if agent not in spaces_of:
+        raise KeyError(f"no agent {agent!r}: the agents are {', '.join(spaces_of)}")
+    return agent

@@ -64,7 +64,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from mirl._registry import Registry
-from mirl._validation import SEED, check_argument
+from mirl._validation import SEED, Boolean, Interval, check_argument
 from mirl.learning.dbn_em import em_transitions
 from mirl.learning.equilibria import (
     EquilibriumWeights,
@@ -198,7 +198,9 @@ def learn(
         ``observations`` that are not :class:`~mirl.observations.trajectories.Trajectories`;
         a ``warm_start`` that is not a :class:`~mirl.learning.results.LearnResult`.
     """
-    scenario, row, opts = _check_arguments(observations, scenario, method, options, random_state)
+    scenario, row, opts = _check_arguments(
+        observations, scenario, method, options, random_state, observability, score
+    )
     if warm_start is not None:
         _check_warm_start(warm_start, scenario)
     if visible is not None:
@@ -379,7 +381,7 @@ def _uncertainties(
 
 
 def _check_arguments(
-    observations, scenario, method, options, random_state
+    observations, scenario, method, options, random_state, observability=None, score=True
 ) -> tuple[Scenario, Method, LearnOptions]:
     """The arguments :func:`learn` cannot work with, refused before any work with a message
     naming the argument; the scenario (one given by name, ``"boyd2"``, is loaded), the
@@ -393,6 +395,9 @@ def _check_arguments(
     opts = LearnOptions.of(options)
     opts.check_method(row)
     check_argument("random_state", random_state, SEED, None)
+    # a string degree failed as a bare comparison inside the map, and score="no" was true
+    check_argument("observability", observability, Interval(float, 0.0, 1.0), None)
+    check_argument("score", score, Boolean())
     if tuple(observations.robot_names) != tuple(scenario.robot_names):
         raise ValueError(
             f"observations are of robots {list(observations.robot_names)}, "

@@ -162,7 +162,8 @@ class LearnResult:
         for r in self.robots:
             if r.name == name:
                 return r
-        raise KeyError(name)
+        names = ", ".join(r.name for r in self.robots)
+        raise KeyError(f"no robot {name!r}: the robots are {names}")
 
 
 def behavior_accuracy(scenario: Scenario, robot: int, policy: np.ndarray) -> float:

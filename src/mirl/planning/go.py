@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mirl._registry import Registry
+from mirl._validation import Boolean, Interval, check_argument
 from mirl.planning.belief import Prediction, StreamedPrediction
 from mirl.planning.observer import ObserverModel
 from mirl.world.domain import STOP
@@ -254,12 +255,24 @@ def solve_observer_mdp(
     ------
     ValueError
         A prediction of no step.
+    OptionError
+        A ``window`` that is not an integer ≥ 0, a reward, penalty or ``min_value`` that is
+        not a finite number, or a ``keep_values`` that is not a bool (a ValueError).
     UnknownNameError
         An unknown hazard model.
     """
     K = prediction.steps
     if K < 1:
         raise ValueError("the plan needs at least one step of prediction")
+    # checked here: a negative window failed as numpy's empty argmax, 2.5 was cut to 2, and a
+    # NaN reward gave NaN go values
+    check_argument("window", window, Interval(int, 0, None), None)
+    for name, value in (
+        ("goal_reward", goal_reward), ("detection_penalty", detection_penalty),
+        ("min_value", min_value),
+    ):  # fmt: skip
+        check_argument(name, value, Interval(float))
+    check_argument("keep_values", keep_values, Boolean())
     hazard_rows = HAZARDS.lookup(hazard).rows
     window = K - 1 if window is None else min(int(window), K - 1)
     dom = model.domain

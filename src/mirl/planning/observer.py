@@ -15,7 +15,7 @@ import scipy.sparse as sp
 from mirl.world.domain import N_HEADINGS, PatrolDomain
 from mirl.world.maps import HEADING_DELTAS, GridMap
 from mirl.world.motion import transition_matrix_from_success
-from mirl.world.scenario import Scenario
+from mirl.world.scenario import Scenario, as_scenario
 
 __all__ = [
     "OBSERVER_FAILURE",
@@ -219,7 +219,9 @@ class ObserverModel:
         return T.row, T.col, T.data, np.searchsorted(pair_keys, key)
 
 
-def observer_model(scenario: Scenario, *, failure: float = OBSERVER_FAILURE) -> ObserverModel:
+def observer_model(
+    scenario: Scenario | str, *, failure: float = OBSERVER_FAILURE
+) -> ObserverModel:
     """Build L's MDP for ``scenario``.
 
     L starts in its start cell facing its first step towards the goal (the door), and its goal is
@@ -227,8 +229,10 @@ def observer_model(scenario: Scenario, *, failure: float = OBSERVER_FAILURE) -> 
 
     Parameters
     ----------
-    scenario : Scenario
-        The scenario: map, L's start and goal, the patrollers' detection distance.
+    scenario : Scenario or str
+        The scenario: map, L's start and goal, the patrollers' detection distance; or a
+        shipped scenario's name or a scenario file, as :func:`~mirl.world.scenario.as_scenario`
+        takes it (as ``run_episode`` and the environments do).
     failure : float, default OBSERVER_FAILURE
         The probability that one of L's moves fails (it stays put).
 
@@ -242,6 +246,7 @@ def observer_model(scenario: Scenario, *, failure: float = OBSERVER_FAILURE) -> 
     ValueError
         L's goal is unreachable from its start.
     """
+    scenario = as_scenario(scenario)
     dom = observer_domain(scenario.map)
     T = transition_matrix_from_success(dom, 1.0 - failure, "stop")
     goal = np.zeros(dom.n_states, dtype=bool)
