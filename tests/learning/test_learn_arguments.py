@@ -44,6 +44,7 @@ def test_a_scenario_name_is_the_scenario(record):
         ({"observability": "0.5"}, ValueError, "`observability`"),
         ({"observability": 1.5}, ValueError, "`observability`"),
         ({"score": "no"}, ValueError, "`score`"),
+        ({"trace": {}}, TypeError, "trace must be an empty"),
     ],
 )
 def test_bad_arguments_are_named(record, change, error, needle):

@@ -222,7 +222,10 @@ def learn(
     )  # fmt: skip
     setup.warm_start = warm_start
     clock = setup.clock
-    trace = LoopTrace() if trace is None else trace
+    if trace is None:
+        trace = LoopTrace()
+    elif not isinstance(trace, LoopTrace) or trace.labels:  # filled in as the rounds go
+        raise TypeError(f"trace must be an empty mirl.learning.learn.LoopTrace, got {trace!r}")
     setup.models = initial_models(scenario, warm_start)
     fitted = _fit(setup, row, opts, trace)
     # L learns with the scenario's motion model unless a robot's record rejects it; then once
