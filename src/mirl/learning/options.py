@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 from types import MappingProxyType
 from typing import Any
 
-from mirl._registry import Registry, Strategy, check_entry_point
+from mirl._registry import Registry, Strategy, check_entry_point, resolve
 from mirl._validation import Instance, Interval, OneOf, Options, option, unknown_name
 from mirl.learning.methods import METHODS, Method, unread_option
 
@@ -107,6 +107,10 @@ EM_INITS = Registry.of_choices("EM initialisation", {
     "uniform": "uniform over all states",
 })  # fmt: skip
 """DBN-EM's initial transition models (:func:`~mirl.learning.dbn_em.initial_transitions`)."""
+
+IRL_ESTIMATOR = "mirl.learning.irl:OccludedMaxEntIRL"
+"""The estimator ``irl_options`` configure, by entry point (``LearnOptions`` checks them)."""
+
 
 @dataclass(frozen=True)
 class Labelling(Strategy):
@@ -255,8 +259,9 @@ class LearnOptions(Options):
                 "may not set 'random_state': learn()'s own random_state seeds the IRL of every "
                 "robot and round",
             )
-        from mirl.learning.irl import OccludedMaxEntIRL  # scipy: only when options are given
-
+        # the estimator by its entry point, loaded only when options are given (scipy), as the
+        # tables here load what carries their rows out: irl.py reads this module's vocabularies
+        OccludedMaxEntIRL = resolve(IRL_ESTIMATOR)
         try:
             OccludedMaxEntIRL(**self.irl_options)
         except TypeError:  # an unexpected keyword
