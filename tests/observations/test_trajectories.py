@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -226,3 +228,18 @@ def test_from_states_refuses_what_is_no_state_index(domain):
     ]:
         with pytest.raises(TrajectoryError, match=needle):
             Trajectories.from_states(domain, NAMES, states)
+
+
+def test_records_compare_by_value():
+    """== compared the arrays as a tuple and raised numpy's "truth value is ambiguous"."""
+    import copy
+
+    obs = simulate(load_scenario("boyd2"), 50, seed=1).observations
+    assert obs == copy.deepcopy(obs) and not obs != copy.deepcopy(obs)
+    assert obs != obs.truncate(10)  # fewer rows and a shorter horizon
+    moved = copy.deepcopy(obs)
+    moved.row[0] += 1
+    assert obs != moved and obs != 3
+    with_nan = dataclasses.replace(obs, lateral=np.full(len(obs), np.nan))
+    assert with_nan == dataclasses.replace(obs, lateral=np.full(len(obs), np.nan))
+    assert with_nan != obs  # offsets against none

@@ -28,6 +28,13 @@ class TrajectoryError(ValueError):
     """A trajectory file that cannot be used; the message names the file, line and problem."""
 
 
+
+def _same_lateral(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    """Whether two records' lateral offsets are equal, NaN (a snapped pose) equal to NaN."""
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.array_equal(a, b, equal_nan=True))
+
 @dataclass(frozen=True)
 class Trajectories:
     """Observed (or true) states of several robots: one row per (time, robot).
@@ -129,6 +136,21 @@ class Trajectories:
             if lateral.shape != (n,):
                 raise TrajectoryError(f"lateral must have shape ({n},), got {lateral.shape}")
             object.__setattr__(self, "lateral", lateral)
+
+    def __eq__(self, other: object) -> bool:
+        # by value, as a record read back from its CSV equals the one written; the dataclass's
+        # own __eq__ compares the arrays as a tuple and raises numpy's "truth value of an array
+        # is ambiguous"
+        if not isinstance(other, Trajectories):
+            return NotImplemented
+        arrays = ("t", "robot", "row", "col", "heading")
+        return (
+            (self.robot_names, self.horizon, self.off_pace, self.tracker_interval, self.step_given)
+            == (other.robot_names, other.horizon, other.off_pace, other.tracker_interval,
+                other.step_given)
+            and all(np.array_equal(getattr(self, a), getattr(other, a)) for a in arrays)
+            and _same_lateral(self.lateral, other.lateral)
+        )  # fmt: skip
 
     def __len__(self) -> int:
         return len(self.t)
