@@ -162,3 +162,5 @@ def test_a_run_on_narrow_cells_carries_the_note_in_its_report_and_json(tmp_path)
     extras = world.extras()
     (note,) = extras.notes()
     assert "0.75 m cells" in note and extras.to_dict()["notes"] == [note]
+    sim = PhysicsRunWorld.simulate(scenario, 3, seed=0)
+    assert sim.report[1].startswith("note: robots 0.354 m across in 0.75 m cells")

@@ -52,10 +52,12 @@ def _observed_line(result: RunResult) -> str:
     return f"{line}\n          ({why})"
 
 
-def _wrapped(text: str, indent: int = 10) -> str:
+def _wrapped(text: str, indent: int = 10, label: str = "") -> str:
     import textwrap
 
-    return textwrap.fill(text, 96, initial_indent=" " * indent, subsequent_indent=" " * indent)
+    return textwrap.fill(
+        text, 96, initial_indent=label.ljust(indent), subsequent_indent=" " * indent
+    )
 
 
 def _equilibrium_text(eq: Equilibrium, a: str, b: str) -> str:
@@ -283,13 +285,7 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         _observed_line(result),
     ]
     if result.extras is not None:  # a world's own word on its run (one outside its calibration)
-        import textwrap
-
-        lines += [
-            textwrap.fill(note.removeprefix("note: "), 96, initial_indent="world     ",
-                          subsequent_indent=" " * 10)
-            for note in result.extras.notes()
-        ]  # fmt: skip
+        lines += [_wrapped(note, label="world") for note in result.extras.notes()]
     learned = result.learned
     has_features = any(result.feature_probabilities.values())
     if learned is not None and not has_features:

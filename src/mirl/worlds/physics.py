@@ -94,8 +94,7 @@ class PhysicsExtras:
         tuple of str
             The note, or nothing.
         """
-        w = self.world
-        return out_of_calibration(w.scenario, w.wall_contacts, w.n * (w.t + 1))
+        return world_notes(self.world)
 
     def damaged(self) -> bool:
         """Whether some motor is weaker than a healthy one.
@@ -115,8 +114,9 @@ cells). With robots 0.354 m across, boyd2-healthy at 0.75 m cells touched walls 
 robot-step against 0.01–0.02 at 1 m (two seeds each, 450 steps); on a real map at 0.4–0.5 m cells
 healthy robots wedged or scraped and their records read as damaged ones'."""
 WALL_CONTACTS_NOTED = 0.1
-"""Wall contacts per robot and step above which a simulation's summary says so, whatever the
-cell size: five times the most measured at 1 m cells."""
+"""Wall contacts per robot and step above which a run is noted, whatever the cell size: three
+times the most measured on the shipped 1 m cells (boydright-3, 300 steps, 0.033; boyd2-healthy
+0.01–0.02)."""
 
 
 def out_of_calibration(scenario: Scenario, wall_contacts: int, robot_steps: int) -> tuple[str, ...]:
@@ -146,11 +146,27 @@ def out_of_calibration(scenario: Scenario, wall_contacts: int, robot_steps: int)
     if cell >= CALIBRATED_CELL and not many:
         return ()
     return (
-        f"note: robots {2 * KOBUKI.base_radius:g} m across in {cell:g} m cells touched walls "
+        f"robots {2 * KOBUKI.base_radius:g} m across in {cell:g} m cells touched walls "
         f"{wall_contacts} times in {robot_steps} robot-steps; the world is calibrated on 1 m "
         "cells, and where a robot touches or wedges against a wall its steps fail by contact, "
         "not by its motors, which a verdict on its record cannot tell from damage",
     )
+
+
+def world_notes(world: PhysicalWorld) -> tuple[str, ...]:
+    """:func:`out_of_calibration` of a world after its steps so far (step 0 included).
+
+    Parameters
+    ----------
+    world : PhysicalWorld
+        The world.
+
+    Returns
+    -------
+    tuple of str
+        The note, or nothing.
+    """
+    return out_of_calibration(world.scenario, world.wall_contacts, world.n * (world.t + 1))
 
 
 def _strengths(cfg: PhysicsConfig) -> str:
@@ -252,10 +268,10 @@ class PhysicsRunWorld:
         cfg = world.cfg
         poses = MeasuredPoses(world.observed_tracks(), world.true_tracks(), cfg.control_hz)
         contacts = f"contacts: {world.contacts} between robots, {world.wall_contacts} with walls"
-        note = out_of_calibration(scenario, world.wall_contacts, world.n * steps)
+        notes = tuple(f"note: {n}" for n in world_notes(world))
         return Simulation(
             world.observations(), world.truth(), world.degree, conditions=_strengths(cfg),
-            step_seconds=cfg.step_seconds, report=(contacts, *note), poses=poses,
+            step_seconds=cfg.step_seconds, report=(contacts, *notes), poses=poses,
         )  # fmt: skip
 
     @staticmethod
