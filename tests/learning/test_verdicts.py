@@ -679,3 +679,110 @@ def test_a_robot_s_free_pace_counts_its_stays_and_moves_alone_that_keep_its_head
     other = alone.copy()
     other[7] = d.state_index(0, 6, 2)  # in the way of the last step
     assert free_pace(d, [robot, other], 0) == (2, 2)
+
+
+# --------------------------------------------------------------------------------------------
+# The robot beside its team
+
+
+@pytest.mark.parametrize(
+    ("own", "other", "ratio"),
+    [((221, 283), (279, 282), 0.842), ((30, 40), (38, 40), 0.842), ((5, 5), (0, 3), 0.9),
+     ((90, 100), (95, 100), 0.5)],
+)  # fmt: skip
+def test_below_probability_agrees_with_sampling(own, other, ratio):
+    from mirl.learning.verdicts import below_probability
+
+    rng = np.random.default_rng(0)
+    n = 400_000
+    a = rng.beta(1 + own[0], 1 + own[1] - own[0], n)
+    b = rng.beta(1 + other[0], 1 + other[1] - other[0], n)
+    sampled = float(np.mean(a < ratio * b))
+    assert below_probability(own, other, ratio) == pytest.approx(sampled, abs=0.004)
+
+
+def test_team_ratio_is_the_smallest_forward_parts_margin():
+    from mirl.learning.verdicts import team_ratio
+
+    definition = load_scenario("boyd2").faults  # wheels 0.95, navigation 0.97, floor 0.99
+    assert team_ratio(definition, FORWARD) == pytest.approx(1 - 0.15 / 0.95)
+    assert team_ratio(definition, ("floor",)) == pytest.approx(1 - 0.15 / 0.99)
+
+
+def _said(conf, part=None, candidates=(), fit_ok=True, forward=(0, 0)):
+    from mirl.learning.model_check import Check, ModelFit
+    from mirl.learning.verdicts import FeatureUncertainty
+
+    fit = ModelFit((Check("record", fit_ok, None, "" if fit_ok else "it crawls"),))
+    verdict = Verdict(part, conf, tuple(candidates), dict.fromkeys(FEATURES, 0.0), fit)
+    intervals = dict.fromkeys(FEATURES, (0.9, 1.0))
+    return FeatureUncertainty(intervals, verdict, forward_steps=forward)
+
+
+def test_a_robot_well_below_its_teammate_is_not_called_healthy():
+    """I's forward steps succeed 0.78 of the time, J's 0.99: "no part of I" at 0.99 (four
+    healthy parts a little low, by the scenario's levels) becomes one of forward's parts."""
+    from mirl.learning.verdicts import compared_with_team
+
+    definition = load_scenario("boyd2").faults
+    before = [_said(0.99, forward=(221, 283)), _said(1.0, forward=(279, 282))]
+    after = compared_with_team(before, ("I", "J"), definition, FORWARD)
+    v = after[0].verdict
+    assert v.candidates == FORWARD and v.confidence > 0.95 and v.is_right(("right_wheel",))
+    assert v.beside is not None and v.beside.robot == "J" and v.beside.own == (221, 283)
+    assert "221 of 283" in v.sentence("I") and v.to_dict()["beside"]["robot_forward"] == [279, 282]
+    assert after[1] is before[1]  # J is above I: nothing to say
+
+
+def test_a_team_comparison_only_lowers_a_healthy_verdict():
+    from mirl.learning.verdicts import compared_with_team
+
+    definition = load_scenario("boyd2").faults
+    cases = [
+        # a part named: left as it is, however far below
+        ([_said(0.9, part="left_wheel", forward=(50, 100)), _said(1.0, forward=(99, 100))], 0),
+        # a record that does not fit: its verdict already claims nothing high
+        ([_said(0.7, fit_ok=False, forward=(50, 100)), _said(1.0, forward=(99, 100))], 0),
+        # alike: decisively not below (b < 0.01)
+        ([_said(0.99, forward=(95, 100)), _said(0.99, forward=(96, 100))], 0),
+        # no other robot with forward steps
+        ([_said(0.99, forward=(50, 100)), _said(1.0)], 0),
+    ]
+    for before, i in cases:
+        after = compared_with_team(before, ("I", "J"), definition, FORWARD)
+        assert after[i] is before[i]
+    # a little below, on few steps: "no part" stays, at no more than 1 - b (b = 0.21)
+    before = [_said(0.99, forward=(18, 20)), _said(1.0, forward=(20, 20))]
+    after = compared_with_team(before, ("I", "J"), definition, FORWARD)
+    v = after[0].verdict
+    assert not v.names_damage and v.beside is not None
+    assert v.confidence == pytest.approx(1 - v.beside.below) and v.confidence < 0.99
+
+
+def test_a_damaged_wheel_below_a_teammate_better_than_the_healthy_levels_is_found():
+    """Grid robots whose healthy parts work every time (better than the scenario's healthy
+    levels, as the physical world's robots do) and I's left wheel at 0.78, damaged (below
+    0.95 - 0.15): its forward steps succeed about as often as the levels' product (0.87), so
+    the features alone call it four healthy parts a little low; beside J it is found."""
+    scenario = load_scenario("boyd2-healthy")
+    for robot in ("I", "J"):
+        for f in FEATURES:
+            scenario = scenario.with_damage(robot, f, 1.0)
+    scenario = scenario.with_damage("I", "left_wheel", 0.78)
+    from mirl.observations.trajectories import Trajectories
+
+    confident_healthy = 0
+    for seed in range(3):
+        sim = PatrolSimulator(scenario, observability=1.0)
+        _, info = sim.reset(seed=seed)
+        states = [info["states"].copy()]
+        for _ in range(450):
+            states.append(sim.step()[-1]["states"].copy())
+        obs = Trajectories.from_states(scenario.domain, scenario.robot_names, np.asarray(states))
+        result = learn(obs, scenario, "mirl-t", observability=1.0)
+        v = result.robot("I").verdict
+        assert v is not None
+        confident_healthy += (not v.names_damage) and v.confidence >= 0.9
+        j = result.robot("J").verdict
+        assert j is not None and not j.names_damage and j.beside is None
+    assert confident_healthy == 0

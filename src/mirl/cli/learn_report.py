@@ -35,7 +35,7 @@ def verdict_sentence(robot: str, record: dict) -> str:
         :meth:`~mirl.learning.verdicts.Verdict.sentence` of the verdict the record describes.
     """
     from mirl.learning.model_check import Check, ModelFit
-    from mirl.learning.verdicts import Verdict
+    from mirl.learning.verdicts import TeamComparison, Verdict
 
     fit = None
     if "fit" in record:  # only its words are needed here
@@ -48,6 +48,7 @@ def verdict_sentence(robot: str, record: dict) -> str:
         fit=fit,
         seen_moving=record.get("seen_moving", True),
         weakened=record.get("weakened"),
+        beside=TeamComparison.from_dict(record["beside"]) if "beside" in record else None,
     )
     return verdict.sentence(robot)
 

@@ -99,6 +99,7 @@ from mirl.learning.transitions import (
 )
 from mirl.learning.verdicts import (
     FeatureUncertainty,
+    compared_with_team,
     record_off_pace,
     robot_record,
     robot_uncertainty,
@@ -380,7 +381,8 @@ def _uncertainties(
                 random_state=setup.robot_seed(i, 0),
             )
         )  # fmt: skip
-    return out
+    forward = setup.scenario.feature_map.action_subsets["forward"]
+    return compared_with_team(out, setup.scenario.robot_names, setup.scenario.faults, forward)
 
 
 def _check_arguments(

@@ -117,6 +117,11 @@ __all__ = [
     "point_verdict",
     "MOVING_ACTIONS",
     "confounded_parts",
+    "TeamComparison",
+    "forward_outcomes",
+    "team_ratio",
+    "below_probability",
+    "compared_with_team",
 ]
 
 LEVEL = 0.95
@@ -163,9 +168,12 @@ class Verdict:
     weakened : str or None
         A wheel the robot's drift shows to be weaker than the other where the verdict does not
         call it damaged: weakened, its moves unaffected (:func:`weakened_wheel`).
+    beside : TeamComparison or None
+        The robot's forward steps against those of another robot of the same record, where
+        that comparison set the verdict (:func:`compared_with_team`).
 
         .. versionchanged:: 0.2.0
-           ``fit``, ``seen_moving`` and ``weakened`` are new.
+           ``fit``, ``seen_moving``, ``weakened`` and ``beside`` are new.
     """
 
     part: str | None
@@ -175,6 +183,7 @@ class Verdict:
     fit: ModelFit | None = None
     seen_moving: bool = True
     weakened: str | None = None
+    beside: TeamComparison | None = None
 
     @property
     def names_damage(self) -> bool:
@@ -221,8 +230,8 @@ class Verdict:
         -------
         dict
             ``part``, ``confidence`` and ``damage_probabilities`` (rounded to 4 decimals),
-            ``candidates``; ``seen_moving`` (only when False), ``also``, ``weakened`` and
-            ``fit`` only when set.
+            ``candidates``; ``seen_moving`` (only when False), ``also``, ``weakened``, ``fit``
+            and ``beside`` only when set.
         """
         out = {
             "part": self.part,
@@ -240,6 +249,8 @@ class Verdict:
             out["weakened"] = self.weakened
         if self.fit is not None:
             out["fit"] = self.fit.to_dict()
+        if self.beside is not None:
+            out["beside"] = self.beside.to_dict()
         return out
 
     def sentence(self, robot: str) -> str:
@@ -280,6 +291,8 @@ class Verdict:
             said += f"; its {_words(self.weakened)} is weakened" + (
                 ", its moves unaffected" if self.fit is None or self.fit.ok else ""
             )
+        if self.beside is not None:
+            said += f"; {self.beside.sentence()}"
         if self.fit is not None and not self.fit.ok:
             said += f"; but {robot}'s record does not fit L's motion models: {self.fit.reason}"
         return said
@@ -354,10 +367,13 @@ class FeatureUncertainty:
     log_evidence : float
         The log marginal likelihood of the robot's kept steps (and drift) under L's policy,
         averaged over the motion models with equal prior odds.
+    forward_steps : (int, int)
+        The successes and trials of the robot's forward-labelled steps among those the verdict's
+        evidence holds (:func:`compared_with_team`).
 
         .. versionchanged:: 0.2.0
-           ``medians``, ``motion_models``, ``indistinguishable``, ``sided_by_drift`` and
-           ``log_evidence`` are new.
+           ``medians``, ``motion_models``, ``indistinguishable``, ``sided_by_drift``,
+           ``log_evidence`` and ``forward_steps`` are new.
     """
 
     intervals: Mapping[str, tuple[float, float]]
@@ -370,6 +386,7 @@ class FeatureUncertainty:
     indistinguishable: tuple[tuple[str, ...], ...] = ()
     sided_by_drift: bool = False
     log_evidence: float = 0.0
+    forward_steps: tuple[int, int] = (0, 0)
 
 
 @dataclass(frozen=True)
@@ -1693,4 +1710,237 @@ def robot_uncertainty(
         indistinguishable=groups,
         sided_by_drift=wheels_group and drift is not None and not unsided,
         log_evidence=post.mean_log_evidence,
+        forward_steps=forward_outcomes(domain, s[used], lab[used], s_next[used]),
     )
+
+
+# --------------------------------------------------------------------------------------------
+# The robot beside its team
+#
+# The prior centres a healthy part on the scenario's healthy level, and a forward step needs
+# every part, so a robot whose forward steps succeed a little less than the healthy levels'
+# product is explained as four healthy parts a little low. Where healthy robots do better
+# than those levels (the physical world's succeed on 0.98-1.00 of their forward steps, the
+# levels' product is 0.87), a robot with a damaged wheel can sit there: the margin is the
+# same, measured from a higher level. The team shows that level: robots of one kind, and
+# healthy ones alike (the grid's truth, and the physical world's, measured). A robot whose
+# forward steps succeed below another's of the same record by more than any one part's margin
+# allows (1 - margin / healthy level, the smallest over forward's parts) has a damaged part by
+# the definition's own ratio (docs/design.md, "The robot beside its team").
+
+
+@dataclass(frozen=True)
+class TeamComparison:
+    """A robot's forward steps against another robot's of the same record.
+
+    Parameters
+    ----------
+    robot : str
+        The other robot.
+    own : (int, int)
+        The robot's forward steps: successes, trials.
+    other : (int, int)
+        The other robot's.
+    ratio : float
+        The ratio below which one of the robot's parts is damaged (:func:`team_ratio`).
+    below : float
+        The probability that the robot's forward success is below ``ratio`` times the other's
+        (:func:`below_probability`).
+    """
+
+    robot: str
+    own: tuple[int, int]
+    other: tuple[int, int]
+    ratio: float
+    below: float
+
+    def to_dict(self) -> dict:
+        """The comparison as ``mirl learn --json`` gives it (``verdict.beside``).
+
+        Returns
+        -------
+        dict
+            ``robot``, ``forward`` and ``robot_forward`` (successes, trials), ``ratio`` and
+            ``below`` (4 decimals).
+        """
+        return {
+            "robot": self.robot,
+            "forward": list(self.own),
+            "robot_forward": list(self.other),
+            "ratio": round(float(self.ratio), 4),
+            "below": round(float(self.below), 4),
+        }
+
+    @classmethod
+    def from_dict(cls, record: Mapping) -> TeamComparison:
+        """The comparison :meth:`to_dict` wrote.
+
+        Parameters
+        ----------
+        record : mapping
+            :meth:`to_dict`'s record.
+
+        Returns
+        -------
+        TeamComparison
+            The comparison.
+        """
+        return cls(
+            str(record["robot"]), tuple(record["forward"]), tuple(record["robot_forward"]),
+            float(record["ratio"]), float(record["below"]),
+        )  # fmt: skip
+
+    def sentence(self) -> str:
+        """The comparison in words, for :meth:`Verdict.sentence`.
+
+        Returns
+        -------
+        str
+            "its forward steps succeed 243 of 310 (0.78), J's 299 of 306 (0.98): less than
+            0.842 of J's with probability 0.94, ...".
+        """
+        (s, n), (so, no) = self.own, self.other
+        return (
+            f"its forward steps succeed {s} of {n} ({s / n:.2f}), {self.robot}'s {so} of {no} "
+            f"({so / no:.2f}): less than {self.ratio:.3f} of {self.robot}'s with probability "
+            f"{self.below:.2f}, which among robots of one kind only a damaged part explains"
+        )
+
+
+def forward_outcomes(
+    domain: PatrolDomain, s: np.ndarray, action: np.ndarray, s_next: np.ndarray
+) -> tuple[int, int]:
+    """Successes and trials of the forward-labelled steps among ``(s, action, s_next)``.
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The domain (its intended outcomes ψ).
+    s, action, s_next : ndarray of int
+        The steps' states, labels (-1: none) and next states.
+
+    Returns
+    -------
+    (int, int)
+        Steps that reached ψ(s, forward), and forward-labelled steps.
+    """
+    s, action, s_next = (np.asarray(v, dtype=int) for v in (s, action, s_next))
+    fwd = action == FORWARD
+    hit = domain.intended[s[fwd], FORWARD] == s_next[fwd]
+    return int(hit.sum()), int(fwd.sum())
+
+
+def team_ratio(definition: DamageDefinition, forward_parts: Sequence[str]) -> float:
+    """The ratio of a robot's forward success to a healthy robot's below which one of its parts
+    is damaged: the smallest ``1 - margin / h`` over the parts a forward step needs, ``h``
+    their healthy levels (a wheel's, 0.842, by default).
+
+    Parameters
+    ----------
+    definition : DamageDefinition
+        The healthy levels and the margin.
+    forward_parts : sequence of str
+        The parts a forward step needs (ξ's forward subset).
+
+    Returns
+    -------
+    float
+        The ratio, in (0, 1).
+    """
+    return min(1.0 - definition.margin / definition.healthy_level(f) for f in forward_parts)
+
+
+TEAM_QUANTILES = 2001
+"""Quantiles of the other robot's Beta posterior :func:`below_probability` averages over (its
+error is below 1 / the quantiles)."""
+
+
+def below_probability(own: tuple[int, int], other: tuple[int, int], ratio: float) -> float:
+    """P(θ < ratio · θ') for independent Beta(1 + s, 1 + n − s) posteriors of two success rates.
+
+    Averaged over evenly spaced quantiles of θ' (:data:`TEAM_QUANTILES`): deterministic, and
+    exact to the quadrature's error, which a test checks against sampling.
+
+    Parameters
+    ----------
+    own, other : (int, int)
+        Successes and trials of θ and θ'.
+    ratio : float
+        The ratio.
+
+    Returns
+    -------
+    float
+        The probability.
+    """
+    from scipy.stats import beta
+
+    (s, n), (so, no) = own, other
+    q = beta.ppf((np.arange(TEAM_QUANTILES) + 0.5) / TEAM_QUANTILES, 1 + so, 1 + no - so)
+    return float(np.mean(beta.cdf(ratio * q, 1 + s, 1 + n - s)))
+
+
+def compared_with_team(
+    uncertainties: Sequence[FeatureUncertainty | None],
+    names: Sequence[str],
+    definition: DamageDefinition,
+    forward_parts: Sequence[str],
+) -> list[FeatureUncertainty | None]:
+    """Each robot said to have no damaged part, against the robots of its record.
+
+    For the robot, the other robot its forward steps most probably fall short of by more than
+    :func:`team_ratio` (:func:`below_probability`, probability b). With b ≥ 0.5 the verdict
+    becomes "one of its parts (forward's) is damaged" at b; otherwise "no part" is stated at
+    no more than 1 − b, where b is at least :data:`NOT_RULED_OUT` (odds of 1 : 99 against it
+    are decisive, as for a motion model's weight). A verdict naming a part, a robot never seen moving, a record that does
+    not fit L's models (its verdict already claims nothing at high confidence) and a
+    comparison that changes nothing are left as they are.
+
+    Parameters
+    ----------
+    uncertainties : sequence of FeatureUncertainty or None
+        Per robot, :func:`robot_uncertainty`'s (None: no verdict).
+    names : sequence of str
+        The robots' names, in that order.
+    definition : DamageDefinition
+        The healthy levels and the margin.
+    forward_parts : sequence of str
+        The parts a forward step needs (ξ's forward subset).
+
+    Returns
+    -------
+    list of FeatureUncertainty or None
+        The uncertainties, each verdict the comparison sets with its ``beside``.
+    """
+    from dataclasses import replace
+
+    ratio = team_ratio(definition, forward_parts)
+    out = list(uncertainties)
+    for i, u in enumerate(uncertainties):
+        if u is None or not u.verdict.seen_moving or u.verdict.names_damage:
+            continue
+        if u.verdict.fit is not None and not u.verdict.fit.ok:  # already claims nothing high
+            continue
+        if not u.forward_steps[1]:
+            continue
+        found = [
+            TeamComparison(
+                names[j], u.forward_steps, o.forward_steps, ratio,
+                below_probability(u.forward_steps, o.forward_steps, ratio),
+            )  # fmt: skip
+            for j, o in enumerate(uncertainties)
+            if j != i and o is not None and o.forward_steps[1]
+        ]
+        if not found:
+            continue
+        most = max(found, key=lambda c: c.below)
+        v = u.verdict
+        if most.below >= 0.5:
+            parts = tuple(f for f in u.intervals if f in set(forward_parts))
+            v = replace(v, confidence=most.below, candidates=parts, weakened=None, beside=most)
+        elif most.below >= NOT_RULED_OUT and 1.0 - most.below < v.confidence:
+            v = replace(v, confidence=1.0 - most.below, beside=most)
+        else:
+            continue
+        out[i] = replace(u, verdict=v)
+    return out
