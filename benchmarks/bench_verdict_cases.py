@@ -34,10 +34,16 @@ run only learns. Cases:
 ``amcl-right``     the same stream of ``boydright`` (J's right motor at 0.5)
 ``amcl-two``       the same stream, I's right and J's left motor at 0.6
 ``amcl-two-1s``    the same at ``--step-seconds 1``
+``edge-right``     physics, boyd2-healthy, I's right motor at 0.74 (damaged by its effect, just
+                   below the margin: its forward steps succeed 0.76-0.81, a healthy robot's
+                   0.98-1.00), full view, grid CSV
+``edge-left-poses``  the same mirrored (I's left motor), from L's pose CSV
+``edge-boydright``  physics, boydright, J's right motor at 0.74, full view, grid CSV
 =================  ===========================================================================
 
 Per case and robot it prints the verdict, its confidence, whether it is (confidently) false,
-the feature probabilities, the fit check and the motion-model weights where the JSON has them.
+the feature probabilities, the fit check and the motion-model weights where the JSON has them;
+a record ``mirl learn`` refuses is counted, with the line it printed.
 """
 
 from __future__ import annotations
@@ -118,6 +124,12 @@ CASES = {
              {"I": ("right_wheel",), "J": ("left_wheel",)}, "amcl", 1.0),
         Case("amcl-two-1s", "boyd2-healthy", "physics", ("I:right_wheel=0.6", "J:left_wheel=0.6"),
              {"I": ("right_wheel",), "J": ("left_wheel",)}, "amcl", 1.0, ("--step-seconds", "1")),
+        Case("edge-right", "boyd2-healthy", "physics", ("I:right_wheel=0.74",),
+             {"I": ("right_wheel",), "J": ()}, "grid", 1.0),
+        Case("edge-left-poses", "boyd2-healthy", "physics", ("I:left_wheel=0.74",),
+             {"I": ("left_wheel",), "J": ()}, "poses", 1.0),
+        Case("edge-boydright", "boydright", "physics", ("J:right_wheel=0.74",),
+             {"I": (), "J": ("right_wheel",)}, "grid", 1.0),
     )
 }  # fmt: skip
 
@@ -153,10 +165,16 @@ def amcl_stream(tracks: PoseTracks, seed: int) -> PoseTracks:
     )  # fmt: skip
 
 
+class Refused(RuntimeError):
+    """mirl refused the command (exit code 2): its one line is the message."""
+
+
 def run_cli(argv: list[str]) -> str:
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         code = mirl(argv)
+    if code == 2:
+        raise Refused(err.getvalue().strip().splitlines()[-1])
     if code != 0:
         raise RuntimeError(f"mirl {' '.join(argv)} exited with {code}")
     return out.getvalue()
@@ -231,11 +249,16 @@ def main() -> None:
     summary = []
     for name in args.cases:
         case = CASES[name]
-        n = wrong = alone = among = damaged = misfit = 0
+        n = wrong = alone = among = damaged = misfit = refused = 0
         print(f"== {name}: {case.scenario}, {case.world}, damage {case.damage or 'scenario'}, "
               f"data {case.data}, view {case.observability:g}")  # fmt: skip
         for seed in seeds_of(args.seeds):
-            out = learned(case, simulated(case, seed, args.work))
+            try:  # a record mirl refuses is counted, with its reason, as a user would see it
+                out = learned(case, simulated(case, seed, args.work))
+            except Refused as e:
+                refused += 1
+                print(f"  seed {seed}: refused: {e}")
+                continue
             for robot, r in out["robots"].items():
                 v = r["verdict"]
                 false = false_statement(v, case.truth[robot])
@@ -262,12 +285,13 @@ def main() -> None:
                 flag = "CONFIDENTLY FALSE" if confident else ("false" if false else "")
                 print(f"  seed {seed} {robot}: {named:<28} {v['confidence']:.2f} {flag:<17} "
                       f"{probs}{extra}")  # fmt: skip
-        print(f"  -> confidently false: {wrong} of {n}")
+        more = f"; {refused} refused" if refused else ""
+        print(f"  -> confidently false: {wrong} of {n}{more}")
         summary.append(f"| {name} | {n} | {wrong} | {alone} / {damaged} | {among} / {damaged} | "
-                       f"{misfit} |")  # fmt: skip
+                       f"{misfit} | {refused} |")  # fmt: skip
     print("| case | verdicts | confidently false | damaged part alone | among candidates | "
-          "record does not fit |")  # fmt: skip
-    print("| --- | --- | --- | --- | --- | --- |")
+          "record does not fit | records refused |")  # fmt: skip
+    print("| --- | --- | --- | --- | --- | --- | --- |")
     print("\n".join(summary))
 
 
