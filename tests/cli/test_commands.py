@@ -120,6 +120,26 @@ def test_a_reader_that_stops_early_is_not_an_error():
     assert err == b""
 
 
+def test_a_reader_that_stops_early_does_not_cost_the_files(tmp_path):
+    # `mirl simulate ... --observations obs.csv | head -0`: the record is written all the same
+    out = {k: tmp_path / f"{k}.csv" for k in ("obs", "truth", "poses")}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mirl.cli", "simulate", "--scenario", "boyd2", "--steps", "20",
+         "--observations", str(out["obs"]), "--truth", str(out["truth"]),
+         "--poses", str(out["poses"])],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )  # fmt: skip
+    proc.stdout.close()
+    err = proc.stderr.read()
+    proc.stderr.close()
+    assert proc.wait(timeout=120) == 141
+    assert err == b""
+    assert out["truth"].read_text().count("\n") == 1 + 2 * 20
+    assert out["obs"].read_text().startswith("t,robot,row,col,heading")
+    assert out["poses"].read_text().startswith("t,robot,x,y,yaw")
+
+
 def test_version(capsys):
     with pytest.raises(SystemExit) as info:
         main(["--version"])

@@ -61,6 +61,56 @@ def test_simulated_poses_come_back_as_the_observations(scenario, degree, rate):
         assert sum(c.read for c in d.report) == len(p)
 
 
+def same_steps(read, obs, k: int) -> bool:
+    """Whether ``read`` holds the observed steps of ``obs`` from step ``k`` on, renumbered from
+    0 (the watch of a record read from its poses ends at the last pose)."""
+    return np.array_equal(read.t, obs.t - k) and all(
+        np.array_equal(getattr(read, f), getattr(obs, f)) for f in FIELDS[1:]
+    )
+
+
+@pytest.mark.parametrize("seed", range(3))
+@pytest.mark.parametrize("step", ["auto", 2.0])
+def test_simulated_poses_come_back_without_a_start_time(scenario, seed, step):
+    """A pose file read without ``start_time`` gives the observations a start at 0 gives, from
+    the first step seen: the default start is the earliest pose moved to the record's own
+    phase. At the earliest pose itself — half a step before the first observed step's time,
+    which is where ``mirl simulate --poses`` writes it — every stretch in view gained a step
+    on the last cell seen, a stall no robot made (I's healthy wheels learned at 0.73 and 0.83
+    on boyd2, seed 1, 450 steps)."""
+    obs = simulate(scenario, 300, seed=seed).observations
+    first = int(obs.t.min())
+    p = poses_from_trajectories(obs, scenario, rate_hz=10.0, sigma_xy=0.05,
+                                sigma_yaw_degrees=3.0, seed=seed)  # fmt: skip
+    d = discretise(p, scenario, step_seconds=step)
+    assert d.start_time == pytest.approx(2.0 * first)
+    assert d.phased and "halfway between the robots' changes of cell" in d.summary()
+    assert same_steps(d.trajectories, obs, first)
+    assert [c.observed_steps for c in d.report] == np.bincount(obs.robot, minlength=2).tolist()
+
+
+def test_a_record_in_other_time_units_is_read_alike(scenario):
+    """Stamps in milliseconds change the step read (2000 "s", its robots' jumps), not the
+    steps: the phase scales with them."""
+    scale = 1e3
+    obs = simulate(scenario, 450, seed=1).observations
+    p = poses_from_trajectories(obs, scenario, rate_hz=10.0)
+    d = discretise(p, scenario, step_seconds="auto")
+    scaled = discretise(dataclasses.replace(p, t=p.t * scale), scenario, step_seconds="auto")
+    assert scaled.step_seconds == pytest.approx(d.step_seconds * scale)
+    assert same(scaled.trajectories, d.trajectories)
+
+
+def test_a_sparse_trackers_poses_keep_their_times(scenario):
+    """One pose a step (a camera at the robots' decisions) already lies at the steps' times:
+    the start stays on the earliest pose."""
+    obs = simulate(scenario, 300, seed=1).observations
+    p = poses_from_trajectories(obs, scenario, rate_hz=0.5)
+    d = discretise(p, scenario, step_seconds="auto")
+    assert not d.phased and d.start_time == pytest.approx(p.t.min())
+    assert same_steps(d.trajectories, obs, int(obs.t.min()))
+
+
 def test_nearest_pose_tolerance_and_gaps(scenario):
     # I on (0, 1)..(0, 4) heading east; steps of 2 s from t = 10
     p = poses(

@@ -208,17 +208,20 @@ def _simulate(args: argparse.Namespace) -> int:
         random_starts=args.random_starts,
     )
     elapsed, cpu = time.perf_counter() - start, time.process_time() - cpu
-    print(*_simulation_summary(scenario, sim, args.seed, elapsed, cpu), sep="\n")
+    # the files first, then what was done: a reader that leaves early (`| head -3`) stops the
+    # printing, not the record the user asked for
+    wrote = []
     if args.observations:
         sim.observations.to_csv(args.observations)
-        print(f"wrote {args.observations} ({len(sim.observations)} rows)")
+        wrote.append(f"wrote {args.observations} ({len(sim.observations)} rows)")
     if args.truth:
         sim.truth.to_csv(args.truth)
-        print(f"wrote {args.truth} ({len(sim.truth)} rows)")
+        wrote.append(f"wrote {args.truth} ({len(sim.truth)} rows)")
     if args.poses and sim.poses is not None:
-        _write_measured_poses(Path(args.poses), sim.poses)
+        wrote.append(_write_measured_poses(Path(args.poses), sim.poses))
     elif args.poses:
-        _write_poses(args, scenario, sim.observations)
+        wrote.append(_write_poses(args, scenario, sim.observations))
+    print(*_simulation_summary(scenario, sim, args.seed, elapsed, cpu), *wrote, sep="\n")
     return 0
 
 
@@ -243,9 +246,9 @@ def _simulation_summary(scenario, sim, seed: int, elapsed: float, cpu: float) ->
     return lines
 
 
-def _write_measured_poses(out: Path, poses) -> None:
+def _write_measured_poses(out: Path, poses) -> str:
     """``--poses OUT`` of a world that measures poses itself: what L's sensor measured to
-    ``OUT``, the true poses beside it (``.true`` before the suffix)."""
+    ``OUT``, the true poses beside it (``.true`` before the suffix); the line that says so."""
     from mirl.observations.poses import write_pose_csv
 
     if out.suffix.lower() == ".csv":  # .csv or .mcap: checked before the simulation
@@ -255,13 +258,15 @@ def _write_measured_poses(out: Path, poses) -> None:
     true_out = out.with_name(out.stem + ".true" + out.suffix)
     write(poses.observed, out)
     write(poses.true, true_out)
-    print(
+    return (
         f"wrote {out} ({len(poses.observed)} poses L's camera measured, one per seen patroller "
         f"per step) and {true_out} ({len(poses.true)} true poses at {poses.true_rate_hz:g} Hz)"
     )
 
 
-def _write_poses(args: argparse.Namespace, scenario, observations) -> None:
+def _write_poses(args: argparse.Namespace, scenario, observations) -> str:
+    """``--poses OUT`` from grid observations (:func:`poses_from_trajectories`); the line that
+    says so."""
     from pathlib import Path
 
     from mirl.observations.bags import write_mcap
@@ -285,7 +290,7 @@ def _write_poses(args: argparse.Namespace, scenario, observations) -> None:
     else:
         write_mcap(tracks, out)
         what = "MCAP, topics /ROBOT/pose"
-    print(
+    return (
         f"wrote {out} ({len(tracks)} poses, {what}, {args.pose_rate:g} Hz, steps of "
         f"{args.step_seconds:g} s from t = 0; noise {sigma_m:g} m / {sigma_deg:g} deg)"
     )

@@ -339,7 +339,8 @@ def _observation_args(sp: argparse.ArgumentParser, with_file: bool = True) -> No
         type=finite_float,
         default=None,
         metavar="SECONDS",
-        help="time of step 0 (default: the earliest pose read)",
+        help="time of step 0 (default: the earliest pose read, moved to the record's phase: "
+        "halfway between the robots' changes of cell)",
     )
     g.add_argument(
         "--tolerance",

@@ -8,7 +8,11 @@ every learner takes, plus a per-robot account of what happened to every pose.
   ``drop_off_map=True``, dropped and counted.
 - **Heading.** The nearest of the 4 headings: yaw 0 east (0), π/2 north (1), π west (2), −π/2
   south (3).
-- **Time.** Step k is at ``start_time + k·step_seconds`` (default start: the earliest pose read).
+- **Time.** Step k is at ``start_time + k·step_seconds``. The default start is the earliest pose
+  read, moved by less than half a step to where the record puts its steps
+  (:func:`phased_start`): halfway between the moments the robots change cells, when they change
+  them in a rhythm of the step (a tracker reporting at their decisions, poses written from grid
+  states), so that a step never takes the end of one move and the start of the next.
   Each step takes the robot's pose *nearest* to the step time, if one lies within ``tolerance``
   (default half a step, so every pose is a candidate for exactly one step and none is used
   twice). A step with no pose within the tolerance is unobserved — never interpolated.
@@ -27,6 +31,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from mirl.observations.phase import cell_changes, step_phase
 from mirl.observations.poses import PoseError, PoseTracks
 from mirl.observations.trajectories import MAX_TIME, Trajectories
 from mirl.world.maps import HEADING_DELTAS, HEADING_YAWS, MAX_FRAME_ORIGIN
@@ -41,6 +46,7 @@ __all__ = [
     "lateral_offset",
     "auto_step_seconds",
     "decision_rhythm",
+    "phased_start",
     "rhythm_strength",
     "off_pace",
     "AutoStep",
@@ -264,6 +270,9 @@ class Discretised:
         was read. A ``start_time`` after it leaves every pose before the watch.
 
         .. versionadded:: 0.2.0
+    phased : bool, default False
+        Whether the start is the earliest pose moved to the phase of the robots' changes of
+        cell (:func:`phased_start`), the start not being given.
     """
 
     trajectories: Trajectories
@@ -274,6 +283,7 @@ class Discretised:
     visible: np.ndarray  # (rows, cols) bool: the cells L could see (see ``discretise``)
     auto_step: AutoStep | None = None  # how the step was chosen, when it was
     last_pose: float | None = None  # the latest pose's time (s), taken or not
+    phased: bool = False  # the default start moved to the phase of the robots' changes of cell
 
     def visible_states(self, scenario: Scenario) -> np.ndarray:
         """The states on visible cells, for :func:`mirl.learning.learn`'s ``visible``.
@@ -301,10 +311,11 @@ class Discretised:
         """
         tr = self.trajectories
         chosen = f", {self.auto_step.sentence()}" if self.auto_step is not None else ""
+        phase = ", halfway between the robots' changes of cell" if self.phased else ""
         head = (
-            f"{tr.horizon} steps of {self.step_seconds:g} s from t = {self.start_time:.3f} s "
-            f"(tolerance {self.tolerance:g} s{chosen}); {int(self.visible.sum())} cells visible "
-            "to L"
+            f"{tr.horizon} steps of {self.step_seconds:g} s from t = {self.start_time:.3f} s"
+            f"{phase} (tolerance {self.tolerance:g} s{chosen}); {int(self.visible.sum())} cells "
+            "visible to L"
         )
         return "\n".join([head, *("  " + c.line() for c in self.report)])
 
@@ -383,7 +394,8 @@ def discretise(
     step_seconds : float or "auto", default 2.0
         The step (s); ``"auto"``: the robots' own pace (:func:`auto_step_seconds`).
     start_time : float, optional
-        The time (s) of step 0; the earliest pose by default.
+        The time (s) of step 0; by default the earliest pose at the record's phase
+        (:func:`phased_start`).
     n_steps : int, optional
         The steps of the watch; by default up to the step nearest the last pose.
     tolerance : float, optional
@@ -425,6 +437,11 @@ def discretise(
         step_seconds = auto.seconds
     tracks, tol = _checked(tracks, scenario, step_seconds, tolerance)
     _check_tolerance(tracks.source, tol, step_seconds, auto is not None)
+    phased = False
+    if start_time is None and len(tracks):
+        first = float(tracks.t.min())
+        start_time = phased_start(tracks, scenario, step_seconds)
+        phased = start_time != first
     start_time, n_steps = _watch(tracks, start_time, n_steps, step_seconds)
 
     # time: nearest step and the distance to it
@@ -487,7 +504,9 @@ def discretise(
         for i, name in enumerate(tracks.robot_names)
     )
     last = float(tracks.t.max()) if len(tracks) else None
-    return Discretised(traj, report, float(start_time), float(step_seconds), tol, vis, auto, last)
+    return Discretised(
+        traj, report, float(start_time), float(step_seconds), tol, vis, auto, last, phased
+    )
 
 
 def _check_yaw_units(tracks: PoseTracks, chosen, k, row, col, heading) -> None:
@@ -578,7 +597,8 @@ def auto_step_seconds(
     scenario : Scenario
         The scenario whose map frame turns positions into cells.
     start_time : float, optional
-        The time (s) of step 0; the earliest pose by default.
+        The time (s) of step 0; by default the earliest pose at the phase of each step tried
+        (:func:`phased_start`).
     long_moves : float, default AUTO_LONG_MOVES
         The share of moves that may span more than one cell at the step chosen.
 
@@ -592,11 +612,18 @@ def auto_step_seconds(
         return AutoStep(2.0, 0.0, "few moves")
     rf, cf = scenario.map.frame.cell_coordinates(tracks.x, tracks.y)
     row, col = np.floor(rf + 0.5).astype(np.int64), np.floor(cf + 0.5).astype(np.int64)
-    start = float(t.min()) if start_time is None else float(start_time)
     robots = [np.flatnonzero(tracks.robot == i) for i in range(len(tracks.robot_names))]
     robots = [idx[np.argsort(t[idx], kind="stable")] for idx in robots if len(idx)]
+    changes, interval = cell_changes(t, row, col, robots), _pose_interval(t, robots)
+    first = float(t.min())
 
-    span = float(t.max()) - start
+    def start_at(step: float) -> float:
+        """Step 0's time at ``step``: the one given, or the phase discretise will read at."""
+        return float(start_time) if start_time is not None else step_phase(
+            changes, first, step, interval
+        )  # fmt: skip
+
+    span = float(t.max()) - first if start_time is None else float(t.max()) - float(start_time)
 
     def judged(step: float) -> tuple[bool, bool, float]:
         """Whether the robots were seen moving enough at ``step``; whether their moves stay
@@ -607,6 +634,7 @@ def auto_step_seconds(
         each = True
         if span / step + 1 >= MAX_TIME:  # more steps than any record may hold
             return False, False, 0.0
+        start = start_at(step)
         for idx in robots:
             cells = _cells_at_steps(t[idx], row[idx], col[idx], start, step)
             both = (cells[:-1, 0] != _UNSEEN) & (cells[1:, 0] != _UNSEEN)
@@ -619,7 +647,7 @@ def auto_step_seconds(
         share = long / pairs if pairs else 0.0
         return enough, enough and each and share <= long_moves, share
 
-    pose_interval = _pose_interval(t, robots)
+    pose_interval = interval
     if pose_interval >= AUTO_SPARSE:  # no step between two of its poses has one
         enough, _, share = judged(round(pose_interval, 3))
         if enough:
@@ -851,6 +879,50 @@ def _jump_period(t, row, col, robots: list[np.ndarray]) -> float | None:
             return round(period, 3)
         k += 1
     return None
+
+
+def phased_start(tracks: PoseTracks, scenario: Scenario, step_seconds: float) -> float:
+    """The time of step 0 when none is given: the earliest pose, moved by at most half a step to
+    the phase at which the robots change cells between steps.
+
+    A robot that acts in steps changes cells once a step, at the same phase of every step: a
+    tracker reporting at its decisions, poses written from grid states (``mirl simulate
+    --poses``, which writes each step's poses from half a step before its time to half a step
+    after) or a robot that stops onto its cells at its decisions change cells halfway between
+    two decisions. Steps put at the earliest pose, whatever its phase, would read the end of
+    one move and the start of the next as two steps on one cell — a stall at the edge of every
+    stretch the robot was in view, and at worst every move cut in two; the poses' own phase puts
+    each step where its state is: the mean of the changes' phases as angles of the step
+    (:func:`mirl.observations.phase.step_phase`), where they keep one; otherwise (a smooth
+    track at a speed of its own, few moves), and for a tracker that reports at most twice a
+    step, whose poses are the steps' times, the earliest pose. The step nearest the earliest pose is
+    step 0, so the watch keeps every pose.
+
+    .. versionadded:: 0.2.0
+
+    Parameters
+    ----------
+    tracks : PoseTracks
+        The poses, indexed by the scenario's robots.
+    scenario : Scenario
+        The scenario whose map frame turns positions into cells.
+    step_seconds : float
+        The step (s).
+
+    Returns
+    -------
+    float
+        The start (s), within half a step of the earliest pose; 0 for no poses.
+    """
+    t = np.asarray(tracks.t, dtype=float)
+    if not len(t):
+        return 0.0
+    rf, cf = scenario.map.frame.cell_coordinates(tracks.x, tracks.y)
+    row, col = np.floor(rf + 0.5).astype(np.int64), np.floor(cf + 0.5).astype(np.int64)
+    robots = [np.flatnonzero(tracks.robot == i) for i in range(len(tracks.robot_names))]
+    robots = [idx[np.argsort(t[idx], kind="stable")] for idx in robots if len(idx)]
+    changes, interval = cell_changes(t, row, col, robots), _pose_interval(t, robots)
+    return step_phase(changes, float(t.min()), float(step_seconds), interval)
 
 
 _UNSEEN = np.iinfo(np.int64).min
