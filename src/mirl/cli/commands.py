@@ -265,8 +265,8 @@ def _write_measured_poses(out: Path, poses) -> str:
 
 
 def _write_poses(args: argparse.Namespace, scenario, observations) -> str:
-    """``--poses OUT`` from grid observations (:func:`poses_from_trajectories`); the line that
-    says so."""
+    """``--poses OUT`` from grid observations
+    (:func:`~mirl.observations.discretise.poses_from_trajectories`); the line that says so."""
     from pathlib import Path
 
     from mirl.observations.bags import write_mcap
