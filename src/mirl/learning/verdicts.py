@@ -1892,9 +1892,9 @@ def compared_with_team(
     :func:`team_ratio` (:func:`below_probability`, probability b). With b ≥ 0.5 the verdict
     becomes "one of its parts (forward's) is damaged" at b; otherwise "no part" is stated at
     no more than 1 − b, where b is at least :data:`NOT_RULED_OUT` (odds of 1 : 99 against it
-    are decisive, as for a motion model's weight). A verdict naming a part, a robot never seen moving, a record that does
-    not fit L's models (its verdict already claims nothing at high confidence) and a
-    comparison that changes nothing are left as they are.
+    are decisive, as for a motion model's weight). A verdict naming a part, a robot never seen
+    moving, a record that does not fit L's models (its verdict already claims nothing at high
+    confidence) and a comparison that changes nothing are left as they are.
 
     Parameters
     ----------
