@@ -1629,7 +1629,6 @@ def robot_uncertainty(
 
     features = domain.feature_map.features
     models = tuple(models or candidate_models(domain.feature_map))
-    learned_with = learned_with or models[0]
     t, s, s_next = observed_steps(record.series)
     if not len(t):
         return never_seen_moving(features, definition, prior, random_state=random_state)
@@ -1639,7 +1638,7 @@ def robot_uncertainty(
     beside = np.zeros(len(t), dtype=bool) if record.beside is None else np.asarray(record.beside)[t]
     keep = ~unexplained
     action = action_distribution(s, lab, domain.n_actions, soft_policy, own_policy)
-    plan_domain = model_domain(domain, learned_with)
+    plan_domain = model_domain(domain, learned_with or models[0])
     dispersion = failure_dispersion(
         plan_domain, t[keep], s[keep], lab[keep], s_next[keep], probabilities
     )
