@@ -231,6 +231,18 @@ def _steps(seed=0, steps=300):
     return scenario, np.asarray(states)
 
 
+def _full_view_record(scenario, seed: int, steps: int):
+    """The patrollers' record of a grid simulation, every step seen."""
+    from mirl.observations.trajectories import Trajectories
+
+    sim = PatrolSimulator(scenario, observability=1.0)
+    _, info = sim.reset(seed=seed)
+    states = [info["states"].copy()]
+    for _ in range(steps):
+        states.append(sim.step()[-1]["states"].copy())
+    return Trajectories.from_states(scenario.domain, scenario.robot_names, np.asarray(states))
+
+
 def test_dispersion_sees_clustered_failures():
     scenario, states = _steps()
     d = scenario.domain
@@ -618,16 +630,9 @@ def test_both_wheels_are_not_ruled_out_for_navigation_or_floor():
     try, and a verdict that names navigation or the floor names the wheels with them."""
     scenario = load_scenario("boyd2-healthy")
     scenario = scenario.with_damage("J", "left_wheel", 0.7).with_damage("J", "right_wheel", 0.7)
-    from mirl.observations.trajectories import Trajectories
-
     named_wheel = 0
     for seed in range(3):
-        sim = PatrolSimulator(scenario, observability=1.0)
-        _, info = sim.reset(seed=seed)
-        states = [info["states"].copy()]
-        for _ in range(450):
-            states.append(sim.step()[-1]["states"].copy())
-        obs = Trajectories.from_states(scenario.domain, scenario.robot_names, np.asarray(states))
+        obs = _full_view_record(scenario, seed, 450)
         verdict = learn(obs, scenario, "mirl-t", observability=1.0).robot("J").verdict
         assert verdict is not None and verdict.names_damage
         if verdict.confidence >= 0.9:
@@ -769,16 +774,9 @@ def test_a_damaged_wheel_below_a_teammate_better_than_the_healthy_levels_is_foun
         for f in FEATURES:
             scenario = scenario.with_damage(robot, f, 1.0)
     scenario = scenario.with_damage("I", "left_wheel", 0.78)
-    from mirl.observations.trajectories import Trajectories
-
     confident_healthy = 0
     for seed in range(3):
-        sim = PatrolSimulator(scenario, observability=1.0)
-        _, info = sim.reset(seed=seed)
-        states = [info["states"].copy()]
-        for _ in range(450):
-            states.append(sim.step()[-1]["states"].copy())
-        obs = Trajectories.from_states(scenario.domain, scenario.robot_names, np.asarray(states))
+        obs = _full_view_record(scenario, seed, 450)
         result = learn(obs, scenario, "mirl-t", observability=1.0)
         v = result.robot("I").verdict
         assert v is not None
