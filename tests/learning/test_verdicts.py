@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.stats import beta as beta_dist
 
 from mirl.learning.learn import learn
@@ -704,6 +706,17 @@ def test_below_probability_agrees_with_sampling(own, other, ratio):
     b = rng.beta(1 + other[0], 1 + other[1] - other[0], n)
     sampled = float(np.mean(a < ratio * b))
     assert below_probability(own, other, ratio) == pytest.approx(sampled, abs=0.004)
+
+
+@given(n=st.integers(1, 2000), share=st.floats(0.0, 1.0), ratio=st.floats(0.05, 1.0))
+@settings(max_examples=60, deadline=None)
+def test_robots_seen_alike_are_never_more_likely_below_than_not(n, share, ratio):
+    """Two robots with the same forward counts have one posterior: θ < θ′ has probability 1/2,
+    θ < ratio · θ′ less, so a team comparison never turns their "no part" verdict."""
+    from mirl.learning.verdicts import below_probability
+
+    s = round(share * n)
+    assert below_probability((s, n), (s, n), ratio) < 0.5 + 1e-3
 
 
 def test_team_ratio_is_the_smallest_forward_parts_margin():
