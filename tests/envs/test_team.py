@@ -59,6 +59,9 @@ def test_refuses_what_it_would_otherwise_default_or_drop():
     ]:
         with pytest.raises(ValueError, match=needle):
             env.step(actions)
+    for not_a_dict in (None, [0, 3, 3], 0):
+        with pytest.raises(TypeError, match="actions must be a dict of agent to action"):
+            env.step(not_a_dict)
     obs, *_ = env.step(good)  # nothing refused above moved anyone
     fresh = TeamEnv("boyd2")
     fresh.reset(seed=0)

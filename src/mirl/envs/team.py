@@ -18,6 +18,7 @@ world contract with the patrollers' actions; a world whose patrollers cannot tak
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -187,6 +188,11 @@ class TeamEnv(ParallelEnv):
         if not self.agents:
             raise ValueError(
                 "no live agents: call reset() before step() (and after an episode ends)"
+            )
+        if not isinstance(actions, Mapping):
+            raise TypeError(
+                f"actions must be a dict of agent to action ({', '.join(self.agents)}), "
+                f"not {type(actions).__name__}"
             )
         unknown = sorted(set(actions) - set(self.agents), key=str)
         missing = [a for a in self.agents if a not in actions]
