@@ -240,3 +240,58 @@ def test_damaged_left_wheel_identified_under_occlusion(boyd2):
     right = np.array([r[1]["right_wheel"] for r in res])
     assert left.mean() < right.mean()
     assert stats.ttest_ind(left, right).pvalue < 0.01
+
+
+STOP_FREE = """
+[transition_features]
+features = ["left_wheel", "right_wheel", "navigation", "floor"]
+actions = { forward = ["left_wheel", "right_wheel", "navigation", "floor"], \
+turn_left = ["right_wheel", "navigation", "floor"], \
+turn_right = ["left_wheel", "navigation", "floor"], stop = [] }
+"""
+
+
+def _stop_free_scenario(tmp_path):
+    """boyd2-healthy whose stop uses no part (a robot that stands cannot fail to)."""
+    from importlib.resources import files
+
+    text = (files("mirl.data") / "scenarios" / "boyd2-healthy.toml").read_text()
+    i = text.index("[[robots]]")
+    path = tmp_path / "stop-free.toml"
+    path.write_text(text[:i] + STOP_FREE + "\n" + text[i:])
+    return path
+
+
+def test_a_step_labelled_with_an_action_of_no_part_that_moved_fails_no_part(tmp_path):
+    """A scenario may give an action no feature (stop = []). A step L's policy labels stop on
+    which the robot moved is then a label it did not follow, not a failure of a part: it must
+    not make the learner refuse the record (the solver refuses failures of an empty subset)."""
+    d = load_scenario(_stop_free_scenario(tmp_path)).domain
+    s0 = idx(d, 5, 1, 3)
+    rows = [(s0, FORWARD, d.intended[s0, FORWARD])] * 9 + [(s0, FORWARD, s0)]
+    rows += [(s0, STOP, s0)] * 3 + [(s0, STOP, d.intended[s0, FORWARD])] * 2
+    s, a, s2 = map(np.array, zip(*rows, strict=True))
+    m = TransitionFeatureLearner(d).fit(s, a, s2)
+    assert [sub for sub, _, _ in m.counts_.observations()] == [
+        ("left_wheel", "right_wheel", "navigation", "floor")
+    ]
+    # the empty subset's steps are still counted, only not passed to the solver as trials
+    empty = m.counts_.subsets.index(())
+    assert (m.counts_.successes[empty], m.counts_.trials[empty]) == (3, 5)
+    assert m.result_.success
+
+
+def test_learn_reads_a_record_of_a_scenario_with_an_action_of_no_part(tmp_path, capsys):
+    """The record `mirl simulate` makes of that scenario (J's left wheel at 0.6 through L's
+    door, seed 5002: mirl-t labels stop on steps J moved) is learned, not refused."""
+    scenario = str(_stop_free_scenario(tmp_path))
+    obs = tmp_path / "obs.csv"
+    assert main(["simulate", "--scenario", scenario, "--steps", "450", "--seed", "5002",
+                 "--damage", "J:left_wheel=0.6", "--observability", "0.14",
+                 "--observations", str(obs)]) == 0  # fmt: skip
+    capsys.readouterr()
+    code = main(["learn", "--scenario", scenario, "--observations", str(obs),
+                 "--observability", "0.14", "--json"])  # fmt: skip
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert set(json.loads(out)["robots"]) == {"I", "J"}

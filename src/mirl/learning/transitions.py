@@ -159,15 +159,21 @@ class SubsetCounts:
     def observations(self) -> list[tuple[tuple[str, ...], int, int]]:
         """The ``(subset, successes, trials)`` triples the solver takes (observed subsets only).
 
+        An action that uses no feature (a scenario's ``stop = []``) is a trial of no part: it
+        informs no probability, and a step labelled with it that missed its intended state is
+        a label the robot did not follow (L's policy said stop, the robot moved), not a failure
+        of any part — so the empty subset is not passed on (the solver would refuse its
+        failures as inconsistent). Its counts stay in :attr:`successes` and :attr:`trials`.
+
         Returns
         -------
         list of (tuple of str, int, int)
-            One per subset with trials.
+            One per non-empty subset with trials.
         """
         return [
             (sub, int(k), int(n))
             for sub, k, n in zip(self.subsets, self.successes, self.trials, strict=True)
-            if n > 0
+            if n > 0 and sub
         ]
 
 
