@@ -133,6 +133,15 @@ def test_features_without_intervals_are_one_line_with_the_parts_told_apart_or_no
     )
 
 
+def test_features_name_a_part_no_step_could_test():
+    record = {"feature_probabilities": {"left_wheel": 0.9, "floor": 0.99}, "untested": ["floor"]}
+    (line,) = feature_lines(record, DamageDefinition())
+    assert line.endswith("(floor: no step L kept could test it; the interval is the prior's)")
+    record["untested"] = ["navigation", "floor"]
+    (line,) = feature_lines(record, DamageDefinition())
+    assert "(navigation and floor: no step L kept could test them;" in line
+
+
 # ---- the JSON record ---------------------------------------------------------------------------
 def test_a_record_holds_what_was_learned_json_ready(boyd2):
     names = boyd2.domain.reward_feature_names
@@ -195,6 +204,7 @@ def _with_verdict(scenario) -> RobotModel:
         motion_models={"paper/uniform": 0.25, "paper/stop": 0.75},
         indistinguishable=(WHEELS, ("navigation", "floor")),
         sided_by_drift=True,
+        untested=("floor",),
     )
     return _robot(
         scenario, "J", np.zeros(len(names)), {"left_wheel": 0.7, "right_wheel": 0.7},
@@ -220,6 +230,7 @@ def test_a_record_with_a_verdict_holds_its_uncertainty(boyd2):
         {"features": list(WHEELS), "told_apart_by": "drift"},
         {"features": ["navigation", "floor"], "told_apart_by": None},
     ]
+    assert r["untested"] == ["floor"]
     assert r["verdict"] == robot.verdict.to_dict()
     assert r["lateral_drift"] == {"mean": 0.05, "se": 0.01, "steps": 40}
 

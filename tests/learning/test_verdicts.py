@@ -797,3 +797,64 @@ def test_a_damaged_wheel_below_a_teammate_better_than_the_healthy_levels_is_foun
         j = result.robot("J").verdict
         assert j is not None and not j.names_damage and j.beside is None
     assert confident_healthy == 0
+
+
+# A part no kept step tests
+
+WET_PATCH = """
+[transition_features]
+features = ["left_wheel", "right_wheel", "navigation", "floor"]
+actions = { forward = ["left_wheel", "right_wheel", "navigation"], turn_left = ["right_wheel", "navigation"], turn_right = ["left_wheel", "navigation"], stop = [] }
+override = [ { cells = [[0, 2], [0, 3], [0, 4], [0, 5], [0, 6], [0, 7], [0, 8]], actions = ["forward", "turn_left", "turn_right", "stop"], add = ["floor"] } ]
+
+"""  # noqa: E501  (the floor matters only on the upper hallway: a wet patch)
+
+
+def _wet_patch_scenario(tmp_path):
+    from importlib.resources import files
+
+    text = (files("mirl.data.scenarios") / "boyd2-healthy.toml").read_text()
+    at = text.index("[[robots]]")
+    path = tmp_path / "wet.toml"
+    path.write_text(text[:at] + WET_PATCH + text[at:])
+    return load_scenario(str(path))
+
+
+def test_untested_features_are_those_in_no_subset_of_any_action_there(tmp_path):
+    from mirl.learning.motion_models import candidate_models
+    from mirl.learning.verdicts import untested_features
+
+    scenario = _wet_patch_scenario(tmp_path)
+    d = scenario.domain
+    models = candidate_models(d.feature_map)
+    on_patch = int(d.state_index(0, 5, 2))
+    off_patch = [int(d.state_index(16, c, h)) for c in range(2, 9) for h in range(4)]
+    assert untested_features(d, models, off_patch) == ("floor",)
+    assert untested_features(d, models, [*off_patch, on_patch]) == ()
+    assert untested_features(d, models, []) == FEATURES
+    # the drift tests the wheels whatever the steps' subsets
+    assert untested_features(d, models, [], drift=True) == ("navigation", "floor")
+    # the paper's scenario: every action needs the floor, so one step tests it
+    plain = load_scenario("boyd2-healthy").domain
+    assert untested_features(plain, models, off_patch[:1]) == ()
+
+
+def test_a_part_no_step_tests_is_left_to_the_prior(tmp_path):
+    """J's floor is damaged, but the floor matters only on the upper hallway, which J's patrol
+    never crosses: the record says nothing about it, so "no part of J is damaged" can be no
+    surer than the prior that J's floor is healthy (0.83), whatever the learner's seed."""
+    scenario = _wet_patch_scenario(tmp_path).with_damage("J", "floor", 0.6)
+    d = scenario.domain
+    obs = _full_view_record(scenario, 5000, 450)
+    j = obs.robot == scenario.robot_names.index("J")
+    assert not ((obs.row[j] == 0) & (obs.col[j] >= 2)).any()  # J never on the patch
+    h = scenario.faults.healthy_level("floor")
+    t = scenario.faults.threshold("floor")
+    prior_healthy = 0.2 * (1 - t) + 0.8 * beta_dist.sf(t, 50 * h, 50 * (1 - h))
+    for seed in range(3):
+        result = learn(obs, scenario, "mirl-t", observability=1.0, random_state=seed)
+        u = result.robot("J").uncertainty
+        assert u is not None and u.untested == ("floor",)
+        assert not u.verdict.names_damage
+        assert u.verdict.confidence <= prior_healthy + 0.03
+        assert result.robot("I").uncertainty.untested == ()

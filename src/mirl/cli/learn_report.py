@@ -232,6 +232,7 @@ def _uncertainty(robot) -> dict:
             }
             for g in u.indistinguishable
         ]
+        out["untested"] = list(u.untested)
     out["verdict"] = robot.verdict.to_dict()
     if robot.lateral_drift is not None:
         out["lateral_drift"] = robot.lateral_drift.to_dict()
@@ -283,12 +284,20 @@ def _values(values: dict, sep: str, digits: int) -> str:
 
 
 def _same_value_note(r: dict) -> str:
-    """The parts the steps cannot tell apart, as a note for the features line."""
+    """The parts the steps cannot tell apart, and those they cannot test, as a note for the
+    features line."""
     notes = []
     for group in r.get("indistinguishable", []):
         names = " and ".join(group["features"])
         side = "; the drift tells the side" if group["told_apart_by"] == "drift" else ""
         notes.append(f"{names}: the steps cannot tell them apart{side}")
+    untested = r.get("untested", [])
+    if untested:
+        names = " and ".join(untested)
+        notes.append(
+            f"{names}: no step L kept could test {'them' if len(untested) > 1 else 'it'}; "
+            "the interval is the prior's"
+        )
     return f"  ({'; '.join(notes)})" if notes else ""
 
 

@@ -109,6 +109,7 @@ __all__ = [
     "action_distribution",
     "NEAR_TIE",
     "indistinguishable",
+    "untested_features",
     "posterior_draws",
     "feature_uncertainty",
     "robot_uncertainty",
@@ -370,10 +371,13 @@ class FeatureUncertainty:
     forward_steps : (int, int)
         The successes and trials of the robot's forward-labelled steps among those the verdict's
         evidence holds (:func:`compared_with_team`).
+    untested : tuple of str
+        Features no step the verdict's evidence holds could test (:func:`untested_features`):
+        their draws, intervals and share of the verdict are the prior's.
 
         .. versionchanged:: 0.2.0
            ``medians``, ``motion_models``, ``indistinguishable``, ``sided_by_drift``,
-           ``log_evidence`` and ``forward_steps`` are new.
+           ``log_evidence``, ``forward_steps`` and ``untested`` are new.
     """
 
     intervals: Mapping[str, tuple[float, float]]
@@ -387,6 +391,7 @@ class FeatureUncertainty:
     sided_by_drift: bool = False
     log_evidence: float = 0.0
     forward_steps: tuple[int, int] = (0, 0)
+    untested: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -700,9 +705,7 @@ def record_off_pace(
     interval, given = observations.tracker_interval, observations.step_given
     if observations.off_pace or (interval is None and given is None):
         return observations.off_pace
-    steps = {
-        observations.robot_names[i]: free_pace(domain, series, i) for i in range(len(series))
-    }
+    steps = {observations.robot_names[i]: free_pace(domain, series, i) for i in range(len(series))}
     if interval is not None:
         return no_pace_setter(steps, interval)
     assert given is not None  # one of the two, by the test above
@@ -1355,6 +1358,46 @@ def indistinguishable(
     return tuple(tuple(g) for g in groups.values() if len(g) > 1)
 
 
+def untested_features(
+    domain: PatrolDomain,
+    models: Sequence[MotionModel],
+    s: np.ndarray,
+    *,
+    drift: bool = False,
+) -> tuple[str, ...]:
+    """The features no step from states ``s`` can test under any of ``models``: in no action's
+    subset ξ(s, a) there (every action, since a robot may not do what L's policy says).
+
+    The steps' likelihood does not depend on such a feature, so its posterior is its prior
+    (a feature a scenario puts on some cells only, a wet patch the robot never crossed).
+
+    Parameters
+    ----------
+    domain : PatrolDomain
+        The scenario's domain.
+    models : sequence of MotionModel
+        The candidate motion models (each with its ξ).
+    s : ndarray of int, shape (n,)
+        The start states of the steps the verdict's evidence holds.
+    drift : bool, default False
+        Whether the robot's lateral drift enters the evidence (it tests the wheels).
+
+    Returns
+    -------
+    tuple of str
+        The untested features, in ξ's order; all of them when ``s`` is empty.
+    """
+    s = np.unique(np.asarray(s, dtype=int))
+    features = domain.feature_map.features
+    tested = np.zeros(len(features), dtype=bool)
+    for model in models:
+        md = model_domain(domain, model)
+        tested |= md.subset_masks[np.unique(md.subset_index[s])].any(axis=0)
+    if drift:
+        tested |= np.isin(features, WHEELS)
+    return tuple(f for f, t in zip(features, tested, strict=True) if not t)
+
+
 def never_seen_moving(
     features: Sequence[str],
     definition: DamageDefinition,
@@ -1677,8 +1720,16 @@ def robot_uncertainty(
     }
     fit = ModelFit(tuple(checks), left_out)
     p, w = post.pooled()
+    h = np.array([min(healthy[f], 0.999) for f in features])
+    untested = untested_features(domain, models, s[used], drift=drift is not None)
+    if untested:  # the sampler's draws of a flat direction collapse; the prior's are exact
+        fresh = expit(
+            sample_feature_prior(np.random.default_rng((random_state, 1)), len(p), h, prior)
+        )
+        cols = [features.index(f) for f in untested]
+        p = p.copy()
+        p[:, cols] = fresh[:, cols]
     if not fit.ok:  # L's models get even odds, the prior the rest
-        h = np.array([min(healthy[f], 0.999) for f in features])
         rng = np.random.default_rng(random_state)
         q = expit(sample_feature_prior(rng, len(p), h, prior))
         p = np.vstack([p, q])
@@ -1710,6 +1761,7 @@ def robot_uncertainty(
         sided_by_drift=wheels_group and drift is not None and not unsided,
         log_evidence=post.mean_log_evidence,
         forward_steps=forward_outcomes(domain, s[used], lab[used], s_next[used]),
+        untested=untested,
     )
 
 
