@@ -78,3 +78,29 @@ def test_a_chance_stated_without_seeing_a_patroller_says_what_it_assumes(capsys)
     assert main([*argv, "--observability", "1", "--json"]) == 0
     full = json.loads(capsys.readouterr().out)
     assert full["go_time"] is not None and "never_seen" not in full
+
+
+def test_a_part_no_step_tested_is_named_in_the_run_report(tmp_path, capsys):
+    """A floor that matters only on the upper hallway, which J's patrol never crosses: the
+    report names it untested, and "no part of J" is no surer than the prior (0.83)."""
+    from importlib.resources import files
+
+    text = (files("mirl.data.scenarios") / "boyd2-healthy.toml").read_text()
+    at = text.index("[[robots]]")
+    wet = (
+        "[transition_features]\n"
+        'features = ["left_wheel", "right_wheel", "navigation", "floor"]\n'
+        'actions = { forward = ["left_wheel", "right_wheel", "navigation"], turn_left = '
+        '["right_wheel", "navigation"], turn_right = ["left_wheel", "navigation"], stop = [] }\n'
+        "override = [ { cells = [[0, 2], [0, 3], [0, 4], [0, 5], [0, 6], [0, 7], [0, 8]], "
+        'actions = ["forward", "turn_left", "turn_right", "stop"], add = ["floor"] } ]\n\n'
+    )
+    path = tmp_path / "wet.toml"
+    path.write_text(text[:at] + wet + text[at:])
+    argv = ["run", "--scenario", str(path), "--damage", "J:floor=0.6", "--observability", "1"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "untested: floor of J (no step L kept could test it; the interval is the prior's)" in out
+    (conf,) = re.findall(r"verdict: no part of J is damaged \(confidence ([0-9.]+)\)", out)
+    assert float(conf) <= 0.86
+    assert "untested: " not in out.replace("untested: floor of J", "")

@@ -204,6 +204,14 @@ def _feature_table(scenario: Scenario, result: RunResult, learned) -> list[str]:
         if r.lateral_drift is not None:
             lines.append(f"          drift of {r.name}: {r.lateral_drift.sentence()}")
     for r in learned.robots:
+        if r.uncertainty is not None and r.uncertainty.untested:
+            parts = " and ".join(r.uncertainty.untested)
+            lines.append(
+                f"          untested: {parts} of {r.name} (no step L kept could test "
+                f"{'them' if len(r.uncertainty.untested) > 1 else 'it'}; "
+                "the interval is the prior's)"
+            )
+    for r in learned.robots:
         motion = _motion_words(r)
         if motion:
             lines += _wrapped(f"motion of {r.name}: {motion}").splitlines()
