@@ -5,6 +5,7 @@ naming its command; the library's `parameter` names become the flags that set th
 from __future__ import annotations
 
 import argparse
+import math
 import re
 
 import pytest
@@ -94,6 +95,15 @@ def test_floats_between_bounds_state_them_and_their_unit():
     assert step_seconds_or_auto(" Auto ") == "auto" and step_seconds_or_auto("0.5") == 0.5
     assert refusal(step_seconds_or_auto, "0").endswith("; or auto, the robots' own pace")
     assert refusal(step_seconds, "0.0001").startswith("must be a number in [0.001, 3600] s")
+
+
+def test_a_negative_zero_is_read_as_zero():
+    # `run --observability -0` printed "observability -0 (0/31 cells)" and `--p -0` "p=-0"
+    for parse in (fraction, float_between(0.0, 1.0), non_negative_float, finite_float):
+        for text in ("-0", "-0.0", " -0e3 "):
+            value = parse(text)
+            assert value == 0.0 and math.copysign(1.0, value) == 1.0, (parse, text)
+            assert f"{value:g}" == "0"
 
 
 @pytest.mark.parametrize(

@@ -133,6 +133,14 @@ NO_FEATURES = (
         ("cells = [[0, 8], [16, 8]]", "cells = []", "reward.features[3].cells"),
         # `mirl run` on it stopped on a ZeroDivisionError traceback
         ("[observer]", NO_FEATURES + "[observer]", "transition_features"),
+        # a feature added without a weight named only robots[0].weights, a table the file does
+        # not have: the weight belongs in reward.weights as well
+        (
+            '{ name = "moved", kind = "moved" },',
+            '{ name = "moved", kind = "moved" },\n  { name = "extra", kind = "moved" },',
+            "robots[0].weights: no weight for reward feature 'extra' (neither reward.weights "
+            "nor robots[0].weights gives one)",
+        ),
         # overrides that changed no ξ(s, a) and loaded without a word
         (
             "[observer]",

@@ -81,3 +81,14 @@ def test_the_shipped_ros_map_takes_a_cell_size():
 def test_an_empty_name_is_refused_with_the_shipped_names():
     with pytest.raises(MapError, match=r"an empty map name \(shipped maps: boyd2"):
         load_map(" ")
+
+
+def test_a_missing_map_lists_every_name_load_map_takes():
+    # the list named only the text maps: a user told "shipped maps: boyd2, boydright" did not
+    # learn of the shipped ROS map turtlebot3_world or of the generated offices
+    for name in ("nosuch", " "):
+        with pytest.raises(MapError) as info:
+            load_map(name)
+        message = str(info.value)
+        assert "turtlebot3_world" in message and "office-RxC" in message, message
+        assert all(shipped in message for shipped in shipped_maps())

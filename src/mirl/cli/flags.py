@@ -269,9 +269,10 @@ def spec_type(spec: Spec) -> Any:
             If the text is not a value the declaration allows (its sentence).
         """
         try:
-            return spec.parse(text)
+            value = spec.parse(text)
         except OptionError as exc:
             raise argparse.ArgumentTypeError(exc.problem) from None
+        return _unsigned_zero(value)
 
     parse.__name__ = spec.requirement()
     return parse
@@ -304,7 +305,13 @@ def _float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"'{text}' is not a number") from None
     if v != v:
         raise argparse.ArgumentTypeError("must be a number, got nan")
-    return v
+    return _unsigned_zero(v)
+
+
+def _unsigned_zero(value: Any) -> Any:
+    """``-0`` typed on a flag is 0: a float's sign of zero would reach the reports and JSON
+    (``observability -0 (0/31 cells)``, ``p=-0``), though it means nothing."""
+    return value + 0.0 if isinstance(value, float) else value
 
 
 def float_at_least(low: float, *, strict: bool):

@@ -14,14 +14,22 @@ def shipped_names(folder: str, suffix: str) -> list[str]:
 
 
 def read_shipped_or_file(
-    name_or_path: str | Path, folder: str, suffix: str, error: type[Exception], kind: str
+    name_or_path: str | Path,
+    folder: str,
+    suffix: str,
+    error: type[Exception],
+    kind: str,
+    *,
+    known: str = "",
 ) -> tuple[str, str, Path | None]:
     """(text, source label, path or None if shipped). Errors name the file and say what
-    shipped names exist, so a typo in a name is as clear as a missing file."""
+    shipped names exist, so a typo in a name is as clear as a missing file; ``known``, if
+    given, is that list instead of this folder's ``suffix`` files (a map may be a ROS one)."""
     name = str(name_or_path)
     shipped = shipped_names(folder, suffix)
+    listed = known or ", ".join(shipped)
     if not name.strip():  # Path("") is ".", which would be read as a directory
-        raise error(f"an empty {kind} name (shipped {kind}s: {', '.join(shipped)})")
+        raise error(f"an empty {kind} name (shipped {kind}s: {listed})")
     if name in shipped:
         res = resources.files("mirl") / "data" / folder / f"{name}{suffix}"
         return res.read_text(), f"{name} (shipped)", None
@@ -40,6 +48,6 @@ def read_shipped_or_file(
         text = data.decode("utf-8-sig").replace("\r\n", "\n").replace("\r", "\n")
         return text, str(path), path
     except FileNotFoundError:
-        raise error(f"{path}: no such file (shipped {kind}s: {', '.join(shipped)})") from None
+        raise error(f"{path}: no such file (shipped {kind}s: {listed})") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise error(f"{path}: cannot read {kind} ({exc.__class__.__name__}: {exc})") from None

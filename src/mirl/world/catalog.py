@@ -89,5 +89,9 @@ def load_map(name_or_path: str | Path, *, cell_size: float | None = None) -> Gri
                 gridmap = load_ros_map(path, cell_size=cell_size)
             return gridmap
         return load_ros_map(Path(name_or_path), cell_size=cell_size)
-    text, source, file = read_shipped_or_file(name_or_path, "maps", ".txt", MapError, "map")
+    # the error lists every name this function takes, the ROS maps and generated offices too
+    known = f"{', '.join(shipped_maps())}; or a generated office-RxC[-sK]"
+    text, source, file = read_shipped_or_file(
+        name_or_path, "maps", ".txt", MapError, "map", known=known
+    )
     return parse_map(text, name=Path(name).stem if file else name, source=source)

@@ -43,8 +43,6 @@ UNNAMED_ROBOTS = "IJKMNOPQ"
 FieldError = schema.FieldError
 
 
-
-
 @dataclass(frozen=True)
 class RobotSpec:
     """A patroller as the scenario gives it.
@@ -234,7 +232,11 @@ def read_robots(
         w = read_weights(rd.get("weights", {}), f"{where}.weights", names, base_weights)
         missing = [k for k in names if k not in w]
         if missing:
-            raise FieldError(f"{where}.weights", f"no weight for reward feature '{missing[0]}'")
+            raise FieldError(  # the weight may belong in either table: name both
+                f"{where}.weights",
+                f"no weight for reward feature '{missing[0]}' (neither reward.weights nor "
+                f"{where}.weights gives one)",
+            )
         if name in [r.name for r in robots]:
             raise FieldError(f"{where}.name", f"duplicate robot name '{name}'")
         if name == OBSERVER_NAME:
