@@ -844,7 +844,6 @@ def test_a_part_no_step_tests_is_left_to_the_prior(tmp_path):
     never crosses: the record says nothing about it, so "no part of J is damaged" can be no
     surer than the prior that J's floor is healthy (0.83), whatever the learner's seed."""
     scenario = _wet_patch_scenario(tmp_path).with_damage("J", "floor", 0.6)
-    d = scenario.domain
     obs = _full_view_record(scenario, 5000, 450)
     j = obs.robot == scenario.robot_names.index("J")
     assert not ((obs.row[j] == 0) & (obs.col[j] >= 2)).any()  # J never on the patch
