@@ -104,3 +104,16 @@ def test_a_part_no_step_tested_is_named_in_the_run_report(tmp_path, capsys):
     (conf,) = re.findall(r"verdict: no part of J is damaged \(confidence ([0-9.]+)\)", out)
     assert float(conf) <= 0.86
     assert "untested: " not in out.replace("untested: floor of J", "")
+
+
+def test_an_observer_with_no_room_is_not_said_to_hide_in_one(capsys):
+    """A ROS map has no rooms: L waits on a hallway cell, and the report says so."""
+    from pathlib import Path
+
+    scenario = Path(__file__).parents[1] / "data/real/tb3-gazebo-nav/slam-map.toml"
+    assert main(["run", "--scenario", str(scenario), "--obs-steps", "20", "--max-wait", "5"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "L waits at (6, 2), a hallway cell (no room there; detection is scored" in out
+    assert "hides in its room" not in out
+    assert main(["run", "--obs-steps", "5", "--max-wait", "1"]) == 0
+    assert "L hides in its room at (0, 0)" in " ".join(capsys.readouterr().out.split())

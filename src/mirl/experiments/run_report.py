@@ -284,8 +284,8 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         f"method {result.method}, observability {result.observability:g} "
         f"({n_vis}/{scenario.map.n_patroller_cells} cells), seed {result.seed}",
         _wrapped(
-            f"{result.method} ({paper} in the paper's figures): {meaning}. L hides in its room at "
-            f"{scenario.observer_start} and wants to reach {scenario.goal} unseen; cells "
+            f"{result.method} ({paper} in the paper's figures): {meaning}. {_waits(scenario)} "
+            f"and wants to reach {scenario.goal} unseen; cells "
             "are (row, col), a patroller's state is its cell and the way it faces; a step is "
             f"{STEP_SECONDS:g} s."
         ),
@@ -351,6 +351,19 @@ def format_report(scenario: Scenario, result: RunResult) -> str:
         + f"; total {tm['total']:.2f} s"
     )
     return "\n".join(lines)
+
+
+def _waits(scenario: Scenario) -> str:
+    """Where L waits, in words: its room, or — on a map with no room there, as a ROS map's — a
+    hallway cell the patrollers may cross, where nothing detects it before it goes: detection
+    is scored from the go time, as in the paper, whose L waits in a room."""
+    r, c = scenario.observer_start
+    if scenario.map.patroller[r, c]:
+        return (
+            f"L waits at {scenario.observer_start}, a hallway cell (no room there; detection "
+            "is scored only once L goes, as in the paper, where L waits in a room)"
+        )
+    return f"L hides in its room at {scenario.observer_start}"
 
 
 def _stated_lines(result: RunResult) -> list[str]:
