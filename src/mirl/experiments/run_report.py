@@ -357,8 +357,8 @@ def _waits(scenario: Scenario) -> str:
     """Where L waits, in words: its room, or — on a map with no room there, as a ROS map's — a
     hallway cell the patrollers may cross, where nothing detects it before it goes: detection
     is scored from the go time, as in the paper, whose L waits in a room."""
-    r, c = scenario.observer_start
-    if scenario.map.patroller[r, c]:
+    start = scenario.observer_start
+    if start is not None and scenario.map.patroller[start[0], start[1]]:
         return (
             f"L waits at {scenario.observer_start}, a hallway cell (no room there; detection "
             "is scored only once L goes, as in the paper, where L waits in a room)"

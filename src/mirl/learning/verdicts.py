@@ -1398,6 +1398,34 @@ def untested_features(
     return tuple(f for f, t in zip(features, tested, strict=True) if not t)
 
 
+def _verdict_draws(
+    post: MotionPosterior,
+    features: Sequence[str],
+    untested: Sequence[str],
+    fits: bool,
+    healthy: Mapping[str, float],
+    prior: PriorSpec,
+    seed: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The draws (n, F) and weights a verdict is read from: the motion posterior's pooled
+    draws; the untested features drawn afresh from the prior (their posterior is the prior,
+    independent of the rest, and the sampler's estimate of a flat direction carries its own
+    error; design: "Fault verdicts"); and, for a record that fails the model check, the prior's
+    draws beside them at the weight L's models do not get (:data:`MODEL_TRUST`)."""
+    p, w = post.pooled()
+    h = np.array([min(healthy[f], 0.999) for f in features])
+    if untested:
+        fresh = expit(sample_feature_prior(np.random.default_rng((seed, 1)), len(p), h, prior))
+        columns = [list(features).index(f) for f in untested]
+        p = p.copy()
+        p[:, columns] = fresh[:, columns]
+    if not fits:  # L's models get even odds, the prior the rest
+        q = expit(sample_feature_prior(np.random.default_rng(seed), len(p), h, prior))
+        p = np.vstack([p, q])
+        w = np.concatenate([MODEL_TRUST * w, np.full(len(q), (1 - MODEL_TRUST) / len(q))])
+    return p, w
+
+
 def never_seen_moving(
     features: Sequence[str],
     definition: DamageDefinition,
@@ -1719,21 +1747,8 @@ def robot_uncertainty(
         "misfit (stalls, jams)": int(misfit.sum()),
     }
     fit = ModelFit(tuple(checks), left_out)
-    p, w = post.pooled()
-    h = np.array([min(healthy[f], 0.999) for f in features])
     untested = untested_features(domain, models, s[used], drift=drift is not None)
-    if untested:  # the sampler's draws of a flat direction collapse; the prior's are exact
-        fresh = expit(
-            sample_feature_prior(np.random.default_rng((random_state, 1)), len(p), h, prior)
-        )
-        cols = [features.index(f) for f in untested]
-        p = p.copy()
-        p[:, cols] = fresh[:, cols]
-    if not fit.ok:  # L's models get even odds, the prior the rest
-        rng = np.random.default_rng(random_state)
-        q = expit(sample_feature_prior(rng, len(p), h, prior))
-        p = np.vstack([p, q])
-        w = np.concatenate([MODEL_TRUST * w, np.full(len(q), (1 - MODEL_TRUST) / len(q))])
+    p, w = _verdict_draws(post, features, untested, fit.ok, healthy, prior, random_state)
     intervals, medians = _summaries(features, p, w)
     verdict = _every_model_covered(
         verdict_from_draws(features, p, w, definition), post, features, p, w, definition
