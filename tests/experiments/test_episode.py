@@ -182,7 +182,8 @@ def test_scenario_observer_start_reaches_the_view_and_the_report(boyd2):
     moved = boyd2.with_options(observer_start=(0, 5))
     r = run_episode(moved, "oracle", seed=0, protocol=FAST)
     report = format_report(moved, r)
-    assert "L hides in its room at (0, 5)" in " ".join(report.split())
+    # (0, 5) is a cell of the upper hallway: L waits there, in no room
+    assert "L waits at (0, 5), a hallway cell (no room there;" in " ".join(report.split())
     assert "(4/31 cells)" in report
     seen = {
         tuple(moved.domain.states[s][:2]) for s in np.flatnonzero(moved.domain.visible_states(0.14))
