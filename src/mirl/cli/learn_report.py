@@ -286,18 +286,15 @@ def _values(values: dict, sep: str, digits: int) -> str:
 def _same_value_note(r: dict) -> str:
     """The parts the steps cannot tell apart, and those they cannot test, as a note for the
     features line."""
+    from mirl.learning.verdicts import untested_words
+
     notes = []
     for group in r.get("indistinguishable", []):
         names = " and ".join(group["features"])
         side = "; the drift tells the side" if group["told_apart_by"] == "drift" else ""
         notes.append(f"{names}: the steps cannot tell them apart{side}")
-    untested = r.get("untested", [])
-    if untested:
-        names = " and ".join(untested)
-        notes.append(
-            f"{names}: no step L kept could test {'them' if len(untested) > 1 else 'it'}; "
-            "the interval is the prior's"
-        )
+    if r.get("untested"):
+        notes.append(untested_words(r["untested"]))
     return f"  ({'; '.join(notes)})" if notes else ""
 
 

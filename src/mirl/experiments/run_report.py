@@ -7,7 +7,7 @@ import numpy as np
 
 from mirl.experiments.records import RunResult
 from mirl.learning.methods import METHODS
-from mirl.learning.verdicts import estimate_disagrees
+from mirl.learning.verdicts import estimate_disagrees, untested_words
 from mirl.world.actions import HEADING_NAMES, STEP_SECONDS
 from mirl.world.game import GAME_ACTIONS, Equilibrium
 from mirl.world.scenario import Scenario
@@ -205,12 +205,7 @@ def _feature_table(scenario: Scenario, result: RunResult, learned) -> list[str]:
             lines.append(f"          drift of {r.name}: {r.lateral_drift.sentence()}")
     for r in learned.robots:
         if r.uncertainty is not None and r.uncertainty.untested:
-            parts = " and ".join(r.uncertainty.untested)
-            lines.append(
-                f"          untested: {parts} of {r.name} (no step L kept could test "
-                f"{'them' if len(r.uncertainty.untested) > 1 else 'it'}; "
-                "the interval is the prior's)"
-            )
+            lines.append(f"          {r.name}'s {untested_words(r.uncertainty.untested)}")
     for r in learned.robots:
         motion = _motion_words(r)
         if motion:

@@ -110,6 +110,7 @@ __all__ = [
     "NEAR_TIE",
     "indistinguishable",
     "untested_features",
+    "untested_words",
     "posterior_draws",
     "feature_uncertainty",
     "robot_uncertainty",
@@ -705,7 +706,9 @@ def record_off_pace(
     interval, given = observations.tracker_interval, observations.step_given
     if observations.off_pace or (interval is None and given is None):
         return observations.off_pace
-    steps = {observations.robot_names[i]: free_pace(domain, series, i) for i in range(len(series))}
+    steps = {
+        observations.robot_names[i]: free_pace(domain, series, i) for i in range(len(series))
+    }
     if interval is not None:
         return no_pace_setter(steps, interval)
     assert given is not None  # one of the two, by the test above
@@ -1396,6 +1399,23 @@ def untested_features(
     if drift:
         tested |= np.isin(features, WHEELS)
     return tuple(f for f, t in zip(features, tested, strict=True) if not t)
+
+
+def untested_words(parts: Sequence[str]) -> str:
+    """What the reports say of parts no kept step could test (:func:`untested_features`).
+
+    Parameters
+    ----------
+    parts : sequence of str
+        The untested parts (at least one).
+
+    Returns
+    -------
+    str
+        "floor: no step L kept could test it; the interval is the prior's", and the like.
+    """
+    them = "them" if len(parts) > 1 else "it"
+    return f"{' and '.join(parts)}: no step L kept could test {them}; the interval is the prior's"
 
 
 def _verdict_draws(
