@@ -230,3 +230,24 @@ def test_learn_prints_each_pair_of_a_team(tmp_path, capsys):
     lines = capsys.readouterr().out.splitlines()
     (pairs,) = [x for x in lines if x.startswith("pairs ")]
     assert "I/J " in pairs and "(other pairs: the equilibrium above)" in pairs
+
+
+def test_a_team_seen_meeting_nowhere_names_no_pair(br3):
+    """With no pair of a team seen meeting, the first pair is weighed on what L did not see
+    (``meeting_pairs``' fallback), and no pair is reported as learned on its own: every pair plays
+    the team's equilibrium, which is that pair's."""
+    res = simulate(br3, 200, seed=0, observability=1.0, random_starts=True)
+    unseen = np.full(res.truth.horizon, UNSEEN)
+    series = [res.observations.state_series(br3.domain, 0), unseen, unseen]
+    assert meeting_pairs(br3.domain, series, fallback=False) == []
+    assert meeting_pairs(br3.domain, series) == [(0, 1)]
+    d = br3.domain
+    pol = [br3.true_policy(i) for i in range(3)]
+    T = [br3.true_transitions(i) for i in range(3)]
+    vis = d.visible_states(br3.observability)
+    team = weigh_team_equilibria(d, series, pol, T, br3.game.equilibria(), vis)
+    assert not team.seen_meeting and list(team.pairs) == [(0, 1)]
+    assert team.best_per_pair() == {}
+    assert team.shared is team.pairs[(0, 1)]
+    met = [res.observations.state_series(d, i) for i in range(3)]
+    assert weigh_team_equilibria(d, met, pol, T, br3.game.equilibria(), vis).best_per_pair()

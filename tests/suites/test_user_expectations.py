@@ -164,6 +164,10 @@ def test_run_report_names_the_scenarios_robots_and_every_pair():
     assert lines[0].startswith("interaction equilibrium (I/K): go/stop — when I and K meet, K")
     assert lines[1].startswith("interaction equilibrium (J/K): stop/go — when J and K meet, J")
     assert lines[2].startswith("other pairs: the team's equilibrium go/stop (weighed on I/K, J/K")
+    alone = SimpleNamespace(equilibrium=go_stop, pair_equilibria={})  # no pair seen meeting
+    (line,) = [x.strip() for x in _equilibrium_lines(alone, ["I", "J", "K"])]
+    assert line.startswith("every pair: the team's equilibrium go/stop (L saw no pair meet; weigh")
+    assert "what it did not see of I/J" in line
 
 
 def test_run_report_says_which_patroller_never_came_into_view():

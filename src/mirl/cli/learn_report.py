@@ -414,6 +414,8 @@ def print_learn(out: dict, result, scenario) -> None:
     if out.get("pair_equilibria"):  # a team: each pair L weighed on its own
         pairs = ", ".join(f"{p} {label}" for p, label in out["pair_equilibria"].items())
         print(f"pairs         {pairs} (other pairs: the equilibrium above)")
+    elif "pair_equilibria" in out:  # a team none of whose pairs L saw meet
+        print("pairs         none seen meeting (every pair: the equilibrium above)")
     changes = ", ".join(map(str, result.label_changes))
     print(
         f"iterations    {result.iterations}"

@@ -86,7 +86,8 @@ def _mix(p) -> str:
 def _equilibrium_lines(learned, names: list[str]) -> list[str]:
     """The learned interaction, in the scenario's robot names: for a pair its equilibrium; for a
     team each pair L weighed on its own (the pairs it saw meet) and the team's equilibrium,
-    which L's model lets every other pair play (``LearnResult.pair_equilibrium``)."""
+    which L's model lets every other pair play (``LearnResult.pair_equilibrium``), or, where L
+    saw no pair meet, the team's equilibrium alone."""
     pad = "          "
     if len(names) == 2:
         label = learned.equilibrium.label()
@@ -98,9 +99,16 @@ def _equilibrium_lines(learned, names: list[str]) -> list[str]:
         text = _equilibrium_text(eq, names[i], names[j])
         lines.append(f"{pad}interaction equilibrium ({names[i]}/{names[j]}): {label} — {text}")
     weighed = ", ".join(f"{names[i]}/{names[j]}" for i, j in sorted(learned.pair_equilibria))
+    if not weighed:  # meeting_pairs' fallback: the first pair, on the steps L did not see
+        lines.append(
+            f"{pad}every pair: the team's equilibrium {learned.equilibrium.label()} (L saw no "
+            f"pair meet; weighed on what it did not see of {names[0]}/{names[1]}; the earlier "
+            "robot of a pair plays the row side)"
+        )
+        return lines
     lines.append(
         f"{pad}other pairs: the team's equilibrium {learned.equilibrium.label()} (weighed on "
-        f"{weighed or 'no pair'}; the earlier robot of a pair plays the row side)"
+        f"{weighed}; the earlier robot of a pair plays the row side)"
     )
     return lines
 

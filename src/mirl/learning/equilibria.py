@@ -658,7 +658,9 @@ def factored_log_likelihood(
 
 
 # ---- teams of N ≥ 2 ----------------------------------------------------------------------------
-def meeting_pairs(domain: PatrolDomain, series: Sequence[np.ndarray]) -> list[tuple[int, int]]:
+def meeting_pairs(
+    domain: PatrolDomain, series: Sequence[np.ndarray], *, fallback: bool = True
+) -> list[tuple[int, int]]:
     """The pairs (i < j) L has seen meet.
 
     Both in view at a step where some pair of actions would make them meet.
@@ -669,12 +671,14 @@ def meeting_pairs(domain: PatrolDomain, series: Sequence[np.ndarray]) -> list[tu
         The domain.
     series : sequence of ndarray of int, shape (horizon,)
         Each robot's observed states, -1 where occluded.
+    fallback : bool, default True
+        Whether to return the first pair when none was seen meeting (its joint filter still
+        weighs what L did *not* see).
 
     Returns
     -------
     list of (int, int)
-        The pairs; the first pair if none was seen meeting (its joint filter still weighs what L
-        did *not* see).
+        The pairs; the first pair if none was seen meeting and ``fallback``.
     """
     n = len(series)
     pairs = [
@@ -683,7 +687,7 @@ def meeting_pairs(domain: PatrolDomain, series: Sequence[np.ndarray]) -> list[tu
         for j in range(i + 1, n)
         if potential_meetings(domain, series[i], series[j]).any()
     ]
-    return pairs or [(0, 1)]
+    return pairs or ([(0, 1)] if fallback else [])
 
 
 @dataclass(frozen=True)
@@ -697,19 +701,26 @@ class TeamEquilibria:
         default.
     pairs : dict of (int, int) to EquilibriumWeights
         Each pair's own weighing (a team whose pairs play different equilibria).
+    seen_meeting : bool, default True
+        Whether L saw any pair meet; when it saw none, ``pairs`` holds :func:`meeting_pairs`'s
+        fallback, the first pair, weighed on what L did not see of it.
     """
 
     shared: EquilibriumWeights
     pairs: dict[tuple[int, int], EquilibriumWeights]
+    seen_meeting: bool = True
 
     def best_per_pair(self) -> dict[tuple[int, int], Equilibrium]:
-        """Each pair's most likely equilibrium.
+        """Each pair's most likely equilibrium, for the pairs L saw meet.
 
         Returns
         -------
         dict of (int, int) to Equilibrium
-            Per pair.
+            Per pair; empty when L saw no pair meet (the fallback pair's equilibrium is then
+            the team's, ``shared``'s, so every pair plays it).
         """
+        if not self.seen_meeting:
+            return {}
         return {p: w.equilibrium for p, w in self.pairs.items()}
 
 
@@ -755,6 +766,7 @@ def weigh_team_equilibria(
     TeamEquilibria
         The shared weighing and each pair's.
     """
+    met = meeting_pairs(domain, series, fallback=False)
     per_pair = {
         (i, j): weigh_equilibria(
             domain,
@@ -766,14 +778,15 @@ def weigh_team_equilibria(
             epsilon=epsilon,
             max_joint_states=max_joint_states,
         )
-        for i, j in meeting_pairs(domain, series)
+        for i, j in met or [(0, 1)]  # meeting_pairs' fallback
     }
+    seen = len(series) < 3 or bool(met)
     if len(per_pair) == 1:
-        return TeamEquilibria(next(iter(per_pair.values())), per_pair)
+        return TeamEquilibria(next(iter(per_pair.values())), per_pair, seen)
     shared = EquilibriumWeights.from_log_likelihoods(
         candidates,
         np.sum([w.log_likelihoods for w in per_pair.values()], axis=0),
         np.sum([p.meeting_log_likelihoods for p in per_pair.values()], axis=0),
         sum(p.n_meetings for p in per_pair.values()),
     )
-    return TeamEquilibria(shared, per_pair)
+    return TeamEquilibria(shared, per_pair, seen)
