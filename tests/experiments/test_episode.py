@@ -224,6 +224,10 @@ def test_learner_relearns_on_a_grown_record_while_waiting(boyd2):
     assert r.relearns[-1].feature_probabilities == r.feature_probabilities
     assert set(r.relearns[-1].verdicts) == set(boyd2.robot_names)  # the re-learned verdicts
     assert [x["t"] for x in r.to_dict()["relearns"]] == [x.t for x in r.relearns]
+    # the report's verdicts are the last re-learning's, each said once
+    text = format_report(boyd2, r)
+    for sentence in r.relearns[-1].verdicts.values():
+        assert text.count(sentence) == 1
 
 
 def test_the_defaults_are_the_adaptive_rule_with_relearning(boyd2):

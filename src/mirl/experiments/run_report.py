@@ -258,9 +258,8 @@ def _relearn_lines(result: RunResult) -> list[str]:
     lines = [f"relearned {len(result.relearns)} times while waiting (t = {steps}), warm-started"]
     lines.append(
         f"          last on {last.observed_steps} observed steps{acc} "
-        "(the models above are the last ones)"
+        "(the models and verdicts above are the last ones)"
     )
-    lines += [f"          then: {sentence}" for sentence in last.verdicts.values()]
     return lines
 
 
