@@ -336,3 +336,37 @@ def test_full_observability_accuracy_over_ten_seeds(boyd2):
         result = learn(run.observations, boyd2, "mirl-t", observability=1.0, random_state=seed)
         acc.append(np.mean([r.behavior_accuracy for r in result.robots]))
     assert np.mean(acc) >= 0.95
+
+
+def test_verdicts_read_intentions_from_the_final_models_labels(monkeypatch):
+    """Where the relabelling stops unsettled (a patrol's end turned left or right, the two nearly
+    tied for the IRL), the labels the last round learned from are a round behind its policies.
+    The verdicts read each step's intention from the final policies' labels: a stale label is
+    not the meeting rule's, and kept as one it counted the robot's successful left turns as
+    failed right turns (the all-worn robot below was said damaged at 0.9985)."""
+    import mirl.learning.learn as learn_module
+
+    sc = load_scenario("boyd2-healthy")
+    for part in sc.feature_map.features:
+        sc = sc.with_damage("I", part, 0.9)
+    run = simulate(sc, 450, seed=5000, observability=1.0)
+    seen: list = []
+    real = learn_module.robot_uncertainty
+
+    def spy(domain, record, *args, **kwargs):
+        seen.append((np.asarray(record.labels), kwargs.get("own_policy")))
+        return real(domain, record, *args, **kwargs)
+
+    monkeypatch.setattr(learn_module, "robot_uncertainty", spy)
+    trace = LoopTrace()
+    learn(run.observations, sc, "mirl-t", observability=1.0, trace=trace)
+    assert not trace.converged  # the case: the loop stopped with labels still changing
+    series = [run.observations.state_series(sc.domain, i) for i in range(2)]
+    stale = 0
+    for i, (labels, own) in enumerate(seen):
+        np.testing.assert_array_equal(labels, trace.final_labels[i])
+        t, s, _ = observed_steps(series[i])
+        stale += int((trace.labels[-1][i][t] != labels[t]).sum())
+        # the final labels are the final policy's but at meetings (the meeting rule's)
+        assert (labels[t] == own[s]).mean() > 0.9
+    assert stale > 0

@@ -359,7 +359,12 @@ def _uncertainties(
     without them), from the labels they were learned from (:mod:`mirl.learning.verdicts`)."""
     if not row.has_feature_probabilities or not trace.labels:
         return [None] * len(setup.series)
-    labels = trace.labels[-1]
+    # A relabelling method's verdict reads each step's intention from its final models: the
+    # labels their policies give (the meeting rule's at meetings), which the soft policy's near
+    # ties are taken around. The labels the last round learned from can be a round behind where
+    # the loop stopped unsettled (a patrol's end turned left or right, the two nearly tied),
+    # and a step whose label is not the final policy's keeps it as the meeting rule's would.
+    labels = trace.final_labels if row.relabels and trace.final_labels else trace.labels[-1]
     irl = trace.irl + [None] * (len(setup.series) - len(trace.irl))
     out: list[FeatureUncertainty | None] = []
     lateral = setup.lateral or [None] * len(setup.series)
@@ -492,6 +497,7 @@ def relabel_loop(
             new = policy_labels(setup.domain, setup.series, policies, eq)
             changes = count_changes(setup.series, labels, new)
         trace.label_changes.append(changes)
+        trace.final_labels = new
         if changes <= label_tol * n_labelled:
             trace.converged = True
             trace.message = "labels converged" + (
@@ -553,6 +559,9 @@ class LoopTrace:
         The last round's weights per pair L saw meet (N ≥ 2).
     policies : list of ndarray, default []
         The last round's policy per robot, (S,) arrays of int.
+    final_labels : list of ndarray, default []
+        Per robot the labels the last round's policies give (the relabelling that ended the
+        loop, kept or not), (horizon,) arrays of int; empty for a method that does not relabel.
     converged : bool, default False
         Whether the labels settled.
     message : str, default ""
@@ -567,6 +576,7 @@ class LoopTrace:
     equilibria: EquilibriumWeights | None = None
     team_equilibria: TeamEquilibria | None = None  # per pair L saw meet (N ≥ 2)
     policies: list[np.ndarray] = field(default_factory=list)
+    final_labels: list[np.ndarray] = field(default_factory=list)
     converged: bool = False
     message: str = ""
     notes: set[str] = field(default_factory=set)
