@@ -251,3 +251,20 @@ def test_a_team_seen_meeting_nowhere_names_no_pair(br3):
     assert team.shared is team.pairs[(0, 1)]
     met = [res.observations.state_series(d, i) for i in range(3)]
     assert weigh_team_equilibria(d, met, pol, T, br3.game.equilibria(), vis).best_per_pair()
+
+
+def test_learn_says_when_no_pair_of_a_team_was_seen_meeting(tmp_path, capsys):
+    """`mirl learn` on a team of whom L saw one robot names no pair as learned on its own."""
+    from mirl.cli import main
+
+    obs = tmp_path / "br3.csv"
+    argv = ["simulate", "--scenario", "boydright-3", "--steps", "200", "--seed", "2"]
+    assert main([*argv, "--observations", str(obs)]) == 0
+    only_i = tmp_path / "br3-I.csv"
+    rows = obs.read_text().splitlines()
+    only_i.write_text("\n".join(r for r in rows if ",J," not in r and ",K," not in r) + "\n")
+    capsys.readouterr()
+    assert main(["learn", "--scenario", "boydright-3", "--observations", str(only_i)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    (pairs,) = [x for x in lines if x.startswith("pairs ")]
+    assert "none seen meeting" in pairs

@@ -356,14 +356,14 @@ def _uncertainties(
     setup: RoundSetup, row: Method, trace: LoopTrace, probs, policies
 ) -> list[FeatureUncertainty | None]:
     """Per robot the intervals and verdict of its feature probabilities (None for a method
-    without them), from the labels they were learned from (:mod:`mirl.learning.verdicts`)."""
+    without them), from the labels its final models give — a relabelling method's last
+    relabelling, another method's labels (:mod:`mirl.learning.verdicts`)."""
     if not row.has_feature_probabilities or not trace.labels:
         return [None] * len(setup.series)
-    # A relabelling method's verdict reads each step's intention from its final models: the
-    # labels their policies give (the meeting rule's at meetings), which the soft policy's near
-    # ties are taken around. The labels the last round learned from can be a round behind where
-    # the loop stopped unsettled (a patrol's end turned left or right, the two nearly tied),
-    # and a step whose label is not the final policy's keeps it as the meeting rule's would.
+    # The verdict takes a label that differs from the greedy policy for the meeting rule's and
+    # keeps it, so the labels must be the final policies' own: those the last round learned
+    # from lag a round where the loop stopped unsettled (a patrol's end turned left or right,
+    # the two nearly tied), and would count the robot's successful turns as failed ones.
     labels = trace.final_labels if row.relabels and trace.final_labels else trace.labels[-1]
     irl = trace.irl + [None] * (len(setup.series) - len(trace.irl))
     out: list[FeatureUncertainty | None] = []
