@@ -18,7 +18,7 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize, minimize_scalar
 from scipy.special import entr
@@ -394,6 +394,10 @@ def test_property_consistent_constraints_are_met(problem):
 
 @settings(max_examples=80, deadline=None)
 @given(arbitrary_problems())
+# two features pinned near p = 1, where dH/dx is large: an absolute stationarity tolerance
+# rejected SLSQP's maximiser at a reduced gradient of 1.2e-6 (relative 1.7e-7)
+@example((["f0", "f1", "f2", "f3"], [(("f0", "f1", "f2", "f3"), 519, 1000), ((), 0, 0),
+                                     (("f0", "f1"), 26, 50)]))  # fmt: skip
 def test_property_any_data_gives_probabilities_without_nan(problem):
     names, obs = problem
     res = solve_feature_probabilities(names, obs)
