@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -370,3 +371,26 @@ def test_verdicts_read_intentions_from_the_final_models_labels(monkeypatch):
         # the final labels are the final policy's but at meetings (the meeting rule's)
         assert (labels[t] == own[s]).mean() > 0.9
     assert stale > 0
+
+
+def test_listing_the_robots_in_another_order_learns_the_same(tmp_path, capsys):
+    """Each robot's random streams (its IRL's restarts, its verdict's sampler) follow its name,
+    not its place in the scenario: boyd2 with J listed first learns the same from one record."""
+    import mirl.world.scenario as scenario_module
+
+    shipped = Path(scenario_module.__file__).parent.parent / "data/scenarios/boyd2.toml"
+    head, *robots = shipped.read_text().split("[[robots]]")
+    reversed_toml = tmp_path / "reversed.toml"
+    listed = "".join("[[robots]]" + r.rstrip() + "\n\n" for r in robots[::-1])
+    reversed_toml.write_text(head + listed)
+    obs = tmp_path / "obs.csv"
+    simulate(load_scenario("boyd2"), 450, seed=2, observability=1.0).observations.to_csv(obs)
+    learned = []
+    for scenario in ("boyd2", str(reversed_toml)):
+        args = ["learn", "--scenario", scenario, "--observations", str(obs), "--json"]
+        assert main(args) == 0
+        learned.append(json.loads(capsys.readouterr().out)["robots"])
+    assert list(learned[1]) == ["J", "I"]
+    for name in ("I", "J"):
+        for key in ("feature_probabilities", "weights", "verdict", "feature_intervals"):
+            assert learned[0][name][key] == learned[1][name][key], (name, key)

@@ -101,6 +101,37 @@ def test_true_policy_labels_play_each_pair_s_own_equilibrium(boyd2, pair_played,
     assert labels[stops][0] == STOP and labels[1 - stops][0] == FORWARD
 
 
+def test_a_robot_in_two_meetings_is_labelled_with_its_first_pair_s_game(boyd2, monkeypatch):
+    """Three robots, every pair meeting, stop/go (the row robot stops): J is the column of (I, J)
+    and the row of (J, K), and takes (I, J)'s move, as the simulators play it."""
+    monkeypatch.setattr("mirl.learning.transitions.meeting", lambda d, a, b, *rest: a >= 0)
+    d = boyd2.domain
+    pol = [boyd2.true_policy(0)] * 3
+    s = int(np.flatnonzero(pol[0] == FORWARD)[0])
+    labels = policy_labels(d, [np.array([s])] * 3, pol, boyd2.played_equilibrium)
+    assert [int(lab[0]) for lab in labels] == [STOP, FORWARD, FORWARD]
+
+
+def test_true_policy_labels_are_the_grid_simulator_s_actions():
+    """Known R/T's labels are the actions the patrollers took, three-robot meetings included."""
+    from mirl.learning.transitions import true_policy_labels
+    from mirl.simulation.grid import PatrolSimulator
+
+    scenario = load_scenario("boydright-3")
+    sim = PatrolSimulator(scenario, observability=1.0)
+    states, actions = [], []
+    _, info = sim.reset(seed=0)
+    for _ in range(3000):
+        states.append(info["states"])
+        _, _, _, _, info = sim.step()
+        actions.append(info["actions"])
+    series = list(np.array(states).T)
+    labels = true_policy_labels(scenario, series)
+    assert np.array_equal(np.array(labels).T, np.array(actions))
+    own = np.array([scenario.true_policy(i)[x] for i, x in enumerate(series)]).T
+    assert (own != np.array(actions)).sum() > 0  # the game decided some steps
+
+
 def test_learner_recovers_exact_rates_from_deterministic_counts(boyd2):
     """Counts built so that every subset's success rate equals the product of known p."""
     d = boyd2.domain

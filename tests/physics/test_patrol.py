@@ -66,6 +66,19 @@ def test_met_robots_play_their_pair_s_own_equilibrium(healthy, monkeypatch, pair
     assert acts[yields] == STOP and acts[1 - yields] == own[1 - yields] != STOP
 
 
+def test_a_robot_in_two_meetings_plays_its_first_pair_s_game(monkeypatch):
+    # every pair meets; stop/go: the row robot stops. J is the column of (I, J) and the row of
+    # (J, K): it plays (I, J)'s game and goes, as the grid simulator and the labels have it
+    from mirl.world.actions import STOP
+
+    w = PhysicalWorld(load_scenario("boydright-3"), seed=0, observer=False)
+    monkeypatch.setattr("mirl.physics.patrol.meeting", lambda *args: True)
+    s, acts = w.decide()
+    own = w.policies[np.arange(3), s]
+    assert own[1] != STOP
+    assert acts[0] == STOP and acts[1] == own[1] and acts[2] == own[2]
+
+
 @pytest.mark.parametrize(("wheel", "sign"), [("left_wheel", 1), ("right_wheel", -1)])
 def test_weak_wheel_veers_to_its_side(healthy, wheel, sign):
     cfg = PhysicsConfig().with_strength("I", wheel, 0.6)

@@ -613,8 +613,13 @@ class RoundSetup:
         return [np.asarray(r.weights, dtype=float) for r in self.warm_start.robots]
 
     def robot_seed(self, robot: int, round_: int) -> int:
-        """The IRL's seed for ``robot`` in round ``round_``, drawn from ``random_state``."""
-        ss = np.random.SeedSequence([self.random_state or 0, robot, round_])
+        """The seed of ``robot``'s IRL in round ``round_`` (and of its verdict's sampler, round
+        0), drawn from ``random_state`` and the robot's place among the team's names in sorted
+        order: the scenario's listing of its robots does not change what L learns of one
+        (the team's listed order is in every shipped scenario the sorted one)."""
+        names = self.scenario.robot_names
+        rank = sorted(names).index(names[robot])
+        ss = np.random.SeedSequence([self.random_state or 0, rank, round_])
         return int(ss.generate_state(1)[0])
 
 

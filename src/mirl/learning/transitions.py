@@ -93,9 +93,9 @@ def policy_labels(
 
     Where two robots are both observed and their intended moves meet (docs/design.md, "The
     meeting rule"), the label is the action of the equilibrium's most likely game action
-    (Sec. 3.6). A meeting with a robot L cannot see is invisible to L, so such steps keep the
-    policy's action; they may then count as failures, a bias confined to the edge of the visible
-    region.
+    (Sec. 3.6); a robot in several meetings at one step takes its first pair's, in robot order.
+    A meeting with a robot L cannot see is invisible to L, so such steps keep the policy's
+    action; they may then count as failures, a bias confined to the edge of the visible region.
 
     Parameters
     ----------
@@ -124,6 +124,9 @@ def policy_labels(
         lab[seen] = np.asarray(pol)[x[seen]]
         labels.append(lab)
     own = [lab.copy() for lab in labels]
+    # a robot in several meetings at one step plays its first pair's game (design: "The meeting
+    # rule"), as the simulators and filters do
+    engaged = [np.zeros(x.shape, dtype=bool) for x in series]
     for i in range(len(series)):
         for j in range(i + 1, len(series)):
             both = np.flatnonzero((series[i] >= 0) & (series[j] >= 0))
@@ -133,8 +136,10 @@ def policy_labels(
             game_choice = (int(np.argmax(eq.row)), int(np.argmax(eq.col)))
             met = meeting(domain, series[i][both], series[j][both], own[i][both], own[j][both])
             t = both[met]
-            labels[i][t] = game_action_to_action(np.full(t.size, game_choice[0]), own[i][t])
-            labels[j][t] = game_action_to_action(np.full(t.size, game_choice[1]), own[j][t])
+            for k, choice in ((i, game_choice[0]), (j, game_choice[1])):
+                free = t[~engaged[k][t]]
+                labels[k][free] = game_action_to_action(np.full(free.size, choice), own[k][free])
+                engaged[k][t] = True
     return labels
 
 

@@ -473,13 +473,19 @@ class PhysicalWorld:
         s = self.discretise(est[: self.n])
         own = self.policies[np.arange(self.n), s]
         acts = own.copy()
+        # a robot in several meetings plays its first pair's game; every meeting pair still
+        # draws both its moves (design: "The meeting rule")
+        engaged = np.zeros(self.n, dtype=bool)
         for i in range(self.n):
             for j in range(i + 1, self.n):
                 if meeting(self.domain, s[i], s[j], own[i], own[j]):
                     gi = self._draw(self._eq[i, j][0])
                     gj = self._draw(self._eq[i, j][1])
-                    acts[i] = game_action_to_action(gi, own[i])
-                    acts[j] = game_action_to_action(gj, own[j])
+                    if not engaged[i]:
+                        acts[i] = game_action_to_action(gi, own[i])
+                    if not engaged[j]:
+                        acts[j] = game_action_to_action(gj, own[j])
+                    engaged[i] = engaged[j] = True
         return s, acts
 
     def _draw(self, probs: np.ndarray) -> int:
