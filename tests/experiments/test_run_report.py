@@ -80,6 +80,24 @@ def test_a_chance_stated_without_seeing_a_patroller_says_what_it_assumes(capsys)
     assert full["go_time"] is not None and "never_seen" not in full
 
 
+def test_sightings_l_s_models_call_impossible_are_counted_and_said(capsys):
+    """With p = 0 every intended move fails under L's models, so the patrollers' moves L sees
+    are impossible to its belief: the JSON counts those steps and the report says so after the
+    chance, with the same count. Models that fit say nothing of the kind."""
+    argv = ["run", "--method", "mirl", "--seed", "0", "--obs-steps", "300"]
+    assert main([*argv, "--p", "0", "--json"]) == 0
+    wrong = json.loads(capsys.readouterr().out)
+    assert wrong["go_time"] is not None and wrong["filter_fallbacks"] > 0
+    assert main([*argv, "--p", "0"]) == 0
+    text = capsys.readouterr().out
+    said = re.search(r"\(on (\d+) of its steps up to then L saw what its models give", text)
+    assert said and int(said[1]) == wrong["filter_fallbacks"]
+    assert main([*argv, "--observability", "1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["filter_fallbacks"] == 0
+    assert main([*argv, "--observability", "1"]) == 0
+    assert "probability ~0" not in capsys.readouterr().out
+
+
 def test_a_part_no_step_tested_is_named_in_the_run_report(tmp_path, capsys):
     """A floor that matters only on the upper hallway, which J's patrol never crosses: the
     report names it untested, and "no part of J" is no surer than the prior (0.83)."""

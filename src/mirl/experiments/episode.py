@@ -99,6 +99,7 @@ class _Going:
     belief: BeliefFilter | None = None
     learned: LearnResult | None = None  # the models L went with (re-learned or not)
     relearns: tuple[Relearn, ...] | None = None
+    filter_fallbacks: int | None = None  # the belief's fallbacks up to the go time
 
     def stated(self) -> dict[str, Any]:
         """The chance L stated on going, as :class:`RunResult`'s ``predicted_success*``: the
@@ -478,6 +479,7 @@ def _planned_going(
         go_time, policy, replan, plan, tuple(attempts), plan_value, belief,
         learned=watcher.learned,
         relearns=tuple(watcher.relearns),
+        filter_fallbacks=belief.fallbacks,  # now: the belief goes on updating as L goes
     )  # fmt: skip
 
 
@@ -531,6 +533,7 @@ def _run_result(
         plan=plan,
         seen_steps={n: int((seen_arr[:, i] >= 0).sum()) for i, n in enumerate(names)},
         extras=world.extras(),
+        filter_fallbacks=going.filter_fallbacks,
     )
 
 

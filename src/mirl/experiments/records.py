@@ -211,6 +211,11 @@ class RunResult:
     predicted_success_interval_averaged : tuple of (float, float), optional
         The per-draw quantiles at the go time before the calibration (None when the method
         has none).
+    filter_fallbacks : int, optional
+        The steps, up to the go time (or the deadline), on which what L saw had probability
+        ~0 under the models it planned with, so that its belief took each robot's sighting
+        alone (:attr:`~mirl.planning.belief.BeliefFilter.fallbacks`; per robot in a factored
+        belief). None for a run that kept no belief (the random baseline).
     """
 
     scenario: str
@@ -244,6 +249,7 @@ class RunResult:
     predicted_success_point: float | None = None  # the point models' chance at the go time
     predicted_success_averaged: float | None = None  # before calibration (None: uncalibrated)
     predicted_success_interval_averaged: tuple[float, float] | None = None  # ditto
+    filter_fallbacks: int | None = None  # sightings L's models gave probability ~0
 
     @property
     def never_seen(self) -> tuple[str, ...]:
@@ -270,8 +276,8 @@ class RunResult:
             The fields above (the learned models as their ``feature_intervals``,
             ``verdicts`` and ``lateral_drifts`` where a method gives them; the plan and the
             observations left out), the detections and plan rounds as lists, the world's
-            extras, and ``never_seen`` (:attr:`never_seen`) where L stated a chance and it is
-            not empty.
+            extras, ``never_seen`` (:attr:`never_seen`) where L stated a chance and it is
+            not empty, and ``filter_fallbacks`` where L kept a belief.
         """
         return {
             "scenario": self.scenario,
@@ -294,6 +300,7 @@ class RunResult:
                 never_seen=(list(self.never_seen) or None)
                 if self.predicted_success is not None
                 else None,
+                filter_fallbacks=self.filter_fallbacks,
             ),
             "behavior_accuracy": self.behavior_accuracy,
             "behavior_accuracy_per_robot": self.behavior_accuracy_per_robot,

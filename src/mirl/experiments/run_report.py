@@ -399,6 +399,14 @@ def _stated_lines(result: RunResult) -> list[str]:
         f"          (P(goal reached unseen) along its plan: {how}; L goes when its chance now "
         "beats what it can expect by waiting until its deadline)",
     ]
+    fallbacks = result.filter_fallbacks
+    if fallbacks:  # what L saw there contradicts its models: the user should know
+        those = "that sighting" if fallbacks == 1 else "those sightings"
+        lines.append(_wrapped(
+            f"(on {fallbacks} of its steps up to then L saw what its models give probability "
+            f"~0 — a move no learned action makes; its belief took {those} as seen, and the "
+            "chance still rests on those models)"
+        ))  # fmt: skip
     never = result.never_seen
     if never:  # the chance then rests on where L supposes them, which its record cannot check
         names = ", ".join(never)

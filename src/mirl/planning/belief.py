@@ -730,6 +730,14 @@ class BeliefFilter:
         The form (:data:`BELIEF_MODES`), instead of the one ``joint`` chooses; ``"team"`` on
         two robots runs the general tensor code.
 
+    Attributes
+    ----------
+    fallbacks : int
+        The steps so far on which what L saw had probability ~0 (at most 1e-300) under the
+        models, one per robot in the factored form: the models say it cannot happen, and the
+        filter conditioned each robot's marginal on its sighting alone. ``mirl run`` reports
+        them (``filter_fallbacks``).
+
     Raises
     ------
     ValueError
