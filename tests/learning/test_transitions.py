@@ -18,6 +18,7 @@ from mirl.learning.transitions import (
 )
 from mirl.simulation.grid import simulate
 from mirl.world.domain import ACTIONS, FORWARD, STOP, TURN_LEFT, TURN_RIGHT
+from mirl.world.game import meeting
 from mirl.world.scenario import load_scenario
 
 
@@ -130,6 +131,13 @@ def test_true_policy_labels_are_the_grid_simulator_s_actions():
     assert np.array_equal(np.array(labels).T, np.array(actions))
     own = np.array([scenario.true_policy(i)[x] for i, x in enumerate(series)]).T
     assert (own != np.array(actions)).sum() > 0  # the game decided some steps
+    x = np.array(states)
+    meetings = np.zeros(x.shape, dtype=int)  # per step and robot, the pairs it meets in
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        met = meeting(scenario.domain, x[:, i], x[:, j], own[:, i], own[:, j])
+        meetings[:, i] += met
+        meetings[:, j] += met
+    assert (meetings >= 2).any()  # some robot met two others at once
 
 
 def test_learner_recovers_exact_rates_from_deterministic_counts(boyd2):

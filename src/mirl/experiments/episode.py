@@ -479,7 +479,7 @@ def _planned_going(
         go_time, policy, replan, plan, tuple(attempts), plan_value, belief,
         learned=watcher.learned,
         relearns=tuple(watcher.relearns),
-        filter_fallbacks=belief.fallbacks,  # now: the belief goes on updating as L goes
+        filter_fallbacks=belief.fallbacks,  # taken at the go time: L's belief updates on
     )  # fmt: skip
 
 
