@@ -10,9 +10,10 @@ Run i is ``run_episode(scenario, method, seed=run_seed(BASE, i))`` under the def
 point models') and once with ``adaptive-posterior`` (``--rules`` picks). Each run is one JSON line
 (its outcome, go time, the stated chance, its 5–95 % interval, the point models' chance, the
 averaged chance before calibration, the fraction of states L sees, the patrollers it had never
-seen when it went and the run's CPU seconds); a run already in ``--out`` is not run again, so a
+seen when it went, the steps its belief found impossible and the run's CPU seconds); a run already in ``--out`` is not run again, so a
 long measurement can be split over processes (``--first``, ``--runs``) and resumed. The report
-splits the runs where L went by whether it had seen every patroller.
+splits the runs where L went by whether it had seen every patroller, and by whether it had seen
+something its models call impossible (``filter_fallbacks``).
 
 The report: per rule, success and timeouts; where L went, the mean stated chance (posterior and
 point) against the realised rate with standard errors, the Brier scores, and the deciles of the
@@ -156,6 +157,7 @@ def measure(args) -> None:
                     "method": args.method, "scenario": args.scenario, "world": args.world,
                     "observability": args.observability, "view": view,
                     "obs_steps": args.obs_steps, "never_seen": list(r.never_seen),
+                    "filter_fallbacks": r.filter_fallbacks,
                 }  # fmt: skip
                 print(json.dumps(row), file=out, flush=True)
 
@@ -194,6 +196,13 @@ def report(rows: list[dict]) -> None:
                     print(f"\n{name} when L went: {int(sel.sum())} runs, stated − realised "
                           f"{_mean_se(s[sel] - yw[sel])}, point models' − realised "
                           f"{_mean_se(pt[sel] - yw[sel])}")  # fmt: skip
+        if all(r.get("filter_fallbacks") is not None for r in went):  # L's models contradicted
+            odd = np.array([r["filter_fallbacks"] > 0 for r in went])
+            for name, sel in (("no sighting its models call impossible", ~odd),
+                              ("some sighting its models call impossible", odd)):  # fmt: skip
+                if sel.sum() > 1:
+                    print(f"\n{name}: {int(sel.sum())} runs, stated − realised "
+                          f"{_mean_se(s[sel] - yw[sel])}")
         lo = np.array([r["interval"][0] for r in went])
         hi = np.array([r["interval"][1] for r in went])
         print(f"\nmean 5–95 % interval width {np.mean(hi - lo):.3f}; realised rate of runs whose "
