@@ -10,8 +10,9 @@ Run i is ``run_episode(scenario, method, seed=run_seed(BASE, i))`` under the def
 point models') and once with ``adaptive-posterior`` (``--rules`` picks). Each run is one JSON line
 (its outcome, go time, the stated chance, its 5–95 % interval, the point models' chance, the
 averaged chance before calibration, the fraction of states L sees, the patrollers it had never
-seen when it went, the steps its belief found impossible and the run's CPU seconds); a run already in ``--out`` is not run again, so a
-long measurement can be split over processes (``--first``, ``--runs``) and resumed. The report
+seen when it went, the steps its belief found impossible and the run's CPU seconds); a run
+already in ``--out`` is not run again, so a long measurement can be split over processes
+(``--first``, ``--runs``) and resumed. The report
 splits the runs where L went by whether it had seen every patroller, and by whether it had seen
 something its models call impossible (``filter_fallbacks``).
 
