@@ -12,9 +12,9 @@ point models') and once with ``adaptive-posterior`` (``--rules`` picks). Each ru
 averaged chance before calibration, the fraction of states L sees, the patrollers it had never
 seen when it went, the steps its belief found impossible and the run's CPU seconds); a run
 already in ``--out`` is not run again, so a long measurement can be split over processes
-(``--first``, ``--runs``) and resumed. The report
-splits the runs where L went by whether it had seen every patroller, and by whether it had seen
-something its models call impossible (``filter_fallbacks``).
+(``--first``, ``--runs``) and resumed. The report splits the runs where L went by whether it
+had seen every patroller, and by whether it had seen something its models call impossible
+(``filter_fallbacks``).
 
 The report: per rule, success and timeouts; where L went, the mean stated chance (posterior and
 point) against the realised rate with standard errors, the Brier scores, and the deciles of the
