@@ -20,6 +20,7 @@ from mirl.world.game import (
     _stored_equilibria,
     game_action_to_action,
     meeting,
+    meeting_actions,
 )
 from mirl.world.scenario import load_scenario, shipped_scenarios
 
@@ -283,3 +284,18 @@ def test_meeting_against_brute_force(boyd2):
             same = ni == nj and (ni != ci or nj != cj)
             swap = ni == cj and nj == ci and ci != cj
             assert bool(meeting(d, i, j, ai, aj)) == (same or swap)
+
+
+def test_a_robot_in_several_meetings_plays_its_first_pair_s_game():
+    """Every pair draws both its moves, in order; each robot keeps its first meeting's move."""
+    own = np.array([FWD] * 4)
+    drawn = []
+    moves = {0: (1, 0), 1: (0, 2), 2: (2, 1)}  # (stop, go), (go, turn), (turn, stop)
+
+    def draw(k):
+        drawn.append(k)
+        return moves[k]
+
+    acts = meeting_actions(own, [(0, 1), (1, 2), (0, 2)], draw)
+    assert drawn == [0, 1, 2]
+    assert acts.tolist() == [STOP, FWD, LEFT, FWD]

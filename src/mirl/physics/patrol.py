@@ -37,7 +37,7 @@ from mirl.physics.records import OBSERVER, Records
 from mirl.physics.robot import KOBUKI
 from mirl.physics.world import world_mjcf
 from mirl.world.domain import FORWARD, N_HEADINGS, TURN_LEFT, TURN_RIGHT
-from mirl.world.game import game_action_to_action, meeting
+from mirl.world.game import meeting, meeting_actions
 from mirl.world.maps import HEADING_DELTAS, HEADING_YAWS
 
 __all__ = [
@@ -472,21 +472,18 @@ class PhysicalWorld:
         est = self.estimated_poses()
         s = self.discretise(est[: self.n])
         own = self.policies[np.arange(self.n), s]
-        acts = own.copy()
-        # a robot in several meetings plays its first pair's game; every meeting pair still
-        # draws both its moves (design: "The meeting rule")
-        engaged = np.zeros(self.n, dtype=bool)
-        for i in range(self.n):
-            for j in range(i + 1, self.n):
-                if meeting(self.domain, s[i], s[j], own[i], own[j]):
-                    gi = self._draw(self._eq[i, j][0])
-                    gj = self._draw(self._eq[i, j][1])
-                    if not engaged[i]:
-                        acts[i] = game_action_to_action(gi, own[i])
-                    if not engaged[j]:
-                        acts[j] = game_action_to_action(gj, own[j])
-                    engaged[i] = engaged[j] = True
-        return s, acts
+        pairs = [
+            (i, j)
+            for i in range(self.n)
+            for j in range(i + 1, self.n)
+            if meeting(self.domain, s[i], s[j], own[i], own[j])
+        ]
+
+        def draw(k: int) -> tuple[int, int]:
+            i, j = pairs[k]
+            return self._draw(self._eq[i, j][0]), self._draw(self._eq[i, j][1])
+
+        return s, meeting_actions(own, pairs, draw)
 
     def _draw(self, probs: np.ndarray) -> int:
         """A game action drawn from a (possibly mixed) equilibrium strategy."""

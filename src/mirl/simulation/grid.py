@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mirl.observations.trajectories import Trajectories
-from mirl.world.game import game_action_to_action, meeting
+from mirl.world.game import meeting, meeting_actions
 from mirl.world.scenario import Scenario, as_scenario
 
 __all__ = ["PatrolSimulator", "SimulationResult", "simulate", "patrol_cycle"]
@@ -161,23 +161,19 @@ class PatrolSimulator:
         """
         idx = np.arange(self.n_robots)
         own = self.policies[idx, self.states]
-        acts = own.copy()
         si, sj = self._pair_i, self._pair_j
         hits = np.flatnonzero(
             meeting(self.domain, self.states[si], self.states[sj], own[si], own[sj])
         )
-        engaged = np.zeros(self.n_robots, dtype=bool)
-        for k in hits:
-            i, j = int(si[k]), int(sj[k])
-            cdf_i, cdf_j = self._eq_cdf[k]
+
+        def draw(k: int) -> tuple[int, int]:
+            cdf_i, cdf_j = self._eq_cdf[hits[k]]
             gi = int(np.searchsorted(cdf_i, self.np_random.random(), "right"))
             gj = int(np.searchsorted(cdf_j, self.np_random.random(), "right"))
-            if not engaged[i]:
-                acts[i] = game_action_to_action(min(gi, 2), int(own[i]))
-            if not engaged[j]:
-                acts[j] = game_action_to_action(min(gj, 2), int(own[j]))
-            engaged[i] = engaged[j] = True
-        return acts, bool(hits.size)
+            return min(gi, 2), min(gj, 2)
+
+        pairs = [(int(si[k]), int(sj[k])) for k in hits]
+        return meeting_actions(own, pairs, draw), bool(hits.size)
 
     def step(self, action=None):
         """Advance one step: every robot takes :meth:`intended_actions` through its true T.

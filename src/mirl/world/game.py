@@ -19,6 +19,7 @@ __all__ = [
     "InteractionGame",
     "meeting",
     "game_action_to_action",
+    "meeting_actions",
 ]
 
 GAME_ACTIONS: tuple[str, ...] = ("go", "stop", "turn")
@@ -220,6 +221,37 @@ def game_action_to_action(game_action: ArrayLike, own_action: ArrayLike) -> np.n
         Domain actions (:data:`~mirl.world.actions.ACTIONS` indices).
     """
     return np.choose(np.asarray(game_action), [own_action, STOP, TURN_LEFT])
+
+
+def meeting_actions(own: np.ndarray, pairs, draw) -> np.ndarray:
+    """Each robot's action in one step, given the pairs that meet (docs/design.md, "The meeting
+    rule"): a robot in several meetings plays the game of its first pair in ``pairs``' order;
+    every pair still draws both its game actions, so a random stream does not depend on the
+    overlap. The grid simulator and the physical world both decide by it.
+
+    Parameters
+    ----------
+    own : ndarray of int, shape (N,)
+        Each robot's policy action.
+    pairs : sequence of (int, int)
+        The meeting pairs (row robot, column robot), in robot order.
+    draw : callable
+        ``draw(k)`` → the k-th pair's (row, column) game actions, indices into
+        :data:`GAME_ACTIONS`; called once per pair, in order.
+
+    Returns
+    -------
+    ndarray of int, shape (N,)
+        The actions: the policy's, or the first meeting's game move.
+    """
+    acts = np.array(own, copy=True)
+    engaged = np.zeros(len(acts), dtype=bool)
+    for k, (i, j) in enumerate(pairs):
+        for robot, game_action in zip((i, j), draw(k), strict=True):
+            if not engaged[robot]:
+                acts[robot] = game_action_to_action(game_action, int(own[robot]))
+                engaged[robot] = True
+    return acts
 
 
 def meeting(domain: PatrolDomain, s_row, s_col, a_row, a_col) -> np.ndarray:
