@@ -40,6 +40,7 @@ import argparse
 import json
 import sqlite3
 from collections import defaultdict
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -73,6 +74,18 @@ def _rows(files: list[str]) -> list[dict]:
         with open(name) as f:
             rows += [json.loads(line) for line in f]
     return rows
+
+
+@cache
+def _named(scenario: str) -> str:
+    from mirl.world.scenario import load_scenario
+
+    return load_scenario(scenario).name
+
+
+def _scenario_name(r: dict) -> str:
+    """The name of a row's scenario (a row keeps what the run was given: a name or a file)."""
+    return _named(r["scenario"])
 
 
 def _sweep_rows(path: str) -> list[dict]:
@@ -154,7 +167,7 @@ def _as_stated(r: dict, protocol: str) -> dict:
     if r["stated"] is None:
         return r
     fitted = calibration_protocols()[protocol]
-    applies = r["method"] in fitted.maps and r["world"] in fitted.worlds
+    applies = r["method"] in fitted.maps and fitted.applies(r["world"], _scenario_name(r))
     if r.get("averaged") is not None and STATED_THROUGH is not None:  # restated: raw, then mapped
         lo, hi = _unmapped_interval(r, protocol)
         r = {**r, "stated": r["averaged"], "interval": [lo, hi], "averaged": None,
@@ -216,13 +229,15 @@ def fit(files: list[str], write: bool, protocol: str, methods: list[str] | None 
         )
         fitted = dict(calibration_protocols())
         worlds = {r["world"] for rs in by_method.values() for r in rs}
+        scenarios = {_scenario_name(r) for rs in by_method.values() for r in rs}
         if protocol in fitted:  # the methods not refitted keep their maps
             before = fitted[protocol]
             maps = {**before.maps, **maps}
             how = how if set(maps) == set(by_method) else f"{before.how}; then {how}"
             worlds |= set(before.worlds)
+            scenarios |= set(before.scenarios)
         fitted[protocol] = CalibratedProtocol(
-            PROTOCOL_OPTIONS[protocol], maps, how, tuple(sorted(worlds))
+            PROTOCOL_OPTIONS[protocol], maps, how, tuple(sorted(worlds)), tuple(sorted(scenarios))
         )
         TARGET.write_text(maps_to_json(fitted), encoding="utf-8")
         print("wrote", TARGET)

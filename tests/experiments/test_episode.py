@@ -364,18 +364,35 @@ def test_each_protocol_with_fitted_maps_states_through_its_own():
     from mirl.planning.chance_calibration import FIXED_OBSERVATION, MIRL_RUN
 
     default = LearnOptions()
-    assert _calibration(RunProtocol(), default, "grid") == MIRL_RUN
-    # the experiments' default protocol (Fig. 4a, Table 1): a fixed 300 observed steps
-    assert _calibration(RunProtocol(watch_until_seen=None), default, "grid") == FIXED_OBSERVATION
+    for scenario in ("boyd2", "boyd2-healthy"):  # the scenarios the maps were fitted on
+        assert _calibration(RunProtocol(), default, "grid", scenario) == MIRL_RUN
+        # the experiments' default protocol (Fig. 4a, Table 1): a fixed 300 observed steps
+        fixed = RunProtocol(watch_until_seen=None)
+        assert _calibration(fixed, default, "grid", scenario) == FIXED_OBSERVATION
     fig4a = RunProtocol.paper(go_rule="adaptive", relearn=True)
-    assert _calibration(fig4a, default, "grid") == FIXED_OBSERVATION
-    # fig3's other observation times, the paper's rule, other learning options, and a world the
-    # maps were not fitted in: no map
-    assert _calibration(RunProtocol(obs_steps=150, watch_until_seen=None), default, "grid") is None
-    assert _calibration(RunProtocol.paper(), default, "grid") is None
-    assert _calibration(RunProtocol(), LearnOptions(p=0.7), "grid") is None
-    assert _calibration(RunProtocol(), default, "physics") is None
-    assert _calibration(fig4a, default, "physics") is None
+    assert _calibration(fig4a, default, "grid", "boyd2") == FIXED_OBSERVATION
+    # fig3's other observation times, the paper's rule, other learning options, a world and
+    # scenarios the maps were not fitted on: no map
+    fig3 = RunProtocol(obs_steps=150, watch_until_seen=None)
+    assert _calibration(fig3, default, "grid", "boyd2") is None
+    assert _calibration(RunProtocol.paper(), default, "grid", "boyd2") is None
+    assert _calibration(RunProtocol(), LearnOptions(p=0.7), "grid", "boyd2") is None
+    assert _calibration(RunProtocol(), default, "physics", "boyd2") is None
+    assert _calibration(fig4a, default, "physics", "boyd2") is None
+    for other in ("boydright", "office", "turtlebot3-world"):
+        assert _calibration(RunProtocol(), default, "grid", other) is None
+        assert _calibration(fig4a, default, "grid", other) is None
+
+
+def test_a_run_on_a_scenario_the_maps_were_not_fitted_on_states_its_average():
+    boydright = load_scenario("boydright")
+    r = run_episode(boydright, "mirl-t", seed=0)  # mirl run's protocol, whose maps are boyd2's
+    assert r.go_time is not None and r.predicted_success_interval is not None
+    lo, hi = r.predicted_success_interval
+    assert lo < hi  # drawn, and not mapped
+    assert r.predicted_success_averaged is None
+    report = format_report(boydright, r)
+    assert "stated through" not in report and "not calibrated" in report
 
 
 def test_the_stated_chance_is_a_function_of_the_seed(boyd2):

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -29,9 +30,7 @@ def earlier_maps(tmp_path, monkeypatch):
     shipped = dict(calibration_protocols())
     before = shipped[FIXED_OBSERVATION]
     earlier = ChanceMap(0.4, 0.7, -0.5, 0.2, runs=400, fitted_on="an earlier fit")
-    shipped[FIXED_OBSERVATION] = type(before)(
-        before.options, {**before.maps, "mirl-t": earlier}, before.how, before.worlds
-    )
+    shipped[FIXED_OBSERVATION] = replace(before, maps={**before.maps, "mirl-t": earlier})
     path = tmp_path / "maps.json"
     path.write_text(maps_to_json(shipped), encoding="utf-8")
     monkeypatch.setattr(fcc, "STATED_THROUGH", fcc._maps_in(str(path)))

@@ -219,7 +219,7 @@ def run_episode(
         visible = run_world.visible if run.negative_evidence else None
         watcher = _Watcher(modelled, run_world, learned, learner, visible, run.joint, timings)
         k = int(stated.generate_state(1)[0])
-        calibration = _calibration(run, learning, get_world(world).name)
+        calibration = _calibration(run, learning, get_world(world).name, scenario.name)
         waiting = Waiting(run_world, watcher, model, planning, k, calibration)
         going = _planned_going(waiting, rule, timings)
         learned = going.learned
@@ -254,14 +254,16 @@ def run_episode(
     )
 
 
-def _calibration(run: RunProtocol, learning: LearnOptions, world: str) -> str | None:
+def _calibration(
+    run: RunProtocol, learning: LearnOptions, world: str, scenario: str
+) -> str | None:
     """The held-out calibration the stated chance goes through: the one fitted under this run's
-    protocol, in its world, with the default learning options; None for any other run
-    (docs/design.md, "The held-out calibration")."""
+    protocol, in its world and on its scenario, with the default learning options; None for any
+    other run (docs/design.md, "The held-out calibration")."""
     if not learning.in_effect_default:
         return None
     for name, fitted in calibration_protocols().items():
-        if run == RunProtocol(**fitted.options) and world in fitted.worlds:
+        if run == RunProtocol(**fitted.options) and fitted.applies(world, scenario):
             return name
     return None
 

@@ -386,7 +386,8 @@ def _stated_lines(result: RunResult) -> list[str]:
     elif drawn:
         how = (
             "averaged over model sets drawn from the posterior of its models, not calibrated: "
-            "no held-out map was fitted for this method, world, protocol and learning options"
+            "no held-out map was fitted for this method, scenario, world, protocol and learning "
+            "options"
         )
     else:
         how = "under its models and belief"

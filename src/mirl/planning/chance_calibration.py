@@ -303,12 +303,34 @@ class CalibratedProtocol:
         The command that fitted them.
     worlds : tuple of str
         The worlds whose runs they were fitted on; a run in another world states its average.
+    scenarios : tuple of str
+        The scenarios (by name) whose runs they were fitted on; a run of another scenario
+        states its average: what a map corrects depends on the floor plan and the patrols
+        (docs/design.md, "Where the maps apply").
     """
 
     options: Mapping[str, Any]
     maps: Mapping[str, ChanceMap]
     how: str
     worlds: tuple[str, ...]
+    scenarios: tuple[str, ...]
+
+    def applies(self, world: str, scenario: str) -> bool:
+        """Whether these maps state the chance of a run of ``scenario`` in ``world``.
+
+        Parameters
+        ----------
+        world : str
+            The run's world.
+        scenario : str
+            The run's scenario's name.
+
+        Returns
+        -------
+        bool
+            True when both are among those the maps were fitted on.
+        """
+        return world in self.worlds and scenario in self.scenarios
 
 
 @lru_cache(maxsize=1)
@@ -329,6 +351,7 @@ def calibration_protocols() -> Mapping[str, CalibratedProtocol]:
             maps={m: ChanceMap(**fields) for m, fields in entry["methods"].items()},
             how=entry["how"],
             worlds=tuple(entry["worlds"]),
+            scenarios=tuple(entry["scenarios"]),
         )
         for name, entry in json.loads(text)["protocols"].items()
     }
@@ -413,6 +436,7 @@ def maps_to_json(protocols: Mapping[str, CalibratedProtocol]) -> str:
         name: {
             "options": dict(p.options),
             "worlds": list(p.worlds),
+            "scenarios": list(p.scenarios),
             "how": p.how,
             "methods": {k: asdict(v) for k, v in sorted(p.maps.items())},
         }
