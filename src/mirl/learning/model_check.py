@@ -12,6 +12,14 @@ what the models, at their posterior, predict for it (a posterior-predictive chec
   misreads do, now and then. The check fails when they are more than a tolerated share of
   misreads (:data:`MISREAD_RATE`) makes plausible (a binomial tail below :data:`ALPHA`); moves
   longer than one cell say the record's time step is too long for the robot's pace.
+* **Slides** — moves to the cell behind the robot that it then stays in (the next observed
+  step starts there and leaves no cell). No action moves a robot backwards; a tracker's misread
+  of a still robot does, but the next read takes it back, so a backward move that stays needs
+  two misreads in a row. The check fails when they are more than that (a binomial tail below
+  :data:`ALPHA` at the square of :data:`MISREAD_RATE`): a robot pushed back by another, or
+  wedged on a wall and sliding while it drives, whose stays are no failures of its parts. A
+  wedge that lasts the whole record is what the stall check cannot see: the robot's own
+  failure rate, fitted to it, explains the stays.
 * **Stalls** — the longest run of consecutive steps on which the robot stayed put. Under the
   models each step stays put with its own probability (a failed move, a stop), consecutive
   steps correlated as far as the record's dispersion grants (a two-state Markov chain with the
@@ -83,6 +91,7 @@ __all__ = [
     "Check",
     "ModelFit",
     "check_unexplained",
+    "check_slides",
     "check_stalls",
     "check_jams",
     "held_back",
@@ -123,8 +132,8 @@ class Check:
     Parameters
     ----------
     name : str
-        ``"unexplained"``, ``"stalls"``, ``"jams"``, ``"moves"``, ``"few trials"``, ``"in the
-        way"``, ``"few steps"`` or ``"pace"``.
+        ``"unexplained"``, ``"slides"``, ``"stalls"``, ``"jams"``, ``"moves"``, ``"few
+        trials"``, ``"in the way"``, ``"few steps"`` or ``"pace"``.
     ok : bool
         Whether the record passes it.
     p_value : float or None
@@ -243,6 +252,39 @@ def check_unexplained(
         reason += f" ({n_long} moved more than one cell in one step)"
         fix = "a shorter time step (`step_seconds`), at which a move is one cell"
     return Check("unexplained", False, p, reason, fix, misfit)
+
+
+# ---- slides -------------------------------------------------------------------------------------
+def check_slides(slid: np.ndarray, *, rate: float = MISREAD_RATE) -> Check:
+    """Backward moves the robot stayed at, against two misreads in a row.
+
+    Parameters
+    ----------
+    slid : ndarray of bool, shape (n,)
+        Per observed step, whether it moved the robot to the cell behind it and the next
+        observed step started there and stayed in that cell.
+    rate : float, default :data:`MISREAD_RATE`
+        The share of steps a tracker may misread; a kept backward move needs two in a row.
+
+    Returns
+    -------
+    Check
+        ``"slides"``; its misfit steps are the backward moves.
+    """
+    slid = np.asarray(slid, dtype=bool)
+    n, k = len(slid), int(slid.sum())
+    misfit = np.flatnonzero(slid)
+    if k == 0:
+        return Check("slides", True, 1.0, misfit=misfit)
+    p = float(bdtrc(k - 1, n, rate**2))  # P(at least k of n)
+    if p >= ALPHA:
+        return Check("slides", True, p, misfit=misfit)
+    reason = (
+        f"{k} of {n} observed steps moved it to the cell behind it, where it stayed: no action "
+        "moves a robot backwards, so it was pushed or slid (wedged on a wall or another robot), "
+        "and its stays are not its parts' failures"
+    )
+    return Check("slides", False, p, reason, "", misfit)
 
 
 # ---- stalls -------------------------------------------------------------------------------------

@@ -60,6 +60,7 @@ from mirl.learning.model_check import (
     check_pace,
     check_pinned,
     check_record_length,
+    check_slides,
     check_stalls,
     check_unexplained,
     held_back,
@@ -1496,7 +1497,7 @@ def _check_record(
     and the misfit and held steps (bool, one per observed step)."""
     cells = domain.states[:, :2]
     long_moves = np.abs(cells[s_next] - cells[s]).sum(axis=1) >= 2
-    checks = [check_unexplained(unexplained, long_moves)]
+    checks = [check_unexplained(unexplained, long_moves), check_slides(_slid(domain, t, s, s_next))]
     misfit = np.zeros(len(t), dtype=bool)
     in_the_way = np.zeros(len(t), dtype=bool)
     kinds = _move_kinds(domain, s, s_next)
@@ -1649,6 +1650,19 @@ def _kind_probabilities(post: MotionPosterior, domain, s, action, random_state: 
         q[:, ahead[0] == s, 0] = 0.0  # a forward step into a wall stays put
         out.append(q)
     return out[0], out[1]
+
+
+def _slid(domain: PatrolDomain, t: np.ndarray, s: np.ndarray, s_next: np.ndarray) -> np.ndarray:
+    """Per observed step, whether it moved the robot to the cell behind it (against its heading
+    at the step's start) and the robot's next observed step, the one after it, started there and
+    stayed in that cell (:func:`~mirl.learning.model_check.check_slides`)."""
+    cells, headings = domain.states[:, :2], domain.states[:, 2]
+    behind = cells[s] - HEADING_DELTAS[headings[s]]
+    backward = (cells[s_next] == behind).all(axis=1)
+    nxt = np.r_[np.arange(1, len(s)), len(s) - 1]  # the following step, where there is one
+    follows = np.r_[(t[1:] == t[:-1] + 1) & (s[1:] == s_next[:-1]), False]
+    stayed = (cells[s_next[nxt]] == cells[s_next]).all(axis=1)
+    return backward & follows & stayed
 
 
 def _move_kinds(domain: PatrolDomain, s: np.ndarray, s_next: np.ndarray) -> np.ndarray:
