@@ -218,6 +218,15 @@ class ModelFit:
 
 
 # ---- unexplained steps --------------------------------------------------------------------------
+def _rare_steps(flags: np.ndarray, rate: float) -> tuple[int, int, float, np.ndarray]:
+    """The k of n steps flagged, P(at least k of n) when each is flagged with probability
+    ``rate`` (1 when none is), and their indices."""
+    flags = np.asarray(flags, dtype=bool)
+    n, k = len(flags), int(flags.sum())
+    p = 1.0 if k == 0 else float(bdtrc(k - 1, n, rate))
+    return k, n, p, np.flatnonzero(flags)
+
+
 def check_unexplained(
     unexplained: np.ndarray, long_moves: np.ndarray, *, rate: float = MISREAD_RATE
 ) -> Check:
@@ -238,11 +247,7 @@ def check_unexplained(
         ``"unexplained"``; its misfit steps are the unexplained ones.
     """
     unexplained = np.asarray(unexplained, dtype=bool)
-    n, k = len(unexplained), int(unexplained.sum())
-    misfit = np.flatnonzero(unexplained)
-    if k == 0:
-        return Check("unexplained", True, 1.0, misfit=misfit)
-    p = float(bdtrc(k - 1, n, rate))  # P(at least k of n)
+    k, n, p, misfit = _rare_steps(unexplained, rate)
     if p >= ALPHA:
         return Check("unexplained", True, p, misfit=misfit)
     n_long = int(np.asarray(long_moves, dtype=bool)[unexplained].sum())
@@ -271,12 +276,7 @@ def check_slides(slid: np.ndarray, *, rate: float = MISREAD_RATE) -> Check:
     Check
         ``"slides"``; its misfit steps are the backward moves.
     """
-    slid = np.asarray(slid, dtype=bool)
-    n, k = len(slid), int(slid.sum())
-    misfit = np.flatnonzero(slid)
-    if k == 0:
-        return Check("slides", True, 1.0, misfit=misfit)
-    p = float(bdtrc(k - 1, n, rate**2))  # P(at least k of n)
+    k, n, p, misfit = _rare_steps(slid, rate**2)
     if p >= ALPHA:
         return Check("slides", True, p, misfit=misfit)
     reason = (
