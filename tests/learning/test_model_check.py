@@ -76,6 +76,23 @@ def test_backward_moves_a_robot_stays_at_fail_and_are_misfit():
     assert check.misfit.tolist() == np.flatnonzero(slid).tolist()
 
 
+def test_a_slide_is_a_backward_move_the_next_observed_step_stays_at():
+    from mirl.learning.verdicts import _slid
+
+    d = load_scenario("boyd2-healthy").domain
+    at = [d.state_index(0, c, 0) for c in (5, 4, 3)]  # facing east, one cell further west each
+    none = np.zeros(0, dtype=int)
+    assert _slid(d, none, none, none).tolist() == []
+    # a backward move with no step after it, one read back, one stayed at, one then unobserved
+    assert _slid(d, np.array([3]), np.array([at[0]]), np.array([at[1]])).tolist() == [False]
+    back_and_forth = _slid(d, np.array([3, 4]), np.array([at[0], at[1]]), np.array([at[1], at[0]]))
+    assert back_and_forth.tolist() == [False, False]
+    kept = _slid(d, np.array([3, 4]), np.array([at[0], at[1]]), np.array([at[1], at[1]]))
+    assert kept.tolist() == [True, False]
+    gap = _slid(d, np.array([3, 9]), np.array([at[0], at[1]]), np.array([at[1], at[1]]))
+    assert gap.tolist() == [False, False]
+
+
 def _wedged_record(slide: bool):
     """boyd2-healthy's I, healthy, as L sees it at full view: it stays in its
     cell facing east as if driving on, and (``slide``) every 40 steps it is one cell further

@@ -1656,6 +1656,8 @@ def _slid(domain: PatrolDomain, t: np.ndarray, s: np.ndarray, s_next: np.ndarray
     """Per observed step, whether it moved the robot to the cell behind it (against its heading
     at the step's start) and the robot's next observed step, the one after it, started there and
     stayed in that cell (:func:`~mirl.learning.model_check.check_slides`)."""
+    if not len(s):
+        return np.zeros(0, dtype=bool)
     cells, headings = domain.states[:, :2], domain.states[:, 2]
     behind = cells[s] - HEADING_DELTAS[headings[s]]
     backward = (cells[s_next] == behind).all(axis=1)
