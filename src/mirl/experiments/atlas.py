@@ -630,7 +630,8 @@ def verdict_metrics(
     :func:`~mirl.learning.verdicts.also_field`), its confidence, whether it is right
     against ``truth`` (:meth:`~mirl.learning.verdicts.Verdict.is_right`: it names a damaged
     part, or no part of a healthy robot), its model check (``fit.PATH.R``: ``"ok"`` or the
-    reason it failed) where the verdict has one, and the observed moves no action explains
+    reason it failed) where the verdict has one, the verdict's probability under L's models
+    alone where the check failed (``untempered.PATH.R``), and the observed moves no action explains
     (``unexplained.PATH.R``) where the record counts them.
 
     Parameters
@@ -666,6 +667,8 @@ def verdict_metrics(
         fit = v.get("fit")
         if isinstance(fit, Mapping):
             out[f"fit.{path}.{robot}"] = "ok" if fit.get("ok") else str(fit.get("reason") or "?")
+            if "untempered" in fit:
+                out[f"untempered.{path}.{robot}"] = float(fit["untempered"])
         moves = rec.get("observed_moves")
         if isinstance(moves, Mapping) and "unexplained" in moves:
             out[f"unexplained.{path}.{robot}"] = int(moves["unexplained"])

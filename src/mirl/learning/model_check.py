@@ -180,10 +180,15 @@ class ModelFit:
     left_out : mapping of str to int
         Steps left out of the verdict's evidence, by reason (misfit steps, and steps in
         another robot's way).
+    untempered : float or None
+        For a record that fails a check, the verdict's probability under L's motion models
+        alone, before the tempering (:data:`~mirl.learning.verdicts.MODEL_TRUST`) gave the
+        prior the rest; None for a record that fits.
     """
 
     checks: tuple[Check, ...] = ()
     left_out: Mapping[str, int] = field(default_factory=dict)
+    untempered: float | None = None
 
     @property
     def ok(self) -> bool:
@@ -206,12 +211,14 @@ class ModelFit:
         Returns
         -------
         dict
-            ``ok``, ``reason``, ``fix`` (where there is one), ``checks`` (by name) and
-            ``left_out`` (by reason).
+            ``ok``, ``reason``, ``fix`` (where there is one), ``untempered`` (4 decimals,
+            where it is set), ``checks`` (by name) and ``left_out`` (by reason).
         """
         out: dict = {"ok": self.ok, "reason": self.reason}
         if self.fix:
             out["fix"] = self.fix
+        if self.untempered is not None:
+            out["untempered"] = round(float(self.untempered), 4)
         out["checks"] = {c.name: c.to_dict() for c in self.checks}
         out["left_out"] = {k: int(v) for k, v in self.left_out.items() if v}
         return out

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.special import expit, log_ndtr
@@ -95,6 +95,8 @@ __all__ = [
     "LateralDrift",
     "WHEELS",
     "MODEL_TRUST",
+    "CONFIDENT",
+    "tempered_trust",
     "BLOCKING_DISTANCE",
     "held_by_others",
     "free_pace",
@@ -139,8 +141,11 @@ different parts, their weights are the prior's, not the record's
 (:func:`_common_parts_widened`)."""
 MODEL_TRUST = 0.5
 """The weight L gives its motion models for a record that fails a check
-(:mod:`mirl.learning.model_check`); the prior has the rest. A verdict on such a record then
-claims at most 1/2 + 1/2 × the prior's probability of the same statement — never 0.9."""
+(:mod:`mirl.learning.model_check`); the prior has the rest, and :func:`tempered_trust` lowers
+it where a statement could otherwise reach :data:`CONFIDENT`."""
+CONFIDENT = 0.9
+"""A verdict at least this probable is a confident one: a statement on a record that fails the
+model check stays below it."""
 MAX_AUTOCORRELATION = 0.95
 """The drift's lag-1 autocorrelation is clipped here: nearer 1, its variance inflation
 (1 + ρ)/(1 − ρ) would grow without bound on a record of a robot standing still."""
@@ -1424,7 +1429,7 @@ def _verdict_draws(
     features: Sequence[str],
     untested: Sequence[str],
     fits: bool,
-    healthy: Mapping[str, float],
+    definition: DamageDefinition,
     prior: PriorSpec,
     seed: int,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -1434,17 +1439,71 @@ def _verdict_draws(
     error; design: "Fault verdicts"); and, for a record that fails the model check, the prior's
     draws beside them at the weight L's models do not get (:data:`MODEL_TRUST`)."""
     p, w = post.pooled()
-    h = np.array([min(healthy[f], 0.999) for f in features])
+    h = np.array([min(definition.healthy_level(f), 0.999) for f in features])
     if untested:
         fresh = expit(sample_feature_prior(np.random.default_rng((seed, 1)), len(p), h, prior))
         columns = [list(features).index(f) for f in untested]
         p = p.copy()
         p[:, columns] = fresh[:, columns]
-    if not fits:  # L's models get even odds, the prior the rest
+    if not fits:  # L's models get their measured trust, the prior the rest
         q = expit(sample_feature_prior(np.random.default_rng(seed), len(p), h, prior))
+        trust = tempered_trust(features, definition, prior)
         p = np.vstack([p, q])
-        w = np.concatenate([MODEL_TRUST * w, np.full(len(q), (1 - MODEL_TRUST) / len(q))])
+        w = np.concatenate([trust * w, np.full(len(q), (1 - trust) / len(q))])
     return p, w
+
+
+def tempered_trust(
+    features: Sequence[str], definition: DamageDefinition, prior: PriorSpec
+) -> float:
+    """The weight of L's models in a verdict on a record that fails a check: :data:`MODEL_TRUST`,
+    or less where even a statement certain under the models would reach :data:`CONFIDENT`.
+
+    A tempered statement's probability is ``w u + (1 - w) q``, ``u`` under the models and ``q``
+    under the prior. Every statement is "no part is damaged" or "one of these parts is", so
+    ``q`` is at most ``max(P0, 1 - P0)``, P0 the prior's probability that no part is damaged:
+    the product over features of the prior's mass at or above the feature's damage threshold
+    (exact: the Beta component's survival function, the uniform component's ``1 -
+    threshold``). The weight keeps ``w + (1 - w) max(P0, 1 - P0)`` below :data:`CONFIDENT`.
+
+    Parameters
+    ----------
+    features : sequence of str
+        The features.
+    definition : DamageDefinition
+        Their healthy levels and damage thresholds.
+    prior : PriorSpec
+        The features' prior.
+
+    Returns
+    -------
+    float
+        The weight, in [0, :data:`MODEL_TRUST`].
+    """
+    from scipy.stats import beta
+
+    p0 = 1.0
+    for f in features:
+        h, threshold = min(definition.healthy_level(f), 0.999), definition.threshold(f)
+        healthy_mass = beta.sf(threshold, prior.strength * h, prior.strength * (1 - h))
+        p0 *= (1 - prior.damaged_share) * healthy_mass + prior.damaged_share * (1 - threshold)
+    q = max(p0, 1.0 - p0)
+    # strictly below: the largest weight keeping a certain statement a hair under CONFIDENT
+    ceiling = (CONFIDENT - q) / (1.0 - q) - 1e-9
+    return float(min(MODEL_TRUST, max(ceiling, 0.0)))
+
+
+def _untempered(verdict: Verdict, features, p: np.ndarray, w: np.ndarray, definition) -> float:
+    """The verdict's probability under L's models alone: over the first half of tempered
+    draws (:func:`_verdict_draws` stacks the prior's as many draws after the models')."""
+    thresholds = np.array([definition.threshold(f) for f in features])
+    damaged = p < thresholds
+    if verdict.names_damage:
+        holds = damaged[:, [list(features).index(f) for f in verdict.named]].any(axis=1)
+    else:
+        holds = ~damaged.any(axis=1)
+    n = len(p) // 2
+    return float(w[:n] @ holds[:n] / w[:n].sum())
 
 
 def never_seen_moving(
@@ -1784,12 +1843,14 @@ def robot_uncertainty(
     }
     fit = ModelFit(tuple(checks), left_out)
     untested = untested_features(domain, models, s[used], drift=drift is not None)
-    p, w = _verdict_draws(post, features, untested, fit.ok, healthy, prior, random_state)
+    p, w = _verdict_draws(post, features, untested, fit.ok, definition, prior, random_state)
     intervals, medians = _summaries(features, p, w)
     verdict = _every_model_covered(
         verdict_from_draws(features, p, w, definition), post, features, p, w, definition
     )
     verdict = _common_parts_widened(verdict, post, features, p, w, definition)
+    if not fit.ok:
+        fit = replace(fit, untempered=_untempered(verdict, features, p, w, definition))
     groups = indistinguishable(plan_domain, s[used], lab[used])
     wheels_group = any(set(g) == set(WHEELS) for g in groups)
     # turns that need a wheel, but which one the step outcomes cannot say (a mirror and its
@@ -2014,7 +2075,6 @@ def compared_with_team(
     list of FeatureUncertainty or None
         The uncertainties, each verdict the comparison sets with its ``beside``.
     """
-    from dataclasses import replace
 
     ratio = team_ratio(definition, forward_parts)
     out = list(uncertainties)
