@@ -71,3 +71,20 @@ def test_an_unknown_experiment_names_the_nearest_listed_ones():
         get_experiment("zzz")
     assert "selftest" not in str(e.value)  # hidden: runs when named, never offered
     assert get_experiment("selftest").hidden
+
+
+def test_a_robot_never_seen_moving_is_stored_as_no_verdict():
+    from types import SimpleNamespace
+
+    from mirl.experiments.conditions import _verdict_metrics
+    from mirl.learning.verdicts import Verdict
+
+    seen = Verdict("left_wheel", 0.97)
+    unseen = Verdict(None, 0.49, seen_moving=False)
+    learned = SimpleNamespace(robots=[
+        SimpleNamespace(name="I", verdict=unseen, feature_intervals={}),
+        SimpleNamespace(name="J", verdict=seen, feature_intervals={}),
+    ])  # fmt: skip
+    out = _verdict_metrics(learned, {"I": (), "J": ("left_wheel",)})
+    assert out["unseen.I"] == 1 and "unseen.J" not in out
+    assert out["right.J"] == 1 and out["confidence.I"] == 0.49

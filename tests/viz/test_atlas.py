@@ -188,3 +188,24 @@ def test_a_stored_also_field_reads_back_as_parts_and_probabilities():
     v = Verdict("left_wheel", 1.0, (), {"left_wheel": 1.0, "navigation": 0.622, "floor": 0.51})
     assert also_field(v) == "navigation=0.622,floor=0.51"
     assert parse_also_field(also_field(v)) == (("navigation", 0.622), ("floor", 0.51))
+
+
+def test_a_robot_never_seen_moving_is_no_verdict_and_left_out_of_the_calibration(
+    groups, tmp_path
+):
+    from mirl.learning.verdicts import NEVER_SEEN
+
+    before = measures(atlas_items(groups))
+    # the healthy run's I, never seen moving: "no part" at the prior's 0.6, right
+    groups[1].rows[0]["fit.grid-csv.I"] = NEVER_SEEN
+    items = atlas_items(groups)
+    m = measures(items)
+    assert (m.n, m.unseen) == (before.n - 1, 1)
+    assert m.ece == pytest.approx(
+        expected_calibration_error([a.base for a in items if a.base.confidence != 0.6])
+    )
+    assert m.ece != pytest.approx(before.ece)
+    # still a healthy robot: its row counts it, and no statement of it is false
+    assert (m.healthy, m.healthy_ok) == (before.healthy, before.healthy_ok)
+    md = atlas_markdown(groups, tmp_path)
+    assert "11 verdicts from 3 runs" in md and "(1 robot-paths)" in md

@@ -56,6 +56,8 @@ def test_the_section_reads_the_stored_runs(tmp_path):
     md = verdicts_markdown([group], tmp_path)
     assert "J's left wheel | 3 | 1.000 (3/3)" in md
     assert (tmp_path / "verdicts.png").exists()
+    rows[1]["unseen.J"] = 1  # L never saw J move in run 1: no verdict to score
+    assert len(verdict_items([group])) == 5
 
 
 def test_the_rates_count_runs_whatever_the_team_size():

@@ -339,8 +339,9 @@ def episode_run(condition: Condition, seed: int) -> dict[str, Any]:
 
 def _verdict_metrics(learned: Any, truth: Mapping[str, tuple[str, ...]]) -> dict[str, Any]:
     """Per robot the verdict, the parts it says are damaged besides (``also.<robot>``, where
-    there are any), its confidence, the truly damaged parts and whether the verdict is right;
-    and the feature intervals (``ci.<robot>.<feature>``: [lo, hi])."""
+    there are any), its confidence, ``unseen.<robot>`` = 1 where L never saw it move (no
+    verdict), the truly damaged parts and whether the verdict is right; and the feature
+    intervals (``ci.<robot>.<feature>``: [lo, hi])."""
     out: dict[str, Any] = {}
     for r in learned.robots:
         v = r.verdict
@@ -350,6 +351,8 @@ def _verdict_metrics(learned: Any, truth: Mapping[str, tuple[str, ...]]) -> dict
         if v.also:
             out[f"also.{r.name}"] = also_field(v)
         out[f"confidence.{r.name}"] = float(v.confidence)
+        if not v.seen_moving:  # no verdict: the confidence is the prior's
+            out[f"unseen.{r.name}"] = 1
         out[f"truth.{r.name}"] = ",".join(truth[r.name])
         out[f"right.{r.name}"] = int(v.is_right(truth[r.name]))
         out.update({f"ci.{r.name}.{f}": list(iv) for f, iv in r.feature_intervals.items()})

@@ -96,6 +96,7 @@ __all__ = [
     "WHEELS",
     "MODEL_TRUST",
     "CONFIDENT",
+    "NEVER_SEEN",
     "tempered_trust",
     "BLOCKING_DISTANCE",
     "held_by_others",
@@ -143,6 +144,10 @@ MODEL_TRUST = 0.5
 """The weight L gives its motion models for a record that fails a check
 (:mod:`mirl.learning.model_check`); the prior has the rest, and :func:`tempered_trust` lowers
 it where a statement could otherwise reach :data:`CONFIDENT`."""
+NEVER_SEEN = "L never saw it at two consecutive steps"
+"""The model check's reason for a robot L never saw move: it has no verdict, and its
+``confidence`` is the prior's probability that no part is damaged, a number of the prior and
+not of the robot (:func:`never_seen_moving`)."""
 CONFIDENT = 0.9
 """A verdict at least this probable is a confident one: a statement on a record that fails the
 model check stays below it."""
@@ -1542,7 +1547,7 @@ def never_seen_moving(
     intervals, medians = _summaries(features, p, w)
     prior_verdict = verdict_from_draws(features, p, w, definition)
     p_none = float(w @ ~(p < [definition.threshold(f) for f in features]).any(axis=1))
-    fit = ModelFit((Check("moves", False, None, "L never saw it at two consecutive steps"),))
+    fit = ModelFit((Check("moves", False, None, NEVER_SEEN),))
     verdict = Verdict(None, p_none, (), prior_verdict.damage_probabilities, fit, False)
     return FeatureUncertainty(intervals, verdict, medians=medians)
 

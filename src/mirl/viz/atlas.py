@@ -23,7 +23,7 @@ from matplotlib.figure import Figure
 
 from mirl.experiments.atlas import DATA_PATHS, POSE_PATHS, fault_kind, parse_damage
 from mirl.experiments.conditions import EXPERIMENTS, Condition
-from mirl.learning.verdicts import parse_also_field
+from mirl.learning.verdicts import NEVER_SEEN, parse_also_field
 from mirl.viz.aggregate import Group
 from mirl.viz.verdicts import (
     CONFIDENT,
@@ -95,6 +95,14 @@ class AtlasVerdict:
         return bool(self.base.truth)
 
     @property
+    def stated(self) -> bool:
+        """Whether L states a verdict: not for a robot it never saw move, whose confidence is
+        the prior's probability that no part is damaged (:data:`~mirl.learning.verdicts.
+        NEVER_SEEN`), a number of the prior's and the design's share of damaged robots, not a
+        statement about the robot."""
+        return self.fit != NEVER_SEEN
+
+    @property
     def named_alone(self) -> bool:
         """Whether the verdict names damaged parts only: one part, a damaged one, or (with two
         damaged) exactly those ("one of J's wheels is weak (or both)")."""
@@ -159,11 +167,11 @@ class Measures:
     Parameters
     ----------
     n : int
-        Verdicts.
+        Verdicts L states (robots it saw move).
     false : int
         Confidently false statements.
     ece : float
-        The expected calibration error.
+        The expected calibration error of the verdicts L states.
     damaged : int
         Verdicts on damaged robots.
     alone : int
@@ -178,6 +186,9 @@ class Measures:
         Verdicts with a model check.
     misfit : int
         Of those, whose check failed.
+    unseen : int
+        Robots L never saw move: no verdict, in none of the counts above but the damaged
+        and healthy robots'.
     """
 
     n: int
@@ -190,6 +201,7 @@ class Measures:
     healthy_ok: int  # … without a confidently false statement
     checked: int  # verdicts with a model check
     misfit: int  # … whose check failed
+    unseen: int = 0  # robots L never saw move: no verdict
 
     @property
     def false_share(self) -> float:
@@ -212,11 +224,12 @@ def measures(items: Sequence[AtlasVerdict]) -> Measures:
     """
     damaged = [a for a in items if a.damaged]
     healthy = [a for a in items if not a.damaged]
-    checked = [a for a in items if a.fit is not None]
+    stated = [a for a in items if a.stated]
+    checked = [a for a in stated if a.fit is not None]
     return Measures(
-        n=len(items),
-        false=sum(a.base.confident_false for a in items),
-        ece=expected_calibration_error([a.base for a in items]),
+        n=len(stated),
+        false=sum(a.base.confident_false for a in stated),
+        ece=expected_calibration_error([a.base for a in stated]),
         damaged=len(damaged),
         alone=sum(a.named_alone for a in damaged),
         among=sum(a.named_among for a in damaged),
@@ -224,6 +237,7 @@ def measures(items: Sequence[AtlasVerdict]) -> Measures:
         healthy_ok=sum(not a.base.confident_false for a in healthy),
         checked=len(checked),
         misfit=sum(a.fit != "ok" for a in checked),
+        unseen=len(items) - len(stated),
     )
 
 
@@ -256,6 +270,7 @@ def _cells(m: Measures, held: bool) -> list[str]:
         named,
         _share(m.healthy_ok, m.healthy),
         _share(m.misfit, m.checked),
+        str(m.unseen),
     ]
 
 
@@ -263,6 +278,7 @@ _HEAD = [
     "verdicts", f"confidently false (≥ {CONFIDENT:g})", "ECE",
     "damaged robots: part named (alone / among candidates; n)",
     "healthy robots: no confident false statement", "model check failed",
+    "never seen moving (no verdict)",
 ]  # fmt: skip
 
 
@@ -323,7 +339,7 @@ def targets_markdown(items: Sequence[AtlasVerdict]) -> str:
         sel
         for keys in (*([k] for k in AXES.values()), cross)
         for _, sel in _by(items, *keys)
-        if len(sel) >= MIN_ROW
+        if measures(sel).n >= MIN_ROW
     ]
     false_rows = sum(measures(s).false_share > TARGETS["false per row"] for s in held_rows)
     ece_rows = sum(measures(s).ece > TARGETS["ece per row"] for s in held_rows)
@@ -411,7 +427,7 @@ def _figure(items: Sequence[AtlasVerdict], figdir: Path) -> str:
     for ax, world in zip(axes, worlds, strict=True):
         ax.plot([0, 1], [0, 1], ":", color="gray", label="perfect calibration")
         for k, path in enumerate(DATA_PATHS):
-            sel = [a.base for a in items if a.base.world == world and a.path == path]
+            sel = [a.base for a in items if a.base.world == world and a.path == path and a.stated]
             rows = reliability_table(sel)
             if rows:
                 # the pose CSV and the MCAP file often agree: dashes keep both lines visible
@@ -595,11 +611,19 @@ def atlas_markdown(gs: list[Group], figdir: Path) -> str:
         ],
     )
     runs = sum(g.n for g in gs)
+    m = measures(items)
+    counted = expected_calibration_error([a.base for a in items])
     return "\n".join(
         [
-            f"{len(items)} verdicts from {runs} runs of {len(gs)} design points, "
+            f"{m.n} verdicts from {runs} runs of {len(gs)} design points, "
             f"{len(DATA_PATHS)} data paths each. Bold: a target missed (rows with at least "
             f"{MIN_ROW} verdicts).",
+            "",
+            f"Robots L never saw move have no verdict ({m.unseen} robot-paths): they are left "
+            "out of the verdicts, the confidently false statements and the calibration, and "
+            "counted in the damaged and healthy robots' columns (a damaged one is not named). "
+            "Their `confidence` is the prior's probability that no part is damaged; counted as "
+            f"verdicts at it, the ECE would be {counted:.3f}.",
             "",
             f"![reliability of the atlas's verdicts]({png})",
             "",

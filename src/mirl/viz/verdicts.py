@@ -113,7 +113,8 @@ def verdict_items(gs: Sequence[Group]) -> list[VerdictItem]:
     -------
     list of VerdictItem
         One item per robot with a verdict per row, in the groups' and rows' order, robots by
-        name.
+        name; none for a robot L never saw move (``unseen.ROBOT``), whose confidence is the
+        prior's.
     """
     out = []
     for g in gs:
@@ -121,6 +122,8 @@ def verdict_items(gs: Sequence[Group]) -> list[VerdictItem]:
         for row in g.rows:
             robots = sorted(k.split(".", 1)[1] for k in row if k.startswith("confidence."))
             for robot in robots:
+                if row.get(f"unseen.{robot}"):  # never seen moving: no verdict to score
+                    continue
                 named = str(row.get(f"verdict.{robot}") or "")
                 truth = str(row.get(f"truth.{robot}") or "")
                 out.append(
