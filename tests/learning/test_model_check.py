@@ -25,7 +25,14 @@ from mirl.learning.model_check import (
     no_pace_setter,
     stay_runs,
 )
-from mirl.learning.verdicts import RobotRecord, robot_uncertainty
+from mirl.learning.motion_models import DEFAULT_PRIOR
+from mirl.learning.verdicts import (
+    CONFIDENT,
+    MODEL_TRUST,
+    RobotRecord,
+    robot_uncertainty,
+    tempered_trust,
+)
 from mirl.world.domain import ACTIONS
 from mirl.world.scenario import load_scenario
 
@@ -377,6 +384,45 @@ def test_a_record_that_does_not_fit_gets_no_confident_verdict():
     )
     record = fit.to_dict()
     assert record["ok"] is False and record["reason"] == fit.reason
+    # the tempered confidence is w × the models' probability + (1 - w) × the prior's
+    assert 0.0 <= fit.untempered <= 1.0 and record["untempered"] == round(fit.untempered, 4)
+    w = tempered_trust(d.feature_map.features, scenario.faults, DEFAULT_PRIOR)
+    prior_part = (u.verdict.confidence - w * fit.untempered) / (1 - w)
+    assert -1e-9 <= prior_part <= max(_prior_no_part(d, scenario.faults), 0.52) + 0.02
+
+
+def _prior_no_part(domain, definition, features=None, n=200_000) -> float:
+    """P(no part damaged) under the default prior, by sampling it."""
+    from scipy.special import expit
+
+    from mirl.learning.motion_models import sample_feature_prior
+
+    features = domain.feature_map.features if features is None else features
+    h = np.array([min(definition.healthy_level(f), 0.999) for f in features])
+    p = expit(sample_feature_prior(np.random.default_rng(3), n, h, DEFAULT_PRIOR))
+    thresholds = np.array([definition.threshold(f) for f in features])
+    return float((p >= thresholds).all(axis=1).mean())
+
+
+def test_the_models_weight_keeps_a_misfit_statement_below_confident():
+    from dataclasses import replace
+
+    scenario = load_scenario("boyd2")
+    d, definition = scenario.domain, scenario.faults
+    features = d.feature_map.features
+    w = tempered_trust(features, definition, DEFAULT_PRIOR)
+    p0 = _prior_no_part(d, definition)  # the exact product, checked against sampling
+    assert w == pytest.approx(min(MODEL_TRUST, (CONFIDENT - 0.511) / 0.489), abs=0.01)
+    assert w + (1 - w) * max(p0, 1 - p0) < CONFIDENT
+    # a prior that makes "no part" likely (one feature: P0 ~ 0.8 + 0.2 × 0.2): the weight
+    # drops so that a statement certain under the models still stays below CONFIDENT
+    w1 = tempered_trust(features[:1], definition, DEFAULT_PRIOR)
+    q = _prior_no_part(d, definition, features=features[:1], n=400_000)  # sampling error ~6e-4
+    assert w1 < MODEL_TRUST
+    assert w1 + (1 - w1) * q == pytest.approx(CONFIDENT, abs=2e-3)
+    # a prior whose own "no part" is confident leaves the models no weight at all
+    sure = replace(DEFAULT_PRIOR, damaged_share=0.02)
+    assert tempered_trust(features[:1], definition, sure) == 0.0
 
 
 def test_a_record_that_fits_passes_every_check():

@@ -1469,7 +1469,9 @@ def tempered_trust(
     ``q`` is at most ``max(P0, 1 - P0)``, P0 the prior's probability that no part is damaged:
     the product over features of the prior's mass at or above the feature's damage threshold
     (exact: the Beta component's survival function, the uniform component's ``1 -
-    threshold``). The weight keeps ``w + (1 - w) max(P0, 1 - P0)`` below :data:`CONFIDENT`.
+    threshold``). The weight keeps ``w + (1 - w) max(P0, 1 - P0)`` below :data:`CONFIDENT`;
+    a prior whose own statement is that confident (a user's, with few features or a small
+    ``damaged_share``) leaves the models no weight, and the verdict is the prior's.
 
     Parameters
     ----------
