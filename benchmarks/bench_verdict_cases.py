@@ -281,6 +281,8 @@ def main() -> None:
                     best = max(models, key=models.get)
                     extra += f" model={best}:{models[best]:.2f}"
                 if fit is not None and not fit["ok"]:
+                    if "untempered" in fit:  # the statement under L's models alone
+                        extra += f" untempered={fit['untempered']:.4f}"
                     extra += f" ({fit['reason'][:70]})"
                 flag = "CONFIDENTLY FALSE" if confident else ("false" if false else "")
                 print(f"  seed {seed} {robot}: {named:<28} {v['confidence']:.2f} {flag:<17} "

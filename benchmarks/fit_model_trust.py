@@ -19,6 +19,11 @@ re-run on the chosen w measures that).
 
 The runs are stored as ``mirl experiment atlas`` stores them, and ``--resume`` extends an
 interrupted sweep; the weight the runs were made with is kept in ``DIR/trust.json``.
+``--beyond FILE`` measures the same on ``benchmarks/atlas_beyond.py``'s JSON lines (design
+points the atlas does not have), run at the current weight:
+
+    python benchmarks/atlas_beyond.py --seeds 1,2,3,4 --out beyond.jsonl
+    python benchmarks/fit_model_trust.py --beyond beyond.jsonl
 """
 
 from __future__ import annotations
@@ -37,13 +42,19 @@ from mirl.experiments.sweep import run_experiment
 from mirl.learning.verdicts import MODEL_TRUST
 
 
+def _stored_metrics(out: Path) -> list[dict]:
+    """The stored runs' metrics: a sweep's store, or atlas_beyond.py's JSON lines."""
+    if out.is_file():
+        return [json.loads(line) for line in out.read_text().splitlines() if line.strip()]
+    con = sqlite3.connect(f"file:{out / 'results.sqlite'}?mode=ro", uri=True)
+    return [json.loads(text) for (text,) in con.execute("SELECT metrics FROM runs")]
+
+
 def misfit_verdicts(out: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per verdict on a record that failed a check: its run, its truth, its confidence, and
     its probability under L's models alone."""
-    con = sqlite3.connect(f"file:{out / 'results.sqlite'}?mode=ro", uri=True)
     run, right, conf, models = [], [], [], []
-    for i, (text,) in enumerate(con.execute("SELECT metrics FROM runs")):
-        m = json.loads(text)
+    for i, m in enumerate(_stored_metrics(out)):
         for key in m:
             if not key.startswith("untempered."):
                 continue
@@ -75,8 +86,7 @@ def ece(conf: np.ndarray, right: np.ndarray) -> float:
     )  # fmt: skip
 
 
-def report(out: Path) -> None:
-    used = json.loads((out / "trust.json").read_text())["model_trust"]
+def report(out: Path, used: float) -> None:
     run, right, conf, models = misfit_verdicts(out)
     prior = (conf - used * models) / (1 - used)
     w = best_weight(right, models, prior)
@@ -103,10 +113,16 @@ def main() -> None:
     ap.add_argument("--points", type=int, default=170, help="design points (default 170)")
     ap.add_argument("--seed", type=int, default=1000, help="base seed (default 1000)")
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--out", required=True)
+    ap.add_argument("--out")
     ap.add_argument("--resume", action="store_true")
     ap.add_argument("--report", action="store_true", help="only report what --out holds")
+    ap.add_argument("--beyond", type=Path, help="report atlas_beyond.py's JSON lines instead")
     args = ap.parse_args()
+    if args.beyond is not None:  # run at the current weight, as the probe records nothing else
+        report(args.beyond, MODEL_TRUST)
+        return
+    if args.out is None:
+        ap.error("--out is required without --beyond")
     out = Path(args.out)
     if not args.report:
         if args.seed == 0:
@@ -124,7 +140,7 @@ def main() -> None:
             sample, str(out),
             {"workers": args.workers, "resume": args.resume, "base_seed": args.seed},
         )  # fmt: skip
-    report(out)
+    report(out, json.loads((out / "trust.json").read_text())["model_trust"])
 
 
 if __name__ == "__main__":

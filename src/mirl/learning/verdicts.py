@@ -1504,11 +1504,12 @@ def _untempered(verdict: Verdict, features, p: np.ndarray, w: np.ndarray, defini
     """The verdict's probability under L's models alone: over the first half of tempered
     draws (:func:`_verdict_draws` stacks the prior's as many draws after the models')."""
     thresholds = np.array([definition.threshold(f) for f in features])
-    damaged = p < thresholds
+    damaged = np.asarray(p < thresholds, dtype=bool)
     if verdict.names_damage:
-        holds = damaged[:, [list(features).index(f) for f in verdict.named]].any(axis=1)
+        named = [list(features).index(f) for f in verdict.named]
+        holds = np.asarray(damaged[:, named].any(axis=1), dtype=float)
     else:
-        holds = ~damaged.any(axis=1)
+        holds = np.asarray(~damaged.any(axis=1), dtype=float)
     n = len(p) // 2
     return float(w[:n] @ holds[:n] / w[:n].sum())
 
