@@ -1487,12 +1487,13 @@ def tempered_trust(
     float
         The weight, in [0, :data:`MODEL_TRUST`].
     """
-    from scipy.stats import beta
+    from scipy.special import betainc  # not scipy.stats: `mirl run` stays light to start
 
     p0 = 1.0
     for f in features:
         h, threshold = min(definition.healthy_level(f), 0.999), definition.threshold(f)
-        healthy_mass = beta.sf(threshold, prior.strength * h, prior.strength * (1 - h))
+        a, b = prior.strength * h, prior.strength * (1 - h)
+        healthy_mass = 1.0 - float(betainc(a, b, threshold))  # the Beta's survival function
         p0 *= (1 - prior.damaged_share) * healthy_mass + prior.damaged_share * (1 - threshold)
     q = max(p0, 1.0 - p0)
     # strictly below: the largest weight keeping a certain statement a hair under CONFIDENT
