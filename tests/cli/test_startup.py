@@ -127,3 +127,24 @@ def test_cli_limits_blas_threads_before_numpy_loads():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip().splitlines()[-1] == "1"
 
+
+
+def test_learning_with_a_team_comparison_imports_no_scipy_stats(tmp_path):
+    """The team comparison's Beta quantiles come from scipy.special: importing scipy.stats
+    would cost a `mirl learn` on boyd2 about a third of its time."""
+    csv = tmp_path / "obs.csv"
+    subprocess.run(
+        [sys.executable, "-m", "mirl", "simulate", "--scenario", "boyd2", "--steps", "450",
+         "--seed", "1", "--observations", str(csv)],
+        capture_output=True, check=True,
+    )  # fmt: skip
+    argv = ["learn", "--scenario", "boyd2", "--observations", str(csv), "--json"]
+    out = subprocess.run(
+        [sys.executable, "-m", "mirl", *argv], capture_output=True, text=True, check=True
+    ).stdout
+    verdicts = [r["verdict"] for r in json.loads(out)["robots"].values()]
+    # a fitting "no part" of a robot with forward steps: the comparison is computed for it
+    assert any(v["part"] is None and not v["candidates"] and v["fit"]["ok"] for v in verdicts)
+    loaded = _modules_after(argv)
+    assert "mirl.learning.verdicts" in loaded
+    assert not [m for m in loaded if m == "scipy.stats" or m.startswith("scipy.stats.")]

@@ -708,6 +708,24 @@ def test_below_probability_agrees_with_sampling(own, other, ratio):
     assert below_probability(own, other, ratio) == pytest.approx(sampled, abs=0.004)
 
 
+@given(
+    own=st.tuples(st.integers(0, 900), st.integers(0, 900)),
+    other=st.tuples(st.integers(0, 900), st.integers(0, 900)),
+    ratio=st.floats(0.05, 1.0),
+)
+@settings(max_examples=60, deadline=None)
+def test_below_probability_is_scipy_stats_beta_quadrature_bit_for_bit(own, other, ratio):
+    """The reference: the same quantile average through scipy.stats.beta."""
+    from scipy.stats import beta
+
+    from mirl.learning.verdicts import TEAM_QUANTILES, below_probability
+
+    (s, f), (so, fo) = own, other
+    u = (np.arange(TEAM_QUANTILES) + 0.5) / TEAM_QUANTILES
+    ref = float(np.mean(beta.cdf(ratio * beta.ppf(u, 1 + so, 1 + fo), 1 + s, 1 + f)))
+    assert below_probability((s, s + f), (so, so + fo), ratio) == ref
+
+
 @given(n=st.integers(1, 2000), share=st.floats(0.0, 1.0), ratio=st.floats(0.05, 1.0))
 @settings(max_examples=60, deadline=None)
 def test_robots_seen_alike_are_never_more_likely_below_than_not(n, share, ratio):
