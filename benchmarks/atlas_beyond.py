@@ -13,8 +13,8 @@ calibration's"), wheel values 0.4, 0.55, 0.7 (physics) and 0.85 (grid: weaker, n
 its effect), views 0.3 and 0.5, records of 300 and 600 steps, boydright-3 in physics at view
 0.5 and the office at 900 steps through L's door. Runs are JSON lines in ``--out``; a (point,
 seed) already there is not run again, so an interrupted probe resumes. The report counts the
-verdicts, the confidently false statements (wrong at confidence >= 0.9) and the reliability by
-deciles.
+verdicts L states (a robot never seen moving has none), the confidently false statements (wrong
+at confidence >= 0.9) and the reliability by deciles.
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ import numpy as np  # noqa: E402
 from joblib import Parallel, delayed  # noqa: E402
 
 from mirl.experiments.atlas import DATA_PATHS, atlas_run  # noqa: E402
+from mirl.learning.verdicts import NEVER_SEEN  # noqa: E402
 
 TB3 = str(Path(__file__).resolve().parents[1] / "docs" / "examples" / "turtlebot3-world.toml")
 
@@ -91,15 +92,20 @@ def _one(point: Point, seed: int) -> dict:
 
 
 def report(rows: list[dict]) -> None:
-    """Print the counts, the confidently false statements and the deciles."""
+    """Print the counts, the confidently false statements and the deciles of the verdicts L
+    states (a robot it never saw move has none: design, "The calibration atlas")."""
     conf, right, false = [], [], []
     per_world: dict[tuple[str, str], int] = {}
+    unseen = 0
     for r in rows:
         robots = [k.split(".", 1)[1] for k in r if k.startswith("truth.")]
         for path in DATA_PATHS:
             for robot in robots:
                 k = f"{path}.{robot}"
                 if f"confidence.{k}" not in r:
+                    continue
+                if r.get(f"fit.{k}") == NEVER_SEEN:
+                    unseen += 1
                     continue
                 c, ok = float(r[f"confidence.{k}"]), int(r[f"right.{k}"])
                 conf.append(c)
@@ -111,6 +117,7 @@ def report(rows: list[dict]) -> None:
     c, o = np.array(conf), np.array(right)
     print(f"{len(rows)} runs, {len(c)} verdicts: " + ", ".join(
         f"{w} {p} {n}" for (w, p), n in sorted(per_world.items())))  # fmt: skip
+    print(f"robots never seen moving (no verdict, left out): {unseen}")
     print(f"confidently false (wrong at >= 0.9): {len(false)}")
     for x in false:
         print("  ", *x)
