@@ -1,7 +1,7 @@
 """The weight a verdict gives L's motion models on a record that fails the model check,
 measured on held-out atlas runs.
 
-    python benchmarks/fit_model_trust.py --points 170 --seed 1000 --workers 2 --out DIR
+    python benchmarks/fit_model_trust.py --seed 1000 --workers 2 --out DIR
     python benchmarks/fit_model_trust.py --out DIR --report
 
 A record that fails a check (:mod:`mirl.learning.model_check`) gets a verdict from L's models'
@@ -9,8 +9,8 @@ draws at weight w and the prior's at 1 - w (:data:`mirl.learning.verdicts.MODEL_
 statement's confidence is ``w * untempered + (1 - w) * prior``, its probability under the
 models alone (``verdict.fit.untempered``) and under the prior. w is the probability that L's
 models are right about a record that does not fit them: a rate of the world, not of the models,
-so it is measured, on runs the published atlas does not hold — the atlas's design points (its
-first ``--points``, a random sample of its shuffled design) at another base seed
+so it is measured, on runs the published atlas does not hold — the atlas's design points (all
+of them, or its first ``--points``, a random sample of its shuffled design) at another base seed
 (``--seed``; the published atlas is base seed 0). Every record that fails a check enters with
 its statement's truth; w is the maximum of their Bernoulli likelihood (the log score, a proper
 scoring rule), with a 90 % bootstrap interval over runs. Each statement is held fixed as w
@@ -40,6 +40,7 @@ from mirl.experiments.atlas import DATA_PATHS
 from mirl.experiments.conditions import get_experiment
 from mirl.experiments.sweep import run_experiment
 from mirl.learning.verdicts import MODEL_TRUST
+from mirl.viz.verdicts import VerdictItem, expected_calibration_error
 
 
 def _stored_metrics(out: Path) -> list[dict]:
@@ -78,11 +79,11 @@ def best_weight(right: np.ndarray, models: np.ndarray, prior: np.ndarray) -> flo
 
 
 def ece(conf: np.ndarray, right: np.ndarray) -> float:
-    """Expected calibration error over 10 equal-width bins."""
-    bins = np.minimum((conf * 10).astype(int), 9)
-    return float(
-        sum(abs(conf[bins == b].mean() - right[bins == b].mean()) * (bins == b).sum()
-            for b in np.unique(bins)) / len(conf)
+    """The reports' expected calibration error (its bins) of statements at ``conf`` that are
+    ``right`` (:func:`mirl.viz.verdicts.expected_calibration_error`)."""
+    return expected_calibration_error(
+        [VerdictItem("", 0.0, None, "", 0, (), float(c), (), bool(r))
+         for c, r in zip(conf, right, strict=True)]
     )  # fmt: skip
 
 
@@ -110,7 +111,7 @@ def report(out: Path, used: float) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--points", type=int, default=170, help="design points (default 170)")
+    ap.add_argument("--points", type=int, help="the design's first points (default: all)")
     ap.add_argument("--seed", type=int, default=1000, help="base seed (default 1000)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out")
@@ -128,6 +129,7 @@ def main() -> None:
         if args.seed == 0:
             ap.error("--seed: 0 is the published atlas's base seed; hold it out")
         atlas = get_experiment("atlas")
+        args.points = len(atlas.conditions) if args.points is None else args.points
         if not 1 <= args.points <= len(atlas.conditions):
             ap.error(f"--points: between 1 and {len(atlas.conditions)}, got {args.points}")
         sample = replace(atlas, conditions=atlas.conditions[: args.points])

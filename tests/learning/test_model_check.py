@@ -7,6 +7,8 @@ import json
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from mirl.learning.model_check import (
     ALPHA,
@@ -386,43 +388,59 @@ def test_a_record_that_does_not_fit_gets_no_confident_verdict():
     assert record["ok"] is False and record["reason"] == fit.reason
     # the tempered confidence is w × the models' probability + (1 - w) × the prior's
     assert 0.0 <= fit.untempered <= 1.0 and record["untempered"] == round(fit.untempered, 4)
-    w = tempered_trust(d.feature_map.features, scenario.faults, DEFAULT_PRIOR)
+    w = tempered_trust(_prior_no_part(d, scenario.faults))
+    assert w == MODEL_TRUST  # the default prior's P0 ~ 0.49 does not lower it
     prior_part = (u.verdict.confidence - w * fit.untempered) / (1 - w)
-    assert -1e-9 <= prior_part <= max(_prior_no_part(d, scenario.faults), 0.52) + 0.02
+    assert -1e-9 <= prior_part <= 0.52 + 0.02  # at most max(P0, 1 - P0), up to the draws' error
 
 
-def _prior_no_part(domain, definition, features=None, n=200_000) -> float:
-    """P(no part damaged) under the default prior, by sampling it."""
+def _prior_no_part(domain, definition, prior=DEFAULT_PRIOR, n=200_000) -> float:
+    """P(no part damaged) under a prior, by sampling it."""
     from scipy.special import expit
 
     from mirl.learning.motion_models import sample_feature_prior
 
-    features = domain.feature_map.features if features is None else features
+    features = domain.feature_map.features
     h = np.array([min(definition.healthy_level(f), 0.999) for f in features])
-    p = expit(sample_feature_prior(np.random.default_rng(3), n, h, DEFAULT_PRIOR))
+    p = expit(sample_feature_prior(np.random.default_rng(3), n, h, prior))
     thresholds = np.array([definition.threshold(f) for f in features])
     return float((p >= thresholds).all(axis=1).mean())
 
 
-def test_the_models_weight_keeps_a_misfit_statement_below_confident():
+@given(p0=st.floats(0.0, 1.0))
+def test_the_models_weight_keeps_a_certain_statement_below_confident(p0):
+    w = tempered_trust(p0)
+    q = max(p0, 1 - p0)
+    assert 0.0 <= w <= MODEL_TRUST
+    assert w == 0.0 or w + (1 - w) * q < CONFIDENT
+    if 0.0 < w < MODEL_TRUST:  # lowered only as far as it must be
+        assert w + (1 - w) * q == pytest.approx(CONFIDENT, abs=1e-6)
+
+
+def test_a_misfit_record_under_a_confident_prior_stays_below_confident():
+    """A prior that finds four healthy parts likely (damaged share 0.05: P0 ~ 0.85) would put a
+    "no part" near-certain under the models at 0.5 u + 0.5 × 0.85 > 0.9 at even odds; the
+    weight drops instead. The record: a healthy robot seen flawlessly on 15 steps (few steps)."""
     from dataclasses import replace
 
-    scenario = load_scenario("boyd2")
-    d, definition = scenario.domain, scenario.faults
-    features = d.feature_map.features
-    w = tempered_trust(features, definition, DEFAULT_PRIOR)
-    p0 = _prior_no_part(d, definition)  # the exact product, checked against sampling
-    assert w == pytest.approx(min(MODEL_TRUST, (CONFIDENT - 0.511) / 0.489), abs=0.01)
-    assert w + (1 - w) * max(p0, 1 - p0) < CONFIDENT
-    # a prior that makes "no part" likely (one feature: P0 ~ 0.8 + 0.2 × 0.2): the weight
-    # drops so that a statement certain under the models still stays below CONFIDENT
-    w1 = tempered_trust(features[:1], definition, DEFAULT_PRIOR)
-    q = _prior_no_part(d, definition, features=features[:1], n=400_000)  # sampling error ~6e-4
-    assert w1 < MODEL_TRUST
-    assert w1 + (1 - w1) * q == pytest.approx(CONFIDENT, abs=2e-3)
-    # a prior whose own "no part" is confident leaves the models no weight at all
-    sure = replace(DEFAULT_PRIOR, damaged_share=0.02)
-    assert tempered_trust(features[:1], definition, sure) == 0.0
+    scenario = load_scenario("boyd2-healthy")
+    from mirl.simulation.grid import simulate
+
+    sim = simulate(scenario, 300, seed=1, observability=1.0, random_starts=True)
+    full = sim.observations.state_series(scenario.domain, 0)
+    labels = np.where(full >= 0, scenario.true_policy(0)[np.maximum(full, 0)], -1)
+    x = np.full_like(full, -1)
+    x[100:116] = full[100:116]
+    d = scenario.domain
+    confident_prior = replace(DEFAULT_PRIOR, damaged_share=0.05)
+    p0 = _prior_no_part(d, scenario.faults, confident_prior)
+    assert p0 > 0.8
+    probs = scenario.robots[0].feature_probabilities
+    u = robot_uncertainty(d, RobotRecord(x, labels), probs, scenario.faults, prior=confident_prior)
+    v = u.verdict
+    assert not v.fit.ok and v.part is None and not v.candidates
+    assert MODEL_TRUST * v.fit.untempered + (1 - MODEL_TRUST) * p0 >= CONFIDENT  # even odds
+    assert v.confidence < CONFIDENT
 
 
 def test_a_record_that_fits_passes_every_check():

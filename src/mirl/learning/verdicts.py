@@ -1437,82 +1437,73 @@ def _verdict_draws(
     definition: DamageDefinition,
     prior: PriorSpec,
     seed: int,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The draws (n, F) and weights a verdict is read from: the motion posterior's pooled
-    draws; the untested features drawn afresh from the prior (their posterior is the prior,
-    independent of the rest, and the sampler's estimate of a flat direction carries its own
-    error; design: "Fault verdicts"); and, for a record that fails the model check, the prior's
-    draws beside them at the weight L's models do not get (:data:`MODEL_TRUST`)."""
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """The draws (n, F) and weights a verdict is read from, and how many of the first draws are
+    L's models': the motion posterior's pooled draws; the untested features drawn afresh from
+    the prior (their posterior is the prior, independent of the rest, and the sampler's
+    estimate of a flat direction carries its own error; design: "Fault verdicts"); and, for a
+    record that fails the model check, the prior's draws after them at the weight L's models
+    do not get (:func:`tempered_trust`)."""
     p, w = post.pooled()
+    n_models = len(p)
     h = np.array([min(definition.healthy_level(f), 0.999) for f in features])
     if untested:
         fresh = expit(sample_feature_prior(np.random.default_rng((seed, 1)), len(p), h, prior))
         columns = [list(features).index(f) for f in untested]
         p = p.copy()
         p[:, columns] = fresh[:, columns]
-    if not fits:  # L's models get their measured trust, the prior the rest
+    if not fits:  # L's models get MODEL_TRUST, the prior the rest
         q = expit(sample_feature_prior(np.random.default_rng(seed), len(p), h, prior))
-        trust = tempered_trust(features, definition, prior)
+        thresholds = np.array([definition.threshold(f) for f in features])
+        trust = tempered_trust(float(np.mean(~(q < thresholds).any(axis=1))))
         p = np.vstack([p, q])
         w = np.concatenate([trust * w, np.full(len(q), (1 - trust) / len(q))])
-    return p, w
+    return p, w, n_models
 
 
-def tempered_trust(
-    features: Sequence[str], definition: DamageDefinition, prior: PriorSpec
-) -> float:
+def tempered_trust(prior_no_part: float) -> float:
     """The weight of L's models in a verdict on a record that fails a check: :data:`MODEL_TRUST`,
     or less where even a statement certain under the models would reach :data:`CONFIDENT`.
 
-    A tempered statement's probability is ``w u + (1 - w) q``, ``u`` under the models and ``q``
-    under the prior. Every statement is "no part is damaged" or "one of these parts is", so
-    ``q`` is at most ``max(P0, 1 - P0)``, P0 the prior's probability that no part is damaged:
-    the product over features of the prior's mass at or above the feature's damage threshold
-    (exact: the Beta component's survival function, the uniform component's ``1 -
-    threshold``). The weight keeps ``w + (1 - w) max(P0, 1 - P0)`` below :data:`CONFIDENT`;
-    a prior whose own statement is that confident (a user's, with few features or a small
-    ``damaged_share``) leaves the models no weight, and the verdict is the prior's.
+    A tempered statement's probability is ``w u + (1 - w) q``, ``u`` under the models' draws
+    and ``q`` under the prior's. Every statement is "no part is damaged" or "one of these parts
+    is", so over the prior's draws ``q`` is at most ``max(P0, 1 - P0)``, P0 the share of them in
+    which no part is damaged: a weight that keeps ``w + (1 - w) max(P0, 1 - P0)`` below
+    :data:`CONFIDENT` keeps every statement below it. A prior whose own statement is that
+    confident (a user's, with few features or a small ``damaged_share``) leaves the models no
+    weight, and the verdict is the prior's.
 
     Parameters
     ----------
-    features : sequence of str
-        The features.
-    definition : DamageDefinition
-        Their healthy levels and damage thresholds.
-    prior : PriorSpec
-        The features' prior.
+    prior_no_part : float
+        P0, the share of the prior's draws with no part damaged.
 
     Returns
     -------
     float
         The weight, in [0, :data:`MODEL_TRUST`].
     """
-    from scipy.special import betainc  # not scipy.stats: `mirl run` stays light to start
-
-    p0 = 1.0
-    for f in features:
-        h, threshold = min(definition.healthy_level(f), 0.999), definition.threshold(f)
-        a, b = prior.strength * h, prior.strength * (1 - h)
-        healthy_mass = 1.0 - float(betainc(a, b, threshold))  # the Beta's survival function
-        p0 *= (1 - prior.damaged_share) * healthy_mass + prior.damaged_share * (1 - threshold)
-    q = max(p0, 1.0 - p0)
+    q = max(prior_no_part, 1.0 - prior_no_part)
+    if q >= CONFIDENT:
+        return 0.0
     # strictly below: the largest weight keeping a certain statement a hair under CONFIDENT
     ceiling = (CONFIDENT - q) / (1.0 - q) - 1e-9
     return float(min(MODEL_TRUST, max(ceiling, 0.0)))
 
 
-def _untempered(verdict: Verdict, features, p: np.ndarray, w: np.ndarray, definition) -> float:
-    """The verdict's probability under L's models alone: over the first half of tempered
-    draws (:func:`_verdict_draws` stacks the prior's as many draws after the models')."""
+def _untempered(
+    verdict: Verdict, features, p: np.ndarray, w: np.ndarray, n_models: int, definition
+) -> float:
+    """The verdict's probability under L's models alone: over the first ``n_models`` draws
+    (:func:`_verdict_draws`)."""
     thresholds = np.array([definition.threshold(f) for f in features])
-    damaged = np.asarray(p < thresholds, dtype=bool)
+    damaged = np.asarray(p[:n_models] < thresholds, dtype=bool)
     if verdict.names_damage:
         named = [list(features).index(f) for f in verdict.named]
         holds = np.asarray(damaged[:, named].any(axis=1), dtype=float)
     else:
         holds = np.asarray(~damaged.any(axis=1), dtype=float)
-    n = len(p) // 2
-    return float(w[:n] @ holds[:n] / w[:n].sum())
+    return float(w[:n_models] @ holds / w[:n_models].sum())
 
 
 def never_seen_moving(
@@ -1852,14 +1843,16 @@ def robot_uncertainty(
     }
     fit = ModelFit(tuple(checks), left_out)
     untested = untested_features(domain, models, s[used], drift=drift is not None)
-    p, w = _verdict_draws(post, features, untested, fit.ok, definition, prior, random_state)
+    p, w, n_models = _verdict_draws(
+        post, features, untested, fit.ok, definition, prior, random_state
+    )
     intervals, medians = _summaries(features, p, w)
     verdict = _every_model_covered(
         verdict_from_draws(features, p, w, definition), post, features, p, w, definition
     )
     verdict = _common_parts_widened(verdict, post, features, p, w, definition)
     if not fit.ok:
-        fit = replace(fit, untempered=_untempered(verdict, features, p, w, definition))
+        fit = replace(fit, untempered=_untempered(verdict, features, p, w, n_models, definition))
     groups = indistinguishable(plan_domain, s[used], lab[used])
     wheels_group = any(set(g) == set(WHEELS) for g in groups)
     # turns that need a wheel, but which one the step outcomes cannot say (a mirror and its
