@@ -25,6 +25,7 @@ from mirl.learning.model_check import (
     held_back,
     longest_run_tail,
     no_pace_setter,
+    sets_the_pace,
     stay_runs,
 )
 from mirl.learning.motion_models import DEFAULT_PRIOR
@@ -525,17 +526,45 @@ def test_a_damaged_robot_s_record_at_no_pace_claims_nothing_with_confidence(robo
 
 def test_a_record_at_its_tracker_s_interval_has_a_pace_when_one_robot_moves():
     """Every robot judged (20 free steps or more) staying on more than half of them: no pace
-    setter, and the reason names the interval and each robot's stays. One robot that moves on
-    half of its steps or more sets the pace; a robot seen too little is not judged."""
+    setter, and the reason names the interval and each robot's stays. One robot seen to move on
+    most of its steps beyond chance sets the pace; one that moves on half of them does not; a
+    robot seen too little is not judged."""
     crawling = {"I": (15, 5), "J": (12, 9)}
     reason = no_pace_setter(crawling, 1.0)
     assert "tracker's interval (1 s)" in reason and "I 15/20, J 12/21" in reason
     assert no_pace_setter({**crawling, "K": (3, 30)}, 1.0) == ""  # K crosses a cell a step
-    assert no_pace_setter({**crawling, "K": (10, 10)}, 1.0) == ""  # half is not more than half
+    assert no_pace_setter({**crawling, "K": (10, 10)}, 1.0).startswith("at the tracker's")
     assert CRAWL_SHARE == 0.5
     assert no_pace_setter({**crawling, "K": (0, 19)}, 1.0) == reason  # K not judged
     assert no_pace_setter({"I": (15, 4)}, 2.0) == ""  # nobody seen long enough
     assert no_pace_setter({"I": (15, 4)}, 2.0, min_steps=10).startswith("at the tracker's")
+
+
+def test_healthy_robots_read_at_half_their_decision_interval_set_no_pace():
+    """Healthy robots read at half their decision interval stay on about half their free steps,
+    on either side of one half by chance: the record of a healthy TurtleBot pair read at 1 s
+    (AMCL poses of robots that decide every 2 s) had I stay on 369 of 687 and J on 230 of 466.
+    Compared as a share, J's 0.49 set the pace and both robots were called damaged at 1.00;
+    as a test it sets none. A robot with a motor at 0.6 read at its own pace (109 of 303) and
+    a healthy one (12 of 300) still set it."""
+    reason = no_pace_setter({"I": (369, 318), "J": (230, 236)}, 1.0, given=True)
+    assert reason.startswith("at the step given (1 s), no robot is seen to cross a cell")
+    assert "I 369/687, J 230/466" in reason
+    assert no_pace_setter({"I": (109, 194), "J": (100, 211)}, 2.0) == ""
+    assert no_pace_setter({"I": (369, 318), "J": (12, 288)}, 1.0, given=True) == ""
+
+
+@given(st.integers(0, 400), st.integers(1, 400))
+def test_a_pace_setter_is_a_one_sided_binomial_test_at_the_checks_level(stayed, steps):
+    """sets_the_pace is the exact one-sided binomial test of "stays on at least half" at ALPHA
+    (scipy.stats as the reference), and monotone: fewer stays of as many steps never lose it."""
+    from scipy.stats import binomtest
+
+    stayed = min(stayed, steps)
+    p = binomtest(stayed, steps, CRAWL_SHARE, alternative="less").pvalue
+    assert sets_the_pace(stayed, steps) == (p < ALPHA) or abs(p - ALPHA) < 1e-12
+    if sets_the_pace(stayed, steps) and stayed > 0:
+        assert sets_the_pace(stayed - 1, steps)
 
 
 def test_a_step_the_user_gives_is_asked_of_the_robots_moves_as_the_tracker_s_interval_is():

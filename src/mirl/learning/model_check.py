@@ -56,7 +56,8 @@ what the models, at their posterior, predict for it (a posterior-predictive chec
   step is no evidence of a part: a sparse tracker's record whose moves stay within one cell
   only at a multiple of its interval fits two paces (robots slowed down alike, or a tracker
   faster than their decisions; :func:`~mirl.observations.discretise.off_pace`), and so do
-  one read at the interval itself in which every robot crawls (:func:`no_pace_setter`) and a
+  one read at the interval itself in which no robot is seen to cross a cell on most of its
+  free steps (:func:`no_pace_setter`, a test at the checks' level) and a
   smooth track in which no robot keeps a decision rhythm at the step
   (:func:`~mirl.observations.discretise.decision_rhythm`). A
   record-level check from the poses (:func:`check_pace`): a grid CSV carries no pace.
@@ -79,7 +80,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.special import bdtrc, chdtrc, ndtr
+from scipy.special import bdtr, bdtrc, chdtrc, ndtr
 
 from mirl.observations.discretise import AUTO_MIN_MOVES
 
@@ -103,6 +104,7 @@ __all__ = [
     "PACE_SETTER",
     "CRAWL_SHARE",
     "no_pace_setter",
+    "sets_the_pace",
     "stay_runs",
     "longest_run_tail",
     "model_fit",
@@ -120,9 +122,9 @@ MOVES_SHARE = 0.05
 third of the damage margin (0.15), so that what the check lets pass cannot move a part's
 success probability across the margin by itself."""
 CRAWL_SHARE = 0.5
-"""A robot that stayed in its cell on more than this share of its free steps that kept their
-heading crosses a cell at most every other step: a crawl, not a healthy pace
-(:func:`no_pace_setter`)."""
+"""A robot that stays in its cell on this share of its free steps that kept their heading
+crosses a cell at most every other step: a crawl, not a healthy pace. A robot sets the pace only
+where its stays fall below this share beyond chance (:func:`no_pace_setter`)."""
 
 
 @dataclass(frozen=True)
@@ -726,15 +728,24 @@ def no_pace_setter(
 
     A sparse tracker's record is read one pose a step where no multiple of its interval keeps
     the robots' moves within one cell (:func:`~mirl.observations.discretise.auto_step_seconds`).
-    The interval is then the tracker's, not necessarily the robots' decisions'. Where every
-    robot L saw on enough free steps crawls — stays in its cell on more than
-    :data:`CRAWL_SHARE` of them — the poses fit two paces, as a multiple of the interval does
-    (:func:`~mirl.observations.discretise.off_pace`): robots slowed down alike, or healthy
-    robots slower than their tracker, whose unfinished moves read as failed ones. One robot
-    crossing a cell on most of its free steps is the healthy pace the others' failures are
-    judged against. A step the user gives is the robots' pace by their word, and the same
-    moves ask it: read at 0.5 s, healthy grid robots that decide every 2 s stay in their cells
-    on three steps of four, and every one of them would be called damaged at full confidence.
+    The interval is then the tracker's, not necessarily the robots' decisions'. Where no robot
+    L saw on enough free steps is seen to cross a cell on most of them, the poses fit two paces,
+    as a multiple of the interval does (:func:`~mirl.observations.discretise.off_pace`): robots
+    slowed down alike, or healthy robots slower than their tracker, whose unfinished moves read
+    as failed ones. One robot crossing a cell on most of its free steps is the healthy pace the
+    others' failures are judged against. A step the user gives is the robots' pace by their
+    word, and the same moves ask it: read at 0.5 s, healthy grid robots that decide every 2 s
+    stay in their cells on three steps of four, and every one of them would be called damaged
+    at full confidence.
+
+    "Seen to cross a cell on most of them" is a test, not a share: the robot's stays are fewer
+    than :data:`CRAWL_SHARE` of its free steps beyond chance, their binomial lower tail at
+    that share below :data:`ALPHA`, the other checks' level. Healthy robots read at half their
+    decision interval stay on half their free steps, so a share compared with one half is a
+    coin toss there: a healthy TurtleBot's record read at 1 s had one robot stay on 230 of 466
+    free steps, 0.49, which as a share set the pace and let both robots be called damaged at
+    confidence 1.00. A robot the record shows moving faster than that still sets it: one with a
+    motor at 0.6, read at the auto step, stayed on 109 of 303.
 
     Parameters
     ----------
@@ -754,29 +765,54 @@ def no_pace_setter(
     -------
     str
         The reason in words (the pace check's, :func:`check_pace`), or "" when a robot L saw
-        on ``min_steps`` such steps or more moved on most of them, or none was seen that long.
+        on ``min_steps`` such steps or more sets the pace (:func:`sets_the_pace`), or none was
+        seen that long.
     """
     judged = {
         name: (stay, stay + move)
         for name, (stay, move) in steps.items()
         if stay + move >= min_steps
     }
-    if not judged or any(stay <= CRAWL_SHARE * n for stay, n in judged.values()):
+    if not judged or any(sets_the_pace(stay, n) for stay, n in judged.values()):
         return ""
     shares = ", ".join(f"{name} {stay}/{n}" for name, (stay, n) in judged.items())
+    unseen = (
+        f"no robot is seen to cross a cell on most of its free steps that keep their heading "
+        f"(stayed in its cell: {shares})"
+    )
     if given:
         return (
-            f"at the step given ({interval:g} s), every robot stays in its cell on most of its "
-            f"free steps that keep their heading ({shares}): robots slowed down alike, or "
+            f"at the step given ({interval:g} s), {unseen}: robots slowed down alike, or "
             "healthy robots that decide less often than that — the poses cannot tell which, "
             "and a move a robot had not finished by the step is a failed move"
         )
     return (
-        f"at the tracker's interval ({interval:g} s), the record's step, every robot stays in "
-        f"its cell on most of its free steps that keep their heading ({shares}): robots "
+        f"at the tracker's interval ({interval:g} s), the record's step, {unseen}: robots "
         "slowed down alike, or healthy robots slower than their tracker — the poses cannot "
         "tell which, and a move a slow robot had not finished by the step is a failed move"
     )
+
+
+def sets_the_pace(stayed: int, steps: int, alpha: float = ALPHA) -> bool:
+    """Whether a robot's free steps show it crossing a cell on most of them beyond chance: its
+    ``stayed`` of ``steps`` below :data:`CRAWL_SHARE` of them, the binomial probability of so
+    few stays at that share below ``alpha`` (:func:`no_pace_setter`).
+
+    Parameters
+    ----------
+    stayed : int
+        The free steps that kept the robot's heading and stayed in its cell.
+    steps : int
+        All its free steps that kept their heading.
+    alpha : float, default ALPHA
+        The test's level.
+
+    Returns
+    -------
+    bool
+        Whether the robot sets the pace.
+    """
+    return steps > 0 and float(bdtr(stayed, steps, CRAWL_SHARE)) < alpha
 
 
 def model_fit(checks: Sequence[Check], left_out: Mapping[str, int]) -> ModelFit:
