@@ -542,8 +542,8 @@ def test_a_record_at_its_tracker_s_interval_has_a_pace_when_one_robot_moves():
 
 def test_healthy_robots_read_at_half_their_decision_interval_set_no_pace():
     """Healthy robots read at half their decision interval stay on about half their free steps,
-    on either side of one half by chance: the record of a healthy TurtleBot pair read at 1 s
-    (AMCL poses of robots that decide every 2 s) had I stay on 369 of 687 and J on 230 of 466.
+    on either side of one half by chance: a healthy physical pair's poses as Nav2's AMCL publishes
+    them, read at 1 s (robots that decide every 2 s), had I stay on 369 of 687 and J on 230 of 466.
     Compared as a share, J's 0.49 set the pace and both robots were called damaged at 1.00;
     as a test it sets none. A robot with a motor at 0.6 read at its own pace (109 of 303) and
     a healthy one (12 of 300) still set it."""

@@ -742,10 +742,11 @@ def no_pace_setter(
     than :data:`CRAWL_SHARE` of its free steps beyond chance, their binomial lower tail at
     that share below :data:`ALPHA`, the other checks' level. Healthy robots read at half their
     decision interval stay on half their free steps, so a share compared with one half is a
-    coin toss there: a healthy TurtleBot's record read at 1 s had one robot stay on 230 of 466
-    free steps, 0.49, which as a share set the pace and let both robots be called damaged at
-    confidence 1.00. A robot the record shows moving faster than that still sets it: one with a
-    motor at 0.6, read at the auto step, stayed on 109 of 303.
+    coin toss there: a healthy physical pair's poses as Nav2's AMCL publishes them, read at 1 s,
+    had one robot stay on 230 of 466 free steps, 0.49, which as a share set the pace and let
+    both robots be called damaged at confidence 1.00. A robot the record shows moving faster
+    than that still sets it: one with a motor at 0.6, read at the auto step, stayed on 109 of
+    303.
 
     Parameters
     ----------
@@ -767,6 +768,10 @@ def no_pace_setter(
         The reason in words (the pace check's, :func:`check_pace`), or "" when a robot L saw
         on ``min_steps`` such steps or more sets the pace (:func:`sets_the_pace`), or none was
         seen that long.
+
+    .. versionchanged:: 0.2.0
+        A robot sets the pace by a binomial test at :data:`ALPHA`, not by a share of at most
+        :data:`CRAWL_SHARE`.
     """
     judged = {
         name: (stay, stay + move)
